@@ -1,0 +1,112 @@
+"""Calibration of the unknown wind angles so that galloping starts at U_c (eq. 18, Sect. 5).
+
+The paper states U_c = 36 m/s as a result but gives neither the yaw beta nor the rivulet angle
+Theta0 (ERRATA.md, "What the paper does not give"). Given one of them, the other is found so that
+the trivial solution of eq. (21) at eta = 0 loses stability at U* = 1 (U = U_c) through the in-plane
+mode (Fig. 3 is in-plane galloping), while the out-of-plane mode stays stable up to U* = 1.3, the
+largest wind of Sect. 5. Stability is judged on the eigenvalues of the linear part of eq. (21),
+both modes and all their aerodynamic couplings included.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from autocable.model.aero import linear_load
+from autocable.model.galerkin import linear_aero_matrix
+
+
+class CalibrationError(ValueError):
+    """No angle satisfies the calibration conditions."""
+
+
+@dataclass(frozen=True)
+class Calibration:
+    beta: float            # yaw [rad]
+    theta0: float          # rivulet angle [rad]
+    solved_for: str        # "yaw_deg" or "rivulet_angle_deg"
+    roots_deg: tuple       # every root found in the scanned range [deg]
+    rejected: tuple        # (root_deg, reason) for the roots that failed a condition
+
+
+def _linear_matrix(omega1, omega2, xi_s, aero_lin: dict, U: float) -> np.ndarray:
+    """First-order form of eq. (21) at eta = 0; aero_lin from `linear_aero_matrix` (at U = 1)."""
+    A = np.zeros((4, 4))
+    A[0, 2] = A[1, 3] = 1.0
+    A[2, 0] = -omega1**2
+    A[3, 1] = -omega2**2
+    A[2, 2] = -2 * xi_s * omega1
+    A[3, 3] = -2 * xi_s * omega2
+    for (k, j), c in aero_lin.items():
+        scale = U**2 if j == 1 else U     # the twist term carries U^2, the velocity terms U
+        A[1 + k, j] -= c * scale
+    return A
+
+
+def _growth(A):
+    lam, vec = np.linalg.eig(A)
+    i = int(np.argmax(lam.real))
+    return lam[i].real, vec[:, i]
+
+
+def calibrate(aero_spec, st, modes, integrator, K: float, nu: float, xi_s: float,
+              scan_step_deg: float = 0.25) -> Calibration:
+    """Find the missing angle (yaw or rivulet) of ``aero_spec``; see the module docstring."""
+    solve_yaw = aero_spec.yaw_deg is None
+    lift, drag = aero_spec.lift, aero_spec.drag
+    lo, hi = (-90.0, 90.0)
+
+    def matrix(angle_deg, U):
+        beta = math.radians(angle_deg) if solve_yaw else math.radians(aero_spec.yaw_deg)
+        th0 = math.radians(aero_spec.rivulet_angle_deg) if solve_yaw else math.radians(angle_deg)
+        lin = linear_load(lift, drag, st.alpha, beta, th0)
+        al = linear_aero_matrix(integrator, K, nu, st.m_star, lin)
+        return _linear_matrix(modes.omega1, modes.omega2, xi_s, al, U)
+
+    def g(angle_deg):
+        return _growth(matrix(angle_deg, 1.0))[0]
+
+    grid = np.arange(lo, hi + 1e-9, scan_step_deg)
+    values = [g(a) for a in grid]
+    roots = []
+    for a0, a1, g0, g1 in zip(grid[:-1], grid[1:], values[:-1], values[1:]):
+        if g0 == 0.0:
+            roots.append(float(a0))
+        elif g0 * g1 < 0:
+            roots.append(brentq(g, a0, a1, xtol=1e-13, rtol=1e-15))
+    accepted, rejected = [], []
+    for r in roots:
+        reason = _reject_reason(lambda U: matrix(r, U))
+        (rejected.append((r, reason)) if reason else accepted.append(r))
+    field = "yaw_deg" if solve_yaw else "rivulet_angle_deg"
+    if not accepted:
+        raise CalibrationError(
+            f"aero.{field}: no angle in [{lo}, {hi}] deg makes the in-plane mode lose stability at "
+            f"U_c with the out-of-plane mode stable up to 1.3 U_c (roots found: "
+            f"{[round(r, 3) for r in roots]}); give the angle explicitly or change the other one")
+    best = min(accepted, key=abs)
+    beta = math.radians(best) if solve_yaw else math.radians(aero_spec.yaw_deg)
+    th0 = math.radians(aero_spec.rivulet_angle_deg) if solve_yaw else math.radians(best)
+    return Calibration(beta=beta, theta0=th0, solved_for=field, roots_deg=tuple(roots),
+                       rejected=tuple(rejected))
+
+
+def _reject_reason(matrix_at) -> str:
+    """Why a root fails the conditions of the module docstring ('' if it does not)."""
+    for U in np.linspace(0.0, 0.999, 41):
+        if _growth(matrix_at(U))[0] >= 0:
+            return f"unstable already at U* = {U:.3f}"
+    grow, vec = _growth(matrix_at(1.001))
+    if grow <= 0:
+        return "the trivial solution does not lose stability when U* crosses 1"
+    if abs(vec[0]) < abs(vec[1]):
+        return "the critical mode at U* = 1 is out-of-plane"
+    for U in np.linspace(0.0, 1.3, 53):
+        lam, vec = np.linalg.eig(matrix_at(U))
+        for l, v in zip(lam, vec.T):
+            if abs(v[1]) > abs(v[0]) and l.real >= 0:
+                return f"the out-of-plane mode is unstable at U* = {U:.3f}"
+    return ""

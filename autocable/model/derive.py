@@ -1,0 +1,107 @@
+"""From a model spec to eq. (21): statics -> modes -> calibration -> aerodynamics -> Galerkin.
+
+`derive(spec)` runs the whole chain and returns a `Derivation` (plain frozen data). The result is
+cached in the autocable cache folder under a hash of the spec's physical content and of
+`DERIVATION_VERSION`, so a second call with the same spec costs only a JSON read.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+from autocable.codegen.cache import atomic_write_json, cache_dir, content_hash, read_json
+from autocable.model.aero import expand_load
+from autocable.model.calibration import calibrate
+from autocable.model.equations import TwoModeODE
+from autocable.model.galerkin import aero_scales, project
+from autocable.model.modes import linear_modes
+from autocable.model.shapes import ClosedFormIntegrator, QuadratureIntegrator
+from autocable.model.statics import CableStatics, cable_statics, regime_warnings
+from autocable.spec import ModelSpec
+
+#: Bump when a change in the physics changes the numbers, so stale cached derivations are not used.
+DERIVATION_VERSION = "eq21-v1"
+
+
+@dataclass(frozen=True)
+class Derivation:
+    """Everything `autocable derive` reports: eq. (21) and the quantities it rests on."""
+
+    spec: ModelSpec
+    statics: CableStatics
+    ode: TwoModeODE
+    beta: float                 # yaw [rad] (given or calibrated)
+    theta0: float               # rivulet angle [rad] (given or calibrated)
+    calibrated: str             # which field was calibrated ("" if none)
+    static_angle: float         # phi0 = gamma - Theta0 [rad]
+    aero_scale: float           # K = rho_a L U_c^2 l / (2 EA)
+    velocity_ratio: float       # nu = omega l / U_c
+    twist: tuple                # (B, C, k) of the slaved twist theta2
+    warnings: tuple = ()
+    timings: dict = field(default_factory=dict, compare=False)
+    from_cache: bool = False
+
+    @property
+    def critical_wind_speed_m_s(self) -> float:
+        return self.spec.aero.critical_wind_speed_m_s
+
+
+def _integrator(kind: str, shapes):
+    if kind == "closed-form":
+        return ClosedFormIntegrator(shapes)
+    if kind == "quadrature":
+        return QuadratureIntegrator(shapes)
+    raise ValueError(f"unknown integrator {kind!r}; use 'closed-form' or 'quadrature'")
+
+
+def _compute(spec: ModelSpec, integrator: str) -> dict:
+    timings = {}
+    t0 = time.perf_counter()
+    st = cable_statics(spec.cable)
+    modes = linear_modes(st)
+    I = _integrator(integrator, modes.shapes)
+    K, nu = aero_scales(spec.aero, spec.cable, st)
+    timings["statics_modes_s"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    calibrated = ""
+    if spec.aero.yaw_deg is None or spec.aero.rivulet_angle_deg is None:
+        cal = calibrate(spec.aero, st, modes, I, K, nu, spec.cable.damping_ratio)
+        beta, theta0, calibrated = cal.beta, cal.theta0, cal.solved_for
+    else:
+        beta, theta0 = math.radians(spec.aero.yaw_deg), math.radians(spec.aero.rivulet_angle_deg)
+    timings["calibration_s"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    aero = expand_load(spec.aero.lift, spec.aero.drag, st.alpha, beta, theta0)
+    timings["aero_expansion_s"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    ode = project(st, modes, aero, K, nu, spec.cable.damping_ratio, I,
+                  provenance={"model": spec.name, "model_hash": spec.content_hash(),
+                              "derivation": DERIVATION_VERSION})
+    timings["galerkin_s"] = time.perf_counter() - t0
+    return {"ode": ode.to_dict(), "beta": beta, "theta0": theta0, "calibrated": calibrated,
+            "static_angle": aero.static_angle, "aero_scale": K, "velocity_ratio": nu,
+            "twist": [modes.twist_B, modes.twist_C, modes.twist_k], "timings": timings}
+
+
+def derive(spec: ModelSpec, integrator: str = "closed-form", use_cache: bool = True) -> Derivation:
+    """Eq. (21) for ``spec``; cached by content (see module docstring)."""
+    key = content_hash({"spec": spec.content_hash(), "version": DERIVATION_VERSION,
+                        "integrator": integrator})
+    path = cache_dir("derivations") / f"{spec.name}-{key}.json"
+    data = read_json(path) if use_cache else None
+    from_cache = data is not None
+    t0 = time.perf_counter()
+    if data is None:
+        data = _compute(spec, integrator)
+        atomic_write_json(path, data)
+    st = cable_statics(spec.cable)
+    timings = dict(data["timings"]) if not from_cache else {"cache_read_s": time.perf_counter() - t0}
+    return Derivation(spec=spec, statics=st, ode=TwoModeODE.from_dict(data["ode"]),
+                      beta=data["beta"], theta0=data["theta0"], calibrated=data["calibrated"],
+                      static_angle=data["static_angle"], aero_scale=data["aero_scale"],
+                      velocity_ratio=data["velocity_ratio"], twist=tuple(data["twist"]),
+                      warnings=tuple(regime_warnings(st)), timings=timings, from_cache=from_cache)

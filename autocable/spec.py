@@ -1,0 +1,199 @@
+"""Model spec files (``models/*.toml``) -> frozen dataclasses in SI units, with validation.
+
+A spec describes one cable (Sect. 5 of Luongo & Zulli) and its aerodynamics (eqs. 9-14). Every field
+is checked: a missing, unknown, non-numeric or non-physical value raises `SpecError`, whose message is
+one line naming the file, the field and what is expected. Nothing else in autocable reads TOML.
+
+Inputs the paper does not give (the yaw angle beta, the rivulet angle Theta0, the air density) are
+explicit fields. Exactly one of (yaw, rivulet angle) may be the string ``"calibrate"``: it is then
+found so that the trivial solution loses stability at ``critical_wind_speed_m_s`` (see
+`autocable.model.aero.calibrate`).
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+import tomllib
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+CALIBRATE = "calibrate"
+
+
+class SpecError(ValueError):
+    """A bad model or scene file. ``str(err)`` is one line: ``file: field: what is expected``."""
+
+    def __init__(self, path, field: str, message: str):
+        self.path = str(path)
+        self.field = field
+        super().__init__(f"{self.path}: {field}: {message}" if field else f"{self.path}: {message}")
+
+
+@dataclass(frozen=True)
+class CableSpec:
+    """The cable of Sect. 2 and Sect. 5 (SI units)."""
+
+    length_m: float                  # l, initial length (= chord for a nearly taut cable)
+    chord_slope_deg: float           # alpha, slope of the chord (negative: lower end at the right)
+    horizontal_tension_N: float      # H-bar, horizontal component of the static tension
+    mass_per_length_kg_m: float      # m
+    diameter_m: float                # D
+    axial_stiffness_N: float         # EA
+    bending_stiffness_Nm2: float     # EI
+    torsional_stiffness_Nm2: float   # GJ
+    damping_ratio: float             # xi_s, modal damping ratio of both modes
+    gravity_m_s2: float = 9.81       # g
+
+
+@dataclass(frozen=True)
+class AeroSpec:
+    """The quasi-steady cable-rivulet model of Sect. 2.3 (eqs. 9-14)."""
+
+    air_density_kg_m3: float
+    rivulet_diameter_ratio: float    # d/D (documents the A_k, B_k data; it enters only through them)
+    lift: tuple[float, float, float, float]   # A_0..A_3 of eq. (13)
+    drag: tuple[float, float, float, float]   # B_0..B_3 of eq. (13)
+    critical_wind_speed_m_s: float   # U_c of eq. (18)
+    yaw_deg: float | None            # beta (None: to be calibrated)
+    rivulet_angle_deg: float | None  # Theta0 (None: to be calibrated)
+    load_length: str = "diameter"    # the length in eq. (11): "diameter" (1/2 rho V D) or "radius"
+    calibration_root: str = "smallest"  # which root the calibration keeps: "smallest" |angle|
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    name: str
+    description: str
+    cable: CableSpec
+    aero: AeroSpec
+    path: str = ""
+
+    def content_hash(self) -> str:
+        """Hash of the physical content (not the file path or comments)."""
+        text = repr((self.cable, self.aero))
+        return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+# field name -> (kind, rule, unit/expected text). kind: "pos" > 0, "nonneg" >= 0, "angle" (lo, hi).
+_CABLE_RULES = {
+    "length_m": ("pos", None, "a positive length in m"),
+    "chord_slope_deg": ("range", (-90.0, 90.0), "an angle in degrees strictly between -90 and 90"),
+    "horizontal_tension_N": ("pos", None, "a positive force in N"),
+    "mass_per_length_kg_m": ("pos", None, "a positive mass per unit length in kg/m"),
+    "diameter_m": ("pos", None, "a positive diameter in m"),
+    "axial_stiffness_N": ("pos", None, "a positive axial stiffness EA in N"),
+    "bending_stiffness_Nm2": ("pos", None, "a positive bending stiffness EI in N m^2"),
+    "torsional_stiffness_Nm2": ("pos", None, "a positive torsional stiffness GJ in N m^2"),
+    "damping_ratio": ("range", (0.0, 1.0), "a damping ratio between 0 and 1 (0.004 is 0.4 %)"),
+    "gravity_m_s2": ("pos", None, "a positive acceleration in m/s^2"),
+}
+_AERO_RULES = {
+    "air_density_kg_m3": ("pos", None, "a positive density in kg/m^3"),
+    "rivulet_diameter_ratio": ("range", (0.0, 1.0), "the ratio d/D, between 0 and 1"),
+    "lift": ("coeffs", None, "a list of the 4 numbers A_0, A_1, A_2, A_3 of eq. (13)"),
+    "drag": ("coeffs", None, "a list of the 4 numbers B_0, B_1, B_2, B_3 of eq. (13)"),
+    "critical_wind_speed_m_s": ("pos", None, "a positive wind speed in m/s"),
+    "yaw_deg": ("angle_or_cal", (-90.0, 90.0), 'an angle in degrees in [-90, 90], or "calibrate"'),
+    "rivulet_angle_deg": ("angle_or_cal", (-180.0, 180.0),
+                          'an angle in degrees in [-180, 180], or "calibrate"'),
+    "load_length": ("choice", ("diameter", "radius"), '"diameter" or "radius"'),
+    "calibration_root": ("choice", ("smallest",), '"smallest"'),
+}
+_OPTIONAL = {"gravity_m_s2", "load_length", "calibration_root"}
+
+
+def _number(value, path, field, expected):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise SpecError(path, field, f"expected {expected}, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise SpecError(path, field, f"expected {expected}, got {value!r}")
+    return value
+
+
+def _check(value, rule, path, field):
+    kind, bounds, expected = rule
+    if kind == "choice":
+        if value not in bounds:
+            raise SpecError(path, field, f"expected {expected}, got {value!r}")
+        return value
+    if kind == "coeffs":
+        if not isinstance(value, list) or len(value) != 4:
+            raise SpecError(path, field, f"expected {expected}, got {value!r}")
+        return tuple(_number(v, path, field, expected) for v in value)
+    if kind == "angle_or_cal":
+        if value == CALIBRATE:
+            return None
+        x = _number(value, path, field, expected)
+        if not bounds[0] <= x <= bounds[1]:
+            raise SpecError(path, field, f"expected {expected}, got {x}")
+        return x
+    x = _number(value, path, field, expected)
+    if kind == "pos" and not x > 0:
+        raise SpecError(path, field, f"expected {expected}, got {x}")
+    if kind == "range" and not bounds[0] < x < bounds[1]:
+        raise SpecError(path, field, f"expected {expected}, got {x}")
+    return x
+
+
+def _section(data, name, rules, path):
+    if name not in data:
+        raise SpecError(path, f"[{name}]", f"missing section; add a [{name}] table")
+    table = data[name]
+    if not isinstance(table, dict):
+        raise SpecError(path, name, "expected a table")
+    for key in table:
+        if key not in rules:
+            close = [k for k in rules if k.split("_")[0] == key.split("_")[0]]
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise SpecError(path, f"{name}.{key}", f"unknown key{hint}; allowed: {', '.join(rules)}")
+    out = {}
+    for key, rule in rules.items():
+        if key not in table:
+            if key in _OPTIONAL:
+                continue
+            raise SpecError(path, f"{name}.{key}", f"missing; expected {rule[2]}")
+        out[key] = _check(table[key], rule, path, f"{name}.{key}")
+    return out
+
+
+def parse_model(data: dict, path="<spec>") -> ModelSpec:
+    """Validate a parsed TOML document and build a `ModelSpec`."""
+    allowed = {"name", "description", "cable", "aero"}
+    for key in data:
+        if key not in allowed:
+            raise SpecError(path, key, f"unknown key; allowed top-level keys: {', '.join(sorted(allowed))}")
+    name = data.get("name", Path(str(path)).stem)
+    if not isinstance(name, str) or not name:
+        raise SpecError(path, "name", "expected a non-empty string")
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        raise SpecError(path, "description", "expected a string")
+    cable = CableSpec(**_section(data, "cable", _CABLE_RULES, path))
+    aero_fields = _section(data, "aero", _AERO_RULES, path)
+    aero_fields.setdefault("load_length", "diameter")
+    aero_fields.setdefault("calibration_root", "smallest")
+    aero = AeroSpec(**aero_fields)
+    if aero.yaw_deg is None and aero.rivulet_angle_deg is None:
+        raise SpecError(path, "aero.yaw_deg", 'only one of yaw_deg and rivulet_angle_deg may be "calibrate"')
+    return ModelSpec(name=name, description=description, cable=cable, aero=aero, path=str(path))
+
+
+def load_model(path) -> ModelSpec:
+    """Read and validate a model spec file. Raises `SpecError` with a one-line message."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise SpecError(path, "", "no such file") from None
+    except OSError as exc:
+        raise SpecError(path, "", f"cannot read: {exc.strerror}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(path, "", f"not valid TOML: {exc}") from None
+    return parse_model(data, path)
+
+
+def spec_fields(cls) -> list[str]:
+    return [f.name for f in fields(cls)]
