@@ -110,3 +110,29 @@ def _reject_reason(matrix_at) -> str:
             if abs(v[1]) > abs(v[0]) and l.real >= 0:
                 return f"the out-of-plane mode is unstable at U* = {U:.3f}"
     return ""
+
+
+def decoupled_angles(aero_spec, st, modes, integrator, K: float, nu: float, xi_s: float,
+                     guess_deg=(-26.0, 25.0)) -> tuple[float, float]:
+    """(beta, Theta0) in degrees at which the in-plane galloping onset is exactly mono-modal.
+
+    Two conditions: the in-plane aerodynamic damping cancels the structural one at U_c
+    (zeta11 = -2 xi_s omega1, ERRATA item 5 and "What the paper does not give"), and the linear
+    load of the in-plane velocity on the out-of-plane equation vanishes (xi12 = 0), so that the
+    linearised eq. (21) at eta = 0 is block-triangular and its in-plane pair crosses the imaginary
+    axis at U* = 1 with no out-of-plane component (Fig. 3: mono-modal galloping). This is how the
+    sample model's yaw was chosen; `calibrate` then finds Theta0 from it.
+    """
+    from scipy.optimize import fsolve
+
+    target = -2 * xi_s * modes.omega1
+
+    def residual(x):
+        lin = linear_load(aero_spec.lift, aero_spec.drag, st.alpha, math.radians(x[0]), math.radians(x[1]))
+        al = linear_aero_matrix(integrator, K, nu, st.m_star, lin)
+        return [(al[(1, 2)] - target) / abs(target), al[(2, 2)] / abs(target)]
+
+    x, info, ok, msg = fsolve(residual, list(guess_deg), xtol=1e-13, full_output=True)
+    if ok != 1 or max(abs(r) for r in residual(x)) > 1e-9:
+        raise CalibrationError(f"aero: no decoupled (yaw, rivulet) pair near {guess_deg} deg: {msg}")
+    return float(x[0]), float(x[1])
