@@ -1,0 +1,223 @@
+"""The `autocable` command: derive, simulate, bench.
+
+Errors a user can fix (a bad spec, a bad option, a failed build or run) are printed as one line
+naming the file and field, with exit status 2; no traceback. ``AUTOCABLE_DEBUG=1`` shows tracebacks.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import sys
+from pathlib import Path
+
+from autocable import __version__
+from autocable.spec import SpecError, load_model
+
+
+def _derivation(path):
+    from autocable.model.derive import derive
+    return derive(load_model(path))
+
+
+def _fmt(x: float) -> str:
+    return f"{x: .6e}"
+
+
+def derive_report(d) -> str:
+    """The readable report of `autocable derive` (eq. 21 and what it rests on)."""
+    st, ode, spec = d.statics, d.ode, d.spec
+    lines = [
+        f"model {spec.name} ({spec.path})",
+        "",
+        "Statics (Sect. 2.1, nearly taut) and nondimensional groups (eq. 17):",
+        f"  T-bar = {st.T_bar:.6g} N   kappa-bar = {st.kappa_bar:.6g} 1/m   alpha = {math.degrees(st.alpha):.4g} deg",
+        f"  delta = kappa*l = {st.delta:.6g}   tau = T/EA = {st.tau:.6g}   chi = GJ/EI = {st.chi:.6g}",
+        f"  Irvine lambda^2 = {st.lambda2:.6g}   m* = pi^2 tau = {st.m_star:.6g}",
+        f"  reference frequency omega = (pi/l) sqrt(T/m) = {st.omega_ref:.6g} rad/s ({st.frequency_hz:.4g} Hz)",
+        f"  quasi-static shape (eqs. 15-16, corrected C2): vhat(s) = {st.C1:.6g} s^2 + {st.C2:.6g} s",
+        "",
+        "Modes (eqs. 19-20, unit maximum):",
+        f"  omega1 = {ode.omega1:.9f} (in-plane, Irvine)   omega2 = {ode.omega2:.9f} (out-of-plane)",
+        f"  internal detuning rho = omega2 - omega1 = {ode.omega2 - ode.omega1:.6g}",
+        f"  slaved twist theta2 = {d.twist[0]:.6g} sin(pi s) + {d.twist[1]:.6g} cosh({d.twist[2]:.6g} (s - 1/2))",
+        "",
+        "Wind (Sect. 2.3):",
+        f"  U_c = {d.critical_wind_speed_m_s:g} m/s   yaw beta = {math.degrees(d.beta):.6f} deg   "
+        f"rivulet Theta0 = {math.degrees(d.theta0):.6f} deg"
+        + (f"   ({d.calibrated} calibrated)" if d.calibrated else ""),
+        f"  static angle phi0 = gamma - Theta0 = {math.degrees(d.static_angle):.6f} deg",
+        f"  load scale K = {d.aero_scale:.6g}   velocity ratio nu = omega l / U_c = {d.velocity_ratio:.6g}",
+        "",
+        "Eq. (21): q_k'' + sum(coefficient * term) = 0; Appendix A names, forcing terms in the",
+        "paper's sign (right-hand side). Unnamed terms are not listed in eq. (21) as printed.",
+    ]
+    for k in (1, 2):
+        lines.append(f"  equation {k}:")
+        for t in sorted(ode.equation(k), key=lambda t: (sum(t.powers), t.powers, t.forcing, t.u_power)):
+            from autocable.model.equations import monomial_name
+            mono = monomial_name(t.powers, t.forcing, t.u_power)
+            name = t.name or {"linear": f"omega{k}^2", "damping": f"2 xi_s omega{k}"}.get(
+                t.origin, "(not in eq. 21)")
+            rhs = " [rhs]" if t.is_forcing else ""
+            lines.append(f"    {name:<16} {_fmt(t.appendix_value)}  {mono}{rhs}  ({t.origin})")
+    for w in d.warnings:
+        lines.append(f"warning: {w}")
+    src = "cache" if d.from_cache else "computed"
+    lines.append(f"({src}; {', '.join(f'{k} {v:.3g}' for k, v in d.timings.items())})")
+    return "\n".join(lines)
+
+
+def derive_json(d) -> dict:
+    st, ode = d.statics, d.ode
+    return {
+        "model": d.spec.name, "model_hash": d.spec.content_hash(),
+        "reference_frequency_rad_s": st.omega_ref, "omega1": ode.omega1, "omega2": ode.omega2,
+        "lambda2": st.lambda2, "delta": st.delta, "tau": st.tau, "chi": st.chi,
+        "kappa_bar_1_m": st.kappa_bar, "T_bar_N": st.T_bar, "m_star": st.m_star,
+        "vhat": {"C1": st.C1, "C2": st.C2},
+        "critical_wind_speed_m_s": d.critical_wind_speed_m_s,
+        "yaw_deg": math.degrees(d.beta), "rivulet_angle_deg": math.degrees(d.theta0),
+        "calibrated": d.calibrated, "static_angle_deg": math.degrees(d.static_angle),
+        "xi_s": ode.xi_s,
+        "coefficients": ode.coefficients(),
+        "terms": [{"equation": t.equation, "name": t.label, "powers": list(t.powers),
+                   "forcing": list(t.forcing), "U_power": t.u_power, "origin": t.origin,
+                   "coefficient_lhs": t.coefficient} for t in ode.terms],
+        "conventions": {
+            "equation": "q_k'' + sum(coefficient_lhs * U^U_power * (eta f)^a (eta f')^b (eta f'')^c "
+                        "* q1^i q2^j q1'^k q2'^l) = 0, f = sin(Omega t), t* = omega t",
+            "coefficients": "Appendix A names; forcing terms (Gamma_1,23, Gamma_2,22) with the "
+                            "paper's right-hand-side sign; unnamed terms keyed 'eq<k>:<monomial>'",
+        },
+        "warnings": list(d.warnings),
+    }
+
+
+def cmd_derive(args) -> int:
+    d = _derivation(args.model)
+    if args.json:
+        print(json.dumps(derive_json(d), indent=1))
+    else:
+        print(derive_report(d))
+    return 0
+
+
+def cmd_simulate(args) -> int:
+    from autocable.methods.integration import DEFAULT_Q0, Ode21Integrator
+    d = _derivation(args.model)
+    if args.eta < 0:
+        raise SpecError("--eta", "", f"the support amplitude eta* must be >= 0, got {args.eta}")
+    if args.U < 0:
+        raise SpecError("--U", "", f"the wind speed U* must be >= 0, got {args.U}")
+    q0 = tuple(args.q0) if args.q0 else DEFAULT_Q0
+    show = not (args.quiet or args.json)
+
+    def progress(t, amps):
+        if show:
+            print(f"\r  t = {t:9.1f}   a1 = {amps[0]:.6e}   a2 = {amps[1]:.6e}", end="", file=sys.stderr)
+
+    integ = Ode21Integrator(d.ode)
+    r = integ.simulate(args.U, args.eta, args.sigma, q0, max_time=args.max_time,
+                       keep_history=bool(args.csv), progress=progress)
+    if show:
+        print(file=sys.stderr)
+    if args.csv:
+        _write_history(Path(args.csv), r)
+    out = {"a1": r.a1, "a2": r.a2, "steady": r.steady, "periodic": r.periodic, "t_end": r.t_end,
+           "U": r.U, "eta": r.eta, "sigma": r.sigma, "Omega": r.Omega,
+           "a1_min": r.a1_min, "a1_max": r.a1_max, "a2_min": r.a2_min, "a2_max": r.a2_max,
+           "amplitude_convention": "a_k = half the peak-to-peak of q_k over the last 20 forcing "
+                                   "periods (peak modal amplitude = peak displacement / l)",
+           "message": r.message, "method": "ode21", "wall_seconds": r.wall_seconds}
+    if args.json:
+        print(json.dumps(out, indent=1))
+    else:
+        print(f"U* = {r.U:g}  eta* = {r.eta:g}  sigma = {r.sigma:g}  (Omega = {r.Omega:.6g})")
+        print(f"a1 = {r.a1:.9e}   a2 = {r.a2:.9e}   ({r.message}; "
+              f"{'periodic' if r.periodic else 'not period-1'}; t_end = {r.t_end:.1f})")
+        if not r.periodic:
+            print(f"envelope: a1 in [{r.a1_min:.6e}, {r.a1_max:.6e}], a2 in [{r.a2_min:.6e}, {r.a2_max:.6e}]")
+    return 0
+
+
+def _write_history(path: Path, r) -> None:
+    from autocable.codegen.cache import atomic_write_text
+    rows = ["t,q1,q2,q1dot,q2dot"]
+    t, q1, q2, v1, v2 = r.history
+    rows += [f"{a:.10g},{b:.10e},{c:.10e},{d:.10e},{e:.10e}" for a, b, c, d, e in zip(t, q1, q2, v1, v2)]
+    atomic_write_text(path, "\n".join(rows) + "\n")
+
+
+def cmd_bench(args) -> int:
+    from autocable.bench import run_bench
+    result = run_bench(args.what, args.model, repeats=args.repeats,
+                       log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
+    if args.out:
+        from autocable.codegen.cache import atomic_write_json
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        atomic_write_json(out / f"bench_{args.what}.json", result)
+    print(json.dumps(result, indent=1))
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="autocable", description=__doc__.splitlines()[0])
+    p.add_argument("--version", action="version", version=f"autocable {__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    d = sub.add_parser("derive", help="derive eq. (21) from a model spec and report its coefficients")
+    d.add_argument("model", help="model spec file (models/*.toml)")
+    d.add_argument("--json", action="store_true", help="one JSON object instead of the report")
+    d.set_defaults(func=cmd_derive)
+
+    s = sub.add_parser("simulate", help="integrate eq. (21) to a steady state")
+    s.add_argument("model")
+    s.add_argument("--U", type=float, default=0.0, help="nondimensional wind speed U* = U/U_c")
+    s.add_argument("--eta", type=float, default=0.0, help="nondimensional support amplitude eta* = eta/l")
+    s.add_argument("--sigma", type=float, default=0.0, help="external detuning: Omega = omega1 + sigma")
+    s.add_argument("--q0", type=float, nargs=4, metavar=("Q1", "Q1DOT", "Q2", "Q2DOT"),
+                   help="initial state (default: rest with q2 = 1e-6)")
+    s.add_argument("--max-time", type=float, default=60000.0, help="give up after this time (t* units)")
+    s.add_argument("--json", action="store_true")
+    s.add_argument("--csv", metavar="FILE", help="write the time history")
+    s.add_argument("--quiet", action="store_true", help="no progress")
+    s.set_defaults(func=cmd_simulate)
+
+    b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
+    b.add_argument("what", choices=["derive"], help="derive: derivation time and integration speed")
+    b.add_argument("--model", default=str(Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"))
+    b.add_argument("--repeats", type=int, default=3)
+    b.add_argument("--out", help="folder to write bench_<what>.json")
+    b.add_argument("--quiet", action="store_true")
+    b.set_defaults(func=cmd_bench)
+    return p
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    if os.environ.get("AUTOCABLE_DEBUG"):
+        return args.func(args)
+    try:
+        return args.func(args)
+    except SpecError as exc:
+        print(f"autocable: error: {exc}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:            # output piped into `head` and cut: not an error
+        return 0
+    except KeyboardInterrupt:
+        print("autocable: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # a failure we did not foresee: one line, never a raw traceback
+        from autocable.codegen.compat import PyDSToolError
+        kind = "PyDSTool" if isinstance(exc, PyDSToolError) else type(exc).__name__
+        first = str(exc).splitlines()[0] if str(exc) else kind
+        print(f"autocable: error ({kind}): {first} (set AUTOCABLE_DEBUG=1 for details)", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

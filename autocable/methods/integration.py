@@ -1,0 +1,187 @@
+"""Direct time integration of eq. (21): the brute-force reference of the method ladder.
+
+f(t) = sin(Omega t) with Omega = omega1 + sigma (ERRATA.md conventions). The right-hand side is
+compiled (PyDSTool's Dopri generator, DOP853 in C) and integrated in chunks of forcing periods until
+the response amplitudes stop changing. Amplitudes follow the convention used throughout autocable:
+a_k is the peak modal amplitude, half the peak-to-peak of q_k over the last forcing periods
+(ERRATA.md, "Amplitudes"), i.e. the peak displacement divided by the cable length for modes of unit
+maximum. A response is called periodic when it repeats with the forcing period (period-1); an
+amplitude-modulated (quasi-periodic in q_k) response is steady only in its envelope.
+
+`engine="scipy"` integrates the same sympy right-hand side with scipy's DOP853 in Python: a slow
+independent cross-check of the compiled path.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from autocable.model.equations import TwoModeODE
+from autocable.model.symbolic import PARAMETERS, STATE, T, first_order_rhs, parameter_values
+
+#: Default start: rest, with a tiny out-of-plane seed so that an unstable planar motion is never
+#: reported as the response (issue: q2 = 1e-6).
+DEFAULT_Q0 = (0.0, 0.0, 1e-6, 0.0)   # order (q1, q1', q2, q2') as on the command line
+
+
+@dataclass(frozen=True)
+class Response:
+    """The steady response of eq. (21) at one parameter point."""
+
+    a1: float
+    a2: float
+    steady: bool
+    periodic: bool
+    t_end: float
+    U: float
+    eta: float
+    sigma: float
+    Omega: float
+    a1_min: float          # envelope of the half peak-to-peak over single forcing periods
+    a1_max: float
+    a2_min: float
+    a2_max: float
+    message: str
+    wall_seconds: float
+    final_state: tuple     # (q1, q2, q1', q2') at t_end
+    history: tuple = field(default=(), repr=False)   # (t, q1, q2, q1', q2') arrays if asked for
+
+
+def _peak(samples: np.ndarray, sign: int) -> float:
+    """Extreme of a sampled smooth signal, refined by a parabola through the best sample."""
+    y = sign * samples
+    i = int(np.argmax(y))
+    if 0 < i < len(y) - 1:
+        a, b, c = y[i - 1], y[i], y[i + 1]
+        den = a - 2 * b + c
+        if den < 0:
+            return sign * (b - 0.125 * (a - c) ** 2 / den)
+    return sign * y[i]
+
+
+def _half_range(x: np.ndarray) -> float:
+    return 0.5 * (_peak(x, 1) - _peak(x, -1))
+
+
+class Ode21Integrator:
+    """Integrates one `TwoModeODE`; the compiled generator is built once and reused."""
+
+    def __init__(self, ode: TwoModeODE, engine: str = "dopri", rtol: float = 1e-10, atol: float = 1e-13):
+        if engine not in ("dopri", "scipy"):
+            raise ValueError(f"unknown engine {engine!r}: use 'dopri' or 'scipy'")
+        self.ode, self.engine, self.rtol, self.atol = ode, engine, rtol, atol
+        self._rhs = first_order_rhs(ode)
+        self._generator = None
+        self._numeric = None
+        self.build_seconds = 0.0
+
+    # -- engines -------------------------------------------------------------------------------
+    def _compiled(self):
+        if self._generator is None:
+            from autocable.codegen.pydstool import VectorField, make_ode_generator
+            vf = VectorField(name=f"eq21_{self.ode.content_hash()}",
+                             variables=tuple(s.name for s in STATE), rhs=self._rhs,
+                             parameters=tuple((p.name, 0.0) for p in PARAMETERS))
+            t0 = time.perf_counter()
+            self._generator = make_ode_generator(vf, "Dopri", algparams={
+                "rtol": self.rtol, "atol": self.atol, "max_step": 1.0})
+            self.build_seconds = time.perf_counter() - t0
+        return self._generator
+
+    def _scipy_rhs(self):
+        if self._numeric is None:
+            import sympy as sp
+            f = sp.lambdify((T, STATE, PARAMETERS), self._rhs, "math")
+            self._numeric = f
+        return self._numeric
+
+    def run(self, y0, t0: float, t1: float, dt: float, pars: dict) -> tuple[np.ndarray, np.ndarray]:
+        """Samples (t, states) on t0, t0+dt, ..., states in the order (q1, q2, q1', q2')."""
+        if self.engine == "dopri":
+            from autocable.codegen.pydstool import integrate
+            return integrate(self._compiled(), list(y0), pars, t0, t1, dt)
+        from scipy.integrate import solve_ivp
+        f = self._scipy_rhs()
+        p = tuple(pars[s.name] for s in PARAMETERS)
+        n = int(math.floor((t1 - t0) / dt * (1 + 1e-12))) + 1
+        grid = t0 + dt * np.arange(n)
+        sol = solve_ivp(lambda t, y: f(t, y, p), (t0, grid[-1]), list(y0), method="DOP853",
+                        t_eval=grid, rtol=self.rtol, atol=self.atol)
+        if not sol.success:
+            raise RuntimeError(f"scipy DOP853 failed: {sol.message}")
+        return sol.t, sol.y.T
+
+    # -- the steady response -------------------------------------------------------------------
+    def simulate(self, U: float, eta: float, sigma: float, q0=DEFAULT_Q0, *,
+                 periods_per_chunk: int = 100, window_periods: int = 20, max_time: float = 60000.0,
+                 steady_tol: float = 1e-8, samples_per_period: int = 64,
+                 keep_history: bool = False, progress=None) -> Response:
+        """Integrate from ``q0`` = (q1, q1', q2, q2') until the amplitudes are steady.
+
+        Steady: the amplitudes over the last ``window_periods`` forcing periods change by less than
+        ``steady_tol`` (relative) between two consecutive chunks. Stops at ``max_time`` otherwise.
+        """
+        start = time.perf_counter()
+        Omega = self.ode.omega1 + sigma
+        if not Omega > 0:
+            raise ValueError(f"sigma = {sigma} gives a non-positive forcing frequency Omega = {Omega}")
+        period = 2 * math.pi / Omega
+        dt = period / samples_per_period
+        pars = parameter_values(U, eta, Omega)
+        q1, q1d, q2, q2d = (float(x) for x in q0)
+        y = (q1, q2, q1d, q2d)
+        t = 0.0
+        chunk = periods_per_chunk * period
+        previous, steady, history = None, False, []
+        amps = (math.nan, math.nan)
+        while t < max_time - 1e-9:
+            t1 = min(t + chunk, max_time)
+            tt, ys = self.run(y, t, t1, dt, pars)
+            if keep_history:
+                history.append((tt[:-1], ys[:-1]))
+            y, t = tuple(ys[-1]), float(tt[-1])
+            if not np.all(np.isfinite(ys)):
+                return self._response(U, eta, sigma, Omega, (math.inf, math.inf), False, False, t,
+                                      None, "the response diverged (no bounded steady state)",
+                                      start, y, history)
+            window = ys[-(window_periods * samples_per_period + 1):]
+            amps = (_half_range(window[:, 0]), _half_range(window[:, 1]))
+            if progress:
+                progress(t, amps)
+            if previous is not None:
+                change = max(abs(a - b) / max(abs(a), 1e-14) for a, b in zip(amps, previous))
+                if change < steady_tol:
+                    steady = True
+                    break
+            previous = amps
+        periodic = self._is_periodic(window, samples_per_period)
+        msg = "steady" if steady else f"not steady after t = {t:g} (amplitudes still changing)"
+        return self._response(U, eta, sigma, Omega, amps, steady, periodic, t, window, msg, start, y,
+                              history, samples_per_period)
+
+    @staticmethod
+    def _is_periodic(window: np.ndarray, n: int, tol: float = 1e-6) -> bool:
+        """Period-1 in the forcing: q(t) and q(t + T) agree over the window (relative to its size)."""
+        scale = max(np.max(np.abs(window[:, :2])), 1e-14)
+        return bool(np.max(np.abs(window[n:, :2] - window[:-n, :2])) < tol * scale)
+
+    def _response(self, U, eta, sigma, Omega, amps, steady, periodic, t, window, msg, start, y,
+                  history, n=64):
+        env = [(a, a) for a in amps]
+        if window is not None and len(window) > n:
+            per = [[_half_range(window[i:i + n + 1, k]) for i in range(0, len(window) - n, n)]
+                   for k in (0, 1)]
+            env = [(min(p), max(p)) for p in per]
+        hist = ()
+        if history:
+            tt = np.concatenate([h[0] for h in history])
+            ys = np.concatenate([h[1] for h in history])
+            hist = (tt, ys[:, 0], ys[:, 1], ys[:, 2], ys[:, 3])
+        return Response(a1=float(amps[0]), a2=float(amps[1]), steady=steady, periodic=periodic,
+                        t_end=t, U=U, eta=eta, sigma=sigma, Omega=Omega,
+                        a1_min=env[0][0], a1_max=env[0][1], a2_min=env[1][0], a2_max=env[1][1],
+                        message=msg, wall_seconds=time.perf_counter() - start,
+                        final_state=tuple(float(v) for v in y), history=hist)
