@@ -254,8 +254,7 @@ def complex_to_cartesian(n_modes: int, rows: Sequence[Row]) -> tuple[Row, ...]:
 
     out = []
     for r in rows:
-        poly = {tuple([0] * (2 * n_modes)): (Fraction(2) * r.coefficient[0] if isinstance(r.coefficient[0], Fraction) else 2.0 * r.coefficient[0],
-                                              Fraction(2) * r.coefficient[1] if isinstance(r.coefficient[1], Fraction) else 2.0 * r.coefficient[1])}
+        poly = {tuple([0] * (2 * n_modes)): (2 * r.coefficient[0], 2 * r.coefficient[1])}
         for j in range(n_modes):
             m, n = r.state[j], r.state[n_modes + j]
             if m:
@@ -518,7 +517,7 @@ class AmplitudeEquations:
             sig[1] = sig[0] + rho
         return np.array([eta, U, *sig, Omega], dtype=float)
 
-    def _bind(self, params, exps, coeffs, values):
+    def _bind(self, exps, coeffs, values):
         """Fold user-symbol values into the coefficients; return (control exponents, coefficients)."""
         nc = len(self.control_names)
         exps = np.asarray(exps, dtype=int).reshape(len(coeffs), len(self.param_names))
@@ -536,7 +535,7 @@ class AmplitudeEquations:
         rows = self.cartesian_rows
         n = 2 * self.n_modes
         coeffs = np.array([float(r.coefficient) for r in rows], dtype=float)
-        pexp, coeffs = self._bind(None, [r.params for r in rows], coeffs, values)
+        pexp, coeffs = self._bind([r.params for r in rows], coeffs, values)
         return CartesianRHS(
             state_names=self.cartesian_state_names,
             param_names=self.control_names,
@@ -552,7 +551,7 @@ class AmplitudeEquations:
         state = np.concatenate([A, np.conj(A)])
         rows = self.complex_rows
         coeffs = np.array([complex(float(r.coefficient[0]), float(r.coefficient[1])) for r in rows])
-        pexp, coeffs = self._bind(None, [r.params for r in rows], coeffs, values)
+        pexp, coeffs = self._bind([r.params for r in rows], coeffs, values)
         pm = _param_monomials(np.asarray(p, float), pexp, np.array([r.aero for r in rows]), 1)
         out = np.zeros(self.n_modes, dtype=complex)
         for r, c, m in zip(rows, coeffs, pm):
@@ -583,7 +582,7 @@ class AmplitudeEquations:
         if order == 2 and self.second_order_rows:
             rows = self.second_order_rows
             coeffs = np.array([complex(float(r.coefficient[0]), float(r.coefficient[1])) for r in rows])
-            pexp, coeffs = self._bind(None, [r.params for r in rows], coeffs, values)
+            pexp, coeffs = self._bind([r.params for r in rows], coeffs, values)
             pm = _param_monomials(p, pexp, np.array([r.aero for r in rows]), 1)
             state = np.concatenate([A, np.conj(A)], axis=1)
             for r, c, m in zip(rows, coeffs, pm):
@@ -650,7 +649,7 @@ class AmplitudeEquations:
             "format": FORMAT,
             "n_modes": self.n_modes,
             "param_names": list(self.param_names),
-            "omegas": [w if isinstance(w, str) else _enc(w) for w in self.omegas],
+            "omegas": [{"symbol": w} if isinstance(w, str) else _enc(w) for w in self.omegas],
             "omega_mode": self.omega_mode,
             "complex_rows": [[r.equation, list(r.state), list(r.params),
                               [_enc(r.coefficient[0]), _enc(r.coefficient[1])], r.aero]
@@ -671,7 +670,7 @@ class AmplitudeEquations:
             raise ValueError(f"not an AME dictionary of format {FORMAT!r} (got {data.get('format')!r})")
 
         def omega(w):
-            return w if isinstance(w, str) and "/" not in w and not _looks_numeric(w) else _dec(w)
+            return w["symbol"] if isinstance(w, dict) else _dec(w)
 
         return cls(
             n_modes=int(data["n_modes"]),
@@ -699,10 +698,3 @@ class AmplitudeEquations:
             lines.append(f"  {e.label:<28} order {o}  ({e.rule}) -> {eff}")
         return "\n".join(lines)
 
-
-def _looks_numeric(s: str) -> bool:
-    try:
-        Fraction(s)
-    except (ValueError, ZeroDivisionError):
-        return False
-    return True

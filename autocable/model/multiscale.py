@@ -58,7 +58,8 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Mapping, Sequence
+from types import MappingProxyType
+from typing import Sequence
 
 import sympy as sp
 
@@ -70,7 +71,7 @@ OMEGA_MODES = ("exact", "expanded")
 
 # Names the engine gives a meaning of its own; user symbols may not take them.
 _RESERVED_PREFIXES = ("sigma_", "A_", "Abar_", "r_", "s_", "a_", "Phi_")
-_RESERVED = {"eta", "E", "W", "t", "sigma", "rho"}
+_RESERVED = frozenset({"eta", "E", "W", "t", "sigma", "rho", "U", "Omega"})
 #: Relative tolerance of the float-coefficient consistency checks (exact coefficients compare exactly).
 CHECK_RTOL = 1e-11
 
@@ -182,13 +183,13 @@ def _as_system(system) -> OscillatorSystem:
 
 
 # -- ordering ---------------------------------------------------------------------------------------
-RULES = {
+RULES = MappingProxyType({
     "R1": "aerodynamic: third order",
     "R1x": "aerodynamic of natural order > 3: dropped",
     "R2": "linear/damping/resonant forcing (natural order <= 1): third order",
     "R3": "natural order",
     "R3x": "natural order > 3: dropped",
-}
+})
 
 
 def default_ordering(system) -> Ordering:
@@ -275,12 +276,6 @@ class _Layout:
     def P(self, name):
         return self.p0 + self.params.index(name)
 
-    def key(self, **by_index) -> tuple:
-        e = [0] * self.size
-        for i, v in by_index.items():
-            e[int(i[1:])] += v
-        return tuple(e)
-
     def mono(self, pairs) -> tuple:
         e = [0] * self.size
         for i, v in pairs:
@@ -346,11 +341,10 @@ def _check_user_name(name: str, where: str) -> None:
 
 
 def _omega_spec(w, k):
-    if isinstance(w, sp.Symbol):
-        _check_user_name(w.name, f"omega_{k}")
-        return w.name
-    if isinstance(w, (sp.Basic,)):
+    """A natural frequency as stored in the AME: a number, or a user symbol's name."""
+    if isinstance(w, sp.Basic):
         if w.is_Symbol:
+            _check_user_name(w.name, f"omega_{k}")
             return w.name
         if w.is_number:
             return _to_number(w)
