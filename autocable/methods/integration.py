@@ -78,6 +78,12 @@ class Ode21Integrator:
         self._numeric = None
         self.build_seconds = 0.0
 
+    def with_tolerances(self, rtol: float, atol: float) -> "Ode21Integrator":
+        """The same integrator at other tolerances, sharing the compiled generator."""
+        other = Ode21Integrator(self.ode, self.engine, rtol, atol)
+        other._generator, other._numeric = self._generator, self._numeric
+        return other
+
     # -- engines -------------------------------------------------------------------------------
     def _compiled(self):
         if self._generator is None:
@@ -102,7 +108,9 @@ class Ode21Integrator:
         """Samples (t, states) on t0, t0+dt, ..., states in the order (q1, q2, q1', q2')."""
         if self.engine == "dopri":
             from autocable.codegen.pydstool import integrate
-            return integrate(self._compiled(), list(y0), pars, t0, t1, dt)
+            # Tolerances are per integrator object while the compiled generator is shared.
+            return integrate(self._compiled(), list(y0), pars, t0, t1, dt,
+                             algparams={"rtol": self.rtol, "atol": self.atol})
         from scipy.integrate import solve_ivp
         f = self._scipy_rhs()
         p = tuple(pars[s.name] for s in PARAMETERS)
@@ -137,6 +145,8 @@ class Ode21Integrator:
         chunk = periods_per_chunk * period
         previous, steady, history = None, False, []
         amps = (math.nan, math.nan)
+        keep = window_periods * samples_per_period + 1
+        window = np.array([y])
         while t < max_time - 1e-9:
             t1 = min(t + chunk, max_time)
             tt, ys = self.run(y, t, t1, dt, pars)
@@ -147,7 +157,8 @@ class Ode21Integrator:
                 return self._response(U, eta, sigma, Omega, (math.inf, math.inf), False, False, t,
                                       None, "the response diverged (no bounded steady state)",
                                       start, y, history)
-            window = ys[-(window_periods * samples_per_period + 1):]
+            # A rolling window across chunks: the last chunk may be shorter than the window.
+            window = np.concatenate([window, ys[1:]])[-keep:]
             amps = (_half_range(window[:, 0]), _half_range(window[:, 1]))
             if progress:
                 progress(t, amps)
@@ -157,16 +168,19 @@ class Ode21Integrator:
                     steady = True
                     break
             previous = amps
-        periodic = self._is_periodic(window, samples_per_period)
+        periodic = self._is_periodic(window, samples_per_period, 1e3 * self.atol)
         msg = "steady" if steady else f"not steady after t = {t:g} (amplitudes still changing)"
         return self._response(U, eta, sigma, Omega, amps, steady, periodic, t, window, msg, start, y,
                               history, samples_per_period)
 
     @staticmethod
-    def _is_periodic(window: np.ndarray, n: int, tol: float = 1e-6) -> bool:
-        """Period-1 in the forcing: q(t) and q(t + T) agree over the window (relative to its size)."""
-        scale = max(np.max(np.abs(window[:, :2])), 1e-14)
-        return bool(np.max(np.abs(window[n:, :2] - window[:-n, :2])) < tol * scale)
+    def _is_periodic(window: np.ndarray, n: int, floor: float, tol: float = 1e-6) -> bool:
+        """Period-1 in the forcing: q(t) and q(t + T) agree over the window, to ``tol`` relative to
+        its size or to ``floor`` (the integration's own absolute accuracy), whichever is larger."""
+        if len(window) <= n:
+            return False
+        scale = np.max(np.abs(window[:, :2]))
+        return bool(np.max(np.abs(window[n:, :2] - window[:-n, :2])) < max(tol * scale, floor))
 
     def _response(self, U, eta, sigma, Omega, amps, steady, periodic, t, window, msg, start, y,
                   history, n=64):

@@ -1,0 +1,140 @@
+"""autocable.codegen.compat: PyDSTool imports on Python 3.11, chatter is silenced, builds stay in
+their folder, failures are one-line PyDSToolErrors."""
+from __future__ import annotations
+
+import ctypes
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import sympy
+
+from autocable.codegen import compat, pydstool
+from autocable.codegen.compat import PyDSToolError
+
+
+def test_import_pydstool_registers_stand_ins_and_is_idempotent():
+    dst = compat.import_pydstool()
+    assert dst.__name__ == "PyDSTool"
+    assert "PyDSTool.PyCont" in sys.modules
+    assert hasattr(dst, "ContClass") and hasattr(dst.Generator, "Dopri_ODEsystem")
+    assert "parser" in sys.modules and "symbol" in sys.modules
+    assert compat.import_pydstool() is dst
+
+
+def test_stand_in_parser_fails_clearly():
+    compat.import_pydstool()
+    parser = sys.modules["parser"]
+    if not hasattr(parser, "STType") or parser.__doc__ is None or "autocable" not in parser.__doc__:
+        pytest.skip("a real 'parser' module is present (Python < 3.10)")
+    with pytest.raises(PyDSToolError, match="powers"):
+        parser.expr("x**2")
+
+
+def test_failing_pydstool_call_is_a_one_line_pydstool_error():
+    dst = compat.import_pydstool()
+    bad = dst.args(name="bad_spec", varspecs={"x": "-x*undefined_name"}, tdata=[0, 1], ics={"x": 1.0})
+    with pytest.raises(PyDSToolError) as info:
+        with compat.quiet() as chatter, compat.pydstool_errors("making a test generator", chatter):
+            dst.Generator.Vode_ODEsystem(bad)
+    err = info.value
+    assert str(err).startswith("making a test generator failed: ")
+    assert "\n" not in str(err)
+    assert isinstance(err, RuntimeError)
+    assert err.__cause__ is not None  # the original stays available for developers
+    assert isinstance(err.chatter, str)
+
+
+def test_bad_algparam_through_make_ode_generator_is_a_pydstool_error():
+    x = sympy.Symbol("x")
+    vf = pydstool.VectorField("compat_probe", ("x",), [-x], {})
+    with pytest.raises(PyDSToolError, match=r"^building the Dopri integrator .* failed: .*Invalid keys"):
+        pydstool.make_ode_generator(vf, "Dopri", algparams={"no_such_option": 1})
+
+
+def test_quiet_silences_fd_level_writes_and_restores(capfd):
+    libc = ctypes.CDLL(None)
+    print("before", flush=True)
+    with compat.quiet() as chatter:
+        os.write(1, b"raw fd1\n")
+        os.write(2, b"raw fd2\n")
+        libc.printf(b"C printf\n")  # buffered in C stdio: quiet must flush it before restoring
+        print("python print")
+        sys.stderr.write("python stderr\n")
+        subprocess.run(["sh", "-c", "echo child process; echo child err >&2"], check=True)
+    os.write(1, b"after\n")
+    out, err = capfd.readouterr()
+    assert out == "before\nafter\n"
+    assert err == ""
+    for piece in ("raw fd1", "raw fd2", "C printf", "python print", "python stderr",
+                  "child process", "child err"):
+        assert piece in chatter.text
+
+
+def test_quiet_restores_fds_after_an_exception(capfd):
+    with pytest.raises(ZeroDivisionError):
+        with compat.quiet():
+            os.write(1, b"hidden\n")
+            1 / 0
+    os.write(1, b"visible\n")
+    print("visible too")
+    out, _ = capfd.readouterr()
+    assert out == "visible\nvisible too\n"
+
+
+def test_error_raised_inside_quiet_carries_the_chatter_tail():
+    with pytest.raises(PyDSToolError) as info:
+        with compat.quiet() as chatter, compat.pydstool_errors("compiling", chatter):
+            os.write(2, b"gcc: error: something specific broke\n")
+            raise SystemExit("error: command 'gcc' failed with exit status 1")
+    assert "something specific broke" in info.value.chatter
+    assert "\n" not in str(info.value)
+    assert "gcc" in str(info.value)
+
+
+def test_debug_env_lets_chatter_through(capfd, monkeypatch):
+    monkeypatch.setenv("AUTOCABLE_DEBUG", "1")
+    with compat.quiet() as chatter:
+        os.write(1, b"for developers\n")
+    assert capfd.readouterr().out == "for developers\n"
+    assert chatter.text == ""
+
+
+def test_build_dir_restores_cwd_sys_path_and_path_after_exception(tmp_path):
+    cwd, sys_path, path = os.getcwd(), list(sys.path), os.environ.get("PATH")
+    target = tmp_path / "a" / "b"
+    venv_bin = os.path.dirname(sys.executable)
+    with pytest.raises(KeyError):
+        with compat.build_dir(target) as folder:
+            assert folder == target.resolve()
+            assert Path(os.getcwd()) == target.resolve()
+            assert sys.path[0] == str(target.resolve())
+            assert os.environ["PATH"].split(os.pathsep)[0] == venv_bin
+            raise KeyError("boom")
+    assert os.getcwd() == cwd
+    assert sys.path == sys_path
+    assert os.environ.get("PATH") == path
+
+
+def test_build_leaves_nothing_in_the_working_directory(tmp_path, monkeypatch):
+    """A compiled build plus an integration, run from an empty directory, leave it empty."""
+    monkeypatch.chdir(tmp_path)
+    x, t = sympy.Symbol("x"), pydstool.TIME
+    k = sympy.Symbol("k")
+    vf = pydstool.VectorField("compat_probe", ("x",), [-k * x + sympy.sin(t)], {"k": 2.0})
+    gen = pydstool.make_ode_generator(vf, "Dopri")
+    times, states = pydstool.integrate(gen, [1.0], None, 0.0, 1.0, 0.5)
+    assert times.tolist() == [0.0, 0.5, 1.0]
+    assert states.shape == (3, 1)
+    assert list(tmp_path.iterdir()) == []
+    assert os.getcwd() == str(tmp_path)
+
+
+def test_bad_algparam_is_caught_also_when_the_library_is_already_loaded():
+    x = sympy.Symbol("x")
+    vf = pydstool.VectorField("compat_probe_loaded", ("x",), [-x], {})
+    pydstool.make_ode_generator(vf, "Dopri")
+    with pytest.raises(PyDSToolError, match=r"failed: .*Invalid keys"):
+        pydstool.make_ode_generator(vf, "Dopri", algparams={"no_such_option": 1})
