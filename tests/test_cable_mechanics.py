@@ -121,3 +121,7 @@ def test_out_of_plane_mode_and_twist(modes, st):
     # global balance of twisting moments: delta^2 int th = delta [w']_0^1 = -2 pi delta
     assert sh["theta2"].exp.integral() == pytest.approx(-2 * math.pi / st.delta, rel=1e-12)
     assert w(0.5) == 1.0
+    # out-of-plane eigen-equation tau w'' + m* omega2^2 w = 0 with omega2 = 1, w(0) = w(1) = 0
+    res = st.tau * sh["phi2_dd"].evaluate(s) + st.m_star * modes.omega2**2 * w(s)
+    assert np.max(np.abs(res)) < 1e-15
+    assert abs(w(0.0)) < 1e-15 and abs(w(1.0)) < 1e-15

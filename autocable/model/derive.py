@@ -21,7 +21,7 @@ from autocable.model.statics import CableStatics, cable_statics, regime_warnings
 from autocable.spec import ModelSpec
 
 #: Bump when a change in the physics changes the numbers, so stale cached derivations are not used.
-DERIVATION_VERSION = "eq21-v1"
+DERIVATION_VERSION = "eq21-v2"
 
 
 @dataclass(frozen=True)
@@ -38,6 +38,7 @@ class Derivation:
     aero_scale: float           # K = rho_a L U_c^2 l / (2 EA)
     velocity_ratio: float       # nu = omega l / U_c
     twist: tuple                # (B, C, k) of the slaved twist theta2
+    calibration_roots: tuple = ()   # ((angle_deg, "" or why it was rejected), ...) of the scan
     warnings: tuple = ()
     timings: dict = field(default_factory=dict, compare=False)
     from_cache: bool = False
@@ -65,10 +66,12 @@ def _compute(spec: ModelSpec, integrator: str) -> dict:
     timings["statics_modes_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    calibrated = ""
+    calibrated, roots = "", []
     if spec.aero.yaw_deg is None or spec.aero.rivulet_angle_deg is None:
         cal = calibrate(spec.aero, st, modes, I, K, nu, spec.cable.damping_ratio)
         beta, theta0, calibrated = cal.beta, cal.theta0, cal.solved_for
+        why = dict(cal.rejected)
+        roots = [[r, why.get(r, "")] for r in cal.roots_deg]
     else:
         beta, theta0 = math.radians(spec.aero.yaw_deg), math.radians(spec.aero.rivulet_angle_deg)
     timings["calibration_s"] = time.perf_counter() - t0
@@ -84,7 +87,8 @@ def _compute(spec: ModelSpec, integrator: str) -> dict:
     timings["galerkin_s"] = time.perf_counter() - t0
     return {"ode": ode.to_dict(), "beta": beta, "theta0": theta0, "calibrated": calibrated,
             "static_angle": aero.static_angle, "aero_scale": K, "velocity_ratio": nu,
-            "twist": [modes.twist_B, modes.twist_C, modes.twist_k], "timings": timings}
+            "twist": [modes.twist_B, modes.twist_C, modes.twist_k], "timings": timings,
+            "calibration_roots": roots}
 
 
 def derive(spec: ModelSpec, integrator: str = "closed-form", use_cache: bool = True) -> Derivation:
@@ -104,4 +108,5 @@ def derive(spec: ModelSpec, integrator: str = "closed-form", use_cache: bool = T
                       beta=data["beta"], theta0=data["theta0"], calibrated=data["calibrated"],
                       static_angle=data["static_angle"], aero_scale=data["aero_scale"],
                       velocity_ratio=data["velocity_ratio"], twist=tuple(data["twist"]),
+                      calibration_roots=tuple(tuple(r) for r in data.get("calibration_roots", [])),
                       warnings=tuple(regime_warnings(st)), timings=timings, from_cache=from_cache)
