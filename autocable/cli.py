@@ -96,12 +96,73 @@ def derive_json(d) -> dict:
     }
 
 
+AME_CONVENTION = ("a_k = sqrt(r_k^2 + s_k^2) is the peak modal amplitude (peak displacement / l); "
+                  "q_k = r_k cos(Omega t) - s_k sin(Omega t) + O(eps^2), A_k = (r_k + i s_k)/2")
+
+
+def ame_json(cached) -> dict:
+    """The Cartesian AME (24) as a plain coefficient table (`autocable derive --json`, key "ame")."""
+    ame = cached.ame
+    return {
+        "form": "Cartesian AME (24): d y_i/dt = sum over rows of equation i of coefficient "
+                "* prod_j y_j^state_j * prod_m p_m^params_m; rows with aero=true exist only for U != 0",
+        "state": list(ame.cartesian_state_names), "params": list(ame.param_names),
+        "detunings": "sigma_1 = -sigma, sigma_2 = rho - sigma (rho = omega2 - omega1), "
+                     "Omega = omega1 + sigma (exact, not expanded)",
+        "amplitude_convention": AME_CONVENTION,
+        "omega": ame.omega_mode,
+        "rows": [{"equation": ame.cartesian_state_names[r.equation], "state": list(r.state),
+                  "params": list(r.params), "coefficient": float(r.coefficient), "aero": bool(r.aero)}
+                 for r in ame.cartesian_rows],
+        "ordering": ame.ordering.as_dict(),
+        "checks": ame.checks,
+        "cache_key": cached.key,
+    }
+
+
+def _monomial(names, exps) -> str:
+    return "*".join(n if e == 1 else f"{n}^{e}" for n, e in zip(names, exps) if e)
+
+
+def ame_report(cached, latex: bool = False) -> str:
+    """Eq. (22) in readable form: dA_k/dt as a sum of complex coefficient * monomial rows."""
+    ame = cached.ame
+    lines = ["", "Amplitude equations (22) by Multiple Scales (Sect. 4; ordering R1-R3 of "
+             "autocable.model.multiscale, Omega exact):",
+             f"  convention: {AME_CONVENTION}",
+             "  detunings: sigma_1 = -sigma, sigma_2 = rho - sigma, Omega = omega1 + sigma; "
+             "[aero] rows only when U != 0"]
+    if latex:
+        import sympy as sp
+        for k, F in enumerate(ame.complex_expressions(), start=1):
+            lines.append(f"  \\dot A_{k} = {sp.latex(F)}")
+    else:
+        names = ame.complex_state_names
+        for k in range(ame.n_modes):
+            lines.append(f"  dA_{k + 1}/dt =")
+            for r in (r for r in ame.complex_rows if r.equation == k):
+                re, im = (float(x) + 0.0 for x in r.coefficient)   # no "-0" in the report
+                mono = _monomial(names, r.state) or "1"
+                par = _monomial(ame.param_names, r.params)
+                lines.append(f"    ({re: .6e} {im:+.6e} i) {mono}" + (f" * {par}" if par else "")
+                             + ("  [aero]" if r.aero else ""))
+    src = "cache" if cached.from_cache else "derived"
+    lines.append(f"  ({len(ame.complex_rows)} complex rows, {len(ame.cartesian_rows)} Cartesian rows "
+                 f"in `autocable derive --json`; {src} in {cached.seconds:.3g} s)")
+    return "\n".join(lines)
+
+
 def cmd_derive(args) -> int:
+    from autocable.model.ame_cache import derive_ame
     d = _derivation(args.model)
+    cached = derive_ame(d)
     if args.json:
-        print(json.dumps(derive_json(d), indent=1))
+        out = derive_json(d)
+        out["ame"] = ame_json(cached)
+        print(json.dumps(out, indent=1))
     else:
         print(derive_report(d))
+        print(ame_report(cached, latex=args.latex))
     return 0
 
 
@@ -119,6 +180,8 @@ def cmd_simulate(args) -> int:
         if show:
             print(f"\r  t = {t:9.1f}   a1 = {amps[0]:.6e}   a2 = {amps[1]:.6e}", end="", file=sys.stderr)
 
+    if args.method == "ame":
+        return _simulate_ame(args, d, q0, show, progress)
     integ = Ode21Integrator(d.ode)
     r = integ.simulate(args.U, args.eta, args.sigma, q0, max_time=args.max_time,
                        keep_history=bool(args.csv), progress=progress)
@@ -132,15 +195,64 @@ def cmd_simulate(args) -> int:
            "amplitude_convention": "a_k = half the peak-to-peak of q_k over the last 20 forcing "
                                    "periods (peak modal amplitude = peak displacement / l)",
            "message": r.message, "method": "ode21", "wall_seconds": r.wall_seconds}
+    _print_simulation(args, r, out)
+    return 0
+
+
+def _simulate_ame(args, d, q0, show, progress) -> int:
+    """`autocable simulate --method ame`: the Cartesian AME (24) from the same start as eq. (21)."""
+    from autocable.methods.ame_integration import AmeIntegrator
+    from autocable.model.ame_cache import derive_ame
+    r = AmeIntegrator(derive_ame(d).ame).simulate(args.U, args.eta, args.sigma, q0,
+                                                  max_time=args.max_time, keep_history=bool(args.csv),
+                                                  progress=progress)
+    if show:
+        print(file=sys.stderr)
+    if args.csv:
+        from autocable.codegen.cache import atomic_write_text
+        t, r1, s1, r2, s2 = r.history
+        rows = ["t,r1,s1,r2,s2"] + [f"{a:.10g},{b:.10e},{c:.10e},{e:.10e},{f:.10e}"
+                                    for a, b, c, e, f in zip(t, r1, s1, r2, s2)]
+        atomic_write_text(Path(args.csv), "\n".join(rows) + "\n")
+    eq = r.equilibrium
+
+    def finite(x):
+        return x if math.isfinite(x) else None
+
+    out = {"a1": finite(r.a1), "a2": finite(r.a2), "steady": r.steady, "periodic": r.periodic,
+           "t_end": r.t_end, "U": r.U, "eta": r.eta, "sigma": r.sigma, "Omega": r.Omega,
+           "a1_min": finite(r.a1_min), "a1_max": finite(r.a1_max),
+           "a2_min": finite(r.a2_min), "a2_max": finite(r.a2_max),
+           "amplitude_convention": "a_k = sqrt(r_k^2 + s_k^2) at the AME equilibrium (peak modal "
+                                   "amplitude = peak displacement / l, first order); without an "
+                                   "equilibrium, half the peak-to-peak of the first-order q_k over "
+                                   "the last 20 forcing periods",
+           "periodic_meaning": "the AME reached a stable equilibrium (period-1 motion of q)",
+           "final_state": {"r1": r.final_state[0], "s1": r.final_state[1],
+                           "r2": r.final_state[2], "s2": r.final_state[3]},
+           "message": r.message, "method": "ame", "wall_seconds": r.wall_seconds}
+    if eq is not None:
+        out["equilibrium"] = {"stable": eq.stable, "residual": eq.residual,
+                              "max_real_eigenvalue": eq.max_real,
+                              "eigenvalues": [[e.real, e.imag] for e in eq.eigenvalues]}
+    _print_simulation(args, r, out)
+    return 0
+
+
+def _print_simulation(args, r, out) -> None:
     if args.json:
         print(json.dumps(out, indent=1))
     else:
-        print(f"U* = {r.U:g}  eta* = {r.eta:g}  sigma = {r.sigma:g}  (Omega = {r.Omega:.6g})")
+        print(f"U* = {r.U:g}  eta* = {r.eta:g}  sigma = {r.sigma:g}  (Omega = {r.Omega:.6g})  "
+              f"method {out['method']}")
         print(f"a1 = {r.a1:.9e}   a2 = {r.a2:.9e}   ({r.message}; "
               f"{'periodic' if r.periodic else 'not period-1'}; t_end = {r.t_end:.1f})")
         if not r.periodic:
             print(f"envelope: a1 in [{r.a1_min:.6e}, {r.a1_max:.6e}], a2 in [{r.a2_min:.6e}, {r.a2_max:.6e}]")
-    return 0
+        if "equilibrium" in out:
+            e = out["equilibrium"]
+            print(f"AME equilibrium: {'stable' if e['stable'] else 'unstable'}, "
+                  f"max Re(eigenvalue) = {e['max_real_eigenvalue']:.6e}, residual {e['residual']:.1e}")
 
 
 def _write_history(path: Path, r) -> None:
@@ -154,7 +266,8 @@ def _write_history(path: Path, r) -> None:
 def cmd_bench(args) -> int:
     from autocable.bench import run_bench
     result = run_bench(args.what, args.model, repeats=args.repeats,
-                       log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
+                       log=None if args.quiet else (lambda s: print(s, file=sys.stderr)),
+                       out=args.out)
     if args.out:
         from autocable.codegen.cache import atomic_write_json
         out = Path(args.out)
@@ -171,10 +284,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     d = sub.add_parser("derive", help="derive eq. (21) from a model spec and report its coefficients")
     d.add_argument("model", help="model spec file (models/*.toml)")
-    d.add_argument("--json", action="store_true", help="one JSON object instead of the report")
+    d.add_argument("--json", action="store_true", help="one JSON object instead of the report "
+                   "(key 'ame': the Cartesian amplitude equations (24) as a coefficient table)")
+    d.add_argument("--latex", action="store_true", help="print the amplitude equations (22) in LaTeX")
     d.set_defaults(func=cmd_derive)
 
-    s = sub.add_parser("simulate", help="integrate eq. (21) to a steady state")
+    s = sub.add_parser("simulate", help="integrate eq. (21) (or its amplitude equations) to a steady state")
     s.add_argument("model")
     s.add_argument("--U", type=float, default=0.0, help="nondimensional wind speed U* = U/U_c")
     s.add_argument("--eta", type=float, default=0.0, help="nondimensional support amplitude eta* = eta/l")
@@ -185,10 +300,15 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true")
     s.add_argument("--csv", metavar="FILE", help="write the time history")
     s.add_argument("--quiet", action="store_true", help="no progress")
+    s.add_argument("--method", choices=["ode21", "ame"], default="ode21",
+                   help="ode21: direct integration of eq. (21); ame: the Multiple Scales amplitude "
+                        "equations (24) to their steady state (default ode21)")
     s.set_defaults(func=cmd_simulate)
 
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
-    b.add_argument("what", choices=["derive"], help="derive: derivation time and integration speed")
+    b.add_argument("what", choices=["derive", "ame-vs-ode"],
+                   help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
+                        "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png)")
     b.add_argument("--model", default=str(Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"))
     b.add_argument("--repeats", type=int, default=3)
     b.add_argument("--out", help="folder to write bench_<what>.json")

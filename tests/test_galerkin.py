@@ -142,3 +142,15 @@ def test_sample_yaw_is_the_decoupled_one(closed):
     c = closed.ode.coefficients()
     assert c["zeta11"] == pytest.approx(-2 * spec.cable.damping_ratio * closed.ode.omega1, rel=1e-6)
     assert abs(c.get("xi12", 0.0)) < 1e-8
+
+
+def test_calibration_is_invertible(closed):
+    """Given Theta0, calibrating the yaw gives back the spec's yaw (single root in [-90, 90])."""
+    from dataclasses import replace
+    spec = closed.spec
+    other = replace(spec, aero=replace(spec.aero, yaw_deg=None,
+                                       rivulet_angle_deg=math.degrees(closed.theta0)))
+    d = derive(other, use_cache=False)
+    assert d.calibrated == "yaw_deg"
+    assert math.degrees(d.beta) == pytest.approx(spec.aero.yaw_deg, abs=1e-8)
+    assert len(closed.calibration_roots) == 1 and closed.calibration_roots[0][1] == ""
