@@ -1,0 +1,60 @@
+"""The amplitude modulation equations (22)-(24) of a `Derivation`, cached as JSON.
+
+`derive_ame(derivation)` runs the Multiple Scales engine (`autocable.model.multiscale`, Sect. 4) on
+eq. (21) of the derivation and stores the result (`AmplitudeEquations.to_dict`, plain JSON) in the
+autocable cache folder under a key made of the ODE's `content_hash()`, the engine options and
+`AME_VERSION`, so a changed eq. (21), a changed ordering rule or a changed engine never reuses a stale
+table. A cached AME loads without sympy work.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from autocable.codegen.cache import atomic_write_json, cache_dir, content_hash, read_json
+from autocable.model.ame import AmplitudeEquations
+from autocable.model.equations import TwoModeODE
+
+#: Bump when the Multiple Scales engine or its default ordering changes the AME of a given eq. (21).
+AME_VERSION = "ame-v1"
+
+
+@dataclass(frozen=True)
+class CachedAME:
+    """An AME (eqs. 22-24) and where it came from."""
+
+    ame: AmplitudeEquations
+    from_cache: bool
+    seconds: float                       # derivation (cold) or cache read (cached), wall clock
+    key: str
+    timings: dict = field(default_factory=dict, compare=False)
+
+
+def ame_key(ode: TwoModeODE, omega: str = "exact") -> str:
+    """The cache key of the AME of ``ode``: its content hash, the Omega treatment, `AME_VERSION`."""
+    return content_hash({"ode": ode.content_hash(), "omega": omega, "version": AME_VERSION})
+
+
+def derive_ame(source, *, omega: str = "exact", use_cache: bool = True) -> CachedAME:
+    """The AME of eq. (21) for ``source`` (a `Derivation` or a `TwoModeODE`), default ordering R1-R3.
+
+    Cached in ``cache_dir("ame")``; ``use_cache=False`` derives afresh (and refreshes the cache)."""
+    ode = source if isinstance(source, TwoModeODE) else source.ode
+    key = ame_key(ode, omega)
+    path = cache_dir("ame") / f"ame-{key}.json"
+    t0 = time.perf_counter()
+    data = read_json(path) if use_cache else None
+    if data is not None:
+        try:
+            ame = AmplitudeEquations.from_dict(data)
+        except (KeyError, TypeError, ValueError):
+            # A corrupt or foreign file under our key: derive again rather than fail.
+            data = None
+        else:
+            return CachedAME(ame, True, time.perf_counter() - t0, key,
+                             {"cache_read_s": time.perf_counter() - t0})
+    from autocable.model import multiscale
+    ame = multiscale.derive(ode, omega=omega)
+    seconds = time.perf_counter() - t0
+    atomic_write_json(path, ame.to_dict())
+    return CachedAME(ame, False, seconds, key, {"multiscale_s": seconds})
