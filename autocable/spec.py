@@ -57,6 +57,7 @@ class AeroSpec:
     yaw_deg: float | None            # beta (None: to be calibrated)
     rivulet_angle_deg: float | None  # Theta0 (None: to be calibrated)
     load_length: str = "diameter"    # the length in eq. (11): "diameter" (1/2 rho V D) or "radius"
+    angle_convention: str = "eq12"   # sense of phi against the relative-wind angle: "eq12" | "reversed"
     calibration_root: str = "smallest"  # which root the calibration keeps: "smallest" |angle|
 
 
@@ -98,8 +99,9 @@ _AERO_RULES = {
                           'an angle in degrees in [-180, 180], or "calibrate"'),
     "load_length": ("choice", ("diameter", "radius"), '"diameter" or "radius"'),
     "calibration_root": ("choice", ("smallest",), '"smallest"'),
+    "angle_convention": ("choice", ("eq12", "reversed"), '"eq12" (eq. 12 as printed) or "reversed"'),
 }
-_OPTIONAL = {"gravity_m_s2", "load_length", "calibration_root"}
+_OPTIONAL = {"gravity_m_s2", "load_length", "calibration_root", "angle_convention"}
 
 
 def _number(value, path, field, expected):
@@ -173,6 +175,7 @@ def parse_model(data: dict, path="<spec>") -> ModelSpec:
     aero_fields = _section(data, "aero", _AERO_RULES, path)
     aero_fields.setdefault("load_length", "diameter")
     aero_fields.setdefault("calibration_root", "smallest")
+    aero_fields.setdefault("angle_convention", "eq12")
     aero = AeroSpec(**aero_fields)
     if aero.yaw_deg is None and aero.rivulet_angle_deg is None:
         raise SpecError(path, "aero.yaw_deg", 'only one of yaw_deg and rivulet_angle_deg may be "calibrate"')

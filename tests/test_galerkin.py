@@ -144,8 +144,46 @@ def test_sample_yaw_is_the_decoupled_one(closed):
     assert abs(c.get("xi12", 0.0)) < 1e-8
 
 
+def test_literal_eq12_convention_gives_subcritical_galloping(closed):
+    """Why the sample spec reverses the sense of phi: with eq. (12) as printed, every member of the
+    U_c family (zeta11 = -2 xi_s omega1) has zeta8 < 0 (subcritical galloping, against Fig. 3); with
+    the reversed sense the sample's zeta8 > 0 and eq. (25)'s branch exists above U = 1."""
+    from autocable.model.aero import expand_load, linear_load
+    from autocable.model.galerkin import aero_scales, linear_aero_matrix
+    from autocable.model.modes import linear_modes
+    from autocable.model.shapes import ClosedFormIntegrator
+    from scipy.optimize import brentq
+    spec, st = closed.spec, closed.statics
+    modes = linear_modes(st)
+    I = ClosedFormIntegrator(modes.shapes)
+    K, nu = aero_scales(spec.aero, spec.cable, st)
+    target = -2 * spec.cable.damping_ratio * modes.omega1
+    i11, i14 = I(("phi1", "phi1")), I(("phi1", "phi1", "phi1", "phi1"))
+    found = 0
+    for beta_deg in range(-90, 91, 30):
+        beta = math.radians(beta_deg)
+
+        def zeta11(th):
+            lin = linear_load(spec.aero.lift, spec.aero.drag, st.alpha, beta, th, "eq12")
+            return linear_aero_matrix(I, K, nu, st.m_star, lin)[(1, 2)] - target
+
+        grid = np.radians(np.arange(-89.0, 89.1, 1.0))
+        vals = [zeta11(t) for t in grid]
+        for t0, t1, f0, f1 in zip(grid[:-1], grid[1:], vals[:-1], vals[1:]):
+            if f0 * f1 < 0:
+                th = brentq(zeta11, t0, t1)
+                exp = expand_load(spec.aero.lift, spec.aero.drag, st.alpha, beta, th, "eq12")
+                zeta8 = -K * nu**3 * exp.b2[(0, 3, 0)] * i14 / (st.m_star * i11)
+                assert zeta8 < 0, (beta_deg, math.degrees(th))
+                found += 1
+    assert found >= 5
+    assert closed.spec.aero.angle_convention == "reversed"
+    assert closed.ode.coefficients()["zeta8"] > 0
+
+
 def test_calibration_is_invertible(closed):
-    """Given Theta0, calibrating the yaw gives back the spec's yaw (single root in [-90, 90])."""
+    """Given Theta0, calibrating the yaw gives back the spec's yaw; the Theta0 scan found two valid
+    roots (-13.88 and 69.12 deg, as the spec says) and kept the smaller."""
     from dataclasses import replace
     spec = closed.spec
     other = replace(spec, aero=replace(spec.aero, yaw_deg=None,
@@ -153,4 +191,6 @@ def test_calibration_is_invertible(closed):
     d = derive(other, use_cache=False)
     assert d.calibrated == "yaw_deg"
     assert math.degrees(d.beta) == pytest.approx(spec.aero.yaw_deg, abs=1e-8)
-    assert len(closed.calibration_roots) == 1 and closed.calibration_roots[0][1] == ""
+    roots = sorted(r for r, why in closed.calibration_roots if not why)
+    assert roots == pytest.approx([-13.8794, 69.1193], abs=1e-3)
+    assert math.degrees(closed.theta0) == pytest.approx(roots[0], abs=1e-9)

@@ -17,7 +17,7 @@ def test_sample_model_loads_in_si_units():
     assert spec.cable.length_m == 121.9
     assert spec.cable.axial_stiffness_N == pytest.approx(2.1688e9)
     assert spec.aero.rivulet_angle_deg is None          # "calibrate"
-    assert spec.aero.yaw_deg == -26.217206
+    assert spec.aero.yaw_deg == -6.569711
     assert spec.aero.lift == (-0.48, 0.84, 4.69, 0.86)
 
 
@@ -39,8 +39,8 @@ BAD = [
     ("unknown key", "gravity_m_s2 = 9.81", "gravity_m_s2 = 9.81\nstifness = 3.0", "cable.stifness"),
     ("damping ratio too large", "damping_ratio = 0.004", "damping_ratio = 1.5", "cable.damping_ratio"),
     ("lift with 3 coefficients", "lift = [-0.48, 0.84, 4.69, 0.86]", "lift = [-0.48, 0.84, 4.69]", "aero.lift"),
-    ("yaw out of range", "yaw_deg = -26.217206", "yaw_deg = 120.0", "aero.yaw_deg"),
-    ("both angles calibrated", "yaw_deg = -26.217206", 'yaw_deg = "calibrate"', "aero.yaw_deg"),
+    ("yaw out of range", "yaw_deg = -6.569711", "yaw_deg = 120.0", "aero.yaw_deg"),
+    ("both angles calibrated", "yaw_deg = -6.569711", 'yaw_deg = "calibrate"', "aero.yaw_deg"),
     ("negative air density", "air_density_kg_m3 = 1.25", "air_density_kg_m3 = -1.25", "aero.air_density_kg_m3"),
     ("unknown load length", 'load_length = "diameter"', 'load_length = "chord"', "aero.load_length"),
     ("missing section", "[aero]", "[aerodynamics]", "aerodynamics"),

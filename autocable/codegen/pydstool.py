@@ -68,6 +68,8 @@ __all__ = [
 TIME = sympy.Symbol("t", real=True)
 #: Bump when the emitted text changes for the same sympy input: every build name changes with it.
 CODEGEN_VERSION = 1
+#: Largest output buffer (steps + samples) `integrate` will allocate for one call (~200 MB).
+MAX_OUTPUT_POINTS = 5_000_000
 #: Generator kinds: PyDSTool class name and the prefix of its compiled library (None: pure Python).
 GENERATOR_KINDS = MappingProxyType({"Vode": ("Vode_ODEsystem", None),
                                     "Dopri": ("Dopri_ODEsystem", "dop853"),
@@ -648,6 +650,12 @@ def integrate(generator: OdeGenerator, ics: Mapping[str, float] | Sequence[float
     # run that needs more steps is repeated with a larger buffer.
     max_pts = max(int(gen.algparams.get("max_pts", 0)), 2 * n + 10_000)
     for attempt in range(6):
+        if max_pts > MAX_OUTPUT_POINTS:
+            # A solution that needs this many steps is blowing up or far too stiff: growing the
+            # buffer further only exhausts memory (8x per retry).
+            raise PyDSToolError(f"{what} failed: more than {MAX_OUTPUT_POINTS:,} integration steps "
+                                "(the solution may be blowing up); shorten the interval or check "
+                                "the parameters", what=what)
         with quiet() as chatter, pydstool_errors(what, chatter):
             gen.set(ics=state, pars=params, tdata=[t0, t1],
                     algparams={**settings, "specialtimes": grid.tolist(),

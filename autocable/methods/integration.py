@@ -19,12 +19,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from autocable.codegen.compat import PyDSToolError
 from autocable.model.equations import TwoModeODE
 from autocable.model.symbolic import PARAMETERS, STATE, T, first_order_rhs, parameter_values
 
 #: Default start: rest, with a tiny out-of-plane seed so that an unstable planar motion is never
 #: reported as the response (issue: q2 = 1e-6).
 DEFAULT_Q0 = (0.0, 0.0, 1e-6, 0.0)   # order (q1, q1', q2, q2') as on the command line
+#: A modal amplitude this large (a tenth of the cable length) is far outside the model's validity:
+#: the response is reported as diverged.
+DIVERGED = 0.1
 
 
 @dataclass(frozen=True)
@@ -149,11 +153,18 @@ class Ode21Integrator:
         window = np.array([y])
         while t < max_time - 1e-9:
             t1 = min(t + chunk, max_time)
-            tt, ys = self.run(y, t, t1, dt, pars)
+            try:
+                tt, ys = self.run(y, t, t1, dt, pars)
+            except PyDSToolError as exc:
+                # A finite-time blow-up of the cubic model ends in a collapsing step: a result.
+                return self._response(U, eta, sigma, Omega, (math.inf, math.inf), False, False, t,
+                                      None, f"the response diverged between t = {t:g} and {t1:g} "
+                                      f"(no bounded steady state): {str(exc).splitlines()[0]}",
+                                      start, y, history)
             if keep_history:
                 history.append((tt[:-1], ys[:-1]))
             y, t = tuple(ys[-1]), float(tt[-1])
-            if not np.all(np.isfinite(ys)):
+            if not np.all(np.isfinite(ys)) or np.max(np.abs(ys[:, :2])) > DIVERGED:
                 return self._response(U, eta, sigma, Omega, (math.inf, math.inf), False, False, t,
                                       None, "the response diverged (no bounded steady state)",
                                       start, y, history)

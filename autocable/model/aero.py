@@ -8,7 +8,11 @@ in the section basis (a2: in-plane normal, a3: out of plane) is
 
     V2 = -U-tilde sin(gamma) - vdot = U sin(alpha) sin(beta) - vdot,   V3 = U cos(alpha) - wdot,
 
-and eq. (12) gives phi = arcsin(-V2/|V|) - Theta0 - theta. Lift and drag are the cubic fits of
+and eq. (12) gives phi = arcsin(-V2/|V|) - Theta0 - theta. The sense in which phi follows the
+relative-wind angle is a convention shared with the source of the A_k, B_k fits ([36]); the paper's
+text does not pin it down against its data. ``angle_convention = "reversed"`` takes
+phi = -arcsin(-V2/|V|) - Theta0 - theta instead (ANGLE_SIGNS); the choice decides, for instance,
+whether galloping is super- or subcritical (see the sample model spec). Lift and drag are the cubic fits of
 eq. (13), a global polynomial in phi (not a Taylor series about the operating point). Projected on
 a2, a3 (a1 x a2 = a3): b2 = |V| (c_d V2 - c_l V3), b3 = |V| (c_d V3 + c_l V2), in units of
 1/2 rho_a L U_c^2 when velocities are measured in units of U_c.
@@ -41,13 +45,17 @@ ROUNDOFF = 1e-13
 MONOMIALS = tuple(m for m in product(range(4), repeat=3) if 1 <= sum(m) <= 3)
 
 
-def quasi_steady_load():
+#: phi = sign * arcsin(-V2/|V|) - Theta0 - theta, by `AeroSpec.angle_convention`.
+ANGLE_SIGNS = {"eq12": 1, "reversed": -1}
+
+
+def quasi_steady_load(convention: str = "eq12"):
     """(b2, b3) of eqs. (9)-(13) as exact sympy expressions in theta, vdot, wdot, U, alpha, beta,
     Theta0, A0..A3, B0..B3; velocities in units of U_c and force in units of 1/2 rho_a L U_c^2."""
     V2 = U * sp.sin(ALPHA) * sp.sin(BETA) - VD
     V3 = U * sp.cos(ALPHA) - WD
     Vn = sp.sqrt(V2**2 + V3**2)
-    phi = sp.asin(-V2 / Vn) - THETA0 - TH
+    phi = ANGLE_SIGNS[convention] * sp.asin(-V2 / Vn) - THETA0 - TH
     cl = A_SYMS[0] + A_SYMS[1] * phi + A_SYMS[2] / 2 * phi**2 + A_SYMS[3] / 6 * phi**3
     cd = B_SYMS[0] + B_SYMS[1] * phi + B_SYMS[2] / 2 * phi**2 + B_SYMS[3] / 6 * phi**3
     return Vn * (cd * V2 - cl * V3), Vn * (cd * V3 + cl * V2)
@@ -81,9 +89,10 @@ def _substitutions(lift, drag, alpha):
     return subs
 
 
-def expand_load(lift, drag, alpha: float, beta: float, theta0: float) -> AeroExpansion:
+def expand_load(lift, drag, alpha: float, beta: float, theta0: float,
+                convention: str = "eq12") -> AeroExpansion:
     """Taylor coefficients of the load at U = 1 to cubic order, angles in radians (eq. 14)."""
-    b2, b3 = quasi_steady_load()
+    b2, b3 = quasi_steady_load(convention)
     subs = _substitutions(lift, drag, alpha)
     subs.update({BETA: beta, THETA0: theta0, U: 1})
     zero = {TH: 0, VD: 0, WD: 0}
@@ -115,12 +124,12 @@ def expand_load(lift, drag, alpha: float, beta: float, theta0: float) -> AeroExp
     gamma = -math.asin(math.sin(alpha) * math.sin(beta)
                        / math.sqrt(math.cos(alpha) ** 2 + math.sin(alpha) ** 2 * math.sin(beta) ** 2))
     return AeroExpansion(b2=tables[0], b3=tables[1], alpha=alpha, beta=beta, theta0=theta0,
-                         static_angle=gamma - theta0)
+                         static_angle=ANGLE_SIGNS[convention] * gamma - theta0)
 
 
 @lru_cache(maxsize=8)
-def _linear_derivatives(lift: tuple, drag: tuple, alpha: float):
-    b2, b3 = quasi_steady_load()
+def _linear_derivatives(lift: tuple, drag: tuple, alpha: float, convention: str):
+    b2, b3 = quasi_steady_load(convention)
     subs = _substitutions(lift, drag, alpha)
     subs[U] = 1
     zero = {TH: 0, VD: 0, WD: 0}
@@ -128,8 +137,8 @@ def _linear_derivatives(lift: tuple, drag: tuple, alpha: float):
     return sp.lambdify((BETA, THETA0), exprs, "math")
 
 
-def linear_load(lift, drag, alpha: float, beta: float, theta0: float) -> dict:
+def linear_load(lift, drag, alpha: float, beta: float, theta0: float, convention: str = "eq12") -> dict:
     """First-order coefficients only (fast, for calibration): keys like (2, (0, 1, 0))."""
-    values = _linear_derivatives(tuple(lift), tuple(drag), alpha)(beta, theta0)
+    values = _linear_derivatives(tuple(lift), tuple(drag), alpha, convention)(beta, theta0)
     keys = [(comp, m) for comp in (2, 3) for m in ((1, 0, 0), (0, 1, 0), (0, 0, 1))]
     return dict(zip(keys, (float(v) for v in values)))

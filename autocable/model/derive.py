@@ -77,7 +77,7 @@ def _compute(spec: ModelSpec, integrator: str) -> dict:
     timings["calibration_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    aero = expand_load(spec.aero.lift, spec.aero.drag, st.alpha, beta, theta0)
+    aero = expand_load(spec.aero.lift, spec.aero.drag, st.alpha, beta, theta0, spec.aero.angle_convention)
     timings["aero_expansion_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
