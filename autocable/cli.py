@@ -48,7 +48,11 @@ def derive_report(d) -> str:
         f"  U_c = {d.critical_wind_speed_m_s:g} m/s   yaw beta = {math.degrees(d.beta):.6f} deg   "
         f"rivulet Theta0 = {math.degrees(d.theta0):.6f} deg"
         + (f"   ({d.calibrated} calibrated)" if d.calibrated else ""),
-        f"  static angle phi0 = gamma - Theta0 = {math.degrees(d.static_angle):.6f} deg",
+        f"  angle convention (eq. 12): {d.spec.aero.angle_convention}   static angle phi0 = "
+        f"{math.degrees(d.static_angle):.6f} deg",
+        *([f"  calibration roots [deg]: " + ", ".join(
+            f"{r:.6f}" + (f" (rejected: {why})" if why else "") for r, why in d.calibration_roots)
+           + f"; kept the smallest valid |angle|"] if d.calibration_roots else []),
         f"  load scale K = {d.aero_scale:.6g}   velocity ratio nu = omega l / U_c = {d.velocity_ratio:.6g}",
         "",
         "Eq. (21): q_k'' + sum(coefficient * term) = 0; Appendix A names, forcing terms in the",
@@ -81,6 +85,8 @@ def derive_json(d) -> dict:
         "critical_wind_speed_m_s": d.critical_wind_speed_m_s,
         "yaw_deg": math.degrees(d.beta), "rivulet_angle_deg": math.degrees(d.theta0),
         "calibrated": d.calibrated, "static_angle_deg": math.degrees(d.static_angle),
+        "angle_convention": d.spec.aero.angle_convention,
+        "calibration_roots_deg": [{"angle": r, "rejected": why} for r, why in d.calibration_roots],
         "xi_s": ode.xi_s,
         "coefficients": ode.coefficients(),
         "terms": [{"equation": t.equation, "name": t.label, "powers": list(t.powers),
