@@ -1,4 +1,4 @@
-"""The `autocable` command: derive, simulate, bench.
+"""The `autocable` command: derive, simulate, run, bench.
 
 Errors a user can fix (a bad spec, a bad option, a failed build or run) are printed as one line
 naming the file and field, with exit status 2; no traceback. ``AUTOCABLE_DEBUG=1`` shows tracebacks.
@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from autocable import __version__
+from autocable.scene import add_run_parser
 from autocable.spec import SpecError, load_model
 
 
@@ -312,14 +313,17 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=cmd_simulate)
 
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
-    b.add_argument("what", choices=["derive", "ame-vs-ode"],
+    b.add_argument("what", choices=["derive", "ame-vs-ode", "continuation"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
-                        "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png)")
+                        "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
+                        "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm")
     b.add_argument("--model", default=str(Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"))
     b.add_argument("--repeats", type=int, default=3)
     b.add_argument("--out", help="folder to write bench_<what>.json")
     b.add_argument("--quiet", action="store_true")
     b.set_defaults(func=cmd_bench)
+
+    add_run_parser(sub)
     return p
 
 

@@ -1,0 +1,158 @@
+"""Bifurcation diagrams in the style of Luongo & Zulli's Figs. 3-10.
+
+Continuous lines: stable equilibria of the AME (period-1 motions of eq. 21); dashed: unstable; filled
+squares: Hopf points; thin lines: the min and max of a1 (or a2) over the periodic orbits of the AME
+(quasi-periodic motions of eq. 21, as in Fig. 4); open circles: branch points; small crosses: fold,
+period-doubling and Neimark-Sacker points of cycles; markers: digitised or direct-integration points
+to compare with. Only reads `autocable.results.RunResults`; matplotlib is imported here, lazily, and
+drawn on an Agg canvas (no pyplot, no global state). Files are written atomically.
+"""
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import tempfile
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+__all__ = ["plot_scene", "AXIS_LABELS"]
+
+#: Axis labels in the paper's symbols (eqs. 17-18: nondimensional quantities).
+AXIS_LABELS = {"sigma": r"$\sigma$", "U": r"$U$", "eta": r"$\eta$", "a1": r"$a_1$", "a2": r"$a_2$"}
+
+_THICK, _THIN = 1.5, 0.7
+
+
+def _segments(x: np.ndarray, y: np.ndarray, stable: np.ndarray):
+    """Maximal runs of consecutive points with one stability, joined end to end (no gaps): a
+    segment between two points is stable when both are."""
+    n = len(x)
+    if n == 0:
+        return
+    if n == 1:
+        yield x, y, bool(stable[0])
+        return
+    seg_stable = stable[:-1] & stable[1:]
+    start = 0
+    for i in range(1, n - 1 + 1):
+        if i == n - 1 or seg_stable[i] != seg_stable[start]:
+            yield x[start:i + 1], y[start:i + 1], bool(seg_stable[start])
+            start = i
+
+
+def _save(fig, path: Path) -> None:
+    """savefig to a temporary file in the same folder, then os.replace (readers never see half a file)."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, format=path.suffix.lstrip("."), dpi=150, bbox_inches="tight")
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+@contextlib.contextmanager
+def _matplotlib_quiet():
+    """Keep matplotlib's own logging at WARNING for the block. A distutils build (PyDSTool's AUTO
+    library) can leave the root logger at DEBUG with a handler, and matplotlib would then print its
+    font-matching chatter."""
+    logger = logging.getLogger("matplotlib")
+    before = logger.level
+    logger.setLevel(logging.WARNING)
+    try:
+        yield
+    finally:
+        logger.setLevel(before)
+
+
+def plot_scene(results, stem: str | Path, *, x: str, y: Sequence[str] = ("a1",), title: str = "",
+               labels: bool = True, compare: Sequence[dict] | None = None, compare_panel: str | None = None,
+               compare_label: str = "digitised") -> list[Path]:
+    """Draw every branch of ``results`` as amplitude(s) ``y`` against parameter ``x``; write
+    ``<stem>.png`` and ``<stem>.pdf``. Returns the two paths."""
+    with _matplotlib_quiet():
+        return _plot_scene(results, stem, x=x, y=y, title=title, labels=labels, compare=compare,
+                           compare_panel=compare_panel, compare_label=compare_label)
+
+
+def _plot_scene(results, stem, *, x, y, title, labels, compare, compare_panel, compare_label) -> list[Path]:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    stem = Path(stem)
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    panels = list(y)
+    fig = Figure(figsize=(6.0, 3.4 * len(panels)))
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
+    for ax, amp in zip(axes, panels):
+        for b in results.branches:
+            if x not in b.table or len(b) == 0:
+                continue
+            xs = np.asarray(b.table[x])
+            if b.kind == "equilibrium":
+                if amp not in b.table:
+                    continue
+                for sx, sy, st in _segments(xs, np.asarray(b.table[amp]), np.asarray(b.stable)):
+                    ax.plot(sx, sy, color="black", lw=_THICK, ls="-" if st else "--")
+                top = int(np.nanargmax(b.table[amp])) if np.any(np.isfinite(b.table[amp])) else 0
+                ax.annotate(b.name, (xs[top], b.table[amp][top]), textcoords="offset points",
+                            xytext=(3, 4), fontsize=8)
+            else:
+                for col in (f"{amp}_min", f"{amp}_max"):
+                    if col not in b.table:
+                        continue
+                    for sx, sy, st in _segments(xs, np.asarray(b.table[col]), np.asarray(b.stable)):
+                        ax.plot(sx, sy, color="black", lw=_THIN, ls="-" if st else "--")
+            for s in b.special_points:
+                if x not in s.parameters:
+                    continue
+                px = s.parameters[x]
+                py = s.a1 if amp == "a1" else s.a2
+                if b.kind == "cycle" and f"{amp}_max" in b.table and 0 <= s.index < len(b):
+                    py = b.table[f"{amp}_max"][s.index]
+                if not np.isfinite(py):
+                    continue
+                if s.type == "H":
+                    ax.plot(px, py, "s", color="black", ms=5)
+                elif s.type == "BP":
+                    ax.plot(px, py, "o", mfc="white", mec="black", ms=5)
+                elif s.type in ("LPC", "PD", "NS"):
+                    ax.plot(px, py, "x", color="black", ms=5)
+                else:
+                    continue
+                if labels and s.label != "BP0":
+                    ax.annotate(s.label, (px, py), textcoords="offset points", xytext=(4, -9), fontsize=7)
+        if compare and (compare_panel or panels[0]) == amp:
+            curves = sorted({r["curve"] for r in compare})
+            for k, c in enumerate(curves):
+                pts = [r for r in compare if r["curve"] == c]
+                for st in (True, False):
+                    sel = [r for r in pts if r["stable"] == st]
+                    if sel:
+                        ax.plot([r["x"] for r in sel], [r["y"] for r in sel], ls="none", marker="o",
+                                ms=4, mec="tab:red", mfc="tab:red" if st else "white",
+                                label=f"{compare_label} {c}".strip() if st or not any(r["stable"] for r in pts) else None)
+            ax.legend(fontsize=7, frameon=False)
+        ax.set_ylabel(AXIS_LABELS.get(amp, amp))
+        ax.margins(y=0.1)      # room for the branch names above the highest point
+        ax.set_ylim(bottom=0.0)
+        ax.tick_params(direction="in", top=True, right=True, labelsize=8)
+        ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
+    axes[-1].set_xlabel(AXIS_LABELS.get(x, x))
+    if title:
+        axes[0].set_title(title, fontsize=9)
+    fig.tight_layout()
+    paths = []
+    for ext in (".png", ".pdf"):
+        p = stem.with_suffix(ext)
+        _save(fig, p)
+        paths.append(p)
+    return paths

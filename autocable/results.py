@@ -1,0 +1,463 @@
+"""Results of autocable runs as plain, immutable records, and their files (CSV tables, JSON metadata).
+
+A `Branch` is one continued solution family: equilibria of the amplitude equations (eq. 24 of
+Luongo & Zulli: period-1 motions of eq. 21) or periodic orbits of them (quasi-periodic motions of
+eq. 21). It carries its columns (every parameter of the system, the peak modal amplitudes a1, a2,
+the Cartesian state r1, s1, r2, s2, and for cycles the period and the min/max of a1, a2 over the
+cycle), an explicit `stable` column, the eigenvalues (equilibria) or Floquet multipliers (cycles)
+at every point, its labelled `SpecialPoint`s and how each end of it came about (`EndPoint`).
+`RunResults` bundles the branches of one run with the provenance (model hash, scene, versions, wall
+time per stage).
+
+Files in an output folder (written atomically, read back by `read_results`):
+
+* ``branches.csv``: one row per point: ``branch, kind, parameter, point``, every system parameter
+  by its name (``sigma, U, eta`` for the cable), ``a1, a2, stable, period, a1_min, a1_max, a2_min,
+  a2_max``, the state, ``max_real`` (equilibria: the largest real part of an eigenvalue; cycles: the
+  largest modulus of a non-trivial multiplier) and ``ev<k>_re, ev<k>_im``.
+* ``special_points.csv``: ``branch, type, label, parameter``, every system parameter, ``a1, a2``,
+  the state, ``converged, confirmed_by_pycont, origin, l1, omega, period, message``.
+* ``run.json``: provenance, per-branch metadata (ends, diagnostics) and every special point with
+  its ``extra`` data.
+
+This module imports neither PyDSTool nor matplotlib.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Iterable, Mapping, Sequence
+
+import numpy as np
+
+from autocable.codegen.cache import atomic_write_json, atomic_write_text, read_json
+
+__all__ = [
+    "KINDS",
+    "SPECIAL_TYPES",
+    "END_REASONS",
+    "SpecialPoint",
+    "EndPoint",
+    "Branch",
+    "RunResults",
+    "write_results",
+    "stability_measure",
+    "read_results",
+    "BRANCHES_CSV",
+    "SPECIAL_CSV",
+    "RUN_JSON",
+]
+
+#: Branch kinds.
+KINDS = ("equilibrium", "cycle")
+#: Special-point types: fold (LP), Hopf (H), branch point (BP) of equilibria; fold (LPC), period
+#: doubling (PD) and Neimark-Sacker (NS) of cycles; the range end (B) and the start point (S).
+SPECIAL_TYPES = ("LP", "H", "BP", "LPC", "PD", "NS", "B", "S")
+#: Why a branch ended, with what to try when the end was not wanted.
+END_REASONS = MappingProxyType({
+    "range": "the continued parameter reached the end of the range",
+    "closed": "the branch closed on itself (an isola or a loop)",
+    "max_points": "the maximum number of points was reached: raise max_points or the step",
+    "step_collapse": "the step size fell below the minimum without convergence: lower min_step, "
+                     "or the branch may end at a singular point (a fold with a large step, a "
+                     "singularity of the equations)",
+    "no_convergence": "the corrector did not converge: lower the step sizes or tighten the start",
+    "period_blowup": "the period grew without bound: the cycles approach a homoclinic orbit",
+    "error": "the continuation engine failed (see the message)",
+    "not_run": "this direction was not run",
+})
+
+BRANCHES_CSV = "branches.csv"
+SPECIAL_CSV = "special_points.csv"
+RUN_JSON = "run.json"
+
+_CYCLE_COLUMNS = ("period", "a1_min", "a1_max", "a2_min", "a2_max")
+
+
+def _frozen_array(values, dtype=float) -> np.ndarray:
+    arr = np.array(values, dtype=dtype)
+    arr.setflags(write=False)
+    return arr
+
+
+def _finite_or_none(x):
+    if x is None:
+        return None
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(x) else None
+    if isinstance(x, complex):
+        return [_finite_or_none(x.real), _finite_or_none(x.imag)]
+    if isinstance(x, Mapping):
+        return {str(k): _finite_or_none(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple, np.ndarray)):
+        return [_finite_or_none(v) for v in x]
+    return x
+
+
+@dataclass(frozen=True)
+class SpecialPoint:
+    """A labelled point of a branch (BifurcationKit-style: type, location, whether it converged).
+
+    ``origin`` is ``"autocable"`` for points located by autocable's own test functions (and refined
+    on the branch), ``"pycont"`` for points only PyCont reported (autocable's test functions show no
+    sign change there: a point PyCont invents). ``confirmed_by_pycont`` says whether PyCont's own
+    list has the same point (None where PyCont was not asked, e.g. cycles' labels from multipliers
+    when AUTO reports none). ``extra`` holds type-specific data: ``l1`` (first Lyapunov coefficient,
+    Kuznetsov's normalisation) and ``omega`` at H, ``eigenvalues``, ``period`` at cycle points.
+    """
+
+    branch: str
+    type: str
+    label: str
+    parameter: str
+    value: float
+    a1: float
+    a2: float
+    state: tuple[float, ...]
+    parameters: Mapping[str, float]
+    index: int = -1                      # index of the nearest branch point (the point before it)
+    converged: bool = True
+    confirmed_by_pycont: bool | None = None
+    origin: str = "autocable"
+    message: str = ""
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self):
+        object.__setattr__(self, "state", tuple(float(v) for v in self.state))
+        object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
+        object.__setattr__(self, "extra", MappingProxyType(dict(self.extra)))
+
+    @property
+    def name(self) -> str:
+        """``<branch>:<label>``, the name a scene uses to start from this point."""
+        return f"{self.branch}:{self.label}"
+
+    def to_dict(self) -> dict:
+        return {"branch": self.branch, "type": self.type, "label": self.label,
+                "parameter": self.parameter, "value": self.value, "a1": self.a1, "a2": self.a2,
+                "state": list(self.state), "parameters": dict(self.parameters),
+                "index": self.index, "converged": self.converged,
+                "confirmed_by_pycont": self.confirmed_by_pycont, "origin": self.origin,
+                "message": self.message, "extra": _finite_or_none(dict(self.extra))}
+
+    @classmethod
+    def from_dict(cls, d: Mapping) -> "SpecialPoint":
+        def num(x):
+            return math.nan if x is None else float(x)
+        return cls(branch=d["branch"], type=d["type"], label=d["label"], parameter=d["parameter"],
+                   value=num(d["value"]), a1=num(d["a1"]), a2=num(d["a2"]),
+                   state=tuple(num(v) for v in d["state"]),
+                   parameters={k: num(v) for k, v in d["parameters"].items()},
+                   index=int(d.get("index", -1)), converged=bool(d.get("converged", True)),
+                   confirmed_by_pycont=d.get("confirmed_by_pycont"),
+                   origin=d.get("origin", "autocable"), message=d.get("message", ""),
+                   extra=dict(d.get("extra") or {}))
+
+
+@dataclass(frozen=True)
+class EndPoint:
+    """How one end of a branch came about: ``reason`` is a key of `END_REASONS`."""
+
+    side: str            # "forward" | "backward" (relative to the start) or "+"/"-" after a BP
+    reason: str
+    value: float         # parameter value at the last point kept
+    points: int          # points computed on this side
+    message: str = ""
+
+    def __post_init__(self):
+        if self.reason not in END_REASONS:
+            raise ValueError(f"unknown end reason {self.reason!r}; use one of {sorted(END_REASONS)}")
+
+    @property
+    def hint(self) -> str:
+        return END_REASONS[self.reason]
+
+    def to_dict(self) -> dict:
+        return {"side": self.side, "reason": self.reason, "value": _finite_or_none(self.value),
+                "points": self.points, "message": self.message, "hint": self.hint}
+
+    @classmethod
+    def from_dict(cls, d: Mapping) -> "EndPoint":
+        v = d.get("value")
+        return cls(d["side"], d["reason"], math.nan if v is None else float(v), int(d["points"]),
+                   d.get("message", ""))
+
+
+@dataclass(frozen=True)
+class Branch:
+    """One continued branch (see the module docstring for its columns).
+
+    ``table`` maps column names to read-only float arrays of equal length: every name in
+    ``parameter_names``, the ``amplitude_names`` (a1, a2), the ``variables`` (r1, s1, ...), and for
+    cycles ``period, a1_min, a1_max, a2_min, a2_max`` (a1, a2 of a cycle are its maxima).
+    ``eigenvalues[i]`` are those of point i (equilibria: of the Jacobian, by decreasing real part;
+    cycles: the Floquet multipliers, by decreasing modulus). ``stable`` is autocable's verdict from
+    them, never PyCont's flag.
+    """
+
+    name: str
+    kind: str
+    parameter: str
+    parameter_names: tuple[str, ...]
+    variables: tuple[str, ...]
+    amplitude_names: tuple[str, ...]
+    table: Mapping[str, np.ndarray]
+    stable: np.ndarray
+    eigenvalues: np.ndarray
+    special_points: tuple[SpecialPoint, ...] = ()
+    ends: tuple[EndPoint, ...] = ()
+    info: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self):
+        if self.kind not in KINDS:
+            raise ValueError(f"branch kind must be one of {KINDS}, got {self.kind!r}")
+        table = {str(k): _frozen_array(v) for k, v in self.table.items()}
+        lengths = {len(v) for v in table.values()}
+        if len(lengths) > 1:
+            raise ValueError(f"branch {self.name!r}: columns of unequal length {sorted(lengths)}")
+        n = lengths.pop() if lengths else 0
+        for col in (self.parameter, *self.amplitude_names, *self.variables):
+            if col not in table:
+                raise ValueError(f"branch {self.name!r}: missing column {col!r}")
+        stable = _frozen_array(self.stable, dtype=bool)
+        if len(stable) != n:
+            raise ValueError(f"branch {self.name!r}: {n} points but {len(stable)} stability flags")
+        ev = np.array(self.eigenvalues, dtype=complex)
+        if ev.size == 0:
+            ev = ev.reshape(n, 0)
+        if ev.shape[0] != n:
+            raise ValueError(f"branch {self.name!r}: {n} points but {ev.shape[0]} eigenvalue rows")
+        ev.setflags(write=False)
+        object.__setattr__(self, "table", MappingProxyType(table))
+        object.__setattr__(self, "stable", stable)
+        object.__setattr__(self, "eigenvalues", ev)
+        object.__setattr__(self, "parameter_names", tuple(self.parameter_names))
+        object.__setattr__(self, "variables", tuple(self.variables))
+        object.__setattr__(self, "amplitude_names", tuple(self.amplitude_names))
+        object.__setattr__(self, "special_points", tuple(self.special_points))
+        object.__setattr__(self, "ends", tuple(self.ends))
+        object.__setattr__(self, "info", MappingProxyType(dict(self.info)))
+
+    def __len__(self) -> int:
+        return len(self.stable)
+
+    def __getitem__(self, column: str) -> np.ndarray:
+        return self.table[column]
+
+    @property
+    def values(self) -> np.ndarray:
+        """The continued parameter along the branch."""
+        return self.table[self.parameter]
+
+    @property
+    def states(self) -> np.ndarray:
+        """(points, variables) array of the state (for cycles: the state at the cycle's phase origin)."""
+        return np.column_stack([self.table[v] for v in self.variables]) if self.variables else \
+            np.zeros((len(self), 0))
+
+    def special(self, label: str) -> SpecialPoint:
+        """The special point labelled ``label`` (e.g. ``"H1"``)."""
+        for sp in self.special_points:
+            if sp.label == label:
+                return sp
+        known = ", ".join(sp.label for sp in self.special_points) or "none"
+        raise KeyError(f"branch {self.name!r} has no special point {label!r} (it has: {known})")
+
+    def of_type(self, kind: str) -> tuple[SpecialPoint, ...]:
+        return tuple(sp for sp in self.special_points if sp.type == kind)
+
+    def replace(self, **changes) -> "Branch":
+        data = {f: getattr(self, f) for f in self.__dataclass_fields__}
+        data.update(changes)
+        return Branch(**data)
+
+    def metadata(self) -> dict:
+        return {"name": self.name, "kind": self.kind, "parameter": self.parameter,
+                "parameter_names": list(self.parameter_names), "variables": list(self.variables),
+                "amplitude_names": list(self.amplitude_names), "points": len(self),
+                "ends": [e.to_dict() for e in self.ends], "info": _finite_or_none(dict(self.info)),
+                "special_points": [sp.label for sp in self.special_points]}
+
+
+@dataclass(frozen=True)
+class RunResults:
+    """The branches of one run (a scene) and where they came from."""
+
+    name: str
+    branches: tuple[Branch, ...]
+    provenance: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self):
+        object.__setattr__(self, "branches", tuple(self.branches))
+        object.__setattr__(self, "provenance", MappingProxyType(dict(self.provenance)))
+
+    def branch(self, name: str) -> Branch:
+        for b in self.branches:
+            if b.name == name:
+                return b
+        raise KeyError(f"no branch {name!r} (there are: {', '.join(b.name for b in self.branches)})")
+
+    @property
+    def special_points(self) -> tuple[SpecialPoint, ...]:
+        return tuple(sp for b in self.branches for sp in b.special_points)
+
+    def special(self, name: str) -> SpecialPoint:
+        """A special point by ``<branch>:<label>``."""
+        branch, _, label = name.partition(":")
+        return self.branch(branch).special(label)
+
+
+def stability_measure(kind: str, eigenvalues) -> float:
+    """Equilibria: the largest real part of an eigenvalue (stable if < 0). Cycles: the largest
+    modulus of a non-trivial Floquet multiplier (stable if < 1); the trivial multiplier is the one
+    nearest to 1."""
+    ev = np.asarray(eigenvalues, dtype=complex).ravel()
+    ev = ev[np.isfinite(ev)]
+    if ev.size == 0:
+        return math.nan
+    if kind == "equilibrium":
+        return float(np.max(ev.real))
+    rest = np.delete(ev, int(np.argmin(np.abs(ev - 1.0))))
+    return float(np.max(np.abs(rest))) if rest.size else math.nan
+
+
+# -- writing ----------------------------------------------------------------------------------------
+def _fmt(x) -> str:
+    if x is None:
+        return ""
+    if isinstance(x, (bool, np.bool_)):
+        return "1" if x else "0"
+    if isinstance(x, (int, np.integer)):
+        return str(int(x))
+    if isinstance(x, str):
+        return x
+    x = float(x)
+    return repr(x) if math.isfinite(x) else ("" if math.isnan(x) else repr(x))
+
+
+def _union(seqs: Iterable[Sequence[str]]) -> list[str]:
+    out: list[str] = []
+    for seq in seqs:
+        for s in seq:
+            if s not in out:
+                out.append(s)
+    return out
+
+
+def branches_csv(branches: Sequence[Branch]) -> str:
+    """The text of ``branches.csv`` (see the module docstring)."""
+    params = _union(b.parameter_names for b in branches)
+    amps = _union([("a1", "a2")] + [b.amplitude_names for b in branches])
+    states = _union(b.variables for b in branches)
+    nev = max((b.eigenvalues.shape[1] for b in branches), default=0)
+    header = (["branch", "kind", "parameter", "point"] + params + amps + ["stable", *_CYCLE_COLUMNS]
+              + states + ["max_real"] + [f"ev{k}_{part}" for k in range(1, nev + 1) for part in ("re", "im")])
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(header)
+    for b in branches:
+        for i in range(len(b)):
+            ev = b.eigenvalues[i]
+            max_real = stability_measure(b.kind, ev)
+            row = [b.name, b.kind, b.parameter, i]
+            row += [b.table[p][i] if p in b.table else None for p in params]
+            row += [b.table[a][i] if a in b.table else None for a in amps]
+            row += [bool(b.stable[i])]
+            row += [b.table[c][i] if c in b.table else None for c in _CYCLE_COLUMNS]
+            row += [b.table[s][i] if s in b.table else None for s in states]
+            row += [max_real]
+            for k in range(nev):
+                if k < ev.size:
+                    row += [ev[k].real, ev[k].imag]
+                else:
+                    row += [None, None]
+            w.writerow([_fmt(x) for x in row])
+    return buf.getvalue()
+
+
+def special_points_csv(points: Sequence[SpecialPoint], branches: Sequence[Branch] = ()) -> str:
+    """The text of ``special_points.csv`` (see the module docstring)."""
+    params = _union([b.parameter_names for b in branches] + [list(sp.parameters) for sp in points])
+    states = _union(b.variables for b in branches)
+    header = (["branch", "type", "label", "parameter"] + params + ["a1", "a2"] + states
+              + ["converged", "confirmed_by_pycont", "origin", "l1", "omega", "period", "message"])
+    by_branch = {b.name: b for b in branches}
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(header)
+    for sp in points:
+        variables = by_branch[sp.branch].variables if sp.branch in by_branch else ()
+        state = dict(zip(variables, sp.state))
+        row = [sp.branch, sp.type, sp.label, sp.parameter]
+        row += [sp.parameters.get(p) for p in params]
+        row += [sp.a1, sp.a2]
+        row += [state.get(s) for s in states]
+        row += [sp.converged, sp.confirmed_by_pycont, sp.origin, sp.extra.get("l1"),
+                sp.extra.get("omega"), sp.extra.get("period"), sp.message]
+        w.writerow([_fmt(x) for x in row])
+    return buf.getvalue()
+
+
+def write_results(results: RunResults, out_dir: str | Path) -> dict[str, Path]:
+    """Write ``branches.csv``, ``special_points.csv`` and ``run.json`` into ``out_dir`` (atomic)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    branches = results.branches
+    paths = {
+        "branches": atomic_write_text(out / BRANCHES_CSV, branches_csv(branches)),
+        "special_points": atomic_write_text(out / SPECIAL_CSV,
+                                            special_points_csv(results.special_points, branches)),
+    }
+    meta = {"format": "autocable.run/1", "name": results.name,
+            "provenance": _finite_or_none(dict(results.provenance)),
+            "branches": [b.metadata() for b in branches],
+            "special_points": [sp.to_dict() for sp in results.special_points]}
+    paths["run"] = atomic_write_json(out / RUN_JSON, meta)
+    return paths
+
+
+# -- reading ----------------------------------------------------------------------------------------
+def _num(text: str) -> float:
+    return float(text) if text != "" else math.nan
+
+
+def read_results(out_dir: str | Path) -> RunResults:
+    """Read what `write_results` wrote. Branch info and special points come from ``run.json``."""
+    folder = Path(out_dir)
+    meta = read_json(folder / RUN_JSON)
+    if not isinstance(meta, dict):
+        raise FileNotFoundError(f"{folder / RUN_JSON}: missing or not valid JSON")
+    with open(folder / BRANCHES_CSV, newline="", encoding="utf-8") as fh:
+        rows = list(csv.DictReader(fh))
+    specials = [SpecialPoint.from_dict(d) for d in meta.get("special_points", [])]
+    branches = []
+    for bm in meta["branches"]:
+        mine = [r for r in rows if r["branch"] == bm["name"]]
+        cols = list(bm["parameter_names"]) + list(bm["amplitude_names"]) + list(bm["variables"])
+        if bm["kind"] == "cycle":
+            cols += list(_CYCLE_COLUMNS)
+        table = {c: [_num(r.get(c, "")) for r in mine] for c in cols}
+        stable = [r["stable"] == "1" for r in mine]
+        nev = 0
+        if mine:
+            while f"ev{nev + 1}_re" in mine[0] and any(r[f"ev{nev + 1}_re"] != "" for r in mine):
+                nev += 1
+        ev = [[complex(_num(r[f"ev{k}_re"]), _num(r[f"ev{k}_im"])) for k in range(1, nev + 1)]
+              for r in mine]
+        info = dict(bm.get("info") or {})
+        branches.append(Branch(
+            name=bm["name"], kind=bm["kind"], parameter=bm["parameter"],
+            parameter_names=tuple(bm["parameter_names"]), variables=tuple(bm["variables"]),
+            amplitude_names=tuple(bm["amplitude_names"]), table=table, stable=stable,
+            eigenvalues=np.array(ev, dtype=complex).reshape(len(mine), nev),
+            special_points=tuple(sp for sp in specials if sp.branch == bm["name"]),
+            ends=tuple(EndPoint.from_dict(e) for e in bm.get("ends", [])), info=info))
+    return RunResults(meta.get("name", folder.name), tuple(branches), meta.get("provenance", {}))

@@ -1,0 +1,598 @@
+"""Scene files (``runs/*.toml``): one paper figure each, as a chain of continuation runs.
+
+A scene says which cable model (a path relative to the scene file), which amplitude equations
+(``ame = "2dof"``, eq. 24, or ``"1dof"``, the A2 = 0 reduction of Sect. 5), which parameters are fixed,
+and a list of runs, each continuing one of the paper's control parameters (``sigma``, ``U``, ``eta``)
+over a range from a start point; later runs may start from labelled points of earlier ones, like
+AUTO-07p's ``.auto`` scripts (``start = "I:LP1"``). Follow-ups: ``cycles = true`` continues the
+periodic orbits born at every Hopf point of a run, ``switch = true`` the branches through every
+branch point. The schema is closed: an unknown key, a bad value, a parameter outside its range or a
+start that does not converge raise `autocable.spec.SpecError` with one line naming the file and field.
+
+    title = "Fig. 5a: ..."            # optional text
+    model = "../models/luongo_zulli_2012.toml"
+    ame = "2dof"                      # "2dof" | "1dof"
+    state_scale = "auto"              # amplitude scale for the continuation ("auto" or a number)
+    [fixed]                           # U, eta, sigma shared by every run (default 0)
+    [[run]]
+    name = "I"                        # branch name; letters, digits, '_' and '-'
+    kind = "equilibria"               # "equilibria" | "cycles" (from start = "RUN:Hk") | "switch" (from "RUN:BPk")
+    parameter = "sigma"               # the continued parameter: "sigma" | "U" | "eta"
+    range = [-0.05, 0.05]
+    start = "trivial"                 # "trivial" | { integrate = [a1, a2] } | { state = [r1, s1, r2, s2] } | "RUN:LABEL"
+    at = -0.05                        # the parameter's start value (default: range[0], or the label's)
+    directions = "both"               # "both" | "forward" | "backward"
+    cycles = false                    # follow-up: cycles from every Hopf point
+    switch = false                    # follow-up: branch switching at every branch point
+    [run.fixed]                       # per-run overrides of [fixed]
+    [run.steps]                       # step controls (ContinuationSettings names)
+    [plot]
+    x = "sigma"                       # default: the first run's parameter
+    y = ["a1"]                        # one panel per amplitude: "a1", "a2"
+    title = "..."                     # default: the scene title
+    labels = true                     # write special-point labels (H1, LP1, BP1) on the plot
+    [compare]                         # optional digitised points to overlay
+    csv = "fig05a_digitised.csv"      # columns x, y, curve, stable (path relative to the scene)
+    panel = "a1"
+
+`run_scene(load_scene(path), out_dir)` runs it and writes ``branches.csv``, ``special_points.csv``,
+``run.json`` (`autocable.results`) and ``<scene>.png``/``.pdf`` (`autocable.plotting.diagrams`).
+"""
+from __future__ import annotations
+
+import math
+import platform
+import re
+import sys
+import time
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+from autocable.spec import SpecError, load_model
+
+__all__ = [
+    "Scene",
+    "RunSpec",
+    "StartSpec",
+    "PlotSpec",
+    "CompareSpec",
+    "load_scene",
+    "parse_scene",
+    "run_scene",
+    "add_run_parser",
+    "cmd_run",
+]
+
+PARAMETERS = ("sigma", "U", "eta")
+_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_\-]*$")
+_LABEL = re.compile(r"^([A-Za-z0-9_\-]+):([A-Z]+[0-9]+)$")
+_TOP_KEYS = ("title", "description", "model", "ame", "state_scale", "fixed", "run", "plot", "compare")
+_RUN_KEYS = ("name", "kind", "parameter", "range", "start", "at", "directions", "cycles", "switch",
+             "fixed", "steps")
+_STEP_KEYS = ("step", "min_step", "max_step", "max_points", "chunk", "max_corrector_iters", "tol",
+              "test_tol", "newton_tol", "ntst", "ncol", "cycle_step", "cycle_max_step", "cycle_max_points",
+              "max_period_ratio", "switch_step")
+_PLOT_KEYS = ("x", "y", "title", "labels")
+_COMPARE_KEYS = ("csv", "panel", "label")
+_KINDS = ("equilibria", "cycles", "switch")
+
+Progress = Callable[[str], None]
+
+
+# ================================================================================================
+# the schema as data
+# ================================================================================================
+@dataclass(frozen=True)
+class StartSpec:
+    """Where a run starts: ``kind`` is "trivial", "integrate" (amplitudes a_k, phases 0), "state"
+    (a state vector refined by Newton) or "label" (``label`` = "RUN:LABEL")."""
+
+    kind: str
+    values: tuple[float, ...] = ()
+    label: str = ""
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    name: str
+    kind: str
+    parameter: str
+    range: tuple[float, float]
+    start: StartSpec
+    at: float | None
+    directions: str
+    cycles: bool
+    switch: bool
+    fixed: Mapping[str, float]
+    steps: Mapping[str, float]
+    index: int
+
+
+@dataclass(frozen=True)
+class PlotSpec:
+    x: str
+    y: tuple[str, ...]
+    title: str
+    labels: bool = True
+
+
+@dataclass(frozen=True)
+class CompareSpec:
+    csv: Path
+    panel: str = "a1"
+    label: str = "digitised"
+
+
+@dataclass(frozen=True)
+class Scene:
+    path: Path
+    name: str
+    title: str
+    description: str
+    model: Path
+    ame: str
+    state_scale: float | None          # None: automatic
+    fixed: Mapping[str, float]
+    runs: tuple[RunSpec, ...]
+    plot: PlotSpec
+    compare: CompareSpec | None = None
+    text: str = field(default="", repr=False)
+
+
+# ================================================================================================
+# parsing
+# ================================================================================================
+def _check_keys(table, allowed, path, where) -> None:
+    if not isinstance(table, dict):
+        raise SpecError(path, where, "expected a table")
+    for key in table:
+        if key not in allowed:
+            raise SpecError(path, f"{where}.{key}" if where else key,
+                            f"unknown key; allowed: {', '.join(allowed)}")
+
+
+def _num(value, path, where, what="a number") -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(float(value)):
+        raise SpecError(path, where, f"expected {what}, got {value!r}")
+    return float(value)
+
+
+def _bool(value, path, where) -> bool:
+    if not isinstance(value, bool):
+        raise SpecError(path, where, f"expected true or false, got {value!r}")
+    return value
+
+
+def _params(table, path, where) -> dict[str, float]:
+    _check_keys(table, PARAMETERS, path, where)
+    out = {k: _num(v, path, f"{where}.{k}") for k, v in table.items()}
+    if out.get("eta", 0.0) < 0:
+        raise SpecError(path, f"{where}.eta", f"the support amplitude eta must be >= 0, got {out['eta']}")
+    if out.get("U", 0.0) < 0:
+        raise SpecError(path, f"{where}.U", f"the wind speed U must be >= 0, got {out['U']}")
+    return out
+
+
+def _start(value, path, where) -> StartSpec:
+    if value == "trivial":
+        return StartSpec("trivial")
+    if isinstance(value, str):
+        if not _LABEL.match(value):
+            raise SpecError(path, where, f'expected "trivial", "RUN:LABEL" (e.g. "I:H1"), '
+                                         f'{{integrate = [a1, a2]}} or {{state = [...]}}, got {value!r}')
+        return StartSpec("label", label=value)
+    if isinstance(value, dict):
+        _check_keys(value, ("integrate", "state"), path, where)
+        if len(value) != 1:
+            raise SpecError(path, where, "give exactly one of integrate = [a1, a2] or state = [r1, s1, ...]")
+        (kind, vals), = value.items()
+        if not isinstance(vals, list) or not vals:
+            raise SpecError(path, f"{where}.{kind}", f"expected a list of numbers, got {vals!r}")
+        nums = tuple(_num(v, path, f"{where}.{kind}") for v in vals)
+        if kind == "integrate" and any(v < 0 for v in nums):
+            raise SpecError(path, f"{where}.integrate", "amplitudes must be >= 0")
+        return StartSpec(kind, nums)
+    raise SpecError(path, where, f'expected "trivial", "RUN:LABEL", {{integrate = [...]}} or '
+                                 f'{{state = [...]}}, got {value!r}')
+
+
+def _steps(table, path, where) -> dict[str, float]:
+    from autocable.methods.continuation import ContinuationSettings
+    _check_keys(table, _STEP_KEYS, path, where)
+    ints = {"max_points", "chunk", "max_corrector_iters", "ntst", "ncol", "cycle_max_points"}
+    out: dict[str, Any] = {}
+    for k, v in table.items():
+        x = _num(v, path, f"{where}.{k}", "a positive number")
+        if x <= 0:
+            raise SpecError(path, f"{where}.{k}", f"expected a positive number, got {v!r}")
+        out[k] = int(x) if k in ints else x
+    try:
+        ContinuationSettings(**out)
+    except (TypeError, ValueError) as exc:
+        raise SpecError(path, where, str(exc)) from None
+    return out
+
+
+def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> Scene:
+    """Validate a parsed scene document (see the module docstring for the schema)."""
+    path = Path(path)
+    _check_keys(data, _TOP_KEYS, path, "")
+    if "model" not in data:
+        raise SpecError(path, "model", "missing; give the model file, e.g. \"../models/luongo_zulli_2012.toml\"")
+    if not isinstance(data["model"], str):
+        raise SpecError(path, "model", f"expected a path string, got {data['model']!r}")
+    model = (path.parent / data["model"]).resolve()
+    if not model.is_file():
+        raise SpecError(path, "model", f"no such file: {model}")
+    ame = data.get("ame", "2dof")
+    if ame not in ("2dof", "1dof"):
+        raise SpecError(path, "ame", f'expected "2dof" or "1dof", got {ame!r}')
+    scale = data.get("state_scale", "auto")
+    if scale == "auto":
+        scale = None
+    else:
+        scale = _num(scale, path, "state_scale", 'a positive number or "auto"')
+        if scale <= 0:
+            raise SpecError(path, "state_scale", f"expected a positive number, got {scale}")
+    for key in ("title", "description"):
+        if key in data and not isinstance(data[key], str):
+            raise SpecError(path, key, "expected a string")
+    fixed = _params(data.get("fixed", {}), path, "fixed")
+    raw_runs = data.get("run")
+    if not isinstance(raw_runs, list) or not raw_runs:
+        raise SpecError(path, "run", "missing; add at least one [[run]] table")
+    runs: list[RunSpec] = []
+    names: set[str] = set()
+    for i, r in enumerate(raw_runs):
+        where = f"run[{i}]"
+        _check_keys(r, _RUN_KEYS, path, where)
+        name = r.get("name", f"R{i + 1}")
+        if not isinstance(name, str) or not _NAME.match(name) or name in names:
+            raise SpecError(path, f"{where}.name", f"expected a new name of letters, digits, '_' or '-', got {name!r}")
+        names.add(name)
+        kind = r.get("kind", "equilibria")
+        if kind not in _KINDS:
+            raise SpecError(path, f"{where}.kind", f"expected one of {', '.join(_KINDS)}, got {kind!r}")
+        if "parameter" not in r:
+            raise SpecError(path, f"{where}.parameter", f"missing; the continued parameter, one of {', '.join(PARAMETERS)}")
+        parameter = r["parameter"]
+        if parameter not in PARAMETERS:
+            raise SpecError(path, f"{where}.parameter", f"expected one of {', '.join(PARAMETERS)}, got {parameter!r}")
+        rng = r.get("range")
+        if not (isinstance(rng, list) and len(rng) == 2):
+            raise SpecError(path, f"{where}.range", f"expected [lo, hi], got {rng!r}")
+        lo, hi = (_num(v, path, f"{where}.range") for v in rng)
+        if not lo < hi:
+            raise SpecError(path, f"{where}.range", f"expected lo < hi, got [{lo}, {hi}]")
+        if parameter in ("eta", "U") and lo < 0:
+            raise SpecError(path, f"{where}.range", f"{parameter} must stay >= 0, got [{lo}, {hi}]")
+        start = _start(r.get("start", "trivial"), path, f"{where}.start")
+        if start.kind == "label":
+            src = start.label.split(":")[0]
+            earlier = names - {name}
+            # a follow-up branch of run R is named R-H1, R-BP2, ... (cycles, switching)
+            if not any(src == n or src.startswith(n + "-") for n in earlier):
+                raise SpecError(path, f"{where}.start", f"{start.label!r} refers to branch {src!r}, which is "
+                                                        f"not an earlier run (or a follow-up of one) of this scene")
+        if kind == "cycles" and not (start.kind == "label" and ":H" in start.label):
+            raise SpecError(path, f"{where}.start", 'a "cycles" run starts from a Hopf point, e.g. "I:H1"')
+        if kind == "switch" and not (start.kind == "label" and ":BP" in start.label):
+            raise SpecError(path, f"{where}.start", 'a "switch" run starts from a branch point, e.g. "I:BP1"')
+        at = r.get("at")
+        if at is not None:
+            at = _num(at, path, f"{where}.at")
+            if not lo <= at <= hi:
+                raise SpecError(path, f"{where}.at", f"{parameter} = {at:g} is outside the range [{lo:g}, {hi:g}]")
+        directions = r.get("directions", "both")
+        if directions not in ("both", "forward", "backward"):
+            raise SpecError(path, f"{where}.directions", f'expected "both", "forward" or "backward", got {directions!r}')
+        runs.append(RunSpec(
+            name=name, kind=kind, parameter=parameter, range=(lo, hi), start=start, at=at,
+            directions=directions, cycles=_bool(r.get("cycles", False), path, f"{where}.cycles"),
+            switch=_bool(r.get("switch", False), path, f"{where}.switch"),
+            fixed=_params(r.get("fixed", {}), path, f"{where}.fixed"),
+            steps=_steps(r.get("steps", {}), path, f"{where}.steps"), index=i))
+    plot = data.get("plot", {})
+    _check_keys(plot, _PLOT_KEYS, path, "plot")
+    x = plot.get("x", runs[0].parameter)
+    if x not in PARAMETERS:
+        raise SpecError(path, "plot.x", f"expected one of {', '.join(PARAMETERS)}, got {x!r}")
+    y = plot.get("y", ["a1"])
+    y = [y] if isinstance(y, str) else y
+    if not isinstance(y, list) or not y or any(v not in ("a1", "a2") for v in y):
+        raise SpecError(path, "plot.y", f'expected a list of "a1" and/or "a2", got {plot.get("y")!r}')
+    title = data.get("title", path.stem)
+    ptitle = plot.get("title", title)
+    if not isinstance(ptitle, str):
+        raise SpecError(path, "plot.title", "expected a string")
+    labels = _bool(plot.get("labels", True), path, "plot.labels")
+    compare = None
+    if "compare" in data:
+        c = data["compare"]
+        _check_keys(c, _COMPARE_KEYS, path, "compare")
+        if not isinstance(c.get("csv"), str):
+            raise SpecError(path, "compare.csv", "missing; the path of a CSV with columns x, y, curve, stable")
+        csv_path = (path.parent / c["csv"]).resolve()
+        if not csv_path.is_file():
+            raise SpecError(path, "compare.csv", f"no such file: {csv_path}")
+        panel = c.get("panel", y[0])
+        if panel not in y:
+            raise SpecError(path, "compare.panel", f"expected one of the plotted amplitudes {y}, got {panel!r}")
+        compare = CompareSpec(csv_path, panel, str(c.get("label", "digitised")))
+    return Scene(path=path, name=path.stem, title=title, description=data.get("description", ""),
+                 model=model, ame=ame, state_scale=scale, fixed=fixed, runs=tuple(runs),
+                 plot=PlotSpec(x, tuple(y), ptitle, labels), compare=compare, text=text)
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a scene file; errors are one-line `SpecError`s."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise SpecError(path, "", "no such file") from None
+    except OSError as exc:
+        raise SpecError(path, "", f"cannot read: {exc.strerror}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(path, "", f"not valid TOML: {exc}") from None
+    return parse_scene(data, path, text)
+
+
+def read_compare(spec: CompareSpec) -> list[dict]:
+    """The digitised points of ``spec.csv``: dicts with x, y (floats), curve (str), stable (bool)."""
+    import csv
+    rows = []
+    with open(spec.csv, newline="", encoding="utf-8") as fh:
+        reader = csv.DictReader(fh)
+        missing = {"x", "y"} - set(reader.fieldnames or ())
+        if missing:
+            raise SpecError(spec.csv, "", f"missing columns {sorted(missing)}; expected x, y, curve, stable")
+        for k, r in enumerate(reader):
+            try:
+                rows.append({"x": float(r["x"]), "y": float(r["y"]), "curve": r.get("curve", "") or "",
+                             "stable": str(r.get("stable", "1")).strip().lower() in ("1", "true", "yes", "s")})
+            except ValueError:
+                raise SpecError(spec.csv, f"row {k + 2}", "x and y must be numbers") from None
+    return rows
+
+
+# ================================================================================================
+# running
+# ================================================================================================
+def _versions() -> dict[str, str]:
+    from importlib import metadata
+
+    from autocable import __version__
+    out = {"autocable": __version__, "python": platform.python_version()}
+    for pkg in ("numpy", "scipy", "sympy", "PyDSTool", "matplotlib"):
+        try:
+            out[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            out[pkg] = "not installed"
+    return out
+
+
+def _system_for(scene: Scene, ame, values: Mapping[str, float], parameter: str, rng, path, where):
+    """The AME system for a run: aerodynamic rows only when the wind blows (1/U powers)."""
+    from autocable.methods.continuation import ame_system
+    if parameter == "U":
+        if rng[0] <= 0:
+            raise SpecError(path, f"{where}.range", "continuing U needs U > 0 over the whole range "
+                                                    "(the aerodynamic terms carry 1/U); start just above 0")
+        wind = True
+    else:
+        wind = values.get("U", 0.0) != 0.0
+    return ame_system(ame, scene.ame, wind=wind)
+
+
+def _settings(run: RunSpec):
+    from autocable.methods.continuation import ContinuationSettings
+    return ContinuationSettings(**run.steps)
+
+
+def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = None,
+              plot: bool = True):
+    """Run every run of ``scene`` in order, write the results into ``out_dir`` and plot them.
+
+    Returns the `RunResults`. A branch that fails part-way is kept with its points and an end
+    reason; a start that does not converge, or a start value outside the range, stops the scene
+    with a `SpecError` naming the run.
+    """
+    import numpy as np
+
+    from autocable.methods import continuation as C
+    from autocable.model.ame_cache import derive_ame
+    from autocable.model.derive import derive
+    from autocable.results import RunResults, write_results
+
+    def say(msg: str) -> None:
+        if progress:
+            progress(f"[{scene.name}] {msg}")
+
+    t_all = time.perf_counter()
+    stages: dict[str, Any] = {}
+    t0 = time.perf_counter()
+    say(f"model {scene.model.name}: eq. (21)")
+    spec = load_model(scene.model)
+    deriv = derive(spec)
+    stages["derive_s"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    say("amplitude equations (24)")
+    cached = derive_ame(deriv)
+    ame = cached.ame
+    stages["ame_s"] = time.perf_counter() - t0
+    omega1 = float(ame.omegas[0])
+    results: dict[str, C.ContinuationResult] = {}
+    branches = []
+    run_times: dict[str, Any] = {}
+    path = scene.path
+
+    def check_values(values, where):
+        if values["sigma"] <= -omega1:
+            raise SpecError(path, where, f"sigma = {values['sigma']:g} gives a non-positive forcing "
+                                         f"frequency Omega = omega1 + sigma")
+
+    def add(result: C.ContinuationResult):
+        results[result.branch.name] = result
+        branches.append(result.branch)
+        b = result.branch
+        ends = "; ".join(f"{e.side}: {e.reason}" for e in b.ends)
+        say(f"  {b.name}: {len(b)} points, special points "
+            f"{', '.join(s.label for s in b.special_points) or 'none'} ({ends})")
+
+    for run in scene.runs:
+        where = f"run[{run.index}]"
+        t_run = time.perf_counter()
+        lo, hi = run.range
+        values = {p: 0.0 for p in PARAMETERS}
+        values.update(scene.fixed)
+        values.update(run.fixed)
+        start_state = None
+        source = None
+        if run.start.kind == "label":
+            src_name, label = run.start.label.split(":")
+            if src_name not in results:
+                raise SpecError(path, f"{where}.start", f"no branch {src_name!r} has been computed")
+            try:
+                sp_ = results[src_name].special(label)
+            except KeyError as exc:
+                raise SpecError(path, f"{where}.start", str(exc).strip("'\"")) from None
+            source = results[src_name]
+            values.update(sp_.parameters)
+            values.update(run.fixed)
+            start_state = np.array(sp_.state)
+        at = run.at if run.at is not None else (values[run.parameter] if run.start.kind == "label" else lo)
+        if not lo <= at <= hi:
+            raise SpecError(path, f"{where}.range", f"the start value {run.parameter} = {at:g} is outside "
+                                                    f"the range [{lo:g}, {hi:g}]")
+        values[run.parameter] = at
+        check_values(values, where)
+        check_values({**values, "sigma": lo if run.parameter == "sigma" else values["sigma"]}, f"{where}.range")
+        system = _system_for(scene, ame, values, run.parameter, run.range, path, where)
+        scale = scene.state_scale or C.auto_state_scale(system, values)
+        problem = C.EquilibriumProblem(system, run.parameter, values, run.range, state_scale=scale)
+        settings = _settings(run)
+        say(f"run {run.name}: {run.kind} in {run.parameter} over [{lo:g}, {hi:g}] from "
+            f"{run.start.label or run.start.kind} at {run.parameter} = {at:g}")
+        if run.kind in ("cycles", "switch"):
+            # The labelled point in this run's problem (its parameter and range).
+            src = C.ContinuationResult(source.branch, problem, settings)
+            fn = C.continue_cycles if run.kind == "cycles" else C.switch_branch
+            result = fn(src, run.start.label.split(":")[1], settings, name=run.name, progress=say)
+            add(result)
+        else:
+            try:
+                if run.start.kind == "trivial":
+                    x0 = np.zeros(system.dimension)
+                elif run.start.kind == "state":
+                    if len(run.start.values) != system.dimension:
+                        raise SpecError(path, f"{where}.start.state", f"expected {system.dimension} numbers "
+                                                                      f"{list(system.variables)}")
+                    x0 = np.array(run.start.values)
+                elif run.start.kind == "integrate":
+                    amps = list(run.start.values)
+                    n_modes = system.dimension // 2
+                    if len(amps) < n_modes:
+                        amps += [0.0] * (n_modes - len(amps))
+                    y0 = np.zeros(system.dimension)
+                    y0[0::2] = amps[:n_modes]
+                    say(f"  integrating the AME from a = {amps[:n_modes]} to a steady state")
+                    x0 = C.settle(system, values, y0, scale=scale)
+                else:
+                    x0 = start_state
+                result = C.continue_equilibria(problem, settings, x0, name=run.name,
+                                               directions=run.directions, progress=say)
+            except C.StartError as exc:
+                raise SpecError(path, f"{where}.start", str(exc)) from None
+            add(result)
+        follow = {"cycles": 0, "switch": 0}
+        if run.kind != "cycles" and run.cycles:
+            for h in results[run.name].branch.of_type("H"):
+                if h.origin != "autocable":
+                    continue
+                say(f"  cycles from {h.name}")
+                add(C.continue_cycles(results[run.name], h.label, settings, name=f"{run.name}-{h.label}",
+                                      progress=say))
+                follow["cycles"] += 1
+        if run.kind != "cycles" and run.switch:
+            for bp in results[run.name].branch.of_type("BP"):
+                if bp.origin != "autocable" or bp.label == "BP0":
+                    continue
+                say(f"  switching branches at {bp.name}")
+                add(C.switch_branch(results[run.name], bp.label, settings, name=f"{run.name}-{bp.label}",
+                                    progress=say))
+                follow["switch"] += 1
+        run_times[run.name] = {"wall_s": time.perf_counter() - t_run,
+                               **{k: v for k, v in results[run.name].timings.items()},
+                               "follow_ups": follow, "state_scale": scale}
+    stages["runs"] = run_times
+    provenance = {
+        "scene": str(scene.path), "scene_name": scene.name, "title": scene.title,
+        "scene_text": scene.text, "model": str(scene.model), "model_name": spec.name,
+        "model_hash": spec.content_hash(), "ode_hash": deriv.ode.content_hash(), "ame_key": cached.key,
+        "ame": scene.ame, "omega1": omega1, "omega2": float(ame.omegas[1]) if len(ame.omegas) > 1 else None,
+        "amplitude_convention": "a_k = sqrt(r_k^2 + s_k^2): peak modal amplitude (peak displacement / l, "
+                                "modes normalised to a unit maximum); Omega = omega1 + sigma",
+        "stability": "autocable's eigenvalues (equilibria) and Floquet multipliers (cycles), not PyCont's flags",
+        "versions": _versions(), "platform": platform.platform(), "argv": list(sys.argv),
+    }
+    res = RunResults(scene.name, tuple(branches), {**provenance, "stages": stages})
+    out = Path(out_dir)
+    t0 = time.perf_counter()
+    write_results(res, out)
+    stages["write_s"] = time.perf_counter() - t0
+    if plot and branches:
+        t0 = time.perf_counter()
+        from autocable.plotting.diagrams import plot_scene
+        compare = read_compare(scene.compare) if scene.compare else None
+        files = plot_scene(res, out / scene.name, x=scene.plot.x, y=scene.plot.y, title=scene.plot.title,
+                           labels=scene.plot.labels, compare=compare,
+                           compare_panel=scene.compare.panel if scene.compare else None,
+                           compare_label=scene.compare.label if scene.compare else "")
+        stages["plot_s"] = time.perf_counter() - t0
+        say(f"plot: {', '.join(str(f) for f in files)}")
+    stages["total_s"] = time.perf_counter() - t_all
+    res = RunResults(scene.name, tuple(branches), {**provenance, "stages": stages})
+    write_results(res, out)   # again, now with the complete timings
+    return res
+
+
+# ================================================================================================
+# command line (wired into autocable.cli by the lead)
+# ================================================================================================
+def add_run_parser(subparsers) -> None:
+    """Add ``autocable run SCENE.toml --out DIR [--quiet] [--no-plot]`` to an argparse subparsers."""
+    r = subparsers.add_parser("run", help="run a scene file (runs/*.toml): continuation, results, plot")
+    r.add_argument("scene", help="scene file (runs/*.toml)")
+    r.add_argument("--out", help="output folder (default: out/<scene name>)")
+    r.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    r.add_argument("--no-plot", action="store_true", help="write the tables only")
+    r.set_defaults(func=cmd_run)
+
+
+def cmd_run(args) -> int:
+    """Run a scene; print a summary (branches, special points, files) on stdout."""
+    scene = load_scene(args.scene)
+    out = Path(args.out) if getattr(args, "out", None) else Path("out") / scene.name
+    quiet = bool(getattr(args, "quiet", False))
+    progress = None if quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    res = run_scene(scene, out, progress=progress, plot=not getattr(args, "no_plot", False))
+    if not quiet:
+        print(f"{scene.title}")
+        for b in res.branches:
+            ends = "; ".join(f"{e.side}: {e.reason}" + (f" ({e.message})" if e.reason not in ("range",) and e.message else "")
+                             for e in b.ends)
+            print(f"  {b.name:<12} {b.kind:<11} {len(b):>5} points   {ends}")
+            for s in b.special_points:
+                conf = {True: "PyCont agrees", False: "PyCont missed it", None: ""}[s.confirmed_by_pycont] \
+                    if s.origin == "autocable" else "PyCont only, not confirmed"
+                extra = f" l1 = {s.extra['l1']:.4g}" if "l1" in s.extra else ""
+                print(f"    {s.label:<5} {s.parameter} = {s.value: .8g}  a1 = {s.a1:.6e}  a2 = {s.a2:.6e}"
+                      f"{extra}  {conf}")
+        print(f"  results in {out}/ (branches.csv, special_points.csv, run.json"
+              + (f", {scene.name}.png, {scene.name}.pdf)" if not getattr(args, "no_plot", False) else ")"))
+    return 0

@@ -1,0 +1,186 @@
+"""Scene files: runs/fig05a.toml end to end, the schema's one-line errors, and a branch that fails
+part-way keeping its points in the written results."""
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+from scipy.integrate import solve_ivp
+
+from autocable.methods.continuation import (ContinuationSettings, EquilibriumProblem, System,
+                                            continue_equilibria)
+from autocable.results import RunResults, read_results, write_results
+from autocable.scene import add_run_parser, load_scene, run_scene
+from autocable.spec import SpecError
+
+REPO = Path(__file__).resolve().parents[1]
+FIG05A = REPO / "runs" / "fig05a.toml"
+MODEL = REPO / "models" / "luongo_zulli_2012.toml"
+
+
+@pytest.fixture(scope="module")
+def fig05a(tmp_path_factory):
+    out = tmp_path_factory.mktemp("fig05a")
+    return run_scene(load_scene(FIG05A), out), out
+
+
+def test_fig05a_runs_and_writes_its_outputs(fig05a):
+    res, out = fig05a
+    for name in ("branches.csv", "special_points.csv", "run.json", "fig05a.png", "fig05a.pdf"):
+        assert (out / name).stat().st_size > 0, name
+    b = res.branch("I")
+    assert b.kind == "equilibrium" and len(b) > 50
+    assert b["sigma"][0] == pytest.approx(-0.05) and b["sigma"][-1] == pytest.approx(0.05)
+    assert [e.reason for e in b.ends] == ["range", "range"]
+    assert np.all(b["U"] == 0.0) and np.all(b["eta"] == 8.2e-5)
+    # Fig. 5a: one stable mono-modal resonance peak near sigma = 0, no bifurcation
+    assert b.stable.all() and not b.special_points
+    peak = int(np.argmax(b["a1"]))
+    assert abs(b["sigma"][peak]) < 5e-3 and 1e-4 < b["a1"][peak] < 1e-3
+    # a1 vs a2: a2 = 0 to round-off (mode 2 is only parametrically excited, and not enough)
+    assert np.max(np.abs(b["a2"])) <= 1e-15 * np.max(b["a1"])
+    prov = res.provenance
+    assert prov["model_hash"] and prov["versions"]["PyDSTool"] and prov["stages"]["runs"]["I"]["wall_s"] > 0
+    back = read_results(out)
+    rb = back.branch("I")
+    assert len(rb) == len(b) and np.array_equal(rb.stable, b.stable)
+    np.testing.assert_array_equal(rb["a1"], b["a1"])
+    np.testing.assert_allclose(rb.eigenvalues, b.eigenvalues, rtol=0, atol=0)
+
+
+def test_fig05a_stable_branch_agrees_with_direct_integration_of_the_ame(fig05a):
+    """At 12 values of sigma: integrate the AME (the numeric Cartesian table of autocable.model.ame,
+    not the continuation's sympy system) from a perturbed start to its steady state."""
+    from autocable.model.ame_cache import derive_ame
+    from autocable.model.derive import derive
+    from autocable.spec import load_model
+
+    res, _ = fig05a
+    b = res.branch("I")
+    ame = derive_ame(derive(load_model(MODEL))).ame
+    rhs = ame.cartesian_rhs()
+    picks = np.unique(np.linspace(0, len(b) - 1, 12).round().astype(int))
+    assert len(picks) >= 10
+    worst = 0.0
+    for i in picks:
+        assert b.stable[i]
+        p = ame.control(eta=8.2e-5, U=0.0, sigma=float(b["sigma"][i]))
+        y_branch = b.states[i]
+        c, s = math.cos(0.3), math.sin(0.3)
+        y0 = 1.2 * np.array([c * y_branch[0] - s * y_branch[1], s * y_branch[0] + c * y_branch[1], 1e-6, 0.0])
+        sol = solve_ivp(lambda _t, z: rhs.f(z, p), (0.0, 9000.0), y0, method="LSODA",
+                        jac=lambda _t, z: rhs.jacobian(z, p), rtol=1e-12, atol=1e-16)
+        a1 = ame.amplitudes(sol.y[:, -1])[0]
+        rel = abs(a1 - b["a1"][i]) / b["a1"][i]
+        worst = max(worst, rel)
+        assert rel < 1e-6, (b["sigma"][i], a1, b["a1"][i])
+    print(f"fig05a vs direct AME integration: worst relative a1 error {worst:.2e} over {len(picks)} sigmas")
+
+
+# --------------------------------------------------------------------------------------------
+# errors: one line naming the file and the field
+
+def _scene(tmp_path: Path, body: str) -> Path:
+    path = tmp_path / "bad.toml"
+    path.write_text(f'model = "{MODEL}"\n' + body)
+    return path
+
+
+@pytest.mark.parametrize("body, field, words", [
+    ('[[run]]\nname = "I"\nparameter = "sigma"\nrange = [-0.05, 0.05]\nstrat = "trivial"\n',
+     "run[0].strat", "unknown key"),
+    ('colour = "red"\n[[run]]\nparameter = "sigma"\nrange = [-0.05, 0.05]\n', "colour", "unknown key"),
+    ('[[run]]\nparameter = "sigma"\nrange = [-0.05, 0.05]\nat = 0.2\n', "run[0].at", "outside the range"),
+    ('[[run]]\nparameter = "rho"\nrange = [-0.05, 0.05]\n', "run[0].parameter", "expected one of"),
+    ('[[run]]\nparameter = "sigma"\nrange = [0.05, -0.05]\n', "run[0].range", "lo < hi"),
+    ('[fixed]\neta = -1e-3\n[[run]]\nparameter = "sigma"\nrange = [-0.05, 0.05]\n', "fixed.eta", ">= 0"),
+    ('[[run]]\nparameter = "sigma"\nrange = [-0.05, 0.05]\nstart = "II:H1"\n', "run[0].start", "earlier run"),
+    ('[[run]]\nparameter = "sigma"\nrange = [-0.05, 0.05]\n[run.steps]\nstep = 1.0\nmax_step = 0.1\n',
+     "run[0].steps", "step"),
+])
+def test_scene_schema_errors_are_one_line(tmp_path, body, field, words):
+    with pytest.raises(SpecError) as err:
+        load_scene(_scene(tmp_path, body))
+    text = str(err.value)
+    assert "\n" not in text and text.startswith(str(tmp_path / "bad.toml"))
+    assert err.value.field == field and words in text
+
+
+def test_scene_errors_at_run_time_are_one_line(tmp_path):
+    # a start that does not converge: Newton from amplitudes of ten cable lengths
+    far = _scene(tmp_path, '[fixed]\neta = 8.2e-5\n[[run]]\nparameter = "sigma"\nrange = [-0.05, 0.05]\n'
+                           'at = 0.0\nstart = {state = [10.0, 10.0, 10.0, 10.0]}\n')
+    with pytest.raises(SpecError) as err:
+        run_scene(load_scene(far), tmp_path / "out", plot=False)
+    assert err.value.field == "run[0].start" and "\n" not in str(err.value)
+    assert "did not converge" in str(err.value)
+    # continuing U from 0: the aerodynamic terms carry 1/U
+    windless = _scene(tmp_path, '[fixed]\neta = 1e-4\nsigma = 0.01\n[[run]]\nparameter = "U"\nrange = [0.0, 1.5]\n')
+    with pytest.raises(SpecError) as err:
+        run_scene(load_scene(windless), tmp_path / "out2", plot=False)
+    assert err.value.field == "run[0].range" and "1/U" in str(err.value)
+    # a labelled start that does not exist
+    nolabel = _scene(tmp_path, '[fixed]\neta = 8.2e-5\n[[run]]\nname = "I"\nparameter = "sigma"\n'
+                               'range = [-0.05, -0.04]\n[[run]]\nname = "J"\nkind = "cycles"\nparameter = "sigma"\n'
+                               'range = [-0.05, 0.05]\nstart = "I:H1"\n')
+    with pytest.raises(SpecError) as err:
+        run_scene(load_scene(nolabel), tmp_path / "out3", plot=False)
+    assert err.value.field == "run[1].start" and "H1" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_run_command_with_an_integrated_start_and_a_comparison(tmp_path, capsys, fig05a):
+    """`autocable run` (as the lead wires it): start by integrating the AME from a small amplitude,
+    overlay digitised points; --quiet leaves stderr empty; the start agrees with Fig. 5a's branch."""
+    (tmp_path / "digitised.csv").write_text("x,y,curve,stable\n-0.05,2.5e-5,I,1\n-0.045,2.8e-5,I,1\n")
+    scene = _scene(tmp_path, '[fixed]\neta = 8.2e-5\n[[run]]\nname = "I"\nparameter = "sigma"\n'
+                             'range = [-0.05, -0.045]\nstart = {integrate = [1e-5, 0.0]}\n'
+                             'directions = "forward"\n[compare]\ncsv = "digitised.csv"\n')
+    parser = argparse.ArgumentParser()
+    add_run_parser(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(["run", str(scene), "--out", str(tmp_path / "o"), "--quiet"])
+    assert args.func(args) == 0
+    assert capsys.readouterr().err == ""
+    for name in ("branches.csv", "special_points.csv", "run.json", "bad.png", "bad.pdf"):
+        assert (tmp_path / "o" / name).exists(), name
+    b = read_results(tmp_path / "o").branch("I")
+    ref = fig05a[0].branch("I")
+    assert b["sigma"][0] == pytest.approx(-0.05) and b["a1"][0] == pytest.approx(ref["a1"][0], rel=1e-10)
+
+
+def test_the_one_dof_reduction_has_the_two_dof_branch_when_a2_vanishes(fig05a):
+    """Sect. 5: A2 = 0 is invariant at U = 0, so each point of Fig. 5a's branch restricted to
+    (r1, s1) is an equilibrium of the 1-dof AME."""
+    from autocable.methods.continuation import ame_system, equilibrium_near
+    from autocable.model.ame_cache import derive_ame
+    from autocable.model.derive import derive
+    from autocable.spec import load_model
+
+    b = fig05a[0].branch("I")
+    one = ame_system(derive_ame(derive(load_model(MODEL))).ame, "1dof", wind=False)
+    for i in range(0, len(b), max(1, len(b) // 10)):
+        p = one.parameter_vector({"sigma": b["sigma"][i], "U": 0.0, "eta": 8.2e-5})
+        x, ok, _ = equilibrium_near(one, b.states[i][:2], p, scale=1e-4)
+        assert ok and np.hypot(*x) == pytest.approx(b["a1"][i], rel=1e-10)
+
+
+# --------------------------------------------------------------------------------------------
+def test_a_branch_that_fails_part_way_keeps_its_points_in_the_outputs(tmp_path):
+    """x = sqrt(1 - p) ends at p = 1 (the equations stop existing): the branch is cut there and
+    what was computed before is written."""
+    x, y, p = sp.symbols("x y p")
+    system = System("sqrt_end", ("x", "y"), (sp.sqrt(1 - p) - x, -y), {"p": 0.0}, (("a1", ("x",)),))
+    problem = EquilibriumProblem(system, "p", {"p": 0.0}, (0.0, 2.0))
+    r = continue_equilibria(problem, ContinuationSettings(), name="cut", directions="forward")
+    b = r.branch
+    end = b.ends[-1]
+    assert end.reason in ("no_convergence", "step_collapse") and end.message
+    assert len(b) > 20 and 0.9 < b["p"].max() <= 1.0
+    np.testing.assert_allclose(b["x"], np.sqrt(1 - b["p"]), atol=1e-12)
+    write_results(RunResults("cut", (b,), {"note": "test"}), tmp_path)
+    back = read_results(tmp_path).branch("cut")
+    assert len(back) == len(b) and back.ends[-1].reason == end.reason
+    np.testing.assert_array_equal(back["p"], b["p"])
