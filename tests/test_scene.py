@@ -184,3 +184,47 @@ def test_a_branch_that_fails_part_way_keeps_its_points_in_the_outputs(tmp_path):
     back = read_results(tmp_path).branch("cut")
     assert len(back) == len(b) and back.ends[-1].reason == end.reason
     np.testing.assert_array_equal(back["p"], b["p"])
+
+
+def test_galloping_branch_at_eta_zero_against_the_closed_form():
+    """Fig. 3 (eta = 0): EP-C of the 1-dof polar amplitude equation (23) in U gives the galloping
+    branch a1 = 2 sqrt(-(2 xi_s omega1 + zeta11 U) U) / sqrt(3 zeta8 Omega^2) (ERRATA item 5's form,
+    Omega = omega1) to 1e-9, stable (supercritical for the sample model, zeta8 > 0). The polar form
+    is used because at eta = 0 the Cartesian AME has a rotational symmetry: galloping is a circle in
+    (r1, s1), an equilibrium only of the amplitude equation."""
+    import math
+
+    import numpy as np
+    import sympy as sp
+
+    from autocable.methods.continuation import (ContinuationSettings, EquilibriumProblem, System,
+                                                continue_equilibria)
+    from autocable.model.ame_cache import derive_ame
+    from autocable.model.derive import derive
+    from autocable.spec import load_model
+
+    d = derive(load_model(MODEL))
+    ame1 = derive_ame(d).ame.one_dof()
+    syms = ame1.symbols()
+    w = d.ode.omega1
+    p1 = ame1.polar_expressions()[0].subs({syms["eta"]: 0, syms["Omega"]: w, syms["sigma_1"]: 0})
+    a, U = sp.Symbol("a1"), sp.Symbol("U")
+    p1 = sp.expand(p1.subs({syms["a_1"]: a, syms["U"]: U}))
+    assert syms["Phi_1"] not in p1.free_symbols            # eta = 0: the a1 equation decouples
+    c = d.ode.coefficients()
+    xi, z11, z8 = d.ode.xi_s, c["zeta11"], c["zeta8"]
+    assert z8 > 0
+
+    def closed(u):
+        return 2 * math.sqrt(-(2 * xi * w + z11 * u) * u) / math.sqrt(3 * z8 * w**2)
+
+    system = System(name="galloping_1dof_polar", variables=("a1",), rhs=(p1,),
+                    parameters=(("U", 1.2),), amplitudes=(("a1", ("a1",)),))
+    problem = EquilibriumProblem(system, "U", {"U": 1.2}, (1.01, 1.3), state_scale=0.01)
+    res = continue_equilibria(problem, ContinuationSettings(), start=[closed(1.2)], name="galloping")
+    branch = res.branch
+    Us, a1 = np.asarray(branch.table["U"]), np.asarray(branch.table["a1"])
+    assert len(Us) > 10 and Us.min() < 1.02 and Us.max() > 1.29
+    expected = np.array([closed(u) for u in Us])
+    assert np.max(np.abs(a1 - expected) / expected) < 1e-9
+    assert bool(np.all(branch.stable))
