@@ -21,6 +21,7 @@ these helpers are not thread-safe; PyDSTool itself is not either.
 from __future__ import annotations
 
 import contextlib
+import logging
 import ctypes
 import os
 import sys
@@ -381,9 +382,14 @@ def _distutils_log_restored() -> Iterator[None]:
     """
     log = sys.modules.get("numpy.distutils.log")
     before = log.get_threshold() if log is not None else None
+    # A distutils build can also leave Python's root logger at DEBUG (then every library logs its
+    # chatter, e.g. matplotlib's font search): put it back too.
+    root = logging.getLogger()
+    root_level = root.level
     try:
         yield
     finally:
+        root.setLevel(root_level)
         log = sys.modules.get("numpy.distutils.log")
         if log is not None:
             log.set_threshold(before if before is not None else log.WARN, force=True)

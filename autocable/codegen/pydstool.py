@@ -20,6 +20,7 @@ and a PyCont ``ContClass`` ready for continuation. What it guarantees:
 from __future__ import annotations
 
 import contextlib
+import functools
 import importlib
 import importlib.machinery
 import keyword
@@ -395,25 +396,36 @@ def model_name(vf: VectorField, jacobian: bool = True) -> str:
     return f"{vf.name}_{cache.content_hash(_spec_payload(vf, jacobian))}"
 
 
+@functools.lru_cache(maxsize=64)
+def _spec_strings(vf: VectorField, jacobian: bool):
+    """(name, varspecs, fnspecs) of ``vf``: printing and the symbolic Jacobian cost up to seconds
+    for the amplitude equations, and continuation asks for the same model many times. A pure
+    function of the frozen `VectorField`, so memoising it changes no result."""
+    fnspecs: dict[str, Any] = {a.name: (tuple(a.args), pydstool_str(a.expr)) for a in vf.auxiliary}
+    if jacobian:
+        args, text = jacobian_spec(vf)
+        fnspecs["Jacobian"] = (tuple(args), text)
+    varspecs = {v: pydstool_str(e) for v, e in zip(vf.variables, vf.rhs)}
+    return model_name(vf, jacobian), MappingProxyType(varspecs), MappingProxyType(fnspecs)
+
+
 def pydstool_args(vf: VectorField, *, tdata: Sequence[float] = (0.0, 1.0),
                   ics: Mapping[str, float] | Sequence[float] | None = None,
                   pars: Mapping[str, float] | None = None,
                   algparams: Mapping[str, Any] | None = None,
                   jacobian: bool = True) -> dict[str, Any]:
     """The keyword dictionary PyDSTool's generator classes take (``PyDSTool.args`` contents)."""
-    fnspecs: dict[str, Any] = {a.name: (list(a.args), pydstool_str(a.expr)) for a in vf.auxiliary}
-    if jacobian:
-        fnspecs["Jacobian"] = jacobian_spec(vf)
+    name, varspecs, fnspecs = _spec_strings(vf, bool(jacobian))
     values = vf.parameter_defaults
     values.update({str(k): float(v) for k, v in (pars or {}).items()})
     unknown = set(values) - set(vf.parameter_defaults)
     if unknown:
         raise ValueError(f"model {vf.name!r} has no parameters {sorted(unknown)}")
     out = {
-        "name": model_name(vf, jacobian),
-        "varspecs": {v: pydstool_str(e) for v, e in zip(vf.variables, vf.rhs)},
+        "name": name,
+        "varspecs": dict(varspecs),
         "pars": values,
-        "fnspecs": fnspecs,
+        "fnspecs": {k: (list(v[0]), v[1]) for k, v in fnspecs.items()},
         "tdata": [float(tdata[0]), float(tdata[1])],
         "ics": _state_dict(vf, ics) if ics is not None else {v: 0.0 for v in vf.variables},
         "checklevel": 0,
