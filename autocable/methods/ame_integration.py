@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from autocable.methods.integration import DEFAULT_Q0
+from autocable.methods.integration import DEFAULT_Q0, refined_peak
 from autocable.model.ame import AmplitudeEquations
 
 METHODS = ("LSODA", "Radau", "BDF", "DOP853")
@@ -88,18 +88,6 @@ def initial_amplitudes(q0, Omega: float) -> np.ndarray:
     q_k = r_k cos(Omega t) - s_k sin(Omega t): r_k = q_k(0), s_k = -q_k'(0) / Omega."""
     q1, q1d, q2, q2d = (float(x) for x in q0)
     return np.array([q1, -q1d / Omega, q2, -q2d / Omega])
-
-
-def _peak(samples: np.ndarray, sign: int) -> float:
-    """Extreme of a sampled smooth signal, refined by a parabola through the best sample."""
-    y = sign * samples
-    i = int(np.argmax(y))
-    if 0 < i < len(y) - 1:
-        a, b, c = y[i - 1], y[i], y[i + 1]
-        den = a - 2 * b + c
-        if den < 0:
-            return sign * (b - 0.125 * (a - c) ** 2 / den)
-    return sign * y[i]
 
 
 class AmeIntegrator:
@@ -235,7 +223,7 @@ class AmeIntegrator:
                 amps = self.ame.amplitudes(yy)
                 last = tt > tt[-1] - window
                 prev = (tt > tt[-1] - 2 * window) & ~last
-                env = np.array([[_peak(amps[m, k], sign) for k in (0, 1) for sign in (-1, 1)]
+                env = np.array([[refined_peak(amps[m, k], sign) for k in (0, 1) for sign in (-1, 1)]
                                 for m in (prev, last)])
                 scale = max(np.max(np.abs(env)), abs_tol)
                 # A flat envelope is a slow approach to an equilibrium, left to the Newton test.
@@ -274,7 +262,7 @@ class AmeIntegrator:
             else:
                 r, s = (np.full_like(fine, yy[-1, j]) for j in (2 * k, 2 * k + 1))
             q = r * np.cos(Omega * fine) - s * np.sin(Omega * fine)
-            amps.append(0.5 * (_peak(q, 1) - _peak(q, -1)))
+            amps.append(0.5 * (refined_peak(q, 1) - refined_peak(q, -1)))
         a = self.ame.amplitudes(yy[tt >= tt[-1] - window])
         env = (float(a[:, 0].min()), float(a[:, 0].max()), float(a[:, 1].min()), float(a[:, 1].max()))
         return tuple(amps), env

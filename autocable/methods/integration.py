@@ -54,7 +54,7 @@ class Response:
     history: tuple = field(default=(), repr=False)   # (t, q1, q2, q1', q2') arrays if asked for
 
 
-def _peak(samples: np.ndarray, sign: int) -> float:
+def refined_peak(samples: np.ndarray, sign: int) -> float:
     """Extreme of a sampled smooth signal, refined by a parabola through the best sample."""
     y = sign * samples
     i = int(np.argmax(y))
@@ -67,7 +67,7 @@ def _peak(samples: np.ndarray, sign: int) -> float:
 
 
 def _half_range(x: np.ndarray) -> float:
-    return 0.5 * (_peak(x, 1) - _peak(x, -1))
+    return 0.5 * (refined_peak(x, 1) - refined_peak(x, -1))
 
 
 class Ode21Integrator:
