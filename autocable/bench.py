@@ -89,6 +89,9 @@ def run_bench(what: str, model_path: str, repeats: int = 3, log=None, out=None) 
         return bench_derive(model_path, repeats, log)
     if what == "ame-vs-ode":
         return bench_ame_vs_ode(model_path, repeats, log, out=out)
+    if what == "auto":
+        from autocable.bench_auto import bench_auto
+        return bench_auto(model_path, repeats=repeats, log=log)
     if what == "continuation":
         from autocable.methods.continuation import bench_continuation
         return bench_continuation(model_path, repeats=repeats, cold=True, progress=log)

@@ -313,10 +313,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=cmd_simulate)
 
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
-    b.add_argument("what", choices=["derive", "ame-vs-ode", "continuation"],
+    b.add_argument("what", choices=["derive", "ame-vs-ode", "continuation", "auto"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
-                        "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm")
+                        "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
+                        "auto: EP-C cost per point against AUTO-07p (bifpy; set AUTOCABLE_AUTO_PYTHON "
+                        "or install autocable[auto])")
     b.add_argument("--model", default=str(Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"))
     b.add_argument("--repeats", type=int, default=3)
     b.add_argument("--out", help="folder to write bench_<what>.json")
