@@ -6,17 +6,24 @@ eq. 21). It carries its columns (every parameter of the system, the peak modal a
 the Cartesian state r1, s1, r2, s2, and for cycles the period and the min/max of a1, a2 over the
 cycle), an explicit `stable` column, the eigenvalues (equilibria) or Floquet multipliers (cycles)
 at every point, its labelled `SpecialPoint`s and how each end of it came about (`EndPoint`).
+A two-parameter curve (``kind = "fold"`` or ``"hopf"``: the locus of folds or Hopf points of the
+equilibria, `autocable.methods.continuation.continue_folds` / ``continue_hopf``) is a `Branch` too:
+its ``parameter`` and ``parameter2`` both vary along it, ``stable`` says whether every eigenvalue
+except the critical one(s) has a negative real part (the bifurcation happens on an otherwise stable
+equilibrium), and its special points are codimension-2 points (CP, BT, GH, ZH, DH).
 `RunResults` bundles the branches of one run with the provenance (model hash, scene, versions, wall
 time per stage).
 
 Files in an output folder (written atomically, read back by `read_results`):
 
-* ``branches.csv``: one row per point: ``branch, kind, parameter, point``, every system parameter
-  by its name (``sigma, U, eta`` for the cable), ``a1, a2, stable, period, a1_min, a1_max, a2_min,
-  a2_max``, the state, ``max_real`` (equilibria: the largest real part of an eigenvalue; cycles: the
+* ``branches.csv``: one row per point: ``branch, kind, parameter, parameter2, point``, every system
+  parameter by its name (``sigma, U, eta`` for the cable), ``a1, a2, stable, period, a1_min, a1_max,
+  a2_min, a2_max``, ``det_J, omega, check_residual`` (two-parameter curves: det J of the Jacobian,
+  the Hopf frequency, and the independent check's residual), the state, ``max_real`` (equilibria: the largest real part of an eigenvalue; cycles: the
   largest modulus of a non-trivial multiplier) and ``ev<k>_re, ev<k>_im``.
 * ``special_points.csv``: ``branch, type, label, parameter``, every system parameter, ``a1, a2``,
-  the state, ``converged, confirmed_by_pycont, origin, l1, omega, period, message``.
+  the state, ``converged, confirmed_by_pycont, origin, l1, omega, period, message``. ``parameter``
+  is the branch's first parameter; on a two-parameter curve ``parameters`` holds both values.
 * ``run.json``: provenance, per-branch metadata (ends, diagnostics) and every special point with
   its ``extra`` data.
 
@@ -38,6 +45,7 @@ from autocable.codegen.cache import atomic_write_json, atomic_write_text, read_j
 
 __all__ = [
     "KINDS",
+    "CURVE_KINDS",
     "SPECIAL_TYPES",
     "END_REASONS",
     "SpecialPoint",
@@ -53,10 +61,14 @@ __all__ = [
 ]
 
 #: Branch kinds.
-KINDS = ("equilibrium", "cycle")
+KINDS = ("equilibrium", "cycle", "fold", "hopf")
+#: Two-parameter curves (both ``parameter`` and ``parameter2`` vary along them).
+CURVE_KINDS = ("fold", "hopf")
 #: Special-point types: fold (LP), Hopf (H), branch point (BP) of equilibria; fold (LPC), period
-#: doubling (PD) and Neimark-Sacker (NS) of cycles; the range end (B) and the start point (S).
-SPECIAL_TYPES = ("LP", "H", "BP", "LPC", "PD", "NS", "B", "S")
+#: doubling (PD) and Neimark-Sacker (NS) of cycles; the range end (B) and the start point (S); on
+#: two-parameter curves: cusp (CP), Bogdanov-Takens (BT), generalized Hopf (GH), zero-Hopf (ZH),
+#: double Hopf (DH).
+SPECIAL_TYPES = ("LP", "H", "BP", "LPC", "PD", "NS", "B", "S", "CP", "BT", "GH", "ZH", "DH")
 #: Why a branch ended, with what to try when the end was not wanted.
 END_REASONS = MappingProxyType({
     "range": "the continued parameter reached the end of the range",
@@ -68,6 +80,8 @@ END_REASONS = MappingProxyType({
     "no_convergence": "the corrector did not converge: lower the step sizes or tighten the start",
     "period_blowup": "the period grew without bound: the cycles approach a homoclinic orbit",
     "error": "the continuation engine failed (see the message)",
+    "neutral_saddle": "the Hopf curve reached a Bogdanov-Takens point: beyond it the critical pair is "
+                      "real (lambda, -lambda), a neutral saddle, not a Hopf point",
     "not_run": "this direction was not run",
 })
 
@@ -76,6 +90,7 @@ SPECIAL_CSV = "special_points.csv"
 RUN_JSON = "run.json"
 
 _CYCLE_COLUMNS = ("period", "a1_min", "a1_max", "a2_min", "a2_max")
+_CURVE_COLUMNS = ("det_J", "omega", "check_residual")
 
 
 def _frozen_array(values, dtype=float) -> np.ndarray:
@@ -196,8 +211,10 @@ class Branch:
     """One continued branch (see the module docstring for its columns).
 
     ``table`` maps column names to read-only float arrays of equal length: every name in
-    ``parameter_names``, the ``amplitude_names`` (a1, a2), the ``variables`` (r1, s1, ...), and for
-    cycles ``period, a1_min, a1_max, a2_min, a2_max`` (a1, a2 of a cycle are its maxima).
+    ``parameter_names``, the ``amplitude_names`` (a1, a2), the ``variables`` (r1, s1, ...), for
+    cycles ``period, a1_min, a1_max, a2_min, a2_max`` (a1, a2 of a cycle are its maxima), and for
+    two-parameter curves (``kind`` "fold" or "hopf", second parameter ``parameter2``) ``det_J,
+    omega, check_residual``.
     ``eigenvalues[i]`` are those of point i (equilibria: of the Jacobian, by decreasing real part;
     cycles: the Floquet multipliers, by decreasing modulus). ``stable`` is autocable's verdict from
     them, never PyCont's flag.
@@ -215,16 +232,21 @@ class Branch:
     special_points: tuple[SpecialPoint, ...] = ()
     ends: tuple[EndPoint, ...] = ()
     info: Mapping[str, Any] = field(default_factory=dict)
+    parameter2: str = ""                 # the second parameter of a two-parameter curve
 
     def __post_init__(self):
         if self.kind not in KINDS:
             raise ValueError(f"branch kind must be one of {KINDS}, got {self.kind!r}")
+        if (self.kind in CURVE_KINDS) != bool(self.parameter2):
+            raise ValueError(f"branch {self.name!r}: a {self.kind} branch "
+                             + ("needs a second parameter" if self.kind in CURVE_KINDS else "has no second parameter"))
         table = {str(k): _frozen_array(v) for k, v in self.table.items()}
         lengths = {len(v) for v in table.values()}
         if len(lengths) > 1:
             raise ValueError(f"branch {self.name!r}: columns of unequal length {sorted(lengths)}")
         n = lengths.pop() if lengths else 0
-        for col in (self.parameter, *self.amplitude_names, *self.variables):
+        for col in (self.parameter, *((self.parameter2,) if self.parameter2 else ()),
+                    *self.amplitude_names, *self.variables):
             if col not in table:
                 raise ValueError(f"branch {self.name!r}: missing column {col!r}")
         stable = _frozen_array(self.stable, dtype=bool)
@@ -281,6 +303,7 @@ class Branch:
 
     def metadata(self) -> dict:
         return {"name": self.name, "kind": self.kind, "parameter": self.parameter,
+                **({"parameter2": self.parameter2} if self.parameter2 else {}),
                 "parameter_names": list(self.parameter_names), "variables": list(self.variables),
                 "amplitude_names": list(self.amplitude_names), "points": len(self),
                 "ends": [e.to_dict() for e in self.ends], "info": _finite_or_none(dict(self.info)),
@@ -323,7 +346,7 @@ def stability_measure(kind: str, eigenvalues) -> float:
     ev = ev[np.isfinite(ev)]
     if ev.size == 0:
         return math.nan
-    if kind == "equilibrium":
+    if kind in ("equilibrium",) + CURVE_KINDS:
         return float(np.max(ev.real))
     rest = np.delete(ev, int(np.argmin(np.abs(ev - 1.0))))
     return float(np.max(np.abs(rest))) if rest.size else math.nan
@@ -358,8 +381,8 @@ def branches_csv(branches: Sequence[Branch]) -> str:
     amps = _union([("a1", "a2")] + [b.amplitude_names for b in branches])
     states = _union(b.variables for b in branches)
     nev = max((b.eigenvalues.shape[1] for b in branches), default=0)
-    header = (["branch", "kind", "parameter", "point"] + params + amps + ["stable", *_CYCLE_COLUMNS]
-              + states + ["max_real"] + [f"ev{k}_{part}" for k in range(1, nev + 1) for part in ("re", "im")])
+    header = (["branch", "kind", "parameter", "parameter2", "point"] + params + amps
+              + ["stable", *_CYCLE_COLUMNS, *_CURVE_COLUMNS] + states + ["max_real"] + [f"ev{k}_{part}" for k in range(1, nev + 1) for part in ("re", "im")])
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(header)
@@ -367,11 +390,11 @@ def branches_csv(branches: Sequence[Branch]) -> str:
         for i in range(len(b)):
             ev = b.eigenvalues[i]
             max_real = stability_measure(b.kind, ev)
-            row = [b.name, b.kind, b.parameter, i]
+            row = [b.name, b.kind, b.parameter, b.parameter2, i]
             row += [b.table[p][i] if p in b.table else None for p in params]
             row += [b.table[a][i] if a in b.table else None for a in amps]
             row += [bool(b.stable[i])]
-            row += [b.table[c][i] if c in b.table else None for c in _CYCLE_COLUMNS]
+            row += [b.table[c][i] if c in b.table else None for c in _CYCLE_COLUMNS + _CURVE_COLUMNS]
             row += [b.table[s][i] if s in b.table else None for s in states]
             row += [max_real]
             for k in range(nev):
@@ -444,6 +467,8 @@ def read_results(out_dir: str | Path) -> RunResults:
         cols = list(bm["parameter_names"]) + list(bm["amplitude_names"]) + list(bm["variables"])
         if bm["kind"] == "cycle":
             cols += list(_CYCLE_COLUMNS)
+        if bm["kind"] in CURVE_KINDS:
+            cols += list(_CURVE_COLUMNS)
         table = {c: [_num(r.get(c, "")) for r in mine] for c in cols}
         stable = [r["stable"] == "1" for r in mine]
         nev = 0
@@ -459,5 +484,6 @@ def read_results(out_dir: str | Path) -> RunResults:
             amplitude_names=tuple(bm["amplitude_names"]), table=table, stable=stable,
             eigenvalues=np.array(ev, dtype=complex).reshape(len(mine), nev),
             special_points=tuple(sp for sp in specials if sp.branch == bm["name"]),
-            ends=tuple(EndPoint.from_dict(e) for e in bm.get("ends", [])), info=info))
+            ends=tuple(EndPoint.from_dict(e) for e in bm.get("ends", [])), info=info,
+            parameter2=bm.get("parameter2", "")))
     return RunResults(meta.get("name", folder.name), tuple(branches), meta.get("provenance", {}))

@@ -4,7 +4,9 @@ A scene says which cable model (a path relative to the scene file), which amplit
 (``ame = "2dof"``, eq. 24, or ``"1dof"``, the A2 = 0 reduction of Sect. 5), which parameters are fixed,
 and a list of runs, each continuing one of the paper's control parameters (``sigma``, ``U``, ``eta``)
 over a range from a start point; later runs may start from labelled points of earlier ones, like
-AUTO-07p's ``.auto`` scripts (``start = "I:LP1"``). Follow-ups: ``cycles = true`` continues the
+AUTO-07p's ``.auto`` scripts (``start = "I:LP1"``); ``kind = "curve"`` continues a fold (LP) or Hopf
+point (H) of an earlier run in two parameters (``parameter`` over ``range`` and ``parameter2`` over
+``range2``): the curve of folds or of Hopf points. Follow-ups: ``cycles = true`` continues the
 periodic orbits born at every Hopf point of a run, ``switch = true`` the branches through every
 branch point. The schema is closed: an unknown key, a bad value, a parameter outside its range or a
 start that does not converge raise `autocable.spec.SpecError` with one line naming the file and field.
@@ -17,11 +19,14 @@ start that does not converge raise `autocable.spec.SpecError` with one line nami
     [[run]]
     name = "I"                        # branch name; letters, digits, '_' and '-'
     kind = "equilibria"               # "equilibria" | "cycles" (from start = "RUN:Hk") | "switch" (from "RUN:BPk")
+                                      # | "curve" (from "RUN:LPk" or "RUN:Hk": a two-parameter curve)
     parameter = "sigma"               # the continued parameter: "sigma" | "U" | "eta"
     range = [-0.05, 0.05]
     start = "trivial"                 # "trivial" | { integrate = [a1, a2] } | { state = [r1, s1, r2, s2] } | "RUN:LABEL"
     at = -0.05                        # the parameter's start value (default: range[0], or the label's)
-    directions = "both"               # "both" | "forward" | "backward"
+    directions = "both"               # "both" | "forward" | "backward" (curves: forward = increasing parameter2)
+    parameter2 = "eta"                # curves only: the second parameter, and its range
+    range2 = [0.0, 3e-3]
     cycles = false                    # follow-up: cycles from every Hopf point
     switch = false                    # follow-up: branch switching at every branch point
     [run.fixed]                       # per-run overrides of [fixed]
@@ -29,6 +34,8 @@ start that does not converge raise `autocable.spec.SpecError` with one line nami
     [plot]
     x = "sigma"                       # default: the first run's parameter
     y = ["a1"]                        # one panel per amplitude: "a1", "a2"
+    plane = ["sigma", "eta"]          # the (p, p2) plane of the curves, <scene>_plane.png (default:
+                                      # the first curve run's parameters; only with curve runs)
     title = "..."                     # default: the scene title
     labels = true                     # write special-point labels (H1, LP1, BP1) on the plot
     [compare]                         # optional digitised points to overlay
@@ -36,7 +43,8 @@ start that does not converge raise `autocable.spec.SpecError` with one line nami
     panel = "a1"
 
 `run_scene(load_scene(path), out_dir)` runs it and writes ``branches.csv``, ``special_points.csv``,
-``run.json`` (`autocable.results`) and ``<scene>.png``/``.pdf`` (`autocable.plotting.diagrams`).
+``run.json`` (`autocable.results`) and ``<scene>.png``/``.pdf`` (`autocable.plotting.diagrams`), with
+curve runs also ``<scene>_plane.png``/``.pdf``.
 """
 from __future__ import annotations
 
@@ -70,13 +78,14 @@ _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_\-]*$")
 _LABEL = re.compile(r"^([A-Za-z0-9_\-]+):([A-Z]+[0-9]+)$")
 _TOP_KEYS = ("title", "description", "model", "ame", "state_scale", "fixed", "run", "plot", "compare")
 _RUN_KEYS = ("name", "kind", "parameter", "range", "start", "at", "directions", "cycles", "switch",
-             "fixed", "steps")
+             "fixed", "steps", "parameter2", "range2")
 _STEP_KEYS = ("step", "min_step", "max_step", "max_points", "chunk", "max_corrector_iters", "tol",
               "test_tol", "newton_tol", "ntst", "ncol", "cycle_step", "cycle_max_step", "cycle_max_points",
-              "max_period_ratio", "switch_step")
-_PLOT_KEYS = ("x", "y", "title", "labels")
+              "max_period_ratio", "switch_step", "curve_step", "curve_max_step", "curve_max_points",
+              "curve_check_tol")
+_PLOT_KEYS = ("x", "y", "title", "labels", "plane")
 _COMPARE_KEYS = ("csv", "panel", "label")
-_KINDS = ("equilibria", "cycles", "switch")
+_KINDS = ("equilibria", "cycles", "switch", "curve")
 
 Progress = Callable[[str], None]
 
@@ -108,6 +117,8 @@ class RunSpec:
     fixed: Mapping[str, float]
     steps: Mapping[str, float]
     index: int
+    parameter2: str = ""                        # curves: the second parameter and its range
+    range2: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -116,6 +127,7 @@ class PlotSpec:
     y: tuple[str, ...]
     title: str
     labels: bool = True
+    plane: tuple[str, str] | None = None        # (x, y) of the parameter-plane figure of the curves
 
 
 @dataclass(frozen=True)
@@ -201,7 +213,7 @@ def _start(value, path, where) -> StartSpec:
 def _steps(table, path, where) -> dict[str, float]:
     from autocable.methods.continuation import ContinuationSettings
     _check_keys(table, _STEP_KEYS, path, where)
-    ints = {"max_points", "chunk", "max_corrector_iters", "ntst", "ncol", "cycle_max_points"}
+    ints = {"max_points", "chunk", "max_corrector_iters", "ntst", "ncol", "cycle_max_points", "curve_max_points"}
     out: dict[str, Any] = {}
     for k, v in table.items():
         x = _num(v, path, f"{where}.{k}", "a positive number")
@@ -280,6 +292,35 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
             raise SpecError(path, f"{where}.start", 'a "cycles" run starts from a Hopf point, e.g. "I:H1"')
         if kind == "switch" and not (start.kind == "label" and ":BP" in start.label):
             raise SpecError(path, f"{where}.start", 'a "switch" run starts from a branch point, e.g. "I:BP1"')
+        parameter2, range2 = "", None
+        if kind == "curve":
+            if not (start.kind == "label" and re.search(r":(LP|H)[0-9]+$", start.label)):
+                raise SpecError(path, f"{where}.start", 'a "curve" run starts from a fold or a Hopf point, '
+                                                        'e.g. "I:LP1" or "I:H1"')
+            for key in ("at", "cycles", "switch"):
+                if key in r:
+                    raise SpecError(path, f"{where}.{key}", f'not allowed in a "curve" run (it starts at its '
+                                                            f'labelled point and has no follow-ups)')
+            if "parameter2" not in r:
+                raise SpecError(path, f"{where}.parameter2", f"missing; the second parameter of the curve, "
+                                                             f"one of {', '.join(PARAMETERS)}")
+            parameter2 = r["parameter2"]
+            if parameter2 not in PARAMETERS or parameter2 == parameter:
+                raise SpecError(path, f"{where}.parameter2", f"expected one of {', '.join(PARAMETERS)} other "
+                                                             f"than parameter ({parameter}), got {parameter2!r}")
+            rng2 = r.get("range2")
+            if not (isinstance(rng2, list) and len(rng2) == 2):
+                raise SpecError(path, f"{where}.range2", f"expected [lo, hi], got {rng2!r}")
+            lo2, hi2 = (_num(v, path, f"{where}.range2") for v in rng2)
+            if not lo2 < hi2:
+                raise SpecError(path, f"{where}.range2", f"expected lo < hi, got [{lo2}, {hi2}]")
+            if parameter2 in ("eta", "U") and lo2 < 0:
+                raise SpecError(path, f"{where}.range2", f"{parameter2} must stay >= 0, got [{lo2}, {hi2}]")
+            range2 = (lo2, hi2)
+        else:
+            for key in ("parameter2", "range2"):
+                if key in r:
+                    raise SpecError(path, f"{where}.{key}", 'only a "curve" run has a second parameter')
         at = r.get("at")
         if at is not None:
             at = _num(at, path, f"{where}.at")
@@ -293,7 +334,8 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
             directions=directions, cycles=_bool(r.get("cycles", False), path, f"{where}.cycles"),
             switch=_bool(r.get("switch", False), path, f"{where}.switch"),
             fixed=_params(r.get("fixed", {}), path, f"{where}.fixed"),
-            steps=_steps(r.get("steps", {}), path, f"{where}.steps"), index=i))
+            steps=_steps(r.get("steps", {}), path, f"{where}.steps"), index=i,
+            parameter2=parameter2, range2=range2))
     plot = data.get("plot", {})
     _check_keys(plot, _PLOT_KEYS, path, "plot")
     x = plot.get("x", runs[0].parameter)
@@ -308,6 +350,18 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
     if not isinstance(ptitle, str):
         raise SpecError(path, "plot.title", "expected a string")
     labels = _bool(plot.get("labels", True), path, "plot.labels")
+    curves = [r for r in runs if r.kind == "curve"]
+    plane = plot.get("plane")
+    if plane is not None:
+        if not (isinstance(plane, list) and len(plane) == 2 and all(v in PARAMETERS for v in plane)
+                and plane[0] != plane[1]):
+            raise SpecError(path, "plot.plane", f"expected two different parameters of {', '.join(PARAMETERS)}, "
+                                                f"got {plane!r}")
+        if not curves:
+            raise SpecError(path, "plot.plane", 'the parameter plane is drawn for "curve" runs; this scene has none')
+        plane = tuple(plane)
+    elif curves:
+        plane = (curves[0].parameter, curves[0].parameter2)
     compare = None
     if "compare" in data:
         c = data["compare"]
@@ -323,7 +377,7 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
         compare = CompareSpec(csv_path, panel, str(c.get("label", "digitised")))
     return Scene(path=path, name=path.stem, title=title, description=data.get("description", ""),
                  model=model, ame=ame, state_scale=scale, fixed=fixed, runs=tuple(runs),
-                 plot=PlotSpec(x, tuple(y), ptitle, labels), compare=compare, text=text)
+                 plot=PlotSpec(x, tuple(y), ptitle, labels, plane), compare=compare, text=text)
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -441,7 +495,8 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         branches.append(result.branch)
         b = result.branch
         ends = "; ".join(f"{e.side}: {e.reason}" for e in b.ends)
-        say(f"  {b.name}: {len(b)} points, special points "
+        say(f"  {b.name}: {len(b)} points" + (f" ({b.kind} curve in {b.parameter}, {b.parameter2})"
+                                              if b.parameter2 else "") + ", special points "
             f"{', '.join(s.label for s in b.special_points) or 'none'} ({ends})")
 
     for run in scene.runs:
@@ -472,13 +527,43 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         values[run.parameter] = at
         check_values(values, where)
         check_values({**values, "sigma": lo if run.parameter == "sigma" else values["sigma"]}, f"{where}.range")
-        system = _system_for(scene, ame, values, run.parameter, run.range, path, where)
+        if run.kind == "curve":
+            lo2, hi2 = run.range2
+            v2 = values[run.parameter2]
+            if not lo2 <= v2 <= hi2:
+                raise SpecError(path, f"{where}.range2", f"the start point {run.start.label} has {run.parameter2} = "
+                                                         f"{v2:g}, outside the range [{lo2:g}, {hi2:g}]")
+            if run.parameter2 == "U" and lo2 <= 0:
+                raise SpecError(path, f"{where}.range2", "continuing U needs U > 0 over the whole range "
+                                                         "(the aerodynamic terms carry 1/U); start just above 0")
+            if run.parameter2 == "sigma":
+                check_values({**values, "sigma": lo2}, f"{where}.range2")
+        if run.kind == "curve" and run.parameter2 == "U":
+            system = _system_for(scene, ame, values, "U", run.range2, path, where)
+        else:
+            system = _system_for(scene, ame, values, run.parameter, run.range, path, where)
         scale = scene.state_scale or C.auto_state_scale(system, values)
         problem = C.EquilibriumProblem(system, run.parameter, values, run.range, state_scale=scale)
         settings = _settings(run)
-        say(f"run {run.name}: {run.kind} in {run.parameter} over [{lo:g}, {hi:g}] from "
-            f"{run.start.label or run.start.kind} at {run.parameter} = {at:g}")
-        if run.kind in ("cycles", "switch"):
+        if run.kind == "curve":
+            say(f"run {run.name}: curve of {'folds' if ':LP' in run.start.label else 'Hopf points'} in "
+                f"({run.parameter}, {run.parameter2}) over [{lo:g}, {hi:g}] x [{run.range2[0]:g}, "
+                f"{run.range2[1]:g}] from {run.start.label}")
+        else:
+            say(f"run {run.name}: {run.kind} in {run.parameter} over [{lo:g}, {hi:g}] from "
+                f"{run.start.label or run.start.kind} at {run.parameter} = {at:g}")
+        if run.kind == "curve":
+            # The labelled point in this run's problem: its parameter and range are the first ones.
+            src = C.ContinuationResult(source.branch, problem, settings)
+            label = run.start.label.split(":")[1]
+            fn = C.continue_folds if label.startswith("LP") else C.continue_hopf
+            try:
+                result = fn(src, label, run.parameter2, run.range2, settings, name=run.name,
+                            directions=run.directions, progress=say)
+            except C.StartError as exc:
+                raise SpecError(path, f"{where}.start", str(exc)) from None
+            add(result)
+        elif run.kind in ("cycles", "switch"):
             # The labelled point in this run's problem (its parameter and range).
             src = C.ContinuationResult(source.branch, problem, settings)
             fn = C.continue_cycles if run.kind == "cycles" else C.switch_branch
@@ -554,6 +639,11 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
                            compare_panel=scene.compare.panel if scene.compare else None,
                            compare_label=scene.compare.label if scene.compare else "")
         stages["plot_s"] = time.perf_counter() - t0
+        if scene.plot.plane and any(b.kind in ("fold", "hopf") for b in branches):
+            from autocable.plotting.diagrams import plot_plane
+            files += plot_plane(res, out / f"{scene.name}_plane", x=scene.plot.plane[0], y=scene.plot.plane[1],
+                                title=scene.plot.title, labels=scene.plot.labels)
+            stages["plot_s"] = time.perf_counter() - t0
         say(f"plot: {', '.join(str(f) for f in files)}")
     stages["total_s"] = time.perf_counter() - t_all
     res = RunResults(scene.name, tuple(branches), {**provenance, "stages": stages})
@@ -591,8 +681,12 @@ def cmd_run(args) -> int:
                 conf = {True: "PyCont agrees", False: "PyCont missed it", None: ""}[s.confirmed_by_pycont] \
                     if s.origin == "autocable" else "PyCont only, not confirmed"
                 extra = f" l1 = {s.extra['l1']:.4g}" if "l1" in s.extra else ""
-                print(f"    {s.label:<5} {s.parameter} = {s.value: .8g}  a1 = {s.a1:.6e}  a2 = {s.a2:.6e}"
+                second = f", {s.extra['parameter2']} = {s.extra['value2']: .8g}" if "value2" in s.extra else ""
+                print(f"    {s.label:<5} {s.parameter} = {s.value: .8g}{second}  a1 = {s.a1:.6e}  a2 = {s.a2:.6e}"
                       f"{extra}  {conf}")
+        plane = scene.plot.plane and any(b.kind in ("fold", "hopf") for b in res.branches)
         print(f"  results in {out}/ (branches.csv, special_points.csv, run.json"
-              + (f", {scene.name}.png, {scene.name}.pdf)" if not getattr(args, "no_plot", False) else ")"))
+              + (f", {scene.name}.png, {scene.name}.pdf" if not getattr(args, "no_plot", False) else "")
+              + (f", {scene.name}_plane.png, {scene.name}_plane.pdf" if plane and not getattr(args, "no_plot", False)
+                 else "") + ")")
     return 0

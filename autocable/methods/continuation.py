@@ -15,6 +15,13 @@ parameter values, the continued parameter and its range, the state scale) and im
   failure are detected as they happen; a failure keeps the points computed before it.
 * `continue_cycles(result, "H1", settings)`: PyCont's LC-C (AUTO collocation) from a Hopf point.
 * `switch_branch(result, "BP1", settings)`: the other branch through a branch point, both sides.
+* `continue_folds(result, "LP1", "eta", (lo, hi))` / `continue_hopf(result, "H1", ...)`: the curve
+  of folds (PyCont's LP-C) or of Hopf points (H-C2) through a labelled point, in the plane of the
+  source's parameter and a second one. PyCont's steps, with its random test-function borders
+  seeded, jumps and turn-backs restarted from the last good point; every point refined on
+  autocable's own defining system (f = 0 plus a bordered test function) and checked (det J = 0,
+  or a pair on the imaginary axis) with the exact Jacobian; CP, BT, ZH, GH, DH from autocable's
+  test functions, compared with PyCont's labels.
 
 PyCont only produces points. Everything reported about them is autocable's own, computed from the
 exact sympy Jacobian (numpy): the state is polished by Newton at fixed parameter, stability comes from
@@ -70,6 +77,8 @@ __all__ = [
     "continue_equilibria",
     "continue_cycles",
     "switch_branch",
+    "continue_folds",
+    "continue_hopf",
     "first_lyapunov",
     "bialternate",
     "bench_continuation",
@@ -77,7 +86,7 @@ __all__ = [
 ]
 
 #: Names the scaled PyCont vector field reserves for itself.
-_RESERVED = ("xscale", "lam")
+_RESERVED = ("xscale", "lam", "lam2", "tscale")
 
 Progress = Callable[[str], None]
 
@@ -244,6 +253,25 @@ class System:
             + [("lam", 0.0)]
         return VectorField(self.name, self.variables, rhs, params)
 
+    @cached_property
+    def _scaled_field_2p(self) -> VectorField:
+        """The field of the two-parameter curves (LP-C, H-C2): x~ = x/xscale, time scaled by tscale,
+        p_k = p_k + d_<p_k> * lam + d2_<p_k> * lam2 (a second library; the one-parameter field is
+        left as it is)."""
+        xs, ps = self._symbols
+        xscale, tscale = sp.Symbol("xscale"), sp.Symbol("tscale")
+        lam, lam2 = sp.Symbol("lam"), sp.Symbol("lam2")
+        clash = [p for p in self.parameter_names if p.startswith(("d_", "d2_"))]
+        if clash:
+            raise ValueError(f"system {self.name!r}: parameter names {clash} clash with the scaled field's")
+        sub = {x: xscale * x for x in xs}
+        sub.update({p: p + sp.Symbol(f"d_{p.name}") * lam + sp.Symbol(f"d2_{p.name}") * lam2 for p in ps})
+        rhs = [sp.expand(tscale * e.xreplace(sub) / xscale) for e in self.rhs]
+        params = list(self.parameters) + [("xscale", 1.0), ("tscale", 1.0)] \
+            + [(f"d_{p}", 0.0) for p in self.parameter_names] \
+            + [(f"d2_{p}", 0.0) for p in self.parameter_names] + [("lam", 0.0), ("lam2", 0.0)]
+        return VectorField(f"{self.name}_2p", self.variables, rhs, params)
+
 
 def ame_system(ame, dof: str = "2dof", *, wind: bool = True, name: str | None = None) -> System:
     """The Cartesian AME (24) as a `System` in the scene parameters (sigma, U, eta).
@@ -313,16 +341,26 @@ class ContinuationSettings:
     floquet_rtol: float = 1e-10
     # branch switching
     switch_step: float = 1e-2
+    # two-parameter curves (LP-C, H-C2): steps in the scaled coordinates (both ranges span 1)
+    curve_step: float = 5e-3
+    curve_max_step: float = 2e-2
+    curve_max_points: int = 400      # per direction
+    curve_check_tol: float = 1e-8    # independent check at every point: sigma_min(J)/sigma_max(J)
+                                     # (folds), |Re lambda|/||J||_F of the critical pair (Hopf)
 
     def __post_init__(self):
         for name in ("step", "min_step", "max_step", "tol", "test_tol", "newton_tol", "cycle_step",
-                     "cycle_max_step", "switch_step"):
+                     "cycle_max_step", "switch_step", "curve_step", "curve_max_step", "curve_check_tol"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and v > 0 and math.isfinite(v)):
                 raise ValueError(f"{name} must be a positive number, got {v!r}")
         if not self.min_step <= self.step <= self.max_step:
             raise ValueError(f"need min_step <= step <= max_step, got {self.min_step}, {self.step}, {self.max_step}")
-        for name in ("max_points", "chunk", "cycle_max_points", "ntst", "ncol", "max_corrector_iters"):
+        if not self.min_step <= self.curve_step <= self.curve_max_step:
+            raise ValueError(f"need min_step <= curve_step <= curve_max_step, got {self.min_step}, "
+                             f"{self.curve_step}, {self.curve_max_step}")
+        for name in ("max_points", "chunk", "cycle_max_points", "ntst", "ncol", "max_corrector_iters",
+                     "curve_max_points"):
             if int(getattr(self, name)) < 1:
                 raise ValueError(f"{name} must be a positive integer")
         bad = set(self.locate) - {"LP", "H", "BP"}
@@ -1531,3 +1569,748 @@ def _auto_scale(system: System, values: Mapping[str, float]) -> float:
 
 
 auto_state_scale = _auto_scale
+
+
+# ================================================================================================
+# public: two-parameter curves of folds (LP-C) and of Hopf points (H-C2)
+# ================================================================================================
+#: PyDSTool generator behind LP-C/H-C2: "Dopri" compiles the scaled field once (cached by content hash).
+_CURVE_GENERATOR = "Dopri"
+#: PyCont's bordered test functions draw random borders from numpy's global generator: seeded
+#: (and the caller's state restored) so that a curve is the same on every run.
+_PYCONT_SEED = 1729
+#: kind -> (the special-point type it starts from, PyCont's curve type, PyCont's labels on it)
+_CURVES = MappingProxyType({"fold": ("LP", "LP-C", ("CP", "BT", "ZH")),
+                            "hopf": ("H", "H-C2", ("BT", "ZH", "GH"))})
+
+
+@dataclass(frozen=True, eq=False)
+class _CurveChart:
+    """Y = (x / xscale, lam, lam2): p[k1] = base[k1] + s1 lam, p[k2] = base[k2] + s2 lam2, time scaled
+    by ``tscale`` (so the Jacobian PyCont sees is O(1) even for a slow flow like the AME).
+
+    The defining system of the curve, autocable's own: F~ = tscale f / xscale = 0 and g = 0, g the
+    bordered test function (Govaerts, Numerical Methods for Bifurcations, Sect. 3.4; Kuznetsov,
+    Sect. 10.2) of M = tscale J (folds) or of its bialternate product 2M (.) I (Hopf points and
+    neutral saddles), with borders fixed at `at`. ``F`` and ``DF`` have the shapes `_correct` and
+    `_locate` expect: (n+1) equations in n+2 unknowns."""
+
+    system: System
+    kind: str
+    k1: int
+    k2: int
+    base: np.ndarray
+    xscale: float
+    s1: float
+    s2: float
+    tscale: float
+    border: tuple | None = None
+
+    def p(self, Y) -> np.ndarray:
+        p = self.base.copy()
+        p[self.k1] += self.s1 * Y[-2]
+        p[self.k2] += self.s2 * Y[-1]
+        return p
+
+    def to_phys(self, Y) -> tuple[np.ndarray, np.ndarray]:
+        Y = np.asarray(Y, float)
+        return Y[:-2] * self.xscale, self.p(Y)
+
+    def to_chart(self, x, p) -> np.ndarray:
+        return np.concatenate([np.asarray(x, float) / self.xscale,
+                               [(p[self.k1] - self.base[self.k1]) / self.s1,
+                                (p[self.k2] - self.base[self.k2]) / self.s2]])
+
+    def values(self, Y) -> tuple[float, float]:
+        p = self.p(np.asarray(Y, float))
+        return float(p[self.k1]), float(p[self.k2])
+
+    def lam(self, which: int, value: float) -> float:
+        k, s = (self.k1, self.s1) if which == 1 else (self.k2, self.s2)
+        return (float(value) - self.base[k]) / s
+
+    def jac(self, Y) -> np.ndarray:
+        return self.system.jac(*self.to_phys(Y))
+
+    def matrix(self, Y) -> np.ndarray:
+        A = self.tscale * self.jac(Y)
+        return A if self.kind == "fold" else bialternate(A)
+
+    def at(self, Y) -> "_CurveChart":
+        """This chart with the borders of the test function taken at Y (singular vectors of the
+        smallest singular value of M: the bordered matrix is then regular near Y)."""
+        U, _, Vt = np.linalg.svd(self.matrix(Y))
+        return replace(self, border=(U[:, -1].copy(), Vt[-1].copy()))
+
+    def g(self, Y) -> float:
+        M = self.matrix(Y)
+        b, c = self.border
+        m = M.shape[0]
+        A = np.zeros((m + 1, m + 1))
+        A[:m, :m], A[:m, m], A[m, :m] = M, b, c
+        rhs = np.zeros(m + 1)
+        rhs[m] = 1.0
+        return float(np.linalg.solve(A, rhs)[m])
+
+    def F(self, Y) -> np.ndarray:
+        if self.border is None:
+            return self.at(Y).F(Y)
+        x, p = self.to_phys(Y)
+        return np.append(self.tscale * self.system.f(x, p) / self.xscale, self.g(Y))
+
+    def DF(self, Y) -> np.ndarray:
+        Y = np.asarray(Y, float)
+        if self.border is None:
+            return self.at(Y).DF(Y)
+        x, p = self.to_phys(Y)
+        J, Jp = self.system.jac(x, p), self.system.jac_p(x, p)
+        top = np.column_stack([self.tscale * J, self.tscale * Jp[:, self.k1] * self.s1 / self.xscale,
+                               self.tscale * Jp[:, self.k2] * self.s2 / self.xscale])
+        h = 1e-6
+        grad = np.zeros(Y.size)
+        for j in range(Y.size):
+            e = np.zeros(Y.size)
+            e[j] = h
+            grad[j] = (self.g(Y + e) - self.g(Y - e)) / (2 * h)
+        return np.vstack([top, grad])
+
+    def pycont_pars(self) -> dict[str, float]:
+        pars = self.system.parameter_dict(self.base)
+        pars.update(xscale=self.xscale, tscale=self.tscale, lam=0.0, lam2=0.0)
+        for i, name in enumerate(self.system.parameter_names):
+            pars[f"d_{name}"] = self.s1 if i == self.k1 else 0.0
+            pars[f"d2_{name}"] = self.s2 if i == self.k2 else 0.0
+        return pars
+
+    def point_dict(self, Y) -> dict[str, float]:
+        d = {v: float(y) for v, y in zip(self.system.variables, Y[:-2])}
+        d["lam"], d["lam2"] = float(Y[-2]), float(Y[-1])
+        return d
+
+
+def _critical_pair(ev: np.ndarray) -> tuple[int, int]:
+    """The pair of eigenvalues whose sum is nearest to zero (the Hopf pair, or a neutral saddle's)."""
+    n = len(ev)
+    best, pair = math.inf, (0, min(1, n - 1))
+    for a in range(n):
+        for b in range(a + 1, n):
+            s_ = abs(ev[a] + ev[b])
+            if s_ < best:
+                best, pair = s_, (a, b)
+    return pair
+
+
+def _pair_sum_product(ev: np.ndarray) -> float:
+    """Real part of the product of lambda_i + lambda_j over the pairs of ``ev`` (real for a real
+    matrix's spectrum): it changes sign when a pair's sum crosses zero."""
+    out = 1.0 + 0j
+    for a in range(len(ev)):
+        for b in range(a + 1, len(ev)):
+            out *= ev[a] + ev[b]
+    return float(out.real)
+
+
+def _hopf_check(ev: np.ndarray, scale: float | None = None) -> tuple[float, float, float]:
+    """(kappa, omega, residual) of the critical pair: kappa = lambda_a lambda_b (omega^2 > 0 for a
+    Hopf pair, < 0 for a neutral saddle), omega its imaginary part, residual = |Re| / scale (inf
+    when the pair is real: not on the imaginary axis). ``scale``: the Jacobian's norm (default
+    max |lambda|; near a Bogdanov-Takens point every eigenvalue is small, the norm is not)."""
+    a, b = _critical_pair(ev)
+    scale = max(float(np.max(np.abs(ev))) if scale is None else float(scale), 1e-300)
+    kappa = float((ev[a] * ev[b]).real)
+    if abs(ev[a].imag) <= 1e-8 * scale:
+        return kappa, 0.0, math.inf
+    return kappa, abs(float(ev[a].imag)), abs(float(ev[a].real)) / scale
+
+
+def _fold_check(J: np.ndarray) -> float:
+    """sigma_min / sigma_max of J: 0 exactly where det J = 0 (scale-free)."""
+    sv = np.linalg.svd(J, compute_uv=False)
+    return float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
+
+
+def _oriented_null(J: np.ndarray, ref=None) -> tuple[np.ndarray, np.ndarray]:
+    """Right (v) and left (w) singular vectors of J's smallest singular value, signs following ``ref``."""
+    U, _, Vt = np.linalg.svd(J)
+    v, w = Vt[-1].copy(), U[:, -1].copy()
+    if ref is not None:
+        if v @ ref[0] < 0:
+            v = -v
+        if w @ ref[1] < 0:
+            w = -w
+    return v, w
+
+
+def _curve_tests(chart: _CurveChart, Y, ref=None) -> tuple[dict[str, float], tuple]:
+    """autocable's test functions of codimension-2 points at Y (physical Jacobian and derivatives).
+
+    Folds: CP = w . B(v, v) (the fold's quadratic normal-form coefficient), BT = w . v (zero when the
+    zero eigenvalue becomes double), ZH = the pair-sum product of the other eigenvalues (n >= 3).
+    Hopf: BT = kappa = lambda_a lambda_b of the critical pair (omega^2; negative beyond BT), GH = the
+    first Lyapunov coefficient, ZH = det J, DH = the pair-sum product of the other eigenvalues
+    (n >= 4). Returns the values and the oriented null vectors (for the next point's signs)."""
+    sysm = chart.system
+    x, p = chart.to_phys(Y)
+    J = sysm.jac(x, p)
+    ev = np.linalg.eigvals(J)
+    n = len(ev)
+    out: dict[str, float] = {}
+    vw = None
+    if chart.kind == "fold":
+        v, w = _oriented_null(J, ref)
+        vw = (v, w)
+        B = np.einsum("ijk,j,k->i", sysm.hessian(x, p), v, v)
+        out["CP"] = float(w @ B)
+        out["BT"] = float(w @ v)
+        if n >= 3:
+            rest = np.delete(ev, int(np.argmin(np.abs(ev))))
+            out["ZH"] = _pair_sum_product(rest)
+    else:
+        kappa, omega, _ = _hopf_check(ev, np.linalg.norm(J))
+        out["BT"] = kappa
+        out["ZH"] = float(np.linalg.det(J))
+        if omega > 0:
+            try:
+                out["GH"] = first_lyapunov(sysm, x, p)[0]
+            except (np.linalg.LinAlgError, ValueError):
+                out["GH"] = math.nan
+        else:
+            out["GH"] = math.nan
+        if n >= 4:
+            a, b = _critical_pair(ev)
+            out["DH"] = _pair_sum_product(np.delete(ev, [a, b]))
+    return out, vw
+
+
+def _classify_curve_point(chart: _CurveChart, kind: str, Y) -> tuple[bool, str, dict]:
+    """Is the zero of test function ``kind`` at Y really that point? The eigenvalues decide.
+    Returns (accepted, why-not, extra data)."""
+    x, p = chart.to_phys(Y)
+    J = chart.system.jac(x, p)
+    ev = np.linalg.eigvals(J)
+    scale = max(float(np.linalg.norm(J)), 1e-300)
+    small = np.sort(np.abs(ev))
+    extra: dict[str, Any] = {"eigenvalues": [complex(e) for e in ev]}
+    if kind == "BT":
+        ok = len(ev) >= 2 and small[1] <= 1e-4 * scale
+        return ok, "" if ok else f"no double zero eigenvalue (second smallest |lambda| = {small[1]:.3g})", extra
+    if kind == "CP":
+        return True, "", extra
+    if chart.kind == "fold" and kind == "ZH":
+        rest = np.delete(ev, int(np.argmin(np.abs(ev))))
+        a, b = _critical_pair(rest)
+        if abs(rest[a].imag) <= 1e-8 * scale:
+            return False, "the other eigenvalues have a real pair (lambda, -lambda): a neutral saddle, not zero-Hopf", extra
+        extra["omega"] = abs(float(rest[a].imag))
+        return True, "", extra
+    if kind == "GH":
+        kappa, omega, _ = _hopf_check(ev, scale)
+        extra["omega"] = omega
+        return omega > 0, "" if omega > 0 else "the critical pair is real here", extra
+    if kind == "ZH":   # on a Hopf curve: a real eigenvalue through zero
+        a, b = _critical_pair(ev)
+        rest = np.delete(ev, [a, b])
+        kappa, omega, _ = _hopf_check(ev, scale)
+        ok = omega > 0 and rest.size > 0 and np.min(np.abs(rest)) <= 1e-6 * scale
+        extra["omega"] = omega
+        return ok, "" if ok else "no simple zero eigenvalue beside the Hopf pair", extra
+    if kind == "DH":
+        a, b = _critical_pair(ev)
+        rest = np.delete(ev, [a, b])
+        c, d = _critical_pair(rest)
+        ok = abs(rest[c].imag) > 1e-8 * scale
+        extra["omega2"] = abs(float(rest[c].imag))
+        return ok, "" if ok else "the second pair is real: a Hopf-neutral saddle, not a double Hopf point", extra
+    return False, f"unknown point type {kind}", extra
+
+
+def _kappa_direction(chart: _CurveChart, Y: np.ndarray, t: np.ndarray) -> float:
+    """d(omega^2)/ds along the unit tangent t at Y, omega^2 as PyCont's H-C2 sees it (scaled time)."""
+    def kap(Z):
+        return _hopf_check(np.linalg.eigvals(chart.tscale * chart.jac(Z)))[0]
+    h = 1e-6
+    return (kap(Y + h * t) - kap(Y - h * t)) / (2 * h)
+
+
+def _pycont_curve(cont, chart: _CurveChart, settings: ContinuationSettings, Y0: np.ndarray,
+                  direction: np.ndarray, lam_bounds, name: str, side_name: str,
+                  progress: Progress | None, max_restarts: int = 3) -> _Side:
+    """Continue a curve from Y0 along ``direction`` (unit, chart coordinates) with PyCont LP-C/H-C2
+    in chunks, until either parameter leaves its range (PyCont's own 'B' stop crashes), a Hopf curve
+    turns into neutral saddles (past a Bogdanov-Takens point), the curve closes, the budget is
+    spent or PyCont fails.
+
+    PyCont sometimes jumps or turns back: its corrector (or its own location of a CP/BT point, with
+    random borders) lands far from the predictor, or restarts with the tangent reversed and retraces
+    the curve, e.g. near a cusp. A step longer than twice ``curve_max_step``, or one pointing back
+    (negative dot product with the previous step), is dropped and a new PyCont curve starts from
+    the last good point along the last good step with half the step sizes; so does a PyCont
+    failure (its corrector not converging). At most ``max_restarts`` times; then the side ends with
+    "no_convergence" (or the failure's reason)."""
+    dst = compat.import_pydstool()
+    side = _Side([Y0.copy()], [], [None])
+    if cont is None:
+        side.reason, side.message = "error", "PyCont is not available for this system"
+        return side
+    _, ctype, labels = _CURVES[chart.kind]
+    sysm = chart.system
+    p1, p2 = sysm.parameter_names[chart.k1], sysm.parameter_names[chart.k2]
+    names = list(sysm.variables) + ["lam", "lam2"]
+    (lo1, hi1), (lo2, hi2) = lam_bounds
+    span_seen, reported, restarts = 0.0, 0, 0
+    last_dir = np.asarray(direction, float) / np.linalg.norm(direction)
+    step, max_step = settings.curve_step, settings.curve_max_step
+
+    def start(Y, t, suffix):
+        """A new PyCont curve from Y along t; None and a message when PyCont cannot start."""
+        t = t / np.linalg.norm(t)
+        initdirec = {k: float(v) for k, v in zip(names, t)}
+        if chart.kind == "hopf":
+            kd = _kappa_direction(chart, Y, t)
+            norm = math.hypot(1.0, kd)
+            initdirec = {k: v / norm for k, v in initdirec.items()}
+            initdirec["_k"] = kd / norm
+        cname = f"{name}_{side_name}{suffix}"
+        try:
+            with _silent():
+                cont.newCurve(dst.args(
+                    name=cname, type=ctype, freepars=["lam", "lam2"], initpoint=chart.point_dict(Y),
+                    initdirec=initdirec, StepSize=min(step, max_step), MinStepSize=settings.min_step,
+                    MaxStepSize=max_step, MaxNumPoints=settings.chunk + 1,
+                    MaxCorrIters=settings.max_corrector_iters, LocBifPoints=list(labels), SaveEigen=True,
+                    verbosity=0, FuncTol=settings.tol, VarTol=settings.tol, TestTol=settings.test_tol))
+        except Exception as exc:  # noqa: BLE001
+            return None, f"PyCont could not start the {ctype} curve: {_one_line(exc)}"
+        return cont[cname], ""
+
+    curve, why = start(Y0, direction, "")
+    if curve is None:
+        side.reason, side.message = "error", why
+        return side
+    first_call = True
+    while True:
+        try:
+            with _silent() as chatter:
+                curve.forward()
+            closed = bool(_CLOSED.search(chatter.text))
+            new = list(curve.new_sol_segment)[(1 if first_call else 0):]
+            failure = None
+        except Exception as exc:  # noqa: BLE001
+            closed = False
+            raw = np.asarray(getattr(curve, "curve", np.zeros((0, 0))))
+            loc = int(getattr(curve, "loc", 0))
+            new = []
+            if raw.ndim == 2 and raw.shape[1] >= Y0.size:
+                for i in range(1, max(loc, 1)):
+                    vals = dict(zip(curve.varslist, raw[i][curve.coords]))
+                    new.append(np.array([float(vals[v]) for v in sysm.variables]
+                                        + [float(raw[i][curve.params[0]]), float(raw[i][curve.params[1]])]))
+            failure = exc
+        first_call = False
+        jumped = False
+        for pt in new:
+            if isinstance(pt, np.ndarray):
+                Y, plabels = pt, {}
+            else:
+                Y = np.array([float(pt[v]) for v in sysm.variables] + [float(pt["lam"]), float(pt["lam2"])])
+                plabels = pt.labels
+            with np.errstate(all="ignore"):
+                finite = np.all(np.isfinite(Y)) and np.all(np.isfinite(sysm.f(*chart.to_phys(Y))))
+            prev = side.points[-1]
+            chord = Y - prev
+            length = float(np.linalg.norm(chord)) if finite else math.inf
+            if not finite or length > 2.0 * max_step or chord @ last_dir < -1e-3 * length:
+                jumped = True
+                break
+            for t_ in labels:
+                if t_ in plabels and not any(t_ == u and np.linalg.norm(Y - Yu) <= 1e-8 * (1.0 + np.linalg.norm(Y))
+                                             for u, Yu in side.pycont_special):
+                    side.pycont_special.append((t_, Y.copy()))
+            if length <= 1e-10 * (1.0 + np.linalg.norm(Y)):
+                continue                          # PyCont repeats a point it located: keep one
+            if length > 1e-8:
+                last_dir = chord / length
+            side.points.append(Y)
+            side.pycont_stab.append(None)
+            span_seen = max(span_seen, float(np.linalg.norm(Y - Y0)))
+            # A Hopf curve ends where its pair turns real (a Bogdanov-Takens point).
+            if chart.kind == "hopf":
+                JY = chart.jac(Y)
+                kappa, omega, _ = _hopf_check(np.linalg.eigvals(JY), np.linalg.norm(JY))
+                if omega == 0.0 and kappa < 0:
+                    def tau(Yt):
+                        return _hopf_check(np.linalg.eigvals(chart.jac(Yt)))[0]
+                    Yb, ok = _locate(chart.at(prev), prev, Y, tau, settings.newton_tol)
+                    side.points[-1] = Yb
+                    if len(side.points) > 2 and np.linalg.norm(Yb - prev) <= 1e-9 * (1.0 + np.linalg.norm(Yb)):
+                        del side.points[-2]           # PyCont had already put a point on the BT
+                        side.pycont_stab.pop()
+                    side.reason = "neutral_saddle"
+                    side.message = (f"the Hopf pair turns real at ({p1}, {p2}) = "
+                                    f"({chart.values(Yb)[0]:.8g}, {chart.values(Yb)[1]:.8g}) (a Bogdanov-"
+                                    f"Takens point, BT): beyond it the curve is one of neutral saddles")
+                    return side
+            # The ranges: stop at the first boundary crossed, put exactly on it by Newton.
+            out = [(j, b) for j, (lo, hi, v) in enumerate(((lo1, hi1, Y[-2]), (lo2, hi2, Y[-1])))
+                   for b in (lo, hi) if (v < lo - 1e-12 and b == lo) or (v > hi + 1e-12 and b == hi)]
+            if out:
+                best = None
+                for j, b in out:
+                    col = Y.size - 2 + j
+                    s = (b - prev[col]) / (Y[col] - prev[col]) if Y[col] != prev[col] else 0.0
+                    if best is None or s < best[0]:
+                        best = (s, j, b)
+                s, j, b = best
+                col = Y.size - 2 + j
+                if abs(prev[col] - b) <= 1e-12:
+                    side.points.pop()
+                    side.pycont_stab.pop()
+                else:
+                    guess = prev + s * (Y - prev)
+                    e = np.zeros_like(Y)
+                    e[col] = 1.0
+                    Yb, ok = _correct(chart.at(guess), guess, e, settings.newton_tol)
+                    if not ok or np.linalg.norm(Yb - guess) > max_step:
+                        side.points.pop()
+                        side.pycont_stab.pop()
+                        side.reason = "no_convergence"
+                        side.message = (f"no {chart.kind} point on the boundary {p1 if j == 0 else p2} = "
+                                        f"{chart.values(guess)[j]:g} next to the last point: PyCont's step "
+                                        f"left the range across a gap; lower curve_max_step")
+                        return side
+                    side.points[-1] = Yb
+                side.reason = "range"
+                side.message = f"{p1 if j == 0 else p2} reached {chart.values(side.points[-1])[j]:g}"
+                return side
+            if len(side.points) > 8 and span_seen > 4 * max_step and np.linalg.norm(Y - Y0) < 1.5 * max_step:
+                side.points.append(Y0.copy())
+                side.pycont_stab.append(None)
+                side.reason, side.message = "closed", "the curve returned to its start point"
+                return side
+        if progress and len(side.points) // 50 != reported:
+            reported = len(side.points) // 50
+            v1, v2 = chart.values(side.points[-1])
+            progress(f"{name} ({side_name}): ({p1}, {p2}) = ({v1:.6g}, {v2:.6g}), {len(side.points)} points")
+        if jumped or (failure is not None and restarts < max_restarts):
+            v1, v2 = chart.values(side.points[-1])
+            if jumped and restarts >= max_restarts:
+                side.reason = "no_convergence"
+                side.message = (f"PyCont jumped away from the curve (or turned back on it) after ({p1}, {p2}) "
+                                f"= ({v1:.6g}, {v2:.6g}) {restarts + 1} times; lower curve_max_step")
+                return side
+            restarts += 1
+            side.restarts = restarts          # reported in the branch info
+            step, max_step = step / 2, max_step / 2
+            curve, why = start(side.points[-1], last_dir, f"_r{restarts}")
+            if curve is None:
+                side.reason, side.message = "error", why
+                return side
+            first_call = True
+            continue
+        if failure is not None:
+            text = _one_line(failure)
+            v1, v2 = chart.values(side.points[-1])
+            if "converge" in text.lower():
+                side.reason = "step_collapse"
+                side.message = (f"PyCont's corrector failed near ({p1}, {p2}) = ({v1:.6g}, {v2:.6g}) with "
+                                f"the minimum step {settings.min_step:g}: {text}")
+            else:
+                side.reason, side.message = "error", f"PyCont failed: {text}"
+            return side
+        if closed:
+            side.reason, side.message = "closed", "PyCont detected a closed curve"
+            return side
+        last = curve.sol[-1] if curve.sol is not None and len(curve.sol) else None
+        if last is not None and "MX" in last.labels:
+            side.reason, side.message = "no_convergence", "PyCont's corrector stopped (MX point)"
+            return side
+        if len(side.points) >= settings.curve_max_points:
+            side.reason = "max_points"
+            side.message = f"{len(side.points)} points computed; raise curve_max_points to go further"
+            return side
+        if not new:
+            side.reason, side.message = "no_convergence", "PyCont returned no new point"
+            return side
+
+
+def _analyse_curve(chart: _CurveChart, Ys: list[np.ndarray], settings: ContinuationSettings,
+                   branch_name: str, pycont_special: Sequence, fixed: Sequence[int] = (),
+                   bt_ends: Sequence[int] = (), lam_bounds=None):
+    """Polish every point on autocable's defining system, check it independently (det J = 0 for a
+    fold, a pair on the imaginary axis for a Hopf point), locate codimension-2 points by sign
+    changes of `_curve_tests` and compare them with PyCont's labels. ``fixed`` are indices of
+    points already located by autocable (the start, a BT end): not moved. An end on a range
+    boundary (``lam_bounds``) is refined on that boundary. ``bt_ends`` are ends of
+    a Hopf curve at a Bogdanov-Takens point (omega = 0 there: not checked for an imaginary pair)."""
+    sysm = chart.system
+    n = sysm.dimension
+    fixed = set(fixed)
+    polished, moved = [], 0
+    for i, Y in enumerate(Ys):
+        Y = np.asarray(Y, float)
+        if i in fixed or len(Ys) < 2:
+            polished.append(Y.copy())
+            continue
+        a, b = max(i - 1, 0), min(i + 1, len(Ys) - 1)
+        t = Ys[b] - Ys[a]
+        if lam_bounds is not None and i in (0, len(Ys) - 1):
+            for col, (lo, hi) in zip((-2, -1), lam_bounds):
+                if min(abs(Y[col] - lo), abs(Y[col] - hi)) <= 1e-12:
+                    t = np.zeros_like(Y)
+                    t[col] = 1.0          # keep the end on the boundary it was put on
+        if not np.linalg.norm(t) > 0:
+            polished.append(Y.copy())
+            continue
+        Yp, ok = _correct(chart.at(Y), Y, t / np.linalg.norm(t), settings.newton_tol, maxiter=8)
+        if ok and np.linalg.norm(Yp - Y) <= 1e-6 * (1.0 + np.linalg.norm(Y)):
+            polished.append(Yp)
+        else:
+            polished.append(Y.copy())
+            moved += 1
+    Ys = polished
+    m = len(Ys)
+    X = np.array([chart.to_phys(Y)[0] for Y in Ys]).reshape(m, n)
+    P = np.array([chart.to_phys(Y)[1] for Y in Ys]).reshape(m, len(sysm.parameters))
+    eig = np.zeros((m, n), dtype=complex)
+    detJ, omega, check, stable = np.zeros(m), np.full(m, math.nan), np.zeros(m), np.zeros(m, bool)
+    tests: dict[str, list[float]] = {}
+    ref = None
+    refs = []
+    for i, Y in enumerate(Ys):
+        J = sysm.jac(X[i], P[i])
+        ev = np.linalg.eigvals(J)
+        eig[i] = ev[np.lexsort((-ev.imag, -ev.real))]
+        detJ[i] = np.linalg.det(J)
+        if chart.kind == "fold":
+            check[i] = _fold_check(J)
+            rest = np.delete(ev, int(np.argmin(np.abs(ev))))
+        else:
+            _, w, check[i] = _hopf_check(ev, np.linalg.norm(J))
+            omega[i] = w if w > 0 else math.nan
+            rest = np.delete(ev, list(_critical_pair(ev)))
+        stable[i] = bool(rest.size == 0 or np.max(rest.real) < 0)
+        vals, vw = _curve_tests(chart, Y, ref)
+        ref = vw
+        refs.append(vw)
+        for k, v in vals.items():
+            tests.setdefault(k, [math.nan] * m)[i] = v
+    failures = [i for i in range(m) if not check[i] <= settings.curve_check_tol and i not in bt_ends]
+    # Codimension-2 points: sign changes of autocable's test functions, located on the curve.
+    found, rejected = [], []
+    for i in bt_ends:
+        accepted, why, extra = _classify_curve_point(chart, "BT", Ys[i])
+        if accepted:
+            found.append((i, "BT", Ys[i], True, dict(extra, end_of_curve=True)))
+        else:
+            rejected.append(("BT", chart.values(Ys[i]), why))
+    for kind in ("CP", "BT", "ZH", "GH", "DH"):
+        if kind not in tests:
+            continue
+        for i in _sign_changes(tests[kind]):
+            j = i + 1
+            while j < m - 1 and _sign(tests[kind][j]) == 0:
+                j += 1
+            Ya, Yb = Ys[i], Ys[j]
+            if kind == "GH" and not (math.isfinite(tests["GH"][i]) and math.isfinite(tests["GH"][j])):
+                continue
+            ref_i = refs[i]
+
+            def tau(Y, kind=kind, ref_i=ref_i):
+                return _curve_tests(chart, Y, ref_i)[0].get(kind, math.nan)
+            Y, ok = _locate(chart.at(Ya), Ya, Yb, tau, settings.newton_tol)
+            accepted, why, extra = _classify_curve_point(chart, kind, Y)
+            if not accepted:
+                rejected.append((kind, chart.values(Y), why))
+                continue
+            if kind == "CP":
+                extra["normal_form_b"] = tau(Ya)
+            if kind == "GH":
+                extra["l1"] = 0.0
+            if any(f[1] == kind and np.linalg.norm(f[2] - Y) <= 1e-6 * (1 + np.linalg.norm(Y)) for f in found):
+                continue  # the same point twice (e.g. the BT that ends a Hopf curve)
+            found.append((i, kind, Y, ok, extra))
+    # At a BT point of a fold curve the w . v test and ZH's pair-sum test may both vanish: the BT wins.
+    bts = [f[2] for f in found if f[1] == "BT"]
+    found = [f for f in found if not (f[1] == "ZH" and any(np.linalg.norm(f[2] - b) <= 1e-6 * (1 + np.linalg.norm(b))
+                                                            for b in bts))]
+    pyc = [(t, np.asarray(Y, float)) for t, Y in pycont_special]
+    used: set[int] = set()
+
+    def near(i_seg: int, Y, Yp) -> bool:
+        a, b = max(i_seg - 1, 0), min(i_seg + 2, m - 1)
+        return np.linalg.norm(Y - Yp) <= max(np.linalg.norm(Ys[b] - Ys[a]), 10 * settings.test_tol)
+
+    entries = []
+    for i, kind, Y, ok, extra in found:
+        match = next((k for k, (t, Yp) in enumerate(pyc) if k not in used and t == kind and near(i, Y, Yp)), None)
+        if match is not None:
+            used.add(match)
+        msg = "" if ok else "refinement did not bracket a zero: location interpolated"
+        if match is None:
+            msg = (msg + "; " if msg else "") + "not in PyCont's list (PyCont missed it)"
+        entries.append((i, kind, Y, ok, match is not None, "autocable", extra, msg))
+    for k, (t, Yp) in enumerate(pyc):
+        if k in used:
+            continue
+        i = int(np.argmin([np.linalg.norm(Y - Yp) for Y in Ys])) if Ys else 0
+        ev_p = np.linalg.eigvals(chart.jac(Yp))
+        entries.append((i, t, Yp, False, True, "pycont", {"eigenvalues": [complex(e) for e in ev_p]},
+                        f"PyCont reports {t} here; autocable's test functions change sign nowhere near it "
+                        f"(or its eigenvalues say otherwise): not confirmed"))
+    p1, p2 = sysm.parameter_names[chart.k1], sysm.parameter_names[chart.k2]
+    specials, counters = [], {}
+    for i, kind, Y, ok, confirmed, origin, extra, msg in sorted(entries, key=lambda e: (e[0], e[1])):
+        counters[kind] = counters.get(kind, 0) + 1
+        x, p = chart.to_phys(Y)
+        amps = sysm.amplitude_values(x)
+        extra = dict(extra, parameter2=p2, value2=float(p[chart.k2]))
+        specials.append(SpecialPoint(
+            branch=branch_name, type=kind, label=f"{kind}{counters[kind]}", parameter=p1,
+            value=float(p[chart.k1]), a1=float(amps[0]) if amps else math.nan,
+            a2=float(amps[1]) if len(amps) > 1 else math.nan, state=tuple(x),
+            parameters=sysm.parameter_dict(p), index=int(i), converged=bool(ok),
+            confirmed_by_pycont=bool(confirmed), origin=origin, message=msg, extra=extra))
+    info = {"check": "sigma_min(J)/sigma_max(J)" if chart.kind == "fold" else
+                     "|Re lambda| / ||J||_F of the critical pair (inf: the pair is real)",
+            "check_tol": settings.curve_check_tol,
+            "check_max": float(max((check[i] for i in range(m) if i not in bt_ends), default=math.nan)),
+            "check_failures": failures[:50], "check_failure_count": len(failures),
+            "rejected_candidates": [[k, list(v), why] for k, v, why in rejected],
+            "points_kept_unpolished": moved}
+    cols = {"det_J": detJ, "omega": omega, "check_residual": check}
+    return Ys, X, P, eig, stable, tuple(specials), info, cols
+
+
+def _continue_curve(kind: str, source: ContinuationResult, label: str | SpecialPoint, second_parameter: str,
+                    bounds: tuple[float, float], settings: ContinuationSettings | None, name: str | None,
+                    directions: str, progress: Progress | None) -> ContinuationResult:
+    t0 = time.perf_counter()
+    sp0, problem, base_settings = _resolve(source, label)
+    settings = settings or base_settings
+    want, ctype, _ = _CURVES[kind]
+    if sp0.type != want:
+        raise ValueError(f"{sp0.name} is a {sp0.type} point; a {kind} curve starts from a {want} point")
+    if directions not in ("both", "forward", "backward"):
+        raise ValueError(f"directions must be 'both', 'forward' or 'backward', got {directions!r}")
+    sysm = problem.system
+    p1, p2 = problem.parameter, str(second_parameter)
+    if p2 not in sysm.parameter_names:
+        raise ValueError(f"{p2!r} is not a parameter of {sysm.name!r} (it has {list(sysm.parameter_names)})")
+    if p2 == p1:
+        raise ValueError(f"the second parameter must differ from the first ({p1!r})")
+    lo2, hi2 = (float(b) for b in bounds)
+    if not (math.isfinite(lo2) and math.isfinite(hi2) and lo2 < hi2):
+        raise ValueError(f"range of {p2} must be two finite numbers lo < hi, got {bounds}")
+    name = name or f"{source.branch.name}_{sp0.label}_{kind}"
+    base = sysm.parameter_vector(sp0.parameters)
+    k1, k2 = sysm.parameter_names.index(p1), sysm.parameter_names.index(p2)
+    for pn, k, (lo, hi) in ((p1, k1, problem.bounds), (p2, k2, (lo2, hi2))):
+        if not lo <= base[k] <= hi:
+            raise StartError(f"{sp0.name} has {pn} = {base[k]:g}, outside the range [{lo:g}, {hi:g}]")
+    x0 = np.asarray(sp0.state, float)
+    J0 = sysm.jac(x0, base)
+    tscale = 1.0 / float(np.linalg.norm(J0)) if np.linalg.norm(J0) > 0 else 1.0
+    chart = _CurveChart(sysm, kind, k1, k2, base, float(problem.state_scale), float(problem.span),
+                        hi2 - lo2, tscale)
+    Y0 = chart.to_chart(x0, base)
+    e2 = np.zeros_like(Y0)
+    e2[-1] = 1.0
+    Y0c, ok = _correct(chart.at(Y0), Y0, e2, settings.newton_tol)
+    if not ok:
+        raise StartError(f"{sp0.name} could not be refined on the {kind} curve's defining system "
+                         f"(Newton did not converge)")
+    Y0 = Y0c
+    t = _tangent(chart.DF(Y0))
+    lead = -1 if abs(t[-1]) > 1e-12 else -2            # forward: increasing p2 (else p1)
+    t = t if t[lead] >= 0 else -t
+    lam_bounds = ((chart.lam(1, problem.bounds[0]), chart.lam(1, problem.bounds[1])),
+                  (chart.lam(2, lo2), chart.lam(2, hi2)))
+    try:
+        cont, why = continuation_system(sysm._scaled_field_2p, _CURVE_GENERATOR,
+                                        ics={v: float(y) for v, y in zip(sysm.variables, Y0[:-2])},
+                                        pars=chart.pycont_pars()), ""
+    except Exception as exc:  # noqa: BLE001
+        cont, why = None, f"PyCont could not be set up: {_one_line(exc)}"
+    t_setup = time.perf_counter()
+    wanted = {"both": ("forward", "backward"), "forward": ("forward",), "backward": ("backward",)}[directions]
+    sides = {}
+    rng_state = np.random.get_state()
+    try:
+        for side in wanted:
+            if any(sd.reason == "closed" for sd in sides.values()):
+                sides[side] = _Side([Y0], [], [None], "closed", "the curve is closed, traversed in the other direction")
+                continue
+            np.random.seed(_PYCONT_SEED)
+            sgn = 1.0 if side == "forward" else -1.0
+            sides[side] = _pycont_curve(cont, chart, settings, Y0, sgn * t, lam_bounds, name, side, progress)
+            if cont is None:
+                sides[side].message = why
+    finally:
+        np.random.set_state(rng_state)
+    t1 = time.perf_counter()
+    back = sides.get("backward", _Side([Y0], [], [None], "not_run", ""))
+    fwd = sides.get("forward", _Side([Y0], [], [None], "not_run", ""))
+    Ys = list(reversed(back.points[1:])) + fwd.points
+    fixed = [len(back.points) - 1]                       # the start, refined above
+    if back.reason == "neutral_saddle" and len(back.points) > 1:
+        fixed.append(0)
+    if fwd.reason == "neutral_saddle" and len(fwd.points) > 1:
+        fixed.append(len(Ys) - 1)
+    bt_ends = ([0] if back.reason == "neutral_saddle" and len(back.points) > 1 else []) \
+        + ([len(Ys) - 1] if fwd.reason == "neutral_saddle" and len(fwd.points) > 1 else [])
+    Ys, X, P, eig, stable, specials, info, cols = _analyse_curve(
+        chart, Ys, settings, name, back.pycont_special + fwd.pycont_special, fixed, bt_ends, lam_bounds)
+    start_index = len(back.points) - 1
+    v1, v2 = chart.values(Ys[0]), chart.values(Ys[-1])
+    where = "; the curve ends at ({}, {}) = ({:.8g}, {:.8g})"
+    ends = (EndPoint("backward", back.reason, v1[0], len(back.points) - 1,
+                     back.message + (where.format(p1, p2, *v1) if back.reason != "not_run" else "")),
+            EndPoint("forward", fwd.reason, v2[0], len(fwd.points) - 1,
+                     fwd.message + (where.format(p1, p2, *v2) if fwd.reason != "not_run" else "")))
+    info = dict(info, start_index=start_index, started_from=sp0.name, second_parameter=p2,
+                second_bounds=[lo2, hi2], state_scale=chart.xscale, time_scale=tscale, pycont_curve=ctype,
+                pycont_restarts={k: getattr(sd, "restarts", 0) for k, sd in sides.items()})
+    ch1 = _Chart(sysm, k1, base, chart.xscale, chart.s1)
+    branch = _build_branch(name, "equilibrium", ch1, X, P, stable, eig, specials, ends, info,
+                           extra_columns=cols).replace(kind=kind, parameter2=p2)
+    t2 = time.perf_counter()
+    return ContinuationResult(branch, problem.at(**{p1: float(base[k1])}), settings,
+                              {"setup_s": t_setup - t0, "pycont_s": t1 - t_setup, "analysis_s": t2 - t1,
+                               "points": len(Ys)})
+
+
+def continue_folds(source: ContinuationResult, fold: str | SpecialPoint, second_parameter: str,
+                   bounds: tuple[float, float], settings: ContinuationSettings | None = None, *,
+                   name: str | None = None, directions: str = "both",
+                   progress: Progress | None = None) -> ContinuationResult:
+    """The curve of folds through the fold ``fold`` (e.g. "LP1") of ``source``, in the plane of the
+    source's parameter (over its range) and ``second_parameter`` (over ``bounds``): PyCont's LP-C.
+
+    Returns a branch of kind "fold" (columns: both parameters, the state, a1, a2, det_J,
+    check_residual; ``parameter2`` names the second parameter). Every point is refined on
+    autocable's own defining system (f = 0 and a bordered test function of J) and checked: the
+    ``check_residual`` sigma_min(J)/sigma_max(J) of the exact Jacobian must be <= ``curve_check_tol``
+    (failures listed in ``info["check_failures"]``). Cusps (CP), Bogdanov-Takens (BT) and zero-Hopf
+    (ZH) points come from autocable's test functions (`_curve_tests`), confirmed by the eigenvalues
+    and compared with PyCont's labels (PyCont-only labels kept with ``origin="pycont"``).
+    ``directions``: "both", "forward" (increasing second parameter at the start) or "backward".
+    The curve stops at either range (itself: PyCont's 'B' stop crashes), at ``curve_max_points``
+    per direction, or when PyCont fails (the points before the failure are kept)."""
+    return _continue_curve("fold", source, fold, second_parameter, bounds, settings, name, directions, progress)
+
+
+def continue_hopf(source: ContinuationResult, hopf: str | SpecialPoint, second_parameter: str,
+                  bounds: tuple[float, float], settings: ContinuationSettings | None = None, *,
+                  name: str | None = None, directions: str = "both",
+                  progress: Progress | None = None) -> ContinuationResult:
+    """The curve of Hopf points through ``hopf`` (e.g. "H1") of ``source`` in the plane of the
+    source's parameter and ``second_parameter``: PyCont's H-C2 (J^2 + omega^2 I singular).
+
+    A branch of kind "hopf" (columns as `continue_folds`, plus the frequency ``omega``). Checked at
+    every point: a pair of eigenvalues of the exact Jacobian on the imaginary axis,
+    |Re lambda| / ||J||_F <= ``curve_check_tol``. Where the pair turns real (a Bogdanov-Takens
+    point, beyond which H-C2 follows neutral saddles) the curve ends with reason "neutral_saddle"
+    at the located BT point. Generalized Hopf (GH: l1 = 0, Kuznetsov's l1 from exact derivatives),
+    zero-Hopf (ZH: det J = 0) and, for n >= 4, double Hopf (DH) points come from autocable's test
+    functions, compared with PyCont's labels."""
+    return _continue_curve("hopf", source, hopf, second_parameter, bounds, settings, name, directions, progress)

@@ -4,7 +4,10 @@ Continuous lines: stable equilibria of the AME (period-1 motions of eq. 21); das
 squares: Hopf points; thin lines: the min and max of a1 (or a2) over the periodic orbits of the AME
 (quasi-periodic motions of eq. 21, as in Fig. 4); open circles: branch points; small crosses: fold,
 period-doubling and Neimark-Sacker points of cycles; markers: digitised or direct-integration points
-to compare with. Only reads `autocable.results.RunResults`; matplotlib is imported here, lazily, and
+to compare with. Two-parameter curves (folds, Hopf points) are drawn by `plot_plane` in the plane of
+their two parameters (solid: the bifurcation happens on an otherwise stable equilibrium; dashed:
+not), with their codimension-2 points (CP, BT, GH, ZH, DH) and the one-parameter branches' LP and H
+points. Only reads `autocable.results.RunResults`; matplotlib is imported here, lazily, and
 drawn on an Agg canvas (no pyplot, no global state). Files are written atomically.
 """
 from __future__ import annotations
@@ -18,7 +21,7 @@ from typing import Sequence
 
 import numpy as np
 
-__all__ = ["plot_scene", "AXIS_LABELS"]
+__all__ = ["plot_scene", "plot_plane", "AXIS_LABELS"]
 
 #: Axis labels in the paper's symbols (eqs. 17-18: nondimensional quantities).
 AXIS_LABELS = {"sigma": r"$\sigma$", "U": r"$U$", "eta": r"$\eta$", "a1": r"$a_1$", "a2": r"$a_2$"}
@@ -97,6 +100,8 @@ def _plot_scene(results, stem, *, x, y, title, labels, compare, compare_panel, c
             if x not in b.table or len(b) == 0:
                 continue
             xs = np.asarray(b.table[x])
+            if b.kind in ("fold", "hopf"):
+                continue  # two-parameter curves: see plot_plane
             if b.kind == "equilibrium":
                 if amp not in b.table:
                     continue
@@ -149,6 +154,68 @@ def _plot_scene(results, stem, *, x, y, title, labels, compare, compare_panel, c
     axes[-1].set_xlabel(AXIS_LABELS.get(x, x))
     if title:
         axes[0].set_title(title, fontsize=9)
+    fig.tight_layout()
+    paths = []
+    for ext in (".png", ".pdf"):
+        p = stem.with_suffix(ext)
+        _save(fig, p)
+        paths.append(p)
+    return paths
+
+
+def plot_plane(results, stem: str | Path, *, x: str, y: str, title: str = "", labels: bool = True) -> list[Path]:
+    """Draw the two-parameter curves (kinds "fold", "hopf") of ``results`` in the (``x``, ``y``)
+    parameter plane with their labelled points, and the LP/H points of the one-parameter branches
+    that lie in it; write ``<stem>.png`` and ``<stem>.pdf``. Returns the two paths."""
+    with _matplotlib_quiet():
+        return _plot_plane(results, stem, x=x, y=y, title=title, labels=labels)
+
+
+def _plot_plane(results, stem, *, x, y, title, labels) -> list[Path]:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    stem = Path(stem)
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    fig = Figure(figsize=(6.0, 4.2))
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    styles = {"fold": dict(color="black"), "hopf": dict(color="tab:blue")}
+    markers = {"CP": "^", "BT": "D", "GH": "v", "ZH": "P", "DH": "X", "LP": "o", "H": "s"}
+    drawn = set()
+    for b in results.branches:
+        if b.kind in ("fold", "hopf") and x in b.table and y in b.table and len(b):
+            for sx, sy, st in _segments(np.asarray(b.table[x]), np.asarray(b.table[y]), np.asarray(b.stable)):
+                ax.plot(sx, sy, lw=_THICK, ls="-" if st else "--",
+                        label=None if b.kind in drawn else ("folds (LP)" if b.kind == "fold" else "Hopf points (H)"),
+                        **styles[b.kind])
+                drawn.add(b.kind)
+            i = len(b) // 2
+            ax.annotate(b.name, (b.table[x][i], b.table[y][i]), textcoords="offset points", xytext=(3, 4), fontsize=8)
+        for s in b.special_points:
+            if x not in s.parameters or y not in s.parameters:
+                continue
+            if b.kind in ("fold", "hopf"):
+                if s.type not in markers:
+                    continue
+                filled = s.origin == "autocable"
+            elif s.type in ("LP", "H"):
+                filled = False
+            else:
+                continue
+            px, py = s.parameters[x], s.parameters[y]
+            ax.plot(px, py, markers[s.type], color="black", mfc="black" if filled else "white", ms=5)
+            if labels and b.kind in ("fold", "hopf"):
+                ax.annotate(s.label, (px, py), textcoords="offset points", xytext=(4, -9), fontsize=7)
+    if drawn:
+        ax.legend(fontsize=7, frameon=False)
+    ax.set_xlabel(AXIS_LABELS.get(x, x))
+    ax.set_ylabel(AXIS_LABELS.get(y, y))
+    ax.margins(0.05)
+    ax.tick_params(direction="in", top=True, right=True, labelsize=8)
+    ax.ticklabel_format(style="sci", scilimits=(-3, 3))
+    if title:
+        ax.set_title(title, fontsize=9)
     fig.tight_layout()
     paths = []
     for ext in (".png", ".pdf"):
