@@ -53,12 +53,11 @@ import platform
 import re
 import sys
 import time
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
-from autocable.spec import SpecError, load_model
+from autocable.spec import SpecError, load_model, read_toml
 
 __all__ = [
     "Scene",
@@ -383,16 +382,7 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene file; errors are one-line `SpecError`s."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise SpecError(path, "", "no such file") from None
-    except OSError as exc:
-        raise SpecError(path, "", f"cannot read: {exc.strerror}") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(path, "", f"not valid TOML: {exc}") from None
+    data, text = read_toml(path)
     return parse_scene(data, path, text)
 
 

@@ -182,8 +182,9 @@ def parse_model(data: dict, path="<spec>") -> ModelSpec:
     return ModelSpec(name=name, description=description, cable=cable, aero=aero, path=str(path))
 
 
-def load_model(path) -> ModelSpec:
-    """Read and validate a model spec file. Raises `SpecError` with a one-line message."""
+def read_toml(path) -> tuple[dict, str]:
+    """(parsed document, text) of a TOML file; a missing, unreadable or malformed file raises a
+    one-line `SpecError`. Shared by model specs and scene files."""
     path = Path(path)
     try:
         text = path.read_text()
@@ -195,7 +196,13 @@ def load_model(path) -> ModelSpec:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(path, "", f"not valid TOML: {exc}") from None
-    return parse_model(data, path)
+    return data, text
+
+
+def load_model(path) -> ModelSpec:
+    """Read and validate a model spec file. Raises `SpecError` with a one-line message."""
+    data, _ = read_toml(path)
+    return parse_model(data, Path(path))
 
 
 def spec_fields(cls) -> list[str]:
