@@ -774,29 +774,9 @@ def _pycont_equilibria(cont, chart: _Chart, problem: EquilibriumProblem, setting
             reported = len(side.points) // 100
             progress(f"{name} ({side_name}): {problem.parameter} = {chart.value(side.points[-1][-1]):.6g}, "
                      f"{len(side.points)} points")
-        if failure is not None:
-            text = _one_line(failure)
-            if "converge" in text.lower():
-                side.reason = "step_collapse"
-                side.message = (f"PyCont's corrector failed near {problem.parameter} = "
-                                f"{chart.value(side.points[-1][-1]):.6g} with the minimum step "
-                                f"{settings.min_step:g}: {text}")
-            else:
-                side.reason, side.message = "error", f"PyCont failed: {text}"
-            return side
-        if closed:
-            side.reason, side.message = "closed", "PyCont detected a closed curve"
-            return side
-        last = curve.sol[-1] if curve.sol is not None and len(curve.sol) else None
-        if last is not None and "MX" in last.labels:
-            side.reason, side.message = "no_convergence", "PyCont's corrector stopped (MX point)"
-            return side
-        if len(side.points) >= settings.max_points:
-            side.reason = "max_points"
-            side.message = f"{len(side.points)} points computed; raise max_points to go further"
-            return side
-        if not new:
-            side.reason, side.message = "no_convergence", "PyCont returned no new point"
+        where = f"{problem.parameter} = {chart.value(side.points[-1][-1]):.6g}"
+        if _pycont_end(side, curve, failure, closed, new, where, settings.min_step,
+                       settings.max_points, "max_points"):
             return side
 
 
@@ -808,6 +788,36 @@ def _silent():
         warnings.simplefilter("ignore")
         yield chatter
 
+
+
+def _pycont_end(side, curve, failure, closed, new, where: str, min_step: float, max_points: int,
+                max_points_name: str) -> bool:
+    """Set ``side.reason``/``side.message`` and return True if PyCont's last call ended the side
+    (a failure, a closed curve, an MX point, the point budget, or no progress)."""
+    if failure is not None:
+        text = _one_line(failure)
+        if "converge" in text.lower():
+            side.reason = "step_collapse"
+            side.message = (f"PyCont's corrector failed near {where} with the minimum step "
+                            f"{min_step:g}: {text}")
+        else:
+            side.reason, side.message = "error", f"PyCont failed: {text}"
+        return True
+    if closed:
+        side.reason, side.message = "closed", "PyCont detected a closed curve"
+        return True
+    last = curve.sol[-1] if curve.sol is not None and len(curve.sol) else None
+    if last is not None and "MX" in last.labels:
+        side.reason, side.message = "no_convergence", "PyCont's corrector stopped (MX point)"
+        return True
+    if len(side.points) >= max_points:
+        side.reason = "max_points"
+        side.message = f"{len(side.points)} points computed; raise {max_points_name} to go further"
+        return True
+    if not new:
+        side.reason, side.message = "no_convergence", "PyCont returned no new point"
+        return True
+    return False
 
 def _one_line(exc: BaseException) -> str:
     text = str(exc).strip().splitlines()
@@ -2007,29 +2017,10 @@ def _pycont_curve(cont, chart: _CurveChart, settings: ContinuationSettings, Y0: 
                 return side
             first_call = True
             continue
-        if failure is not None:
-            text = _one_line(failure)
-            v1, v2 = chart.values(side.points[-1])
-            if "converge" in text.lower():
-                side.reason = "step_collapse"
-                side.message = (f"PyCont's corrector failed near ({p1}, {p2}) = ({v1:.6g}, {v2:.6g}) with "
-                                f"the minimum step {settings.min_step:g}: {text}")
-            else:
-                side.reason, side.message = "error", f"PyCont failed: {text}"
-            return side
-        if closed:
-            side.reason, side.message = "closed", "PyCont detected a closed curve"
-            return side
-        last = curve.sol[-1] if curve.sol is not None and len(curve.sol) else None
-        if last is not None and "MX" in last.labels:
-            side.reason, side.message = "no_convergence", "PyCont's corrector stopped (MX point)"
-            return side
-        if len(side.points) >= settings.curve_max_points:
-            side.reason = "max_points"
-            side.message = f"{len(side.points)} points computed; raise curve_max_points to go further"
-            return side
-        if not new:
-            side.reason, side.message = "no_convergence", "PyCont returned no new point"
+        v1, v2 = chart.values(side.points[-1])
+        where = f"({p1}, {p2}) = ({v1:.6g}, {v2:.6g})"
+        if _pycont_end(side, curve, failure, closed, new, where, settings.min_step,
+                       settings.curve_max_points, "curve_max_points"):
             return side
 
 
