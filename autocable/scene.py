@@ -13,7 +13,7 @@ start that does not converge raise `autocable.spec.SpecError` with one line nami
 
     title = "Fig. 5a: ..."            # optional text
     model = "../models/luongo_zulli_2012.toml"
-    ame = "2dof"                      # "2dof" | "1dof"
+    ame = "2dof"                      # "2dof" | "1dof" | "1dof-amplitude" (eta = 0, Fig. 3)
     state_scale = "auto"              # amplitude scale for the continuation ("auto" or a number)
     [fixed]                           # U, eta, sigma shared by every run (default 0)
     [[run]]
@@ -92,6 +92,11 @@ Progress = Callable[[str], None]
 # ================================================================================================
 # the schema as data
 # ================================================================================================
+#: `ame` of a scene: the Cartesian AME (24) of both modes, its A2 = 0 reduction, or the one-mode
+#: polar amplitude equation (23) at eta = 0 (galloping, Fig. 3; see methods/amplitude_system.py).
+AME_KINDS = ("2dof", "1dof", "1dof-amplitude")
+
+
 @dataclass(frozen=True)
 class StartSpec:
     """Where a run starts: ``kind`` is "trivial", "integrate" (amplitudes a_k, phases 0), "state"
@@ -238,8 +243,8 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
     if not model.is_file():
         raise SpecError(path, "model", f"no such file: {model}")
     ame = data.get("ame", "2dof")
-    if ame not in ("2dof", "1dof"):
-        raise SpecError(path, "ame", f'expected "2dof" or "1dof", got {ame!r}')
+    if ame not in AME_KINDS:
+        raise SpecError(path, "ame", f'expected "2dof", "1dof" or "1dof-amplitude", got {ame!r}')
     scale = data.get("state_scale", "auto")
     if scale == "auto":
         scale = None
@@ -423,6 +428,15 @@ def _versions() -> dict[str, str]:
 def _system_for(scene: Scene, ame, values: Mapping[str, float], parameter: str, rng, path, where):
     """The AME system for a run: aerodynamic rows only when the wind blows (1/U powers)."""
     from autocable.methods.continuation import ame_system
+    if scene.ame == "1dof-amplitude":
+        from autocable.methods.amplitude_system import galloping_amplitude_system
+        if parameter == "eta" or values.get("eta", 0.0) != 0.0:
+            raise SpecError(path, f"{where}.fixed.eta", 'ame = "1dof-amplitude" (Fig. 3) holds at '
+                                                       "eta = 0 only; fix eta = 0 and do not continue it")
+        if parameter == "U" and rng[0] <= 0:
+            raise SpecError(path, f"{where}.range", "continuing U needs U > 0 over the whole range "
+                                                    "(the aerodynamic terms carry 1/U); start just above 0")
+        return galloping_amplitude_system(ame)
     if parameter == "U":
         if rng[0] <= 0:
             raise SpecError(path, f"{where}.range", "continuing U needs U > 0 over the whole range "

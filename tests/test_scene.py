@@ -228,3 +228,39 @@ def test_galloping_branch_at_eta_zero_against_the_closed_form():
     expected = np.array([closed(u) for u in Us])
     assert np.max(np.abs(a1 - expected) / expected) < 1e-9
     assert bool(np.all(branch.stable))
+
+
+def test_fig03_scene_gives_the_supercritical_galloping_branch(tmp_path):
+    """runs/fig03.toml (ame = "1dof-amplitude", eta = 0): the galloping branch read back from
+    branches.csv equals the closed form of eq. (25) (ERRATA item 5's form) to 1e-9 and is stable;
+    the trivial solution is stable below U = 1 and unstable above."""
+    import math
+
+    import numpy as np
+
+    from autocable.model.derive import derive
+    from autocable.spec import load_model
+
+    run_scene(load_scene(REPO / "runs" / "fig03.toml"), tmp_path, plot=False)
+    back = read_results(tmp_path)
+    ode = derive(load_model(MODEL)).ode
+    c = ode.coefficients()
+    w, xi = ode.omega1, ode.xi_s
+    gal = back.branch("galloping")
+    U, a1 = np.asarray(gal.table["U"]), np.asarray(gal.table["a1"])
+    closed = 2 * np.sqrt(-(2 * xi * w + c["zeta11"] * U) * U) / math.sqrt(3 * c["zeta8"] * w**2)
+    assert len(U) > 20 and U.min() < 1.01 and U.max() > 1.29
+    assert np.max(np.abs(a1 - closed) / closed) < 1e-9
+    assert bool(np.all(gal.stable))
+    below, above = back.branch("trivial"), back.branch("trivial-above")
+    assert bool(np.all(below.stable[np.asarray(below.table["U"]) < 0.999]))
+    assert not bool(np.any(above.stable[np.asarray(above.table["U"]) > 1.001]))
+
+
+def test_one_dof_amplitude_scene_refuses_support_motion(tmp_path):
+    bad = tmp_path / "bad.toml"
+    text = (REPO / "runs" / "fig03.toml").read_text().replace("eta = 0.0", "eta = 1e-4")
+    text = text.replace('"../models/luongo_zulli_2012.toml"', repr(str(MODEL)).replace("'", '"'))
+    bad.write_text(text)
+    with pytest.raises(SpecError, match="eta = 0 only"):
+        run_scene(load_scene(bad), tmp_path / "o", plot=False)
