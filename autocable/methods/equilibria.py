@@ -1,0 +1,425 @@
+"""Equilibria: Newton at fixed parameters (`equilibrium_near`), settling by integration (`settle`),
+EP-C continuation (`continue_equilibria`), branch switching at a BP (`switch_branch`), and the
+analysis of a branch: polishing, stability from the eigenvalues, LP/BP/H located by autocable's
+test functions and compared with PyCont's list."""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from autocable.methods.bifurcation_functions import _hopf_test, first_lyapunov
+from autocable.methods.continuation_chart import (_build_branch, _Chart, _correct, _locate,
+                                                  _oriented_tangents, _sign, _sign_changes, _tangent)
+from autocable.methods.continuation_problem import (ContinuationResult, ContinuationSettings,
+                                                    EquilibriumProblem, Progress, StartError, _resolve)
+from autocable.methods.pycont_driver import _contclass, _pycont_equilibria, _Side
+from autocable.methods.system import System
+from autocable.results import EndPoint, SpecialPoint
+
+
+def equilibrium_near(system: System, x0, p, *, tol: float = 1e-12, scale: float = 1.0,
+                     maxiter: int = 50) -> tuple[np.ndarray, bool, float]:
+    """Newton at fixed parameters from ``x0``: (x, converged, max|f|). The step criterion is relative
+    to |x| + ``scale`` (so the trivial solution x = 0 converges too)."""
+    x = np.array(x0, dtype=float)
+    p = np.asarray(p, float)
+    converged = False
+    for _ in range(maxiter):
+        fx = system.f(x, p)
+        try:
+            step = np.linalg.solve(system.jac(x, p), fx)
+        except np.linalg.LinAlgError:
+            break
+        x = x - step
+        if not np.all(np.isfinite(x)):
+            return np.array(x0, float), False, math.inf
+        if np.linalg.norm(step) <= tol * (np.linalg.norm(x) + scale):
+            converged = True
+            break
+    res = float(np.max(np.abs(system.f(x, p)))) if x.size else 0.0
+    return x, converged, res
+
+
+def settle(system: System, values: Mapping[str, float], x0, *, scale: float = 1.0,
+           chunks: int = 40, patience: int = 4, rtol: float = 1e-9) -> np.ndarray:
+    """The stable equilibrium reached by integrating x' = f(x; p) from ``x0``, refined by Newton.
+
+    Integrates (scipy LSODA with the exact Jacobian) in chunks of 25 / (mean damping rate) until the
+    Newton step from the current state is below 1e-6 of |x| + ``scale`` and every eigenvalue has a
+    negative real part. Raises `StartError` when the orbit leaves a ball of 1e6 (|x0| + ``scale``),
+    when the Newton step has not halved for ``patience`` chunks in a row (the orbit is going round
+    a cycle, or creeping along a family of equilibria), or after ``chunks`` chunks."""
+    from scipy.integrate import solve_ivp
+
+    p = system.parameter_vector(values)
+    y = np.array(x0, dtype=float)
+    rate = abs(np.trace(system.jac(y, p))) / max(system.dimension, 1)
+    if not rate > 0:
+        rate = 1.0
+    chunk = 25.0 / rate
+    bound = 1e6 * (np.linalg.norm(y) + scale)
+    t, best, stale = 0.0, math.inf, 0
+    start = np.round(np.asarray(x0, float), 12).tolist()
+    for _ in range(int(chunks)):
+        sol = solve_ivp(lambda _t, z: system.f(z, p), (t, t + chunk), y, method="LSODA",
+                        jac=lambda _t, z: system.jac(z, p), rtol=rtol, atol=rtol * scale * 1e-3)
+        if sol.status < 0 or not np.all(np.isfinite(sol.y)):
+            raise StartError(f"integrating from {start} failed at t = {t:g}: {sol.message}")
+        y, t = sol.y[:, -1].copy(), float(sol.t[-1])
+        if np.linalg.norm(y) > bound:
+            raise StartError(f"integrating from {start}: the orbit diverges "
+                             f"(|x| = {np.linalg.norm(y):.3g} at t = {t:g}); start elsewhere")
+        J = system.jac(y, p)
+        try:
+            step = float(np.linalg.norm(np.linalg.solve(J, system.f(y, p))))
+        except np.linalg.LinAlgError:
+            step = math.inf
+        if np.max(np.linalg.eigvals(J).real) < 0 and step <= 1e-6 * (np.linalg.norm(y) + scale):
+            x, ok, res = equilibrium_near(system, y, p, scale=scale)
+            if ok:
+                return x
+        if step < 0.5 * best:
+            best, stale = step, 0
+        else:
+            stale += 1
+            if stale >= patience:
+                break
+    a = system.amplitude_values(y)
+    raise StartError(f"integrating from {start} did not settle on an equilibrium by "
+                     f"t = {t:.6g} (amplitudes now {', '.join(f'{v:.4g}' for v in a)}): the motion may "
+                     f"be periodic; start from other amplitudes or from a labelled point")
+
+
+@dataclass(frozen=True)
+class _Analysis:
+    Ys: tuple
+    x: np.ndarray
+    p: np.ndarray
+    eigen: np.ndarray
+    stable: np.ndarray
+    special: tuple
+    info: dict
+
+
+def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: ContinuationSettings,
+                        branch_name: str, pycont_special: Sequence, pycont_stab: Sequence,
+                        skip: Sequence[int] = ()) -> _Analysis:
+    sysm = chart.system
+    n = sysm.dimension
+    polished, moved = [], 0
+    for Y in Ys:
+        x, p = chart.to_phys(Y)
+        xp, ok, _ = equilibrium_near(sysm, x, p, tol=settings.newton_tol, scale=chart.xscale, maxiter=8)
+        # Keep the point PyCont gave when Newton at fixed parameter wanders (next to a fold).
+        if ok and np.linalg.norm(xp - x) <= 1e-6 * (np.linalg.norm(x) + chart.xscale):
+            polished.append(chart.to_chart(xp, chart.value(Y[-1])))
+        else:
+            polished.append(np.asarray(Y, float).copy())
+            moved += 1
+    Ys = polished
+    X = np.array([chart.to_phys(Y)[0] for Y in Ys])
+    P = np.array([chart.to_phys(Y)[1] for Y in Ys])
+    eig = np.zeros((len(Ys), n), dtype=complex)
+    detJ = np.zeros(len(Ys))
+    hopf = np.zeros(len(Ys))
+    for i in range(len(Ys)):
+        J = sysm.jac(X[i], P[i])
+        ev = np.linalg.eigvals(J)
+        eig[i] = ev[np.lexsort((-ev.imag, -ev.real))]
+        detJ[i] = np.linalg.det(J)
+        hopf[i] = _hopf_test(J)
+    stable = np.max(eig.real, axis=1) < 0 if n else np.ones(len(Ys), bool)
+    T = _oriented_tangents(chart, Ys) if len(Ys) > 1 else np.zeros((len(Ys), n + 1))
+    vp = T[:, -1]
+    # The branch-point test function det([J_x, J_p; v]) changes sign at simple BPs, not at folds.
+    bdet = np.array([np.linalg.det(np.vstack([chart.DF(Y), t])) for Y, t in zip(Ys, T)]) \
+        if len(Ys) > 1 else np.zeros(len(Ys))
+    tests = {"LP": vp, "BP": bdet, "H": hopf}
+    skip = set(skip)
+    candidates = []
+    if "LP" in settings.locate or "BP" in settings.locate:
+        candidates += [("LP", i) for i in _sign_changes(vp)]
+        candidates += [("BP", i) for i in _sign_changes(bdet)]
+    if "H" in settings.locate and n >= 2:
+        candidates += [("H", i) for i in _sign_changes(hopf)]
+    # A pitchfork's new branch turns in the parameter at the BP it passes through: its vp zero is
+    # that BP, not a fold.
+    bp_segments = {i for t, i in candidates if t == "BP"}
+    candidates = [(t, i) for t, i in candidates if not (t == "LP" and i in bp_segments)]
+    found = []
+    neutral, rejected = [], []
+    for kind, i in sorted(candidates, key=lambda c: c[1]):
+        j = i + 1
+        while j < len(Ys) - 1 and _sign(tests[kind][j]) == 0:
+            j += 1
+        if i in skip or j in skip:
+            continue
+        Ya, Yb = Ys[i], Ys[j]
+        ref = Yb - Ya
+        if kind == "LP":
+            def tau(Y, ref=ref):
+                v = _tangent(chart.DF(Y))
+                return float(v[-1] if v @ ref >= 0 else -v[-1])
+        elif kind == "BP":
+            def tau(Y, ref=ref):
+                return float(np.linalg.det(np.vstack([chart.DF(Y), ref / np.linalg.norm(ref)])))
+        else:
+            def tau(Y):
+                x, p = chart.to_phys(Y)
+                return _hopf_test(sysm.jac(x, p))
+        Y, ok = _locate(chart, Ya, Yb, tau, settings.newton_tol)
+        x, p = chart.to_phys(Y)
+        J = sysm.jac(x, p)
+        ev = np.linalg.eigvals(J)
+        extra: dict[str, Any] = {"eigenvalues": [complex(e) for e in ev]}
+        message = ""
+        if kind in ("LP", "BP"):
+            # Fold or branch point is decided by the rank of [J_x, J_p]: full at a fold, deficient at
+            # a BP (where a pitchfork's new branch also turns in the parameter: vp changes sign there).
+            sv = np.linalg.svd(chart.DF(Y), compute_uv=False)
+            deficient = sv[-1] <= 1e-7 * sv[0]
+            if kind == "BP" and not deficient:
+                rejected.append(("BP", chart.value(Y[-1])))
+                continue
+            kind = "BP" if deficient else "LP"
+            extra["rank_test"] = float(sv[-1] / sv[0])
+        if kind == "H":
+            # Which pair sums to ~0: a complex pair is a Hopf point, a real pair a neutral saddle.
+            best, pair = math.inf, None
+            for a in range(n):
+                for b in range(a + 1, n):
+                    s_ = abs(ev[a] + ev[b])
+                    if s_ < best:
+                        best, pair = s_, (ev[a], ev[b])
+            scale_ev = max(np.max(np.abs(ev)), 1e-300)
+            if pair is None or abs(pair[0].imag) <= 1e-8 * scale_ev:
+                neutral.append(chart.value(Y[-1]))
+                continue
+            try:
+                l1, w = first_lyapunov(sysm, x, p)
+                extra.update(l1=l1, omega=w, period=2 * math.pi / w,
+                             criticality="supercritical" if l1 < 0 else "subcritical")
+            except (np.linalg.LinAlgError, ValueError) as exc:
+                extra.update(omega=abs(pair[0].imag), period=2 * math.pi / abs(pair[0].imag))
+                message = f"l1 not computed: {exc}"
+        if kind == "LP":
+            extra["tangent"] = [float(v) for v in _tangent(chart.DF(Y))]
+        elif kind == "BP":
+            # At a BP the kernel is 2-D: the old branch's direction is the chord across it.
+            extra["tangent"] = [float(v) for v in ref / np.linalg.norm(ref)]
+        if any(f[0] == kind and np.linalg.norm(f[2] - Y) <= 1e-6 * (1 + np.linalg.norm(Y)) for f in found):
+            continue  # the same point seen by two test functions
+        if not ok:
+            message = (message + "; " if message else "") + "refinement did not bracket a zero: location interpolated"
+        found.append((kind, i, Y, ok, extra, message))
+    # A pitchfork's new branch turns in the parameter at the BP it crosses; when the vp zero and
+    # the BP fall in neighbouring segments the LP found there is that BP again.
+    bps = [(f[1], f[2]) for f in found if f[0] == "BP"]
+    merged = [f for f in found if f[0] == "LP" and any(abs(f[1] - i) <= 2 or np.linalg.norm(f[2] - b) <= 1e-3
+                                                      for i, b in bps)]
+    found = [f for f in found if not any(f is m for m in merged)]
+    # PyCont's list against ours.
+    specials = []
+    counters: dict[str, int] = {}
+    pyc = [(t, np.asarray(Y, float)) for t, Y in pycont_special]
+    used = set()
+
+    def near(i_seg: int, Y, Yp) -> bool:
+        a, b = max(i_seg - 1, 0), min(i_seg + 2, len(Ys) - 1)
+        scale_ = max(np.linalg.norm(Ys[b] - Ys[a]), 10 * settings.test_tol)
+        return np.linalg.norm(Y - Yp) <= scale_
+
+    entries = []
+    for kind, i, Y, ok, extra, message in found:
+        match = None
+        for m, (t, Yp) in enumerate(pyc):
+            if m not in used and t == kind and near(i, Y, Yp):
+                match = m
+                break
+        if match is not None:
+            used.add(match)
+        entries.append((i, kind, Y, ok, match is not None, "autocable", extra,
+                        message if match is not None else
+                        (message + "; " if message else "") + "not in PyCont's list (PyCont missed it)"))
+    for m, (t, Yp) in enumerate(pyc):
+        if m in used:
+            continue
+        i = int(np.argmin([np.linalg.norm(Y - Yp) for Y in Ys]))
+        entries.append((i, t, Yp, False, True, "pycont", {},
+                        f"PyCont reports {t} here; autocable's test functions change sign nowhere "
+                        f"near it: not confirmed (PyCont's point may be spurious)"))
+    for i, kind, Y, ok, confirmed, origin, extra, message in sorted(entries, key=lambda e: (e[0], e[1])):
+        counters[kind] = counters.get(kind, 0) + 1
+        x, p = chart.to_phys(Y)
+        amps = sysm.amplitude_values(x)
+        specials.append(SpecialPoint(
+            branch=branch_name, type=kind, label=f"{kind}{counters[kind]}",
+            parameter=sysm.parameter_names[chart.k], value=chart.value(Y[-1]),
+            a1=float(amps[0]) if amps else math.nan, a2=float(amps[1]) if len(amps) > 1 else math.nan,
+            state=tuple(x), parameters=sysm.parameter_dict(p), index=int(i), converged=bool(ok),
+            confirmed_by_pycont=bool(confirmed), origin=origin, message=message, extra=extra))
+    disagree = [i for i, s in enumerate(pycont_stab) if s is not None and (s == "S") != bool(stable[i])]
+    info = {"pycont_stability_disagreements": len(disagree),
+            "pycont_stability_disagreement_points": disagree[:50],
+            "pycont_stability_checked": sum(s is not None for s in pycont_stab),
+            "neutral_saddles": neutral, "rejected_candidates": rejected,
+            "lp_merged_into_bp": [chart.value(f[2][-1]) for f in merged], "points_kept_unpolished": moved}
+    return _Analysis(tuple(Ys), X, P, eig, stable, tuple(specials), info)
+
+
+def _relabel(points: Sequence[SpecialPoint]) -> tuple[SpecialPoint, ...]:
+    """Number the labels of each type in branch order (BP0, the switching junction, keeps its name)."""
+    counters: dict[str, int] = {}
+    out = []
+    for s_ in points:
+        if s_.label.endswith("0") and s_.label[:-1] == s_.type:
+            out.append(s_)
+            continue
+        counters[s_.type] = counters.get(s_.type, 0) + 1
+        out.append(replace(s_, label=f"{s_.type}{counters[s_.type]}"))
+    return tuple(out)
+
+
+def continue_equilibria(problem: EquilibriumProblem, settings: ContinuationSettings = ContinuationSettings(),
+                        start=None, *, name: str = "EQ", directions: str = "both",
+                        progress: Progress | None = None) -> ContinuationResult:
+    """EP-C of ``problem`` from ``start`` (a state vector, default the zero state), both directions.
+
+    ``start`` is refined by Newton at the start parameter value; a start that does not converge
+    raises `StartError`. ``directions`` is ``"both"``, ``"forward"`` (increasing parameter) or
+    ``"backward"``. The branch runs from the backward end through the start to the forward end.
+    """
+    t0 = time.perf_counter()
+    sysm = problem.system
+    chart = _Chart.of(problem)
+    x0 = np.zeros(sysm.dimension) if start is None else np.asarray(start, float)
+    if x0.shape != (sysm.dimension,):
+        raise StartError(f"start state must have {sysm.dimension} entries {sysm.variables}, got {x0.shape}")
+    x, ok, res = equilibrium_near(sysm, x0, chart.p(0.0), tol=settings.newton_tol, scale=chart.xscale)
+    if not ok:
+        raise StartError(f"Newton from the start state did not converge to an equilibrium at "
+                         f"{problem.parameter} = {chart.value(0.0):g} (residual {res:.3g}); start by "
+                         f"integration or from a labelled point")
+    Y0 = chart.to_chart(x, chart.value(0.0))
+    v0 = _tangent(chart.DF(Y0))
+    if abs(v0[-1]) > 1e-12:
+        v0 = v0 * np.sign(v0[-1])
+    sides = {}
+    wanted = {"both": ("forward", "backward"), "forward": ("forward",), "backward": ("backward",)}[directions]
+    cont, why = _contclass(chart, Y0)
+    t_setup = time.perf_counter()
+    for side in wanted:
+        if any(sd.reason == "closed" for sd in sides.values()):
+            # The other direction went all the way round: this one would retrace it.
+            sides[side] = _Side([Y0], [], [None], "closed", "the branch is a closed curve, "
+                                                            "traversed in the other direction")
+            continue
+        d = v0 if side == "forward" else -v0
+        sides[side] = _pycont_equilibria(cont, chart, problem, settings, Y0, d, name, side, progress)
+        if cont is None:
+            sides[side].message = why
+    t1 = time.perf_counter()
+    back = sides.get("backward", _Side([Y0], [], [None], "not_run", ""))
+    fwd = sides.get("forward", _Side([Y0], [], [None], "not_run", ""))
+    Ys = list(reversed(back.points[1:])) + fwd.points
+    stab = list(reversed(back.pycont_stab[1:])) + fwd.pycont_stab
+    an = _analyse_equilibria(chart, Ys, settings, name, back.pycont_special + fwd.pycont_special, stab)
+    ends = (EndPoint("backward", back.reason, chart.value(Ys[0][-1]), len(back.points) - 1, back.message),
+            EndPoint("forward", fwd.reason, chart.value(Ys[-1][-1]), len(fwd.points) - 1, fwd.message))
+    info = dict(an.info, start_index=len(back.points) - 1, state_scale=chart.xscale)
+    branch = _build_branch(name, "equilibrium", chart, an.x, an.p, an.stable, an.eigen, an.special, ends, info)
+    t2 = time.perf_counter()
+    return ContinuationResult(branch, problem, settings,
+                              {"setup_s": t_setup - t0, "pycont_s": t1 - t_setup, "analysis_s": t2 - t1,
+                               "points": len(Ys)})
+
+
+def switch_branch(source: ContinuationResult, bp: str | SpecialPoint,
+                  settings: ContinuationSettings | None = None, *, name: str | None = None,
+                  progress: Progress | None = None) -> ContinuationResult:
+    """The branch crossing ``source`` at its branch point ``bp``, continued on both sides of it.
+
+    At a BP the kernel of [J_x, J_p] is two-dimensional: it holds the old branch's tangent and the
+    new one's. The start points are the BP shifted by +-h along the kernel vector orthogonal to the
+    old tangent, corrected onto the new branch (Newton on the hyperplane through them, which is
+    parallel to the old branch and so cannot fall back on it); each side is then continued away
+    from the BP, and the two are joined through the BP."""
+    bp, problem, base_settings = _resolve(source, bp)
+    settings = settings or base_settings
+    if bp.type != "BP":
+        raise ValueError(f"{bp.name} is a {bp.type} point, not a branch point")
+    name = name or f"{source.branch.name}_{bp.label}"
+    t0 = time.perf_counter()
+    sysm = problem.system
+    chart = _Chart(sysm, sysm.parameter_names.index(problem.parameter),
+                   sysm.parameter_vector(bp.parameters), problem.state_scale, problem.span)
+    Yb = chart.to_chart(bp.state, bp.value)
+    _, s, vt = np.linalg.svd(chart.DF(Yb))
+    kernel = vt[-2:]
+    old = np.asarray(bp.extra.get("tangent", kernel[0]), float)
+    old = kernel.T @ (kernel @ old)
+    old /= np.linalg.norm(old)
+    w = kernel[0] - (kernel[0] @ old) * old
+    if np.linalg.norm(w) < 1e-8:
+        w = kernel[1] - (kernel[1] @ old) * old
+    w /= np.linalg.norm(w)
+    sides = {}
+    cont, why = _contclass(chart, Yb)
+    t_setup = time.perf_counter()
+    for sign, side in ((1, "+"), (-1, "-")):
+        if any(sd.reason == "closed" for sd in sides.values()):
+            sides[side] = _Side([Yb], [], [None], "closed", "the new branch is a closed curve through "
+                                                            f"{bp.name}, traversed from the other side")
+            continue
+        target = Yb + sign * settings.switch_step * w
+        Ys, ok = _correct(chart, target, w, settings.newton_tol)
+        if not ok or np.linalg.norm(Ys - Yb) > 10 * settings.switch_step:
+            sides[side] = _Side([Yb], [], [None], "no_convergence",
+                                f"no branch found at distance {settings.switch_step:g} from {bp.name}: "
+                                f"try another switch_step")
+            continue
+        v = _tangent(chart.DF(Ys))
+        v = v if v @ (Ys - Yb) >= 0 else -v
+        lo, hi = chart.lam(problem.bounds[0]), chart.lam(problem.bounds[1])
+        if not lo <= Ys[-1] <= hi:
+            sides[side] = _Side([Yb], [], [None], "range", "the new branch leaves the range at once")
+            continue
+        sd = _pycont_equilibria(cont, chart, problem, settings, Ys, v, name, "plus" if sign > 0 else "minus",
+                                progress)
+        if cont is None:
+            sd.message = why
+        sd.points.insert(0, Yb.copy())
+        sd.pycont_stab.insert(0, None)
+        sides[side] = sd
+    t1 = time.perf_counter()
+    minus, plus = sides["-"], sides["+"]
+    Ys = list(reversed(minus.points[1:])) + plus.points
+    stab = list(reversed(minus.pycont_stab[1:])) + plus.pycont_stab
+    ib = len(minus.points) - 1
+    # The junction is the BP itself: the parameter turns there on a pitchfork's new branch, which is
+    # not a fold; it is recorded as the branch point below.
+    an = _analyse_equilibria(chart, Ys, settings, name, minus.pycont_special + plus.pycont_special, stab,
+                             skip=(ib,))
+    junction = SpecialPoint(
+        branch=name, type="BP", label="BP0", parameter=bp.parameter, value=bp.value, a1=bp.a1, a2=bp.a2,
+        state=bp.state, parameters=bp.parameters, index=ib, converged=bp.converged,
+        confirmed_by_pycont=None, origin="autocable", message=f"the branch point {bp.name} this branch was switched from",
+        extra={"switched_from": bp.name})
+    Ys_, junction_Y = an.Ys, Yb
+    # The junction BP may be seen again by the test functions (and by PyCont): it is BP0.
+    others = tuple(s_ for s_ in an.special if not (
+        s_.type in ("BP", "LP")
+        and np.linalg.norm(chart.to_chart(s_.state, s_.value) - junction_Y) <= 0.5 * settings.switch_step))
+    an = replace(an, special=_relabel(tuple(sorted((junction,) + others, key=lambda s_: s_.index))))
+    ends = (EndPoint("-", minus.reason, chart.value(Ys[0][-1]), len(minus.points) - 1, minus.message),
+            EndPoint("+", plus.reason, chart.value(Ys[-1][-1]), len(plus.points) - 1, plus.message))
+    info = dict(an.info, switched_from=bp.name, bp_index=ib, state_scale=chart.xscale)
+    branch = _build_branch(name, "equilibrium", chart, an.x, an.p, an.stable, an.eigen, an.special, ends, info)
+    prob = problem.at(**{problem.parameter: bp.value})
+    return ContinuationResult(branch, prob, settings,
+                              {"setup_s": t_setup - t0, "pycont_s": t1 - t_setup,
+                               "analysis_s": time.perf_counter() - t1, "points": len(Ys)})
