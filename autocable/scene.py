@@ -75,7 +75,8 @@ __all__ = [
 PARAMETERS = ("sigma", "U", "eta")
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_\-]*$")
 _LABEL = re.compile(r"^([A-Za-z0-9_\-]+):([A-Z]+[0-9]+)$")
-_TOP_KEYS = ("title", "description", "model", "ame", "state_scale", "fixed", "run", "plot", "compare")
+_TOP_KEYS = ("title", "description", "model", "ame", "state_scale", "fixed", "run", "plot", "compare",
+             "overlay")
 _RUN_KEYS = ("name", "kind", "parameter", "range", "start", "at", "directions", "cycles", "switch",
              "fixed", "steps", "parameter2", "range2")
 _STEP_KEYS = ("step", "min_step", "max_step", "max_points", "chunk", "max_corrector_iters", "tol",
@@ -84,6 +85,7 @@ _STEP_KEYS = ("step", "min_step", "max_step", "max_points", "chunk", "max_correc
               "curve_check_tol")
 _PLOT_KEYS = ("x", "y", "title", "labels", "plane")
 _COMPARE_KEYS = ("csv", "panel", "label")
+_OVERLAY_KEYS = ("method", "parameter", "range", "points", "directions", "max_time")
 _KINDS = ("equilibria", "cycles", "switch", "curve")
 
 Progress = Callable[[str], None]
@@ -142,6 +144,18 @@ class CompareSpec:
 
 
 @dataclass(frozen=True)
+class OverlaySpec:
+    """Direct-integration "empty boxes" (Figs. 9-10): steady responses at sampled parameter values,
+    swept up and down (methods/sweeps.py)."""
+    method: str                     # "ode21" (eq. 21, the paper's check) or "ame"
+    parameter: str
+    range: tuple[float, float]
+    points: int
+    directions: tuple[str, ...]
+    max_time: float
+
+
+@dataclass(frozen=True)
 class Scene:
     path: Path
     name: str
@@ -155,6 +169,7 @@ class Scene:
     plot: PlotSpec
     compare: CompareSpec | None = None
     text: str = field(default="", repr=False)
+    overlay: OverlaySpec | None = None
 
 
 # ================================================================================================
@@ -379,9 +394,43 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
         if panel not in y:
             raise SpecError(path, "compare.panel", f"expected one of the plotted amplitudes {y}, got {panel!r}")
         compare = CompareSpec(csv_path, panel, str(c.get("label", "digitised")))
+    overlay = _overlay(data["overlay"], path, x, runs) if "overlay" in data else None
     return Scene(path=path, name=path.stem, title=title, description=data.get("description", ""),
                  model=model, ame=ame, state_scale=scale, fixed=fixed, runs=tuple(runs),
-                 plot=PlotSpec(x, tuple(y), ptitle, labels, plane), compare=compare, text=text)
+                 plot=PlotSpec(x, tuple(y), ptitle, labels, plane), compare=compare, text=text,
+                 overlay=overlay)
+
+
+def _overlay(table, path, x: str, runs) -> OverlaySpec:
+    """The [overlay] table: which method, which parameter and values, which sweep directions."""
+    if not isinstance(table, dict):
+        raise SpecError(path, "overlay", "expected a table")
+    _check_keys(table, _OVERLAY_KEYS, path, "overlay")
+    method = table.get("method", "ode21")
+    if method not in ("ode21", "ame"):
+        raise SpecError(path, "overlay.method", f'expected "ode21" or "ame", got {method!r}')
+    parameter = table.get("parameter", x)
+    if parameter not in PARAMETERS:
+        raise SpecError(path, "overlay.parameter", f"expected one of {', '.join(PARAMETERS)}, got {parameter!r}")
+    default = next((r.range for r in runs if r.parameter == parameter and r.kind != "curve"), None)
+    rng = table.get("range", list(default) if default else None)
+    if not (isinstance(rng, list) and len(rng) == 2):
+        raise SpecError(path, "overlay.range", "expected [lo, hi]")
+    lo, hi = (_num(v, path, "overlay.range") for v in rng)
+    if not lo < hi:
+        raise SpecError(path, "overlay.range", f"expected lo < hi, got {rng}")
+    if parameter == "U" and lo <= 0:
+        raise SpecError(path, "overlay.range", "sweeping U needs U > 0 (the aerodynamic terms carry 1/U)")
+    points = table.get("points", 11)
+    if isinstance(points, bool) or not isinstance(points, int) or not 1 <= points <= 201:
+        raise SpecError(path, "overlay.points", f"expected a whole number from 1 to 201, got {points!r}")
+    directions = table.get("directions", ["up", "down"])
+    if not (isinstance(directions, list) and directions and set(directions) <= {"up", "down"}):
+        raise SpecError(path, "overlay.directions", f'expected a list of "up" and/or "down", got {directions!r}')
+    max_time = _num(table.get("max_time", 30000.0), path, "overlay.max_time")
+    if max_time <= 0:
+        raise SpecError(path, "overlay.max_time", "expected a positive time (t* units)")
+    return OverlaySpec(method, parameter, (lo, hi), points, tuple(directions), max_time)
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -631,6 +680,12 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
     }
     res = RunResults(scene.name, tuple(branches), {**provenance, "stages": stages})
     out = Path(out_dir)
+    overlay_rows = None
+    if scene.overlay is not None:
+        t0 = time.perf_counter()
+        overlay_rows = _run_overlay(scene, deriv, ame, say)
+        _write_overlay(overlay_rows, out / "overlay.csv")
+        stages["overlay_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     write_results(res, out)
     stages["write_s"] = time.perf_counter() - t0
@@ -641,7 +696,8 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         files = plot_scene(res, out / scene.name, x=scene.plot.x, y=scene.plot.y, title=scene.plot.title,
                            labels=scene.plot.labels, compare=compare,
                            compare_panel=scene.compare.panel if scene.compare else None,
-                           compare_label=scene.compare.label if scene.compare else "")
+                           compare_label=scene.compare.label if scene.compare else "",
+                           overlay=overlay_rows)
         stages["plot_s"] = time.perf_counter() - t0
         if scene.plot.plane and any(b.kind in ("fold", "hopf") for b in branches):
             from autocable.plotting.diagrams import plot_plane
@@ -653,6 +709,44 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
     res = RunResults(scene.name, tuple(branches), {**provenance, "stages": stages})
     write_results(res, out)   # again, now with the complete timings
     return res
+
+
+def _run_overlay(scene: Scene, deriv, ame, say) -> list[dict]:
+    """Sweep the overlay's method up and down over its parameter values (methods/sweeps.py)."""
+    import numpy as np
+
+    from autocable.methods.sweeps import sweep, to_rows
+    ov = scene.overlay
+    values = np.linspace(ov.range[0], ov.range[1], ov.points)
+    fixed = {k: v for k, v in scene.fixed.items() if k != ov.parameter}
+    if ov.method == "ode21":
+        from autocable.methods.integration import Ode21Integrator
+        integrator = Ode21Integrator(deriv.ode)
+    else:
+        from autocable.methods.ame_integration import AmeIntegrator
+        integrator = AmeIntegrator(ame)
+    say(f"overlay: {ov.method} swept in {ov.parameter} over [{ov.range[0]:g}, {ov.range[1]:g}], "
+        f"{ov.points} points, {'/'.join(ov.directions)}")
+
+    def tell(p):
+        state = "periodic" if p.periodic else ("steady" if p.steady else p.message.split(":")[0])
+        say(f"  {p.direction:>4} {ov.parameter} = {p.value:+.5f}: a1 = {p.a1:.4e}, a2 = {p.a2:.4e} ({state})")
+
+    return to_rows(sweep(integrator, ov.parameter, values, fixed, directions=ov.directions,
+                         progress=tell, max_time=ov.max_time))
+
+
+def _write_overlay(rows: list[dict], path: Path) -> None:
+    import csv
+    import io
+
+    from autocable.codegen.cache import atomic_write_text
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=list(rows[0]) if rows else ["parameter"])
+    writer.writeheader()
+    writer.writerows(rows)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(path, buf.getvalue())
 
 
 # ================================================================================================

@@ -77,15 +77,31 @@ def _matplotlib_quiet():
 
 def plot_scene(results, stem: str | Path, *, x: str, y: Sequence[str] = ("a1",), title: str = "",
                labels: bool = True, compare: Sequence[dict] | None = None, compare_panel: str | None = None,
-               compare_label: str = "digitised") -> list[Path]:
+               compare_label: str = "digitised", overlay: Sequence[dict] | None = None) -> list[Path]:
     """Draw every branch of ``results`` as amplitude(s) ``y`` against parameter ``x``; write
-    ``<stem>.png`` and ``<stem>.pdf``. Returns the two paths."""
+    ``<stem>.png`` and ``<stem>.pdf``. Returns the two paths. ``overlay`` rows (methods/sweeps.py)
+    are drawn as the paper's empty boxes (Figs. 9-10), with a vertical bar over the envelope of a
+    response that is not period-1."""
     with _matplotlib_quiet():
         return _plot_scene(results, stem, x=x, y=y, title=title, labels=labels, compare=compare,
-                           compare_panel=compare_panel, compare_label=compare_label)
+                           compare_panel=compare_panel, compare_label=compare_label, overlay=overlay)
 
 
-def _plot_scene(results, stem, *, x, y, title, labels, compare, compare_panel, compare_label) -> list[Path]:
+def _plot_overlay(ax, rows, x: str, amp: str) -> None:
+    shown = [r for r in rows if r["parameter"] == x and r["steady"] and np.isfinite(r[amp])]
+    if not shown:
+        return
+    label = "integration of eq. (21)" if shown[0]["method"] == "ode21" else "integration of the AME"
+    ax.plot([r["value"] for r in shown], [r[amp] for r in shown], ls="none", marker="s", ms=5,
+            mfc="none", mec="tab:blue", label=label)
+    for r in shown:
+        if not r["periodic"]:
+            ax.plot([r["value"]] * 2, [r[f"{amp}_min"], r[f"{amp}_max"]], color="tab:blue", lw=_THIN)
+    ax.legend(fontsize=7, frameon=False)
+
+
+def _plot_scene(results, stem, *, x, y, title, labels, compare, compare_panel, compare_label,
+                overlay=None) -> list[Path]:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -146,6 +162,8 @@ def _plot_scene(results, stem, *, x, y, title, labels, compare, compare_panel, c
                                 ms=4, mec="tab:red", mfc="tab:red" if st else "white",
                                 label=f"{compare_label} {c}".strip() if st or not any(r["stable"] for r in pts) else None)
             ax.legend(fontsize=7, frameon=False)
+        if overlay:
+            _plot_overlay(ax, overlay, x, amp)
         ax.set_ylabel(AXIS_LABELS.get(amp, amp))
         ax.margins(y=0.1)      # room for the branch names above the highest point
         ax.set_ylim(bottom=0.0)
