@@ -6,7 +6,6 @@ naming the file and field, with exit status 2; no traceback. ``AUTOCABLE_DEBUG=1
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import os
@@ -51,9 +50,9 @@ def derive_report(d) -> str:
         + (f"   ({d.calibrated} calibrated)" if d.calibrated else ""),
         f"  angle convention (eq. 12): {d.spec.aero.angle_convention}   static angle phi0 = "
         f"{math.degrees(d.static_angle):.6f} deg",
-        *([f"  calibration roots [deg]: " + ", ".join(
+        *(["  calibration roots [deg]: " + ", ".join(
             f"{r:.6f}" + (f" (rejected: {why})" if why else "") for r, why in d.calibration_roots)
-           + f"; kept the smallest valid |angle|"] if d.calibration_roots else []),
+           + "; kept the smallest valid |angle|"] if d.calibration_roots else []),
         f"  load scale K = {d.aero_scale:.6g}   velocity ratio nu = omega l / U_c = {d.velocity_ratio:.6g}",
         "",
         "Eq. (21): q_k'' + sum(coefficient * term) = 0; Appendix A names, forcing terms in the",

@@ -318,8 +318,8 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
                                                         'e.g. "I:LP1" or "I:H1"')
             for key in ("at", "cycles", "switch"):
                 if key in r:
-                    raise SpecError(path, f"{where}.{key}", f'not allowed in a "curve" run (it starts at its '
-                                                            f'labelled point and has no follow-ups)')
+                    raise SpecError(path, f"{where}.{key}", 'not allowed in a "curve" run (it starts at its '
+                                                            'labelled point and has no follow-ups)')
             if "parameter2" not in r:
                 raise SpecError(path, f"{where}.parameter2", f"missing; the second parameter of the curve, "
                                                              f"one of {', '.join(PARAMETERS)}")

@@ -409,7 +409,7 @@ def switch_branch(source: ContinuationResult, bp: str | SpecialPoint,
         state=bp.state, parameters=bp.parameters, index=ib, converged=bp.converged,
         confirmed_by_pycont=None, origin="autocable", message=f"the branch point {bp.name} this branch was switched from",
         extra={"switched_from": bp.name})
-    Ys_, junction_Y = an.Ys, Yb
+    junction_Y = Yb
     # The junction BP may be seen again by the test functions (and by PyCont): it is BP0.
     others = tuple(s_ for s_ in an.special if not (
         s_.type in ("BP", "LP")
