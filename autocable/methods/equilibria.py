@@ -106,12 +106,15 @@ class _Analysis:
 
 
 def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: ContinuationSettings,
-                        branch_name: str, pycont_special: Sequence, pycont_stab: Sequence,
-                        skip: Sequence[int] = ()) -> _Analysis:
+                        branch_name: str, pycont_special: Sequence | None, pycont_stab: Sequence,
+                        skip: Sequence[int] = (), precomputed: Mapping[str, Any] | None = None) -> _Analysis:
+    """``pycont_special=None``: no PyCont run (the compiled engine), nothing to compare with.
+    ``precomputed``: points already polished, with ``eigen``, ``stable``, ``T``, ``hopf``, ``bdet``
+    per point (the compiled engine's arrays); only the special points are located here."""
     sysm = chart.system
     n = sysm.dimension
     polished, moved = [], 0
-    for Y in Ys:
+    for Y in (Ys if precomputed is None else ()):
         x, p = chart.to_phys(Y)
         xp, ok, _ = equilibrium_near(sysm, x, p, tol=settings.newton_tol, scale=chart.xscale, maxiter=8)
         # Keep the point PyCont gave when Newton at fixed parameter wanders (next to a fold).
@@ -120,24 +123,28 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
         else:
             polished.append(np.asarray(Y, float).copy())
             moved += 1
-    Ys = polished
+    Ys = polished if precomputed is None else [np.asarray(Y, float) for Y in Ys]
     X = np.array([chart.to_phys(Y)[0] for Y in Ys])
     P = np.array([chart.to_phys(Y)[1] for Y in Ys])
     eig = np.zeros((len(Ys), n), dtype=complex)
     detJ = np.zeros(len(Ys))
     hopf = np.zeros(len(Ys))
-    for i in range(len(Ys)):
+    for i in range(len(Ys) if precomputed is None else 0):
         J = sysm.jac(X[i], P[i])
         ev = np.linalg.eigvals(J)
         eig[i] = ev[np.lexsort((-ev.imag, -ev.real))]
         detJ[i] = np.linalg.det(J)
         hopf[i] = _hopf_test(J)
     stable = np.max(eig.real, axis=1) < 0 if n else np.ones(len(Ys), bool)
-    T = _oriented_tangents(chart, Ys) if len(Ys) > 1 else np.zeros((len(Ys), n + 1))
+    T = _oriented_tangents(chart, Ys) if len(Ys) > 1 and precomputed is None else np.zeros((len(Ys), n + 1))
+    if precomputed is not None:
+        eig, stable, T, hopf = (np.asarray(precomputed[k]) for k in ("eigen", "stable", "T", "hopf"))
     vp = T[:, -1]
     # The branch-point test function det([J_x, J_p; v]) changes sign at simple BPs, not at folds.
     bdet = np.array([np.linalg.det(np.vstack([chart.DF(Y), t])) for Y, t in zip(Ys, T)]) \
-        if len(Ys) > 1 else np.zeros(len(Ys))
+        if len(Ys) > 1 and precomputed is None else np.zeros(len(Ys))
+    if precomputed is not None and len(Ys) > 1:
+        bdet = np.asarray(precomputed["bdet"], float)
     tests = {"LP": vp, "BP": bdet, "H": hopf}
     skip = set(skip)
     candidates = []
@@ -225,7 +232,7 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
     # PyCont's list against ours.
     specials = []
     counters: dict[str, int] = {}
-    pyc = [(t, np.asarray(Y, float)) for t, Y in pycont_special]
+    pyc = [(t, np.asarray(Y, float)) for t, Y in (pycont_special or ())]
     used = set()
 
     def near(i_seg: int, Y, Yp) -> bool:
@@ -242,8 +249,8 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
                 break
         if match is not None:
             used.add(match)
-        entries.append((i, kind, Y, ok, match is not None, "autocable", extra,
-                        message if match is not None else
+        entries.append((i, kind, Y, ok, None if pycont_special is None else match is not None, "autocable",
+                        extra, message if match is not None or pycont_special is None else
                         (message + "; " if message else "") + "not in PyCont's list (PyCont missed it)"))
     for m, (t, Yp) in enumerate(pyc):
         if m in used:
@@ -261,7 +268,7 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
             parameter=sysm.parameter_names[chart.k], value=chart.value(Y[-1]),
             a1=float(amps[0]) if amps else math.nan, a2=float(amps[1]) if len(amps) > 1 else math.nan,
             state=tuple(x), parameters=sysm.parameter_dict(p), index=int(i), converged=bool(ok),
-            confirmed_by_pycont=bool(confirmed), origin=origin, message=message, extra=extra))
+            confirmed_by_pycont=None if confirmed is None else bool(confirmed), origin=origin, message=message, extra=extra))
     disagree = [i for i, s in enumerate(pycont_stab) if s is not None and (s == "S") != bool(stable[i])]
     info = {"pycont_stability_disagreements": len(disagree),
             "pycont_stability_disagreement_points": disagree[:50],
@@ -269,6 +276,16 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
             "neutral_saddles": neutral, "rejected_candidates": rejected,
             "lp_merged_into_bp": [chart.value(f[2][-1]) for f in merged], "points_kept_unpolished": moved}
     return _Analysis(tuple(Ys), X, P, eig, stable, tuple(specials), info)
+
+
+#: The equilibrium engines: PyCont's EP-C, or autocable's compiled C kernel.
+ENGINES = ("pycont", "compiled")
+
+
+def _engine(engine: str) -> str:
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {list(ENGINES)}, got {engine!r}")
+    return engine
 
 
 def _relabel(points: Sequence[SpecialPoint]) -> tuple[SpecialPoint, ...]:
@@ -286,13 +303,19 @@ def _relabel(points: Sequence[SpecialPoint]) -> tuple[SpecialPoint, ...]:
 
 def continue_equilibria(problem: EquilibriumProblem, settings: ContinuationSettings = ContinuationSettings(),
                         start=None, *, name: str = "EQ", directions: str = "both",
-                        progress: Progress | None = None) -> ContinuationResult:
+                        progress: Progress | None = None, engine: str = "pycont") -> ContinuationResult:
     """EP-C of ``problem`` from ``start`` (a state vector, default the zero state), both directions.
 
     ``start`` is refined by Newton at the start parameter value; a start that does not converge
     raises `StartError`. ``directions`` is ``"both"``, ``"forward"`` (increasing parameter) or
     ``"backward"``. The branch runs from the backward end through the start to the forward end.
+    ``engine``: ``"pycont"`` (PyCont's EP-C) or ``"compiled"`` (autocable's C kernel,
+    `autocable.methods.compiled_equilibria`; the same analysis and records).
     """
+    if _engine(engine) == "compiled":
+        from autocable.methods.compiled_equilibria import continue_equilibria_compiled
+        return continue_equilibria_compiled(problem, settings, start, name=name, directions=directions,
+                                            progress=progress)
     t0 = time.perf_counter()
     sysm = problem.system
     chart = _Chart.of(problem)
@@ -340,14 +363,18 @@ def continue_equilibria(problem: EquilibriumProblem, settings: ContinuationSetti
 
 def switch_branch(source: ContinuationResult, bp: str | SpecialPoint,
                   settings: ContinuationSettings | None = None, *, name: str | None = None,
-                  progress: Progress | None = None) -> ContinuationResult:
+                  progress: Progress | None = None, engine: str = "pycont") -> ContinuationResult:
     """The branch crossing ``source`` at its branch point ``bp``, continued on both sides of it.
+    ``engine`` as in `continue_equilibria`.
 
     At a BP the kernel of [J_x, J_p] is two-dimensional: it holds the old branch's tangent and the
     new one's. The start points are the BP shifted by +-h along the kernel vector orthogonal to the
     old tangent, corrected onto the new branch (Newton on the hyperplane through them, which is
     parallel to the old branch and so cannot fall back on it); each side is then continued away
     from the BP, and the two are joined through the BP."""
+    if _engine(engine) == "compiled":
+        from autocable.methods.compiled_equilibria import switch_branch_compiled
+        return switch_branch_compiled(source, bp, settings, name=name, progress=progress)
     bp, problem, base_settings = _resolve(source, bp)
     settings = settings or base_settings
     if bp.type != "BP":

@@ -1,0 +1,595 @@
+"""sympy -> C: a compiled equilibrium-continuation kernel for one autonomous system (issue 4).
+
+What it holds. From the same sympy right-hand side that PyCont continues (the Cartesian AME (24) of
+Luongo & Zulli, or any `autocable.methods.system.System`) it writes one C file with
+
+* F(x; p), J_x = dF/dx and J_p = dF/dp, from ``sympy.cse`` and a C printer that writes integer
+  powers as products (``pow`` with a constant exponent is not inlined without -ffast-math);
+* the scaled chart of `autocable.methods.continuation_chart` (x~ = x / xscale,
+  lam = (p_k - base_k) / pscale): F~ and DF~ = [J_x, J_p[:, k] pscale / xscale];
+* a Keller pseudo-arclength continuation loop: Euler predictor along the unit tangent, Newton
+  corrector on (F~ = 0, t . (Y - Y_pred) = 0), the new tangent from [DF~; t_old] t = e_{n+1}, and
+  PyCont's step control (the step grows by 1.2 after a corrector that converged in fewer than 6
+  iterations, shrinks by 0.8 after a failure, and the branch ends when it fails at the minimum
+  step), every point polished by Newton at fixed parameter (as autocable does after PyCont), the
+  range end put exactly on the boundary, a closed curve detected as the PyCont driver does;
+* per point, the test functions autocable uses (`autocable.methods.equilibria`): the tangent's
+  parameter component (LP), det [DF~; t] (BP), det(2J (.) I) (Hopf and neutral saddles, the
+  bialternate product of `autocable.methods.bifurcation_functions`), and the number of
+  eigenvalues of J with positive real part from the Routh array of the characteristic polynomial.
+
+Degenerate Routh arrays. The characteristic polynomial (Faddeev-LeVerrier) is taken for J / ||J||_F
+so that its coefficients are O(1); when an entry of the Routh array's first column is below 1e-9
+in modulus (an eigenvalue, or a pair sum, within about that of the imaginary axis relative to
+||J||: at or next to a bifurcation point) or J = 0, the count is reported as -1, "undecided", and
+the caller decides from numpy's eigenvalues. Counts that are decided are exact sign counts of
+quantities computed in a few dozen flops from J.
+
+Build. The source is keyed by a content hash of the right-hand side, the names and the emitter
+version; the library lives in ``cache_root()/ckernel/<name>-<hash>/`` and is compiled with gcc
+(``$CC`` if set) under an advisory file lock, so concurrent processes build it once. Any compiler
+failure raises `KernelBuildError` with one line naming the system, the compiler's first error and
+what to do.
+"""
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import functools
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator, Sequence
+
+import numpy as np
+import sympy as sp
+from sympy.printing.c import C99CodePrinter
+
+from autocable.codegen import cache
+
+__all__ = ["KERNEL_VERSION", "KernelBuildError", "CKernel", "kernel_source", "compiled_kernel",
+           "REASONS"]
+
+#: Bump when the emitted C changes meaning: it is part of the content hash.
+KERNEL_VERSION = "1"
+CFLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Werror=implicit-function-declaration")
+
+#: How a side of the branch ended (the ``reason`` code returned by the C loop).
+REASONS = {1: "range", 2: "closed", 3: "max_points", 4: "step_collapse", 5: "no_convergence"}
+
+
+class KernelBuildError(RuntimeError):
+    """The C kernel could not be emitted, compiled or loaded (the message is one line)."""
+
+
+class _Printer(C99CodePrinter):
+    """C99 with named array slots for the symbols, integer powers as products and 17-digit floats."""
+
+    def __init__(self, names):
+        super().__init__()
+        self._names = names
+
+    def _print_Symbol(self, expr):
+        return self._names.get(expr.name, expr.name)
+
+    def _print_Float(self, expr):
+        return repr(float(expr))
+
+    def _print_Rational(self, expr):
+        return f"({float(expr.p)!r}/{float(expr.q)!r})"
+
+    def _print_Integer(self, expr):
+        return f"{float(expr)!r}"
+
+    def _print_Pow(self, expr):
+        b, e = expr.as_base_exp()
+        if e.is_Integer and 1 <= abs(int(e)) <= 8:
+            base = self.parenthesize(b, 1000)
+            prod = "*".join([base] * abs(int(e)))
+            return f"({prod})" if int(e) > 0 else f"(1.0/({prod}))"
+        if e == sp.Rational(1, 2):
+            return f"sqrt({self._print(b)})"
+        return super()._print_Pow(expr)
+
+
+def _block(printer: _Printer, exprs, targets: Sequence[str], prefix: str) -> list[str]:
+    subs, red = sp.cse(list(exprs), symbols=sp.numbered_symbols(prefix), optimizations="basic")
+    lines = [f"    const double {s.name} = {printer.doprint(e)};" for s, e in subs]
+    lines += [f"    {t} = {printer.doprint(e)};" for t, e in zip(targets, red)]
+    return lines
+
+
+def kernel_source(variables: Sequence[str], parameters: Sequence[str], rhs: Sequence) -> str:
+    """The C text of the kernel for x' = rhs(x; p), x in ``variables``, p in ``parameters`` order."""
+    n, m = len(variables), len(parameters)
+    if n < 1:
+        raise KernelBuildError("the C kernel needs at least one state variable")
+    xs = [sp.Symbol(v) for v in variables]
+    ps = [sp.Symbol(p) for p in parameters]
+    names = {v: f"x[{i}]" for i, v in enumerate(variables)}
+    names.update({p: f"p[{j}]" for j, p in enumerate(parameters)})
+    pr = _Printer(names)
+    F = sp.Matrix([sp.sympify(e) for e in rhs])
+    J = F.jacobian(xs)
+    Jp = F.jacobian(ps) if m else sp.zeros(n, 0)
+    body_f = _block(pr, list(F), [f"out[{i}]" for i in range(n)], "tf")
+    body_j = _block(pr, [J[i, j] for i in range(n) for j in range(n)],
+                    [f"out[{i * n + j}]" for i in range(n) for j in range(n)], "tj")
+    body_p = _block(pr, [Jp[i, j] for i in range(n) for j in range(m)],
+                    [f"out[{i * m + j}]" for i in range(n) for j in range(m)], "tp") if m else []
+    head = f"""/* autocable C kernel (version {KERNEL_VERSION}): x = ({', '.join(variables)}),
+   p = ({', '.join(parameters)}). Generated from sympy; do not edit. */
+#include <math.h>
+#include <string.h>
+#define N {n}
+#define M {m if m else 1}
+#define NP {m}
+
+static void f_eval(const double *x, const double *p, double *out) {{
+    (void)x; (void)p;
+{chr(10).join(body_f)}
+}}
+
+static void jac_eval(const double *x, const double *p, double *out) {{
+    (void)x; (void)p;
+{chr(10).join(body_j)}
+}}
+
+static void jacp_eval(const double *x, const double *p, double *out) {{
+    (void)x; (void)p; (void)out;
+{chr(10).join(body_p)}
+}}
+"""
+    return head + _GENERIC
+
+
+# The system-independent part: chart, linear algebra, test functions, the continuation loop.
+_GENERIC = r"""
+int ac_dims(int *out) { out[0] = N; out[1] = NP; return 0; }
+void ac_f(const double *x, const double *p, double *out) { f_eval(x, p, out); }
+void ac_jac(const double *x, const double *p, double *out) { jac_eval(x, p, out); }
+void ac_jacp(const double *x, const double *p, double *out) { jacp_eval(x, p, out); }
+
+/* cfg = (base[0..NP-1], k, xscale, pscale) */
+typedef struct { double base[M]; int k; double xs, ps; } chart_t;
+
+static void chart_of(const double *cfg, chart_t *c) {
+    int j;
+    for (j = 0; j < NP; j++) c->base[j] = cfg[j];
+    c->k = (int)cfg[NP]; c->xs = cfg[NP + 1]; c->ps = cfg[NP + 2];
+}
+
+/* F~(Y) (n), DF~(Y) (n x (n+1), row major, may be NULL), J_x physical (n x n, may be NULL). */
+static void chart_eval(const chart_t *c, const double *Y, double *Fo, double *DF, double *Jx) {
+    double x[N], p[M], f[N], J[N * N], Jp[N * M];
+    int i, j;
+    for (i = 0; i < N; i++) x[i] = Y[i] * c->xs;
+    for (j = 0; j < NP; j++) p[j] = c->base[j];
+    if (NP) p[c->k] += c->ps * Y[N];
+    if (Fo) { f_eval(x, p, f); for (i = 0; i < N; i++) Fo[i] = f[i] / c->xs; }
+    if (DF || Jx) {
+        jac_eval(x, p, J);
+        if (Jx) memcpy(Jx, J, sizeof(J));
+        if (DF) {
+            if (NP) jacp_eval(x, p, Jp);
+            for (i = 0; i < N; i++) {
+                for (j = 0; j < N; j++) DF[i * (N + 1) + j] = J[i * N + j];
+                DF[i * (N + 1) + N] = NP ? Jp[i * M + c->k] * c->ps / c->xs : 0.0;
+            }
+        }
+    }
+}
+
+void ac_chart(const double *cfg, const double *Y, double *Fo, double *DF) {
+    chart_t c; chart_of(cfg, &c); chart_eval(&c, Y, Fo, DF, NULL);
+}
+
+/* Gaussian elimination with partial pivoting of the n x n row-major A (destroyed); solves A z = b
+   in place when b is not NULL; returns det A (0 on an exactly singular pivot). */
+static double lu_solve(int n, double *A, double *b) {
+    int i, j, r, piv;
+    double det = 1.0;
+    for (j = 0; j < n; j++) {
+        piv = j;
+        for (r = j + 1; r < n; r++) if (fabs(A[r * n + j]) > fabs(A[piv * n + j])) piv = r;
+        if (A[piv * n + j] == 0.0) return 0.0;
+        if (piv != j) {
+            for (i = 0; i < n; i++) { double t = A[j * n + i]; A[j * n + i] = A[piv * n + i]; A[piv * n + i] = t; }
+            if (b) { double t = b[j]; b[j] = b[piv]; b[piv] = t; }
+            det = -det;
+        }
+        det *= A[j * n + j];
+        for (r = j + 1; r < n; r++) {
+            double l = A[r * n + j] / A[j * n + j];
+            if (l == 0.0) continue;
+            for (i = j + 1; i < n; i++) A[r * n + i] -= l * A[j * n + i];
+            if (b) b[r] -= l * b[j];
+        }
+    }
+    if (b) for (j = n - 1; j >= 0; j--) {
+        double s = b[j];
+        for (i = j + 1; i < n; i++) s -= A[j * n + i] * b[i];
+        b[j] = s / A[j * n + j];
+    }
+    return det;
+}
+
+static double norm(int n, const double *v) { double s = 0; int i; for (i = 0; i < n; i++) s += v[i] * v[i]; return sqrt(s); }
+static int finite(int n, const double *v) { int i; for (i = 0; i < n; i++) if (!isfinite(v[i])) return 0; return 1; }
+
+/* det(2A (.) I), the bialternate product in the pair order of bifurcation_functions.bialternate. */
+static double hopf_test(const double *A) {
+#if N < 2
+    (void)A; return 1.0;
+#else
+    enum { Q = N * (N - 1) / 2 };
+    double B[Q * Q];
+    int P[Q][2], a, b, n = 0, p, q, r, s;
+    for (p = 1; p < N; p++) for (q = 0; q < p; q++) { P[n][0] = p; P[n][1] = q; n++; }
+    for (a = 0; a < Q; a++) for (b = 0; b < Q; b++) {
+        double v = 0.0;
+        p = P[a][0]; q = P[a][1]; r = P[b][0]; s = P[b][1];
+        if (r == q) v = -A[p * N + s];
+        else if (r != p && s == q) v = A[p * N + r];
+        else if (r == p && s == q) v = A[p * N + p] + A[q * N + q];
+        else if (r == p && s != q) v = A[q * N + s];
+        else if (s == p) v = -A[q * N + r];
+        B[a * Q + b] = v;
+    }
+    return lu_solve(Q, B, NULL);
+#endif
+}
+
+/* Eigenvalues of J with positive real part, from the Routh array of det(s I - J / ||J||_F);
+   -1 when undecided (a first-column entry below 1e-9, or J = 0). */
+static int unstable_count(const double *J) {
+    double A[N * N], Mk[N * N], T[N * N], c[N + 1], R[N + 1][N + 2];
+    double fro = 0.0, tr;
+    int i, j, l, k, cols = N / 2 + 2, changes = 0;
+    for (i = 0; i < N * N; i++) fro += J[i] * J[i];
+    fro = sqrt(fro);
+    if (!(fro > 0.0) || !isfinite(fro)) return -1;
+    for (i = 0; i < N * N; i++) A[i] = J[i] / fro;
+    /* Faddeev-LeVerrier: M_1 = I, c_k = -tr(A M_k) / k, M_{k+1} = A M_k + c_k I. */
+    c[0] = 1.0;
+    memset(Mk, 0, sizeof(Mk));
+    for (i = 0; i < N; i++) Mk[i * N + i] = 1.0;
+    for (k = 1; k <= N; k++) {
+        for (i = 0; i < N; i++) for (j = 0; j < N; j++) {
+            double s = 0; for (l = 0; l < N; l++) s += A[i * N + l] * Mk[l * N + j]; T[i * N + j] = s;
+        }
+        tr = 0; for (i = 0; i < N; i++) tr += T[i * N + i];
+        c[k] = -tr / k;
+        for (i = 0; i < N * N; i++) Mk[i] = T[i];
+        for (i = 0; i < N; i++) Mk[i * N + i] += c[k];
+    }
+    for (i = 0; i <= N; i++) for (j = 0; j < N + 2; j++) R[i][j] = 0.0;
+    for (j = 0; 2 * j <= N; j++) R[0][j] = c[2 * j];
+    for (j = 0; 2 * j + 1 <= N; j++) R[1][j] = c[2 * j + 1];
+    for (i = 2; i <= N; i++) {
+        if (fabs(R[i - 1][0]) <= 1e-9) return -1;
+        for (j = 0; j + 1 < cols; j++)
+            R[i][j] = (R[i - 1][0] * R[i - 2][j + 1] - R[i - 2][0] * R[i - 1][j + 1]) / R[i - 1][0];
+    }
+    for (i = 0; i <= N; i++) if (fabs(R[i][0]) <= 1e-9) return -1;
+    for (i = 1; i <= N; i++) if ((R[i][0] > 0) != (R[i - 1][0] > 0)) changes++;
+    return changes;
+}
+
+/* Unit tangent t with [DF; tref] t = e_{n+1} (so t . tref > 0); returns 0 on a singular system. */
+static int tangent(const double *DF, const double *tref, double *t) {
+    double A[(N + 1) * (N + 1)];
+    int i;
+    memcpy(A, DF, sizeof(double) * N * (N + 1));
+    for (i = 0; i <= N; i++) { A[N * (N + 1) + i] = tref[i]; t[i] = 0.0; }
+    t[N] = 1.0;
+    if (lu_solve(N + 1, A, t) == 0.0 || !finite(N + 1, t)) return 0;
+    double s = norm(N + 1, t);
+    for (i = 0; i <= N; i++) t[i] /= s;
+    return 1;
+}
+
+/* Newton on F~(Y) = 0, normal . (Y - target) = 0 from target (continuation_chart._correct). */
+static int correct(const chart_t *c, double *Y, const double *target, const double *normal, double tol, int maxit) {
+    double F[N], A[(N + 1) * (N + 1)], g[N + 1];
+    int it, i;
+    memcpy(Y, target, sizeof(double) * (N + 1));
+    for (it = 0; it < maxit; it++) {
+        chart_eval(c, Y, F, A, NULL);
+        for (i = 0; i < N; i++) g[i] = F[i];
+        g[N] = 0; for (i = 0; i <= N; i++) { g[N] += normal[i] * (Y[i] - target[i]); A[N * (N + 1) + i] = normal[i]; }
+        if (lu_solve(N + 1, A, g) == 0.0) return 0;
+        for (i = 0; i <= N; i++) Y[i] -= g[i];
+        if (!finite(N + 1, Y)) { memcpy(Y, target, sizeof(double) * (N + 1)); return 0; }
+        if (norm(N + 1, g) <= tol * (1.0 + norm(N + 1, Y))) return 1;
+    }
+    return 0;
+}
+
+/* Newton at fixed lam (equilibria.equilibrium_near in chart units, 8 iterations); the polished
+   point is kept when it converged and moved by at most 1e-6 (|x~| + 1), as autocable does. */
+static int polish(const chart_t *c, double *Y, double tol) {
+    double Z[N + 1], F[N], J[N * N], DF[N * (N + 1)];
+    int it, i, j, ok = 0;
+    memcpy(Z, Y, sizeof(Z));
+    for (it = 0; it < 8; it++) {
+        chart_eval(c, Z, F, DF, NULL);
+        for (i = 0; i < N; i++) for (j = 0; j < N; j++) J[i * N + j] = DF[i * (N + 1) + j];
+        if (lu_solve(N, J, F) == 0.0) break;
+        for (i = 0; i < N; i++) Z[i] -= F[i];
+        if (!finite(N + 1, Z)) return 0;
+        if (norm(N, F) <= tol * (norm(N, Z) + 1.0)) { ok = 1; break; }
+    }
+    if (!ok) return 0;
+    double d = 0; for (i = 0; i < N; i++) d += (Z[i] - Y[i]) * (Z[i] - Y[i]);
+    if (sqrt(d) > 1e-6 * (norm(N, Y) + 1.0)) return 0;
+    memcpy(Y, Z, sizeof(double) * N);
+    return 1;
+}
+
+/* Store point i: Y, its tangent, the tests (vp, det[DF; t], det 2J(.)I), the unstable count, J. */
+static void store(const chart_t *c, int i, const double *Y, const double *t, double *Ys, double *Ts,
+                  double *tests, int *npos, double *Js) {
+    double DF[N * (N + 1)], A[(N + 1) * (N + 1)], J[N * N];
+    chart_eval(c, Y, NULL, DF, J);
+    memcpy(Ys + i * (N + 1), Y, sizeof(double) * (N + 1));
+    memcpy(Ts + i * (N + 1), t, sizeof(double) * (N + 1));
+    memcpy(A, DF, sizeof(DF));
+    memcpy(A + N * (N + 1), t, sizeof(double) * (N + 1));
+    tests[3 * i] = t[N];
+    tests[3 * i + 1] = lu_solve(N + 1, A, NULL);
+    tests[3 * i + 2] = hopf_test(J);
+    npos[i] = unstable_count(J);
+    memcpy(Js + i * N * N, J, sizeof(J));
+}
+
+/* One side of a branch from Y0 along the unit direction d0.
+   opts = (step, min_step, max_step, tol, max_corrector_iters, lam_lo, lam_hi, newton_tol)
+   Outputs, max_points rows each: Ys, Ts (n+1), tests (3), npos, Js (n*n), polished (1/0).
+   Returns the number of points (the first is Y0); *reason gets a REASONS code. */
+int ac_continue(const double *cfg, const double *Y0, const double *d0, const double *opts, int max_points,
+                double *Ys, double *Ts, double *tests, int *npos, double *Js, int *polished, int *reason) {
+    chart_t c;
+    double Y[N + 1], Yp[N + 1], Yc[N + 1], t[N + 1], tn[N + 1], F[N], DF[N * (N + 1)], A[(N + 1) * (N + 1)], g[N + 1];
+    double ds = opts[0], dsmin = opts[1], dsmax = opts[2], tol = opts[3], lo = opts[5], hi = opts[6], ntol = opts[7];
+    double span = 0.0;
+    int maxit = (int)opts[4], np_ = 0, i, k, conv;
+    chart_of(cfg, &c);
+    memcpy(Y, Y0, sizeof(Y));
+    chart_eval(&c, Y, NULL, DF, NULL);
+    if (!tangent(DF, d0, t)) memcpy(t, d0, sizeof(t));
+    store(&c, 0, Y, t, Ys, Ts, tests, npos, Js);
+    polished[0] = 0;
+    np_ = 1;
+    *reason = 3;
+    while (np_ < max_points) {
+        for (i = 0; i <= N; i++) Yp[i] = Y[i] + ds * t[i];
+        memcpy(Yc, Yp, sizeof(Yc));
+        conv = 0;
+        for (k = 1; k <= maxit; k++) {
+            chart_eval(&c, Yc, F, DF, NULL);
+            memcpy(A, DF, sizeof(DF));
+            for (i = 0; i < N; i++) g[i] = F[i];
+            g[N] = 0; for (i = 0; i <= N; i++) { g[N] += t[i] * (Yc[i] - Yp[i]); A[N * (N + 1) + i] = t[i]; }
+            if (lu_solve(N + 1, A, g) == 0.0) break;
+            for (i = 0; i <= N; i++) Yc[i] -= g[i];
+            if (!finite(N + 1, Yc)) break;
+            chart_eval(&c, Yc, F, NULL, NULL);
+            if (!finite(N, F)) break;
+            if (norm(N, F) < tol && norm(N + 1, g) < tol) { conv = 1; break; }
+        }
+        if (!conv) {
+            if (ds > dsmin) { ds = fmax(dsmin, ds * 0.8); continue; }
+            *reason = 4;
+            return np_;
+        }
+        if (ds < dsmax && k < 6) ds = fmin(dsmax, ds * 1.2);
+        polished[np_] = polish(&c, Yc, ntol);
+        chart_eval(&c, Yc, NULL, DF, NULL);
+        if (!tangent(DF, t, tn)) memcpy(tn, t, sizeof(tn));
+        if (!(lo - 1e-12 <= Yc[N] && Yc[N] <= hi + 1e-12)) {
+            double bound = Yc[N] > hi ? hi : lo;
+            if (fabs(Y[N] - bound) <= 1e-12) { *reason = 1; return np_; }
+            double s = (bound - Y[N]) / (Yc[N] - Y[N]), guess[N + 1], e[N + 1], Yb[N + 1];
+            for (i = 0; i <= N; i++) { guess[i] = Y[i] + s * (Yc[i] - Y[i]); e[i] = 0.0; }
+            e[N] = 1.0;
+            if (!correct(&c, Yb, guess, e, ntol, 25)) memcpy(Yb, guess, sizeof(Yb));
+            chart_eval(&c, Yb, NULL, DF, NULL);
+            if (!tangent(DF, t, tn)) memcpy(tn, t, sizeof(tn));
+            store(&c, np_, Yb, tn, Ys, Ts, tests, npos, Js);
+            polished[np_] = 0;
+            *reason = 1;
+            return np_ + 1;
+        }
+        store(&c, np_, Yc, tn, Ys, Ts, tests, npos, Js);
+        np_++;
+        memcpy(Y, Yc, sizeof(Y));
+        memcpy(t, tn, sizeof(t));
+        double d = 0; for (i = 0; i <= N; i++) d += (Y[i] - Y0[i]) * (Y[i] - Y0[i]);
+        d = sqrt(d);
+        if (d > span) span = d;
+        /* A closed curve: back at the start after having gone away (the PyCont driver's test). */
+        if (np_ > 8 && span > 4 * dsmax && d < 1.5 * dsmax && np_ < max_points) {
+            double DF0[N * (N + 1)], t0[N + 1];
+            chart_eval(&c, Y0, NULL, DF0, NULL);
+            if (!tangent(DF0, t, t0)) memcpy(t0, t, sizeof(t0));
+            store(&c, np_, Y0, t0, Ys, Ts, tests, npos, Js);
+            polished[np_] = 0;
+            *reason = 2;
+            return np_ + 1;
+        }
+    }
+    return np_;
+}
+"""
+
+
+# ------------------------------------------------------------------------------------------------
+# build and load
+# ------------------------------------------------------------------------------------------------
+@contextlib.contextmanager
+def _lock(folder: Path) -> Iterator[None]:
+    """Serialise builds of one kernel across processes (POSIX advisory lock)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - gcc builds are POSIX-only here
+        yield
+        return
+    with open(folder / "build.lock", "w") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def _key(name: str, variables, parameters, rhs, cc: str) -> str:
+    return cache.content_hash({"version": KERNEL_VERSION, "variables": list(variables),
+                               "parameters": list(parameters), "rhs": [sp.srepr(e) for e in rhs],
+                               "cc": cc, "cflags": list(CFLAGS), "name": name})
+
+
+def _first_error(text: str) -> str:
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
+    for ln in lines:
+        if "error" in ln.lower():
+            return ln
+    return lines[0] if lines else "no message"
+
+
+def _compile(source: str, folder: Path, cc: str, label: str) -> Path:
+    lib = folder / "kernel.so"
+    src = folder / "kernel.c"
+    cache.atomic_write_text(src, source)
+    exe = shutil.which(cc)
+    if exe is None:
+        raise KernelBuildError(f"C kernel of {label}: compiler {cc!r} not found; install gcc or set "
+                               f"CC to a C compiler")
+    fd, tmp = tempfile.mkstemp(prefix=".kernel.", suffix=".so", dir=folder)
+    os.close(fd)
+    try:
+        done = subprocess.run([exe, *CFLAGS, "-o", tmp, str(src), "-lm"], capture_output=True, text=True)
+        if done.returncode != 0:
+            raise KernelBuildError(f"C kernel of {label}: {cc} failed: {_first_error(done.stderr)} "
+                                   f"(source kept in {src}); use engine='pycont' for this system")
+        os.replace(tmp, lib)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return lib
+
+
+@dataclass(frozen=True, eq=False)
+class CKernel:
+    """A loaded kernel: F, J_x, J_p, the chart and the continuation loop of one system."""
+
+    n: int
+    m: int
+    path: Path
+    lib: ctypes.CDLL
+    timings: tuple  # (("emit_s", s), ("compile_s", s), ("load_s", s)); zeros when cached
+
+    def f(self, x, p) -> np.ndarray:
+        out = np.empty(self.n)
+        self.lib.ac_f(_ptr(np.ascontiguousarray(x, float)), _ptr(np.ascontiguousarray(p, float)), out.ctypes.data)
+        return out
+
+    def jac(self, x, p) -> np.ndarray:
+        out = np.empty((self.n, self.n))
+        self.lib.ac_jac(_ptr(np.ascontiguousarray(x, float)), _ptr(np.ascontiguousarray(p, float)), out.ctypes.data)
+        return out
+
+    def jac_p(self, x, p) -> np.ndarray:
+        out = np.empty((self.n, max(self.m, 1)))
+        self.lib.ac_jacp(_ptr(np.ascontiguousarray(x, float)), _ptr(np.ascontiguousarray(p, float)), out.ctypes.data)
+        return out[:, :self.m]
+
+    def chart(self, cfg: np.ndarray, Y, derivative: bool) -> np.ndarray:
+        """F~(Y) (``derivative`` False) or DF~(Y) (True) in the chart ``cfg`` = (base, k, xscale, pscale)."""
+        Y = np.ascontiguousarray(Y, float)
+        if derivative:
+            out = np.empty((self.n, self.n + 1))
+            self.lib.ac_chart(cfg.ctypes.data, Y.ctypes.data, None, out.ctypes.data)
+        else:
+            out = np.empty(self.n)
+            self.lib.ac_chart(cfg.ctypes.data, Y.ctypes.data, out.ctypes.data, None)
+        return out
+
+    def continue_side(self, cfg: np.ndarray, Y0, d0, opts: Sequence[float], max_points: int) -> dict:
+        """One side of a branch (see the C ``ac_continue``): arrays of the points and their tests."""
+        n1, mp = self.n + 1, max(int(max_points), 1)
+        Ys, Ts = np.empty((mp, n1)), np.empty((mp, n1))
+        tests, Js = np.empty((mp, 3)), np.empty((mp, self.n, self.n))
+        npos, pol, reason = np.empty(mp, np.intc), np.empty(mp, np.intc), np.zeros(1, np.intc)
+        o = np.ascontiguousarray(opts, float)
+        k = self.lib.ac_continue(cfg.ctypes.data, _ptr(np.ascontiguousarray(Y0, float)),
+                                 _ptr(np.ascontiguousarray(d0, float)), o.ctypes.data, mp,
+                                 Ys.ctypes.data, Ts.ctypes.data, tests.ctypes.data, npos.ctypes.data,
+                                 Js.ctypes.data, pol.ctypes.data, reason.ctypes.data)
+        return {"Y": Ys[:k], "T": Ts[:k], "tests": tests[:k], "npos": npos[:k].astype(int), "J": Js[:k],
+                "polished": pol[:k].astype(bool), "reason": REASONS.get(int(reason[0]), "error")}
+
+
+def _ptr(a: np.ndarray) -> int:
+    return a.ctypes.data
+
+
+def _load(path: Path, n: int, m: int, timings) -> CKernel:
+    try:
+        lib = ctypes.CDLL(str(path))
+    except OSError as exc:
+        raise KernelBuildError(f"C kernel {path.name}: could not be loaded ({exc}); delete "
+                               f"{path.parent} to rebuild it") from None
+    vp, ip = ctypes.c_void_p, ctypes.c_int
+    for fn in ("ac_f", "ac_jac", "ac_jacp"):
+        getattr(lib, fn).argtypes = [vp, vp, vp]
+        getattr(lib, fn).restype = None
+    lib.ac_chart.argtypes = [vp, vp, vp, vp]
+    lib.ac_chart.restype = None
+    lib.ac_continue.argtypes = [vp, vp, vp, vp, ip, vp, vp, vp, vp, vp, vp, vp]
+    lib.ac_continue.restype = ip
+    lib.ac_dims.argtypes = [vp]
+    dims = np.zeros(2, np.intc)
+    lib.ac_dims(dims.ctypes.data)
+    if (int(dims[0]), int(dims[1])) != (n, m):
+        raise KernelBuildError(f"C kernel {path}: built for n = {dims[0]}, m = {dims[1]}, expected "
+                               f"{n}, {m}; delete {path.parent} to rebuild it")
+    return CKernel(n, m, path, lib, timings)
+
+
+@functools.lru_cache(maxsize=32)
+def _kernel_for(name: str, variables: tuple, parameters: tuple, rhs: tuple, cc: str) -> CKernel:
+    key = _key(name, variables, parameters, rhs, cc)
+    folder = cache.cache_dir("ckernel", f"{name}-{key}")
+    lib = folder / "kernel.so"
+    emit_s = compile_s = 0.0
+    with _lock(folder):
+        if not lib.exists():
+            t0 = time.perf_counter()
+            try:
+                source = kernel_source(variables, parameters, rhs)
+            except KernelBuildError:
+                raise
+            except Exception as exc:  # noqa: BLE001 - sympy's printer raises many kinds
+                raise KernelBuildError(f"C kernel of {name!r}: the right-hand side cannot be written "
+                                       f"as C ({type(exc).__name__}: {exc}); use engine='pycont'") from None
+            t1 = time.perf_counter()
+            _compile(source, folder, cc, repr(name))
+            emit_s, compile_s = t1 - t0, time.perf_counter() - t1
+    t2 = time.perf_counter()
+    k = _load(lib, len(variables), len(parameters), ())
+    return CKernel(k.n, k.m, k.path, k.lib, (("emit_s", emit_s), ("compile_s", compile_s),
+                                             ("load_s", time.perf_counter() - t2)))
+
+
+def compiled_kernel(system, cc: str | None = None) -> CKernel:
+    """The loaded C kernel of ``system`` (a `autocable.methods.system.System`), built if needed.
+
+    ``cc``: the C compiler (default ``$CC`` or ``gcc``). Raises `KernelBuildError` (one line)."""
+    cc = cc or os.environ.get("CC", "").strip() or "gcc"
+    return _kernel_for(system.name, tuple(system.variables), tuple(system.parameter_names),
+                       tuple(system.rhs), cc)
