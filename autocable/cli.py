@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 from autocable import __version__
+from autocable.figures import add_figures_parser
 from autocable.scene import add_run_parser
 from autocable.spec import SpecError, load_model
 
@@ -186,6 +187,8 @@ def cmd_simulate(args) -> int:
         if show:
             print(f"\r  t = {t:9.1f}   a1 = {amps[0]:.6e}   a2 = {amps[1]:.6e}", end="", file=sys.stderr)
 
+    if getattr(args, "modes", None) is not None:
+        return _simulate_nmode(args, d, q0, show, progress)
     if args.method == "ame":
         return _simulate_ame(args, d, q0, show, progress)
     integ = Ode21Integrator(d.ode)
@@ -245,6 +248,46 @@ def _simulate_ame(args, d, q0, show, progress) -> int:
     return 0
 
 
+def _simulate_nmode(args, d, q0, show, progress) -> int:
+    """`autocable simulate --modes N`: eq. (21) with N in-plane and N out-of-plane modes (issue 6)."""
+    from autocable.methods.nmode_integration import NModeIntegrator
+    if args.method != "ode21":
+        raise SpecError("--modes", "", "--modes integrates the N-mode equations directly; drop --method ame")
+    if args.modes < 1:
+        raise SpecError("--modes", "", f"the number of modes per plane must be >= 1, got {args.modes}")
+    integ = NModeIntegrator(d, args.modes, args.modes)
+    x0 = None
+    if args.q0:
+        # --q0 sets the first in-plane and out-of-plane modes, as for eq. (21); the others start at rest.
+        ode, x = integ.ode, [0.0] * (2 * integ.ode.n)
+        x[integ._i1], x[ode.n + integ._i1], x[integ._i2], x[ode.n + integ._i2] = q0
+        x0 = tuple(x)
+    r = integ.simulate(args.U, args.eta, args.sigma, x0, max_time=args.max_time, progress=progress)
+    if show:
+        print(file=sys.stderr)
+
+    def finite(x):
+        return x if math.isfinite(x) else None
+
+    out = {"a1": finite(r.a1), "a2": finite(r.a2), "amplitudes": {k: finite(v) for k, v in r.amplitudes.items()},
+           "omegas": dict(zip(integ.ode.names, integ.ode.omegas)), "steady": r.steady,
+           "periodic": r.periodic, "diverged": r.diverged, "t_end": r.t_end, "U": r.U, "eta": r.eta,
+           "sigma": r.sigma, "Omega": r.Omega,
+           "amplitude_convention": "a_k = half the peak-to-peak of each modal coordinate over the last 20 "
+                                   "forcing periods; a1 = first in-plane (v1), a2 = first out-of-plane (w1)",
+           "message": r.message, "method": "nmode", "modes_per_plane": args.modes,
+           "wall_seconds": r.wall_seconds}
+    if args.json:
+        print(json.dumps(out, indent=1))
+    else:
+        print(f"U* = {r.U:g}  eta* = {r.eta:g}  sigma = {r.sigma:g}  (Omega = {r.Omega:.6g})  "
+              f"method nmode ({args.modes} in-plane + {args.modes} out-of-plane modes)")
+        print(f"a1 = {r.a1:.9e}   a2 = {r.a2:.9e}   ({r.message}; "
+              f"{'periodic' if r.periodic else 'not period-1'}; t_end = {r.t_end:.1f})")
+        print("modal amplitudes: " + "  ".join(f"{k} = {v:.6e}" for k, v in r.amplitudes.items()))
+    return 0
+
+
 def _print_simulation(args, r, out) -> None:
     if args.json:
         print(json.dumps(out, indent=1))
@@ -283,6 +326,21 @@ def cmd_bench(args) -> int:
     return 0
 
 
+def cmd_failure_map(args) -> int:
+    """`autocable failure-map`: where the AME and the integrators fail (issue 6, item 3)."""
+    import time
+    from autocable.failure_map import run_failure_map
+    from autocable.failure_map_report import write_failure_map
+    say = None if args.quiet else (lambda s: print(s, file=sys.stderr))
+    t0 = time.perf_counter()
+    result = run_failure_map(args.model, quick=args.quick, log=say)
+    command = "autocable failure-map --out DIR" + (" --quick" if args.quick else "")
+    files = write_failure_map(result, args.out, command)
+    print("\n".join(result["statement"]))
+    print(f"wrote {', '.join(str(f) for f in files)} in {time.perf_counter() - t0:.0f} s")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="autocable", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"autocable {__version__}")
@@ -309,22 +367,35 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--method", choices=["ode21", "ame"], default="ode21",
                    help="ode21: direct integration of eq. (21); ame: the Multiple Scales amplitude "
                         "equations (24) to their steady state (default ode21)")
+    s.add_argument("--modes", type=int, metavar="N",
+                   help="integrate eq. (21) with N in-plane and N out-of-plane modes (the check that "
+                        "two modes suffice, issue 6); a1, a2 are the first modes' amplitudes")
     s.set_defaults(func=cmd_simulate)
 
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
-    b.add_argument("what", choices=["derive", "ame-vs-ode", "continuation", "auto"],
+    b.add_argument("what", choices=["derive", "ame-vs-ode", "continuation", "auto", "figures"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
                         "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
                         "auto: EP-C cost per point against AUTO-07p (bifpy; set AUTOCABLE_AUTO_PYTHON "
-                        "or install autocable[auto])")
+                        "or install autocable[auto]); figures: wall time of `autocable figures` (all scenes), "
+                        "cold and warm cache, with the share of each stage")
     b.add_argument("--model", default=str(Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"))
     b.add_argument("--repeats", type=int, default=3)
     b.add_argument("--out", help="folder to write bench_<what>.json")
     b.add_argument("--quiet", action="store_true")
     b.set_defaults(func=cmd_bench)
 
+    fm = sub.add_parser("failure-map", help="maps over (sigma, eta) and (sigma, U) of where the AME "
+                        "and the integrators fail; writes failure_map.md and failure_map_<k>.png")
+    fm.add_argument("--out", required=True, help="folder for failure_map.md and the figures")
+    fm.add_argument("--quick", action="store_true", help="a tiny grid (seconds, for tests)")
+    fm.add_argument("--model", default=str(Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"))
+    fm.add_argument("--quiet", action="store_true", help="no progress")
+    fm.set_defaults(func=cmd_failure_map)
+
     add_run_parser(sub)
+    add_figures_parser(sub)
     return p
 
 

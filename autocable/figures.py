@@ -1,0 +1,234 @@
+"""`autocable figures`: every figure scene of the paper (``runs/fig*.toml``, Figs. 3-11 of Luongo &
+Zulli 2012) in parallel processes, the figures collected as ``DIR/figNN.png``/``.pdf`` and the
+comparison with Sect. 5 written to ``DIR/report.md`` (`autocable.report`).
+
+Each scene runs in its own process through the public `autocable.scene.load_scene` / `run_scene`
+into ``DIR/<scene>/``. A scene that fails (a bad file, a start that does not converge, a crash of
+the process) never stops the others: its one-line error goes to ``DIR/<scene>/error.txt`` (with
+the traceback below it), to ``DIR/figures.json`` and to the report, and the command exits non-zero.
+"""
+from __future__ import annotations
+
+import multiprocessing
+import os
+import shutil
+import sys
+import time
+import traceback
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Callable, Sequence
+
+from autocable.spec import SpecError
+
+__all__ = ["QUICK", "SceneOutcome", "default_runs_dir", "discover", "run_figures", "add_figures_parser",
+           "cmd_figures", "SUMMARY_JSON", "ERROR_TXT"]
+
+#: The ``--quick`` subset: the closed-form galloping branch (Fig. 3) and the two mono-modal no-wind
+#: responses (Figs. 5a-b), each a few seconds with a warm cache.
+QUICK = ("fig03", "fig05a", "fig05b")
+SUMMARY_JSON = "figures.json"
+ERROR_TXT = "error.txt"
+
+Say = Callable[[str], None]
+
+
+@dataclass
+class SceneOutcome:
+    """How one scene ended: ``status`` is "ok" or "failed" (``error`` holds the one-line reason)."""
+
+    name: str
+    scene: str
+    status: str
+    wall_s: float
+    error: str = ""
+    files: list[str] = field(default_factory=list)
+
+
+def default_runs_dir() -> Path:
+    """The repository's ``runs/`` folder next to the package."""
+    return Path(__file__).resolve().parents[1] / "runs"
+
+
+def discover(runs_dir: str | Path, only: Sequence[str] = (), quick: bool = False) -> list[Path]:
+    """The scene files ``fig*.toml`` of ``runs_dir``, sorted, restricted to ``only`` (scene names)
+    or to `QUICK`. Unknown names raise `SpecError` listing the scenes there are."""
+    folder = Path(runs_dir)
+    if not folder.is_dir():
+        raise SpecError("--runs", "", f"no such folder: {folder}")
+    scenes = sorted(folder.glob("fig*.toml"))
+    by_name = {p.stem: p for p in scenes}
+    if not scenes:
+        raise SpecError("--runs", "", f"no scene files fig*.toml in {folder}")
+    wanted = list(only) if only else (list(QUICK) if quick else list(by_name))
+    if quick and not only:
+        wanted = [n for n in wanted if n in by_name]
+    missing = [n for n in wanted if n not in by_name]
+    if missing:
+        raise SpecError("--only", "", f"no scene {', '.join(missing)} in {folder}; "
+                                      f"there are {', '.join(by_name)}")
+    return [by_name[n] for n in dict.fromkeys(wanted)]
+
+
+def _one_line(exc: BaseException) -> str:
+    if isinstance(exc, SpecError):
+        return str(exc)
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
+
+
+def _collect(name: str, scene_out: Path, out: Path) -> list[str]:
+    """Copy ``<scene>.png/.pdf`` (and the parameter-plane figure) up to ``out``."""
+    files = []
+    for stem in (name, f"{name}_plane"):
+        for ext in (".png", ".pdf"):
+            src = scene_out / f"{stem}{ext}"
+            if src.is_file():
+                shutil.copyfile(src, out / src.name)
+                files.append(src.name)
+    return files
+
+
+def _worker(scene_path: str, scene_out: str, conn) -> None:
+    """Child process: run one scene; send (status, one-line error, traceback) back."""
+    try:
+        from autocable.scene import load_scene, run_scene
+        run_scene(load_scene(scene_path), scene_out, progress=None)
+        conn.send(("ok", "", ""))
+    except BaseException as exc:   # everything: the parent must learn why, and go on
+        conn.send(("failed", _one_line(exc), traceback.format_exc()))
+    finally:
+        conn.close()
+
+
+def _error_file(folder: Path, error: str, detail: str) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / ERROR_TXT).write_text(error + "\n\n" + detail, encoding="utf-8")
+
+
+def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None = None,
+                timeout: float | None = None, say: Say | None = None) -> list[SceneOutcome]:
+    """Run ``scenes`` in at most ``jobs`` processes at a time (default: every core), each into
+    ``out_dir/<scene>/``; copy the figures to ``out_dir``; write ``figures.json``. A scene still
+    running after ``timeout`` seconds is stopped and reported failed."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    jobs = max(1, int(jobs or os.cpu_count() or 1))
+    tell = say or (lambda msg: None)
+    # fork: the parent has imported neither PyDSTool nor sympy, so the children start cheaply;
+    # each child owns its process (PyDSTool's working folder is process-wide).
+    ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn")
+    pending = list(scenes)
+    running: dict[str, tuple] = {}
+    outcomes: dict[str, SceneOutcome] = {}
+    total = len(pending)
+
+    def finish(name, path, status, error, detail, t0):
+        wall = time.perf_counter() - t0
+        folder = out / name
+        if status != "ok":
+            _error_file(folder, error, detail)
+            files = []
+        else:
+            stale = folder / ERROR_TXT
+            if stale.exists():
+                stale.unlink()
+            files = _collect(name, folder, out)
+        outcomes[name] = SceneOutcome(name, str(path), status, wall, error, files)
+        done = len(outcomes)
+        tell(f"[{done}/{total}] {name}: {'done' if status == 'ok' else 'FAILED'} in {wall:.1f} s"
+             + (f": {error}" if error else ""))
+
+    while pending or running:
+        while pending and len(running) < jobs:
+            path = pending.pop(0)
+            name = path.stem
+            folder = out / name
+            # stale results of an earlier run must not pass for this one's
+            for stale in ("run.json", "branches.csv", "special_points.csv", "overlay.csv",
+                          "time_series.csv", "compare.json"):
+                if (folder / stale).exists():
+                    (folder / stale).unlink()
+            recv, send = ctx.Pipe(duplex=False)
+            proc = ctx.Process(target=_worker, args=(str(path), str(folder), send), daemon=True)
+            t0 = time.perf_counter()
+            proc.start()
+            send.close()
+            running[name] = (proc, recv, path, t0)
+            tell(f"{name}: started ({path.name})")
+        time.sleep(0.05)
+        for name, (proc, recv, path, t0) in list(running.items()):
+            message = None
+            if recv.poll():
+                try:
+                    message = recv.recv()
+                except EOFError:
+                    message = None
+            if message is None and proc.is_alive():
+                if timeout and time.perf_counter() - t0 > timeout:
+                    proc.terminate()
+                    proc.join(5)
+                    recv.close()
+                    del running[name]
+                    finish(name, path, "failed", f"{path}: stopped after the time limit of {timeout:g} s",
+                           "", t0)
+                continue
+            proc.join()
+            recv.close()
+            del running[name]
+            if message is None:
+                code = proc.exitcode
+                why = f"killed by signal {-code}" if code and code < 0 else f"exit status {code}"
+                finish(name, path, "failed", f"{path}: the scene's process died ({why}) without a result", "", t0)
+            else:
+                finish(name, path, *message, t0)
+    ordered = [outcomes[p.stem] for p in scenes]
+    from autocable.codegen.cache import atomic_write_json
+    atomic_write_json(out / SUMMARY_JSON, {"format": "autocable.figures/1", "jobs": jobs,
+                                           "scenes": [asdict(o) for o in ordered]})
+    return ordered
+
+
+# ================================================================================================
+# command line
+# ================================================================================================
+def add_figures_parser(subparsers) -> None:
+    """``autocable figures --out DIR [--runs DIR] [--only a,b] [--quick] [--jobs N] [--quiet]``."""
+    f = subparsers.add_parser("figures", help="run every figure scene (runs/fig*.toml) in parallel, "
+                                              "collect figNN.png/.pdf and write report.md")
+    f.add_argument("--out", required=True, help="output folder: figNN.png/.pdf, <scene>/ data, report.md")
+    f.add_argument("--runs", help="folder of the scene files fig*.toml (default: the repository's runs/)")
+    f.add_argument("--only", help="comma-separated scene names, e.g. fig05a,fig06")
+    f.add_argument("--quick", action="store_true", help=f"the quick subset: {', '.join(QUICK)}")
+    f.add_argument("--jobs", type=int, help="processes at a time (default: the number of cores)")
+    f.add_argument("--timeout", type=float, help="stop a scene after this many seconds (default: none)")
+    f.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    f.set_defaults(func=cmd_figures)
+
+
+def cmd_figures(args) -> int:
+    """Run the scenes, write report.md, print the summary; exit status 1 if any scene failed."""
+    from autocable.report import write_report
+    if args.jobs is not None and args.jobs < 1:
+        raise SpecError("--jobs", "", f"expected a whole number >= 1, got {args.jobs}")
+    if args.timeout is not None and args.timeout <= 0:
+        raise SpecError("--timeout", "", f"expected a positive number of seconds, got {args.timeout}")
+    only = [s.strip() for s in args.only.split(",") if s.strip()] if args.only else []
+    scenes = discover(Path(args.runs) if args.runs else default_runs_dir(), only, args.quick)
+    out = Path(args.out)
+    say = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    t0 = time.perf_counter()
+    outcomes = run_figures(scenes, out, jobs=args.jobs, timeout=args.timeout, say=say)
+    wall = time.perf_counter() - t0
+    report = write_report(out)
+    failed = [o for o in outcomes if o.status != "ok"]
+    if not args.quiet:
+        print(f"{len(outcomes) - len(failed)} of {len(outcomes)} scenes done in {wall:.1f} s "
+              f"({max(1, int(args.jobs or os.cpu_count() or 1))} processes); report: {report}")
+        for o in outcomes:
+            print(f"  {o.name:<8} {o.status:<6} {o.wall_s:7.1f} s  "
+                  + (", ".join(o.files) if o.status == "ok" else o.error))
+    else:
+        for o in failed:
+            print(f"autocable: {o.name} failed: {o.error}", file=sys.stderr)
+    return 1 if failed else 0

@@ -1,0 +1,148 @@
+"""`autocable figures` and its report (autocable/figures.py, autocable/report.py): two tiny scenes of
+the sample model run in parallel processes next to a broken one; the report's numbers are the
+output folders' numbers; the broken scene is reported and makes the exit status non-zero."""
+from __future__ import annotations
+
+import csv
+import json
+import math
+import re
+from pathlib import Path
+
+import pytest
+
+from autocable.cli import main
+from autocable.figures import discover
+from autocable.report import STUDY_MAX_ERROR, interpolate_stable, load_scene_data, overlay_comparison
+from autocable.spec import SpecError
+
+MODEL = (Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml").as_posix()
+
+# The A2 = 0 branch I at U = 0, eta* = 1.4e-3 over a sigma range holding both of its folds.
+FOLDS = f"""
+title = "tiny: folds of branch I"
+model = "{MODEL}"
+ame = "1dof"
+[fixed]
+U = 0.0
+eta = 1.4e-3
+[[run]]
+name = "I"
+parameter = "sigma"
+range = [-0.2, 0.3]
+start = "trivial"
+"""
+# Branch I of Fig. 5a on a short range below resonance.
+SMALL = f"""
+title = "tiny: Fig. 5a below resonance"
+model = "{MODEL}"
+[fixed]
+U = 0.0
+eta = 8.2e-5
+[[run]]
+name = "I"
+parameter = "sigma"
+range = [-0.05, -0.03]
+start = "trivial"
+"""
+BROKEN = f"""
+model = "{MODEL}"
+[[run]]
+name = "I"
+parameter = "sigma"
+range = [-0.05, 0.05]
+strat = "trivial"
+"""
+
+
+@pytest.fixture(scope="module")
+def figures(tmp_path_factory):
+    runs = tmp_path_factory.mktemp("runs")
+    (runs / "figt1.toml").write_text(FOLDS)
+    (runs / "figt2.toml").write_text(SMALL)
+    (runs / "figt9.toml").write_text(BROKEN)
+    (runs / "other.toml").write_text(BROKEN)          # not fig*.toml: not a figure scene
+    out = tmp_path_factory.mktemp("figures")
+    status = main(["figures", "--out", str(out), "--runs", str(runs), "--jobs", "2", "--quiet"])
+    return status, out, runs
+
+
+def _csv(path):
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_runner_runs_the_good_scenes_and_reports_the_broken_one(figures):
+    status, out, _ = figures
+    assert status == 1                                 # one scene failed
+    summary = json.loads((out / "figures.json").read_text())
+    by = {s["name"]: s for s in summary["scenes"]}
+    assert set(by) == {"figt1", "figt2", "figt9"}      # other.toml is not a figure
+    assert summary["jobs"] == 2
+    assert by["figt1"]["status"] == by["figt2"]["status"] == "ok"
+    assert by["figt9"]["status"] == "failed"
+    assert "figt9.toml: run[0].strat: unknown key" in by["figt9"]["error"]
+    for name in ("figt1", "figt2"):
+        for f in ("branches.csv", "special_points.csv", "run.json", f"{name}.png", f"{name}.pdf"):
+            assert (out / name / f).is_file(), f
+        assert (out / f"{name}.png").read_bytes() == (out / name / f"{name}.png").read_bytes()
+    assert (out / "figt9" / "error.txt").read_text().startswith(by["figt9"]["error"])
+    report = (out / "report.md").read_text()
+    assert "| figt9 | failed: " in report and "run[0].strat: unknown key" in report
+    assert "**1 scene(s) failed**" in report
+
+
+def test_report_numbers_are_the_output_numbers(figures):
+    _, out, _ = figures
+    report = (out / "report.md").read_text()
+    lps = [r for r in _csv(out / "figt1" / "special_points.csv") if r["type"] == "LP"]
+    assert len(lps) == 2                               # both folds of I in the range
+    for lp in lps:
+        sigma = float(lp["sigma"])
+        m = re.search(rf"\| {lp['label']} \| I \| sigma = ([-+0-9.e]+) \| ([-+0-9.e]+) \|", report)
+        assert m, lp["label"]
+        assert float(m.group(1)) == pytest.approx(sigma, rel=1e-9)   # printed to 10 digits
+        assert float(m.group(2)) == pytest.approx(float(lp["a1"]), rel=1e-3)
+    # the branch table's largest a1 and stable count are branches.csv's
+    rows = _csv(out / "figt2" / "branches.csv")
+    a1max = max(float(r["a1"]) for r in rows)
+    stable = sum(r["stable"] == "1" for r in rows)
+    m = re.search(r"\| I \| equilibrium \| (\d+) \| sigma \| \[[^]]+\] \| ([0-9.e+-]+) \| [0-9.e+-]+ \| (\d+)/(\d+) \|",
+                  report.split("### tiny: Fig. 5a")[1])
+    assert m and int(m.group(1)) == len(rows) and int(m.group(4)) == len(rows) and int(m.group(3)) == stable
+    assert float(m.group(2)) == pytest.approx(a1max, rel=1e-3)
+
+
+def test_interpolation_and_overlay_comparison_on_a_written_overlay(figures):
+    """A hand-made overlay at a branch point's own sigma: the AME value must be the branch's
+    (interpolation exact at a node), the error formula |a1_AME - a1_21| / a1_21, the bound the study's."""
+    _, out, _ = figures
+    d = load_scene_data(out / "figt2")
+    rows = d.branch_rows("I")
+    node = rows[len(rows) // 2]
+    s, a1 = float(node["sigma"]), float(node["a1"])
+    (out / "figt2" / "overlay.csv").write_text(
+        "parameter,value,direction,method,a1,a2,a1_min,a1_max,a2_min,a2_max,steady,periodic,message,wall_seconds\n"
+        f"sigma,{s!r},up,ode21,{a1 * 1.01!r},0.0,{a1!r},{a1!r},0,0,True,True,steady,0.1\n"
+        f"sigma,{s!r},down,ode21,{a1 * 0.9!r},0.0,{a1!r},{a1!r},0,0,True,False,modulated,0.1\n"
+        f"sigma,0.2,up,ode21,{a1!r},0.0,{a1!r},{a1!r},0,0,True,True,steady,0.1\n")
+    try:
+        d = load_scene_data(out / "figt2")
+        (c,) = interpolate_stable(d, "sigma", s)
+        assert c["a1"] == pytest.approx(a1, rel=1e-12)
+        up, down, outside = overlay_comparison(d)
+        assert up["rel_error"] == pytest.approx(abs(a1 - 1.01 * a1) / (1.01 * a1), rel=1e-9)
+        assert up["bound"] == STUDY_MAX_ERROR[8.2e-5] and up["within"] is False   # 0.99 % > 0.108 %
+        assert math.isnan(down["rel_error"]) and down["within"] is None and "not period-1" in down["note"]
+        assert outside["within"] is None and outside["note"] == "no stable AME equilibrium at this value"
+    finally:
+        (out / "figt2" / "overlay.csv").unlink()
+
+
+def test_discover_globs_figure_scenes_and_rejects_unknown_names(figures):
+    _, _, runs = figures
+    assert [p.stem for p in discover(runs)] == ["figt1", "figt2", "figt9"]
+    assert [p.stem for p in discover(runs, ["figt2"])] == ["figt2"]
+    with pytest.raises(SpecError, match="no scene figt5 .* there are figt1, figt2, figt9"):
+        discover(runs, ["figt5"])
+    assert main(["figures", "--out", str(runs / "x"), "--runs", str(runs), "--only", "nope"]) == 2
