@@ -47,6 +47,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 import sympy as sp
+from sympy.core.function import AppliedUndef
 from sympy.printing.c import C99CodePrinter
 
 from autocable.codegen import cache
@@ -279,6 +280,10 @@ static int unstable_count(const double *J) {
     for (i = 1; i <= N; i++) if ((R[i][0] > 0) != (R[i - 1][0] > 0)) changes++;
     return changes;
 }
+
+/* For tests: the Hopf test function and the unstable count of an n x n row-major J. */
+double ac_hopf(const double *J) { return hopf_test(J); }
+int ac_count(const double *J) { return unstable_count(J); }
 
 /* Unit tangent t with [DF; tref] t = e_{n+1} (so t . tref > 0); returns 0 on a singular system. */
 static int tangent(const double *DF, const double *tref, double *t) {
@@ -519,6 +524,21 @@ class CKernel:
             self.lib.ac_chart(cfg.ctypes.data, Y.ctypes.data, out.ctypes.data, None)
         return out
 
+    def hopf_test(self, J) -> float:
+        """det(2J (.) I) as the loop computes it (1 for n = 1)."""
+        return float(self.lib.ac_hopf(np.ascontiguousarray(J, float).ctypes.data))
+
+    def unstable_count(self, J) -> int:
+        """Eigenvalues of J with positive real part by the loop's Routh count (-1: undecided)."""
+        return int(self.lib.ac_count(np.ascontiguousarray(J, float).ctypes.data))
+
+    def both(self, cfg: np.ndarray, Y) -> tuple[np.ndarray, np.ndarray]:
+        """(F~(Y), DF~(Y)) in one call."""
+        Y = np.ascontiguousarray(Y, float)
+        f, df = np.empty(self.n), np.empty((self.n, self.n + 1))
+        self.lib.ac_chart(cfg.ctypes.data, Y.ctypes.data, f.ctypes.data, df.ctypes.data)
+        return f, df
+
     def continue_side(self, cfg: np.ndarray, Y0, d0, opts: Sequence[float], max_points: int) -> dict:
         """One side of a branch (see the C ``ac_continue``): arrays of the points and their tests."""
         n1, mp = self.n + 1, max(int(max_points), 1)
@@ -553,6 +573,10 @@ def _load(path: Path, n: int, m: int, timings) -> CKernel:
     lib.ac_continue.argtypes = [vp, vp, vp, vp, ip, vp, vp, vp, vp, vp, vp, vp]
     lib.ac_continue.restype = ip
     lib.ac_dims.argtypes = [vp]
+    lib.ac_hopf.argtypes = [vp]
+    lib.ac_hopf.restype = ctypes.c_double
+    lib.ac_count.argtypes = [vp]
+    lib.ac_count.restype = ip
     dims = np.zeros(2, np.intc)
     lib.ac_dims(dims.ctypes.data)
     if (int(dims[0]), int(dims[1])) != (n, m):
@@ -570,13 +594,18 @@ def _kernel_for(name: str, variables: tuple, parameters: tuple, rhs: tuple, cc: 
     with _lock(folder):
         if not lib.exists():
             t0 = time.perf_counter()
+            undefined = sorted({str(f.func) for e in rhs for f in sp.sympify(e).atoms(AppliedUndef)})
+            if undefined:
+                raise KernelBuildError(f"C kernel of {name!r}: the right-hand side calls {undefined}, "
+                                       f"which C does not know; define them or use engine='pycont'")
             try:
                 source = kernel_source(variables, parameters, rhs)
             except KernelBuildError:
                 raise
             except Exception as exc:  # noqa: BLE001 - sympy's printer raises many kinds
+                text = " ".join(str(exc).split())
                 raise KernelBuildError(f"C kernel of {name!r}: the right-hand side cannot be written "
-                                       f"as C ({type(exc).__name__}: {exc}); use engine='pycont'") from None
+                                       f"as C ({type(exc).__name__}: {text}); use engine='pycont'") from None
             t1 = time.perf_counter()
             _compile(source, folder, cc, repr(name))
             emit_s, compile_s = t1 - t0, time.perf_counter() - t1

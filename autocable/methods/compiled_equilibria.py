@@ -21,7 +21,7 @@ No PyCont runs, so every special point has ``confirmed_by_pycont = None``."""
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -40,17 +40,26 @@ class _KernelChart(_Chart):
 
     kernel: Any = None
     cfg: Any = None
+    # The corrector asks for F~(Y) then DF~(Y) at the same Y: one C call serves both.
+    memo: dict = field(default_factory=dict)
 
     @classmethod
     def around(cls, chart: _Chart, kernel: CKernel) -> "_KernelChart":
         cfg = np.concatenate([chart.base, [chart.k, chart.xscale, chart.pscale]]).astype(float)
         return cls(chart.system, chart.k, chart.base, chart.xscale, chart.pscale, kernel, cfg)
 
+    def _both(self, Y):
+        key = np.asarray(Y, float).tobytes()
+        if self.memo.get("key") != key:
+            f, df = self.kernel.both(self.cfg, Y)
+            self.memo.update(key=key, f=f, df=df)
+        return self.memo["f"], self.memo["df"]
+
     def F(self, Y) -> np.ndarray:
-        return self.kernel.chart(self.cfg, Y, False)
+        return self._both(Y)[0].copy()
 
     def DF(self, Y) -> np.ndarray:
-        return self.kernel.chart(self.cfg, Y, True)
+        return self._both(Y)[1].copy()
 
 
 @dataclass
@@ -111,9 +120,12 @@ def _join(back: dict | None, fwd: dict) -> dict:
     return {k: np.concatenate([p_[k] for p_ in parts]) for k in _EMPTY_KEYS}
 
 
-def _analysis_inputs(arr: dict) -> tuple[dict, dict]:
+def _analysis_inputs(chart: _KernelChart, arr: dict) -> tuple[dict, dict]:
     """The precomputed arrays of `_analyse_equilibria` and the stability bookkeeping."""
     J = arr["J"]
+    Y = arr["Y"]
+    P = np.repeat(chart.base[None, :], len(Y), axis=0)
+    P[:, chart.k] += chart.pscale * Y[:, -1]
     ev = np.linalg.eigvals(J) if len(J) else np.zeros((0, J.shape[-1]), complex)
     # Each row by decreasing real part, then decreasing imaginary part (as the PyCont path sorts).
     ev = -np.sort(-ev, axis=1)
@@ -122,7 +134,7 @@ def _analysis_inputs(arr: dict) -> tuple[dict, dict]:
     decided = count >= 0
     used = np.where(decided, count, numpy_count)
     stable = used == 0
-    pre = {"eigen": ev, "stable": stable, "T": arr["T"], "hopf": arr["tests"][:, 2], "bdet": arr["tests"][:, 1]}
+    pre = {"X": Y[:, :-1] * chart.xscale, "P": P, "eigen": ev, "stable": stable, "T": arr["T"], "hopf": arr["tests"][:, 2], "bdet": arr["tests"][:, 1]}
     info = {"engine": "compiled", "kernel_undecided_stability": int(np.sum(~decided)),
             "kernel_stability_disagreements": int(np.sum(decided & (count != numpy_count))),
             "kernel_unstable_counts": [int(c) for c in count]}
@@ -145,7 +157,8 @@ def continue_equilibria_compiled(problem: EquilibriumProblem,
     x0 = np.zeros(sysm.dimension) if start is None else np.asarray(start, float)
     if x0.shape != (sysm.dimension,):
         raise StartError(f"start state must have {sysm.dimension} entries {sysm.variables}, got {x0.shape}")
-    x, ok, res = equilibrium_near(sysm, x0, chart.p(0.0), tol=settings.newton_tol, scale=chart.xscale)
+    # Newton on the kernel's F and J (equilibrium_near only calls f and jac).
+    x, ok, res = equilibrium_near(kernel, x0, chart.p(0.0), tol=settings.newton_tol, scale=chart.xscale)
     if not ok:
         raise StartError(f"Newton from the start state did not converge to an equilibrium at "
                          f"{problem.parameter} = {chart.value(0.0):g} (residual {res:.3g}); start by "
@@ -171,7 +184,7 @@ def continue_equilibria_compiled(problem: EquilibriumProblem,
     if fwd.arrays is None:
         fwd = replace(fwd, arrays=_single(chart, Y0, v0))
     arr = _join(back.arrays, fwd.arrays)
-    pre, kinfo = _analysis_inputs(arr)
+    pre, kinfo = _analysis_inputs(chart, arr)
     Ys = list(arr["Y"])
     an = _analyse_equilibria(chart, Ys, settings, name, None, [None] * len(Ys), precomputed=pre)
     nb = len(back.arrays["Y"]) - 1 if back.arrays is not None else 0
@@ -250,7 +263,7 @@ def switch_branch_compiled(source: ContinuationResult, bp: str | SpecialPoint,
         + ([plus.arrays] if plus.arrays is not None else [])
     arr = {k: np.concatenate([p_[k] for p_ in parts]) for k in _EMPTY_KEYS}
     ib = len(minus.arrays["Y"]) if minus.arrays is not None else 0
-    pre, kinfo = _analysis_inputs(arr)
+    pre, kinfo = _analysis_inputs(chart, arr)
     Ys = list(arr["Y"])
     an = _analyse_equilibria(chart, Ys, settings, name, None, [None] * len(Ys), skip=(ib,), precomputed=pre)
     junction = SpecialPoint(

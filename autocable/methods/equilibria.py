@@ -109,8 +109,8 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
                         branch_name: str, pycont_special: Sequence | None, pycont_stab: Sequence,
                         skip: Sequence[int] = (), precomputed: Mapping[str, Any] | None = None) -> _Analysis:
     """``pycont_special=None``: no PyCont run (the compiled engine), nothing to compare with.
-    ``precomputed``: points already polished, with ``eigen``, ``stable``, ``T``, ``hopf``, ``bdet``
-    per point (the compiled engine's arrays); only the special points are located here."""
+    ``precomputed``: points already polished, with ``X``, ``P``, ``eigen``, ``stable``, ``T``,
+    ``hopf``, ``bdet`` per point (the compiled engine's arrays); only the special points are located here."""
     sysm = chart.system
     n = sysm.dimension
     polished, moved = [], 0
@@ -124,8 +124,8 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
             polished.append(np.asarray(Y, float).copy())
             moved += 1
     Ys = polished if precomputed is None else [np.asarray(Y, float) for Y in Ys]
-    X = np.array([chart.to_phys(Y)[0] for Y in Ys])
-    P = np.array([chart.to_phys(Y)[1] for Y in Ys])
+    X = np.array([chart.to_phys(Y)[0] for Y in Ys]) if precomputed is None else precomputed["X"]
+    P = np.array([chart.to_phys(Y)[1] for Y in Ys]) if precomputed is None else precomputed["P"]
     eig = np.zeros((len(Ys), n), dtype=complex)
     detJ = np.zeros(len(Ys))
     hopf = np.zeros(len(Ys))

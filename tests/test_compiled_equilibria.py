@@ -1,0 +1,229 @@
+"""The compiled equilibrium engine (``engine="compiled"``) against the PyCont engine and closed forms.
+
+* The C kernel's F, J_x, J_p equal the sympy ones; its Hopf test function equals
+  `bialternate`'s determinant; its Routh count of unstable eigenvalues equals numpy's on random
+  matrices (n = 2, 4) whenever it decides, and it declines (-1) on a matrix with a pair on the
+  imaginary axis.
+* The first runs of the Fig. 5a and Fig. 6 scenes (runs/fig05a.toml, runs/fig06.toml): the same
+  special points as PyCont's engine (parameter to 1e-8, a1 to 1e-8 relative), stability at every
+  returned point equal to numpy's eigenvalues of the exact Jacobian and to the kernel's count,
+  every point on the PyCont branch within the step tolerance (max_step^2 in chart units), both
+  branches ending exactly on the range.
+* Branch switching at Fig. 6's first branch point: the same special points on the new branch.
+* The Duffing slow flow: folds against the closed form to 1e-5, the middle branch unstable.
+* A right-hand side C cannot compile, or a missing compiler: a one-line `KernelBuildError`.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from autocable.codegen.ckernel import KernelBuildError, compiled_kernel
+from autocable.methods.continuation import (ContinuationSettings, EquilibriumProblem, System, ame_system,
+                                            auto_state_scale, bialternate, continue_equilibria,
+                                            switch_branch)
+from autocable.methods.continuation_chart import _Chart
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def first_run_problem(scene_file: str):
+    """The problem and settings of a scene's first run, built as `run_scene` builds them."""
+    from autocable.model.ame_cache import derive_ame
+    from autocable.model.derive import derive
+    from autocable.scene import load_scene
+    from autocable.spec import load_model
+
+    scene = load_scene(ROOT / "runs" / scene_file)
+    run = scene.runs[0]
+    assert run.start.kind == "trivial" and run.parameter == "sigma"
+    ame = derive_ame(derive(load_model(scene.model))).ame
+    values = {"sigma": 0.0, "U": 0.0, "eta": 0.0, **scene.fixed, **run.fixed}
+    values[run.parameter] = run.range[0]
+    system = ame_system(ame, scene.ame, wind=values["U"] != 0.0)
+    problem = EquilibriumProblem(system, run.parameter, values, run.range,
+                                 state_scale=auto_state_scale(system, values))
+    return problem, ContinuationSettings(**run.steps), run.name, run.directions
+
+
+@pytest.fixture(scope="module", params=["fig05a.toml", "fig06.toml"])
+def both_engines(request):
+    problem, settings, name, directions = first_run_problem(request.param)
+    pyc = continue_equilibria(problem, settings, name=name, directions=directions)
+    comp = continue_equilibria(problem, settings, name=name, directions=directions, engine="compiled")
+    return request.param, problem, settings, pyc, comp
+
+
+def test_same_special_points_as_pycont(both_engines):
+    scene, problem, settings, pyc, comp = both_engines
+    a, b = pyc.branch.special_points, comp.branch.special_points
+    assert [s.label for s in a] == [s.label for s in b]
+    if scene == "fig06.toml":
+        assert [s.type for s in b] == ["BP", "BP"]     # the pitchforks of branch I (Fig. 6)
+    for sa, sb in zip(a, b):
+        assert sb.value == pytest.approx(sa.value, abs=1e-8)
+        assert sb.a1 == pytest.approx(sa.a1, rel=1e-8)
+        assert sb.converged and sb.origin == "autocable" and sb.confirmed_by_pycont is None
+
+
+def test_stability_is_numpys_at_every_point_and_the_kernels_count(both_engines):
+    scene, problem, settings, pyc, comp = both_engines
+    b = comp.branch
+    system = problem.system
+    kernel = compiled_kernel(system)
+    counts = np.array(b.info["kernel_unstable_counts"])
+    assert len(counts) == len(b) and b.info["kernel_stability_disagreements"] == 0
+    decided = 0
+    for i in range(len(b)):
+        p = np.array([b[n][i] for n in system.parameter_names])
+        J = system.jac(b.states[i], p)
+        ev = np.linalg.eigvals(J)
+        n_unstable = int(np.sum(ev.real > 0))
+        assert bool(b.stable[i]) == (n_unstable == 0), (scene, i, ev)
+        if counts[i] >= 0:
+            assert counts[i] == n_unstable, (scene, i, ev)
+            assert kernel.unstable_count(J) == counts[i]
+            decided += 1
+    assert decided >= len(b) - 2          # undecided only next to a bifurcation point
+    if scene == "fig06.toml":             # unstable exactly between the two branch points
+        bp1, bp2 = (s.value for s in b.of_type("BP"))
+        s = b["sigma"]
+        assert not np.any(b.stable[(s > bp1 + 1e-6) & (s < bp2 - 1e-6)])
+        assert np.all(b.stable[(s < bp1 - 1e-6) | (s > bp2 + 1e-6)])
+    else:
+        assert np.all(b.stable)
+
+
+def test_points_lie_on_the_pycont_branch(both_engines):
+    scene, problem, settings, pyc, comp = both_engines
+    chart = _Chart.of(problem)
+    Yp = np.array([chart.to_chart(x, v) for x, v in zip(pyc.branch.states, pyc.branch.values)])
+    Yc = np.array([chart.to_chart(x, v) for x, v in zip(comp.branch.states, comp.branch.values)])
+    # Distance of every compiled point to PyCont's polyline (chords between its points).
+    a, d = Yp[:-1], np.diff(Yp, axis=0)
+    worst = 0.0
+    for Y in Yc:
+        s = np.clip(np.einsum("ij,ij->i", Y - a, d) / np.einsum("ij,ij->i", d, d), 0.0, 1.0)
+        worst = max(worst, float(np.min(np.linalg.norm(a + s[:, None] * d - Y, axis=1))))
+        assert np.max(np.abs(chart.F(Y))) < 1e-10
+    assert worst <= settings.max_step ** 2
+    assert abs(len(comp.branch) - len(pyc.branch)) <= 0.1 * len(pyc.branch)
+    for ea, eb in zip(pyc.branch.ends, comp.branch.ends):
+        assert eb.reason == ea.reason == "range"
+        assert eb.value == pytest.approx(ea.value, abs=1e-12)
+
+
+def test_switching_at_the_first_branch_point_follows_the_same_branch(both_engines):
+    """The bi-modal branch through Fig. 6's BP1 (a closed curve back to BP1): the same points and
+    ends. (Where it crosses a2 = 0 again, a branch point, whether `_locate` lands on it depends on
+    how close a computed point falls to it: both engines share that locator.)"""
+    scene, problem, settings, pyc, comp = both_engines
+    if scene != "fig06.toml":
+        pytest.skip("no branch point on Fig. 5a's branch I")
+    a = switch_branch(pyc, "BP1")
+    b = switch_branch(comp, "BP1", engine="compiled")
+    assert b.branch.special("BP0").value == pytest.approx(a.branch.special("BP0").value, abs=1e-8)
+    assert [e.reason for e in b.branch.ends] == [e.reason for e in a.branch.ends] == ["closed", "closed"]
+    assert b.branch.info["kernel_stability_disagreements"] == 0
+    chart = _Chart.of(problem.at(sigma=a.problem.values["sigma"]))
+    Ya = np.array([chart.to_chart(x, v) for x, v in zip(a.branch.states, a.branch.values)])
+    Yb = np.array([chart.to_chart(x, v) for x, v in zip(b.branch.states, b.branch.values)])
+    gap = max(float(np.min(np.linalg.norm(Ya - Y, axis=1))) for Y in Yb)
+    assert gap <= settings.max_step
+    assert abs(len(Yb) - len(Ya)) <= 0.1 * len(Ya)
+    assert np.max(b.branch["a2"]) == pytest.approx(np.max(a.branch["a2"]), rel=1e-3)
+
+
+# --------------------------------------------------------------------------------------------
+# Duffing slow flow (as in test_continuation): z' = (-mu + i(sigma - kappa |z|^2)) z - i f.
+MU_D, KAPPA, F_D = 0.1, 1.0, 0.2
+
+
+def duffing() -> System:
+    u, v, s = sp.symbols("u v sigma")
+    w = s - KAPPA * (u * u + v * v)
+    return System("duffing_compiled", ("u", "v"), (-MU_D * u - w * v, -MU_D * v + w * u - F_D),
+                  {"sigma": -1.0}, (("a1", ("u", "v")),))
+
+
+def duffing_folds():
+    roots = np.roots([4 * KAPPA**2 * MU_D**2, -4 * KAPPA**2 * F_D**2, 0.0, 0.0, F_D**4])
+    A = np.sort(roots[(np.abs(roots.imag) < 1e-12) & (roots.real > 0)].real)
+    return [(KAPPA * a + F_D**2 / (2 * KAPPA * a * a), math.sqrt(a)) for a in A]
+
+
+def test_duffing_folds_with_the_compiled_engine():
+    system = duffing()
+    problem = EquilibriumProblem(system, "sigma", {"sigma": -1.0}, (-1.0, 6.0))
+    r = continue_equilibria(problem, ContinuationSettings(max_step=4e-2), name="I", directions="forward",
+                            engine="compiled")
+    b = r.branch
+    folds = sorted(b.of_type("LP"), key=lambda s: s.value)
+    assert len(folds) == 2 and not b.of_type("H") and not b.of_type("BP")
+    for sp_, (sigma_f, a_f) in zip(folds, duffing_folds()):
+        assert sp_.value == pytest.approx(sigma_f, abs=1e-5)
+        assert sp_.a1 == pytest.approx(a_f, abs=1e-5)
+        assert sp_.converged
+    A = b["a1"] ** 2
+    dG = MU_D**2 + (b["sigma"] - KAPPA * A) ** 2 - 2 * KAPPA * A * (b["sigma"] - KAPPA * A)
+    assert (dG < -1e-6).sum() >= 5
+    assert not np.any(b.stable[dG < -1e-6]) and np.all(b.stable[dG > 1e-6])
+    G = A * (MU_D**2 + (b["sigma"] - KAPPA * A) ** 2) - F_D**2
+    assert np.max(np.abs(G)) < 1e-12
+    assert b.ends[-1].reason == "range" and b.ends[-1].value == pytest.approx(6.0, abs=1e-12)
+
+
+def test_kernel_functions_equal_sympys_and_numpys():
+    rng = np.random.default_rng(7)
+    system = duffing()
+    u, v, s, c = sp.symbols("u v s c")
+    four = System("four_compiled", ("u", "v", "s", "c"),
+                  (-u + v * s - c**3, u * c - 2 * v + s, u * v * s - c + sp.sin(u), s * s - u * c - v),
+                  {"mu": 0.3}, ())
+    for sysm in (system, four):
+        k = compiled_kernel(sysm)
+        n = sysm.dimension
+        for _ in range(5):
+            x, p = rng.normal(size=n), rng.normal(size=len(sysm.parameters))
+            np.testing.assert_allclose(k.f(x, p), sysm.f(x, p), rtol=1e-13, atol=1e-14)
+            np.testing.assert_allclose(k.jac(x, p), sysm.jac(x, p), rtol=1e-13, atol=1e-14)
+            np.testing.assert_allclose(k.jac_p(x, p), sysm.jac_p(x, p), rtol=1e-13, atol=1e-14)
+        decided = 0
+        for _ in range(300):
+            J = rng.normal(size=(n, n))
+            hopf = np.linalg.det(bialternate(J))
+            assert k.hopf_test(J) == pytest.approx(hopf, rel=1e-10, abs=1e-12)
+            c_ = k.unstable_count(J)
+            if c_ >= 0:
+                assert c_ == int(np.sum(np.linalg.eigvals(J).real > 0))
+                decided += 1
+        assert decided >= 295
+        # A pair on the imaginary axis (rotation block) and the rest stable: undecided.
+        R = -np.eye(n)
+        R[:2, :2] = [[0.0, 1.0], [-1.0, 0.0]]
+        assert k.unstable_count(R) == -1
+        assert k.unstable_count(np.zeros((n, n))) == -1
+
+
+def test_a_kernel_that_does_not_compile_is_a_one_line_error(tmp_path, monkeypatch):
+    monkeypatch.setenv("AUTOCABLE_CACHE", str(tmp_path))
+    u, v = sp.symbols("u v")
+    bad = System("not_c", ("u", "v"), (sp.Function("mystery")(u), -v), {"k": 1.0}, ())
+    with pytest.raises(KernelBuildError) as exc:
+        compiled_kernel(bad)
+    msg = str(exc.value)
+    assert "\n" not in msg and "not_c" in msg and "mystery" in msg and "engine='pycont'" in msg
+    assert not list(tmp_path.rglob("*.so"))
+    with pytest.raises(KernelBuildError) as exc:           # a compiler that fails
+        compiled_kernel(duffing(), cc="false")
+    assert "\n" not in str(exc.value) and "false failed" in str(exc.value)
+    with pytest.raises(KernelBuildError) as exc:
+        compiled_kernel(duffing(), cc="no-such-compiler-here")
+    assert "\n" not in str(exc.value) and "not found" in str(exc.value)
+    problem = EquilibriumProblem(bad, "k", {"k": 1.0}, (0.0, 2.0))
+    with pytest.raises(ValueError, match="engine must be one of"):
+        continue_equilibria(problem, engine="fortran")
