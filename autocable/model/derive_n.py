@@ -1,0 +1,42 @@
+"""From a model spec (or its eq. (21) `Derivation`) to the N-mode equations, cached by content.
+
+The N-mode model reuses everything the two-mode derivation fixed: the statics, the nondimensional
+groups, the calibrated (beta, Theta0), the load scale K and velocity ratio nu, and the damping ratio;
+only the trial functions change (`modes_n.mode_set`).
+"""
+from __future__ import annotations
+
+from autocable.codegen.cache import atomic_write_json, cache_dir, content_hash, read_json
+from autocable.model.aero import expand_load
+from autocable.model.derive import DERIVATION_VERSION, Derivation, derive
+from autocable.model.galerkin_n import ExactZeroIntegrator, project_n
+from autocable.model.modes_n import mode_set
+from autocable.model.multimode import NModeODE
+from autocable.spec import ModelSpec
+
+#: Bump when a change in the N-mode projection changes the numbers.
+NMODE_VERSION = "nmode-v1"
+
+
+def derive_nmode(source: Derivation | ModelSpec, n_in: int, n_out: int,
+                 use_cache: bool = True) -> NModeODE:
+    """The equations with the lowest ``n_in`` in-plane and ``n_out`` out-of-plane modes."""
+    d = source if isinstance(source, Derivation) else derive(source)
+    if not (isinstance(n_in, int) and isinstance(n_out, int) and n_in >= 1 and n_out >= 1):
+        raise ValueError(f"the number of modes must be integers >= 1, got n_in = {n_in!r}, n_out = {n_out!r}")
+    spec = d.spec
+    key = content_hash({"spec": spec.content_hash(), "eq21": DERIVATION_VERSION, "version": NMODE_VERSION,
+                        "n_in": n_in, "n_out": n_out})
+    path = cache_dir("derivations") / f"{spec.name}-nmode{n_in}x{n_out}-{key}.json"
+    data = read_json(path) if use_cache else None
+    if data is not None:
+        return NModeODE.from_dict(data)
+    st = d.statics
+    ms = mode_set(st, n_in, n_out)
+    aero = expand_load(spec.aero.lift, spec.aero.drag, st.alpha, d.beta, d.theta0, spec.aero.angle_convention)
+    ode = project_n(st, ms, aero, d.aero_scale, d.velocity_ratio, spec.cable.damping_ratio,
+                    ExactZeroIntegrator(ms.shapes),
+                    provenance={"model": spec.name, "model_hash": spec.content_hash(),
+                                "derivation": NMODE_VERSION, "n_in": n_in, "n_out": n_out})
+    atomic_write_json(path, ode.to_dict())
+    return ode
