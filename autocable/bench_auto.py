@@ -554,8 +554,10 @@ def bench_auto(model_path: str, auto_python: str | None = None, repeats: int = 3
     if python is None:
         return {"skipped": why}
 
+    from autocable.codegen.ckernel import build_timing
     from autocable.methods.continuation import (ContinuationSettings, EquilibriumProblem,
                                                 ame_system, auto_state_scale, continue_equilibria)
+    from autocable.methods.continuation_bench import time_compiled
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
     from autocable.spec import load_model
@@ -678,13 +680,42 @@ def bench_auto(model_path: str, auto_python: str | None = None, repeats: int = 3
             "special_points": _special_diffs(auto_special, ac_special, span),
             "a1_check": checks,
         }
+        # The compiled engine (autocable.methods.compiled_equilibria): the whole call per step.
+        comp = time_compiled(ep, settings, x0, repeats=max(20, repeats))
+        cres = comp.pop("result")
+        c_special = [{"type": p.type, "value": float(p.value), "a1": float(p.a1)}
+                     for p in cres.branch.special_points if p.type in ("BP", "LP", "H")]
+        case["compiled"] = {
+            **comp, "end_sigma": float(cres.branch.ends[-1].value), "special_points": c_special,
+            "special_points_vs_auto": _special_diffs(auto_special, c_special, span),
+            "stable_points": int(np.sum(cres.branch.stable)),
+            "stability_changes": _stability_changes(cres.branch.table["sigma"], cres.branch.stable),
+            "kernel_undecided_stability": cres.branch.info["kernel_undecided_stability"],
+            "a1_check": [{"sigma": v, "relative_difference": None if a_ is None else
+                          abs(a_ - float(system.amplitude_values(x)[0])) / abs(float(system.amplitude_values(x)[0]))}
+                         for v, x in uz for a_ in [_autocable_a1_at(cres, v)]]}
+        case["ratio_compiled_to_auto"] = comp["seconds_per_point"] / auto_pp
+        case["ratio_compiled_cpu_to_auto"] = comp["cpu_seconds_per_point"] / auto_pp
         cases.append(case)
+        say(f"  compiled engine: {comp['seconds_per_point'] * 1e6:.1f} us/point wall, "
+            f"{comp['cpu_seconds_per_point'] * 1e6:.1f} us/point CPU ({comp['points']} points): "
+            f"{case['ratio_compiled_to_auto']:.2f}x AUTO")
         say(f"  AUTO {auto_pp * 1e3:.4f} ms/point ({len(rows)} points)"
             + (f", AUTO with Python callbacks {interp['seconds_per_point'] * 1e3:.3f} ms/point" if interp else "")
             + f"; autocable: PyCont {pycont_pp * 1e3:.2f} + analysis {analysis_pp * 1e3:.2f} ms/point "
               f"({n_ac} points): {case['ratio_total_to_auto']:.0f}x AUTO")
     worst = max(c["ratio_total_to_auto"] for c in cases)
+    worst_c = max(c["ratio_compiled_to_auto"] for c in cases)
+    say("compiled engine: one-time costs from scratch (emit C, gcc) ...")
+    one_time = build_timing(system)
     return {
+        "compiled": {"one_time": one_time, "ratio_to_auto_worst": worst_c,
+                     "target": {"ratio_to_auto": 2.0, "met": bool(worst_c <= 2.0)},
+                     "timing": "seconds_per_point: the whole continue_equilibria(engine='compiled') call "
+                               "(start Newton, C loop with test functions and Routh counts, numpy "
+                               "eigenvalues of every point, special points located by _locate, l1, "
+                               "Branch) over its steps, best of the timed runs (wall); "
+                               "cpu_seconds_per_point the same in process CPU time"},
         "model": model_path, "system": system.name, "parameter": "sigma", "range": list(SIGMA_RANGE),
         "auto": {"python": python, "bifpy_version": auto.get("bifpy_version"),
                  "gfortran": auto.get("gfortran"), "equation_file_fflags": auto.get("fflags"),

@@ -53,7 +53,7 @@ from sympy.printing.c import C99CodePrinter
 from autocable.codegen import cache
 
 __all__ = ["KERNEL_VERSION", "KernelBuildError", "CKernel", "kernel_source", "compiled_kernel",
-           "REASONS"]
+           "build_timing", "REASONS"]
 
 #: Bump when the emitted C changes meaning: it is part of the content hash.
 KERNEL_VERSION = "1"
@@ -613,6 +613,19 @@ def _kernel_for(name: str, variables: tuple, parameters: tuple, rhs: tuple, cc: 
     k = _load(lib, len(variables), len(parameters), ())
     return CKernel(k.n, k.m, k.path, k.lib, (("emit_s", emit_s), ("compile_s", compile_s),
                                              ("load_s", time.perf_counter() - t2)))
+
+
+def build_timing(system, cc: str | None = None) -> dict[str, float]:
+    """The one-time costs of a kernel, measured from scratch in a temporary folder (the cache is
+    not touched): ``emit_s`` (sympy derivatives, CSE and C printing) and ``compile_s`` (gcc)."""
+    cc = cc or os.environ.get("CC", "").strip() or "gcc"
+    t0 = time.perf_counter()
+    source = kernel_source(system.variables, system.parameter_names, system.rhs)
+    t1 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="autocable-ckernel-") as tmp:
+        _compile(source, Path(tmp), cc, repr(system.name))
+        t2 = time.perf_counter()
+    return {"emit_s": t1 - t0, "compile_s": t2 - t1, "source_lines": source.count("\n")}
 
 
 def compiled_kernel(system, cc: str | None = None) -> CKernel:

@@ -1,5 +1,6 @@
 """Benchmark of the continuation: per-point EP-C cost on the sample AME and the total time of a
-Fig. 6-sized scene, warm and cold (`bench_continuation`, run by ``autocable bench``)."""
+Fig. 6-sized scene, warm and cold (`bench_continuation`, run by ``autocable bench``), for the
+PyCont engine and the compiled one (`time_compiled`)."""
 from __future__ import annotations
 
 import math
@@ -50,7 +51,20 @@ def bench_continuation(model: str = "models/luongo_zulli_2012.toml", *, repeats:
         for bp in r.branch.of_type("BP"):
             switch_branch(r, bp.label)
         totals.append(time.perf_counter() - t)
-    out = {"ep_c_seconds_per_point": min(per_point), "analysis_seconds_per_point": analysis,
+    say("bench: the same with the compiled engine")
+    comp = time_compiled(problem, settings, repeats=max(10, repeats))
+    totals_c = []
+    for _ in range(max(3, repeats)):
+        t = time.perf_counter()
+        rc = continue_equilibria(problem, settings, name="I", engine="compiled")
+        for bp in rc.branch.of_type("BP"):
+            switch_branch(rc, bp.label, engine="compiled")
+        totals_c.append(time.perf_counter() - t)
+    out = {"compiled_seconds_per_point": comp["seconds_per_point"],
+           "compiled_cpu_seconds_per_point": comp["cpu_seconds_per_point"],
+           "compiled_kernel_seconds_per_point": comp["kernel_seconds_per_point"],
+           "compiled_points": comp["points"], "fig6_scene_warm_compiled_s": min(totals_c),
+           "ep_c_seconds_per_point": min(per_point), "analysis_seconds_per_point": analysis,
            "setup_seconds_per_branch": r.timings.get("setup_s"),
            "points": int(r.timings["points"]), "fig6_scene_warm_s": min(totals),
            "model_and_ame_s": t_model, "branch_points": len(r.branch.of_type("BP"))}
@@ -82,3 +96,34 @@ def _bench_scene(model: str) -> None:
     r = continue_equilibria(problem, ContinuationSettings(), name="I")
     for bp in r.branch.of_type("BP"):
         switch_branch(r, bp.label)
+
+
+def time_compiled(problem: EquilibriumProblem, settings: ContinuationSettings, start=None, *,
+                  repeats: int = 20, directions: str = "forward") -> dict:
+    """Cost of `continue_equilibria(..., engine="compiled")` per point: the whole call (Newton at
+    the start, the C loop with its test functions and Routh counts, numpy's eigenvalues of every
+    point, location of the special points by `_locate`, l1 at Hopf points, the `Branch` record),
+    best of ``repeats`` after a warm-up (which loads or builds the kernel), over the steps
+    (points - 1, as AUTO's per-point cost is over its steps). Wall (perf_counter) and CPU
+    (process_time) seconds; the C loop's share (``kernel_s``) beside them. Returns plain numbers
+    and the best run's result."""
+    def run():
+        return continue_equilibria(problem, settings, start, name="I", directions=directions,
+                                   engine="compiled")
+
+    run()
+    walls, cpus, best = [], [], None
+    for _ in range(max(1, int(repeats))):
+        w, c = time.perf_counter(), time.process_time()
+        r = run()
+        walls.append(time.perf_counter() - w)
+        cpus.append(time.process_time() - c)
+        if best is None or walls[-1] <= min(walls):
+            best = r
+    steps = max(int(best.timings["points"]) - 1, 1)
+    return {"points": int(best.timings["points"]), "seconds_per_point": min(walls) / steps,
+            "cpu_seconds_per_point": min(cpus) / steps,
+            "median_seconds_per_point": float(sorted(walls)[len(walls) // 2]) / steps,
+            "kernel_seconds_per_point": best.timings["kernel_s"] / steps,
+            "analysis_seconds_per_point": best.timings["analysis_s"] / steps,
+            "setup_seconds": best.timings["setup_s"], "repeats": len(walls), "result": best}
