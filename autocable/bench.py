@@ -416,71 +416,48 @@ def _plot_ame_vs_ode(result: dict, path) -> None:
 # -- figures: wall time of `autocable figures`, cold and warm cache --------------------------------------
 #: Targets of issue 5 for all figure scenes on the 2-core machine.
 FIGURES_TARGETS = {"cold_s": 60.0, "warm_s": 15.0}
-#: Stage groups of a scene's run.json "stages" (autocable/scene.py records them).
-FIGURE_STAGES = ("derive", "build", "continue", "integrate", "plot", "write", "other")
-
-
-def figure_stage_seconds(stages: dict) -> dict:
-    """One scene's wall time split into `FIGURE_STAGES` from run.json's ``provenance.stages``:
-    derive = eq. (21) + AME derivation; build = the continuation runs' ``setup_s`` (PyDSTool
-    generator build or load); continue = the rest of the runs' wall time (PyCont and autocable's
-    analysis, follow-ups included); integrate = the overlays and any other integration stage
-    (eq. 21 / AME time series); plot; write; other = the scene's total minus all these."""
-    runs = stages.get("runs") or {}
-    build = sum(float(r.get("setup_s", 0.0)) for r in runs.values())
-    run_wall = sum(float(r.get("wall_s", 0.0)) for r in runs.values())
-    out = {k: 0.0 for k in FIGURE_STAGES}
-    out["derive"] = float(stages.get("derive_s", 0.0)) + float(stages.get("ame_s", 0.0))
-    out["build"] = build
-    out["continue"] = max(run_wall - build, 0.0)
-    out["plot"] = float(stages.get("plot_s", 0.0))
-    out["write"] = float(stages.get("write_s", 0.0))
-    known = {"derive_s", "ame_s", "plot_s", "write_s", "total_s"}
-    for key, value in stages.items():
-        if key in known or not key.endswith("_s") or not isinstance(value, (int, float)):
-            continue
-        # overlay_s and whatever integration stage a scene adds (time series of Fig. 11)
-        out["integrate" if any(w in key for w in ("overlay", "series", "integr", "time", "ode")) else "other"] \
-            += float(value)
-    total = float(stages.get("total_s", sum(out.values())))
-    out["other"] += max(total - sum(out.values()), 0.0)
-    out["total"] = total
-    return out
 
 
 def _figures_pass(out_dir: str, env: dict, runs: str | None, jobs: int | None) -> dict:
+    import resource
     import subprocess
     import sys
     from pathlib import Path
 
-    from autocable.report import load_scene_data
+    from autocable.report import FIGURE_STAGES, load_scene_data, stage_seconds
     cmd = [sys.executable, "-m", "autocable.cli", "figures", "--out", out_dir, "--quiet"]
     if runs:
         cmd += ["--runs", runs]
     if jobs:
         cmd += ["--jobs", str(jobs)]
+    load = os.getloadavg()[0]
+    ru0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
     wall = time.perf_counter() - t0
+    ru1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    # CPU time of the command and its scene processes: less sensitive to other load than wall time
+    cpu = (ru1.ru_utime - ru0.ru_utime) + (ru1.ru_stime - ru0.ru_stime)
     scenes, totals = {}, {k: 0.0 for k in (*FIGURE_STAGES, "total")}
     for folder in sorted(p for p in Path(out_dir).iterdir() if p.is_dir()):
         d = load_scene_data(folder)
         if not d.ok:
             scenes[folder.name] = {"status": d.status, "error": d.error}
             continue
-        st = figure_stage_seconds(((d.run or {}).get("provenance") or {}).get("stages") or {})
+        st = stage_seconds(((d.run or {}).get("provenance") or {}).get("stages") or {})
         scenes[folder.name] = {"status": "ok", **st}
         for k in totals:
             totals[k] += st[k]
     shares = {k: (totals[k] / totals["total"] if totals["total"] > 0 else math.nan) for k in FIGURE_STAGES}
-    return {"wall_s": wall, "exit_status": proc.returncode, "stderr_tail": proc.stderr.strip().splitlines()[-5:],
+    return {"wall_s": wall, "cpu_s": cpu, "load_average_before": load, "exit_status": proc.returncode,
+            "stderr_tail": proc.stderr.strip().splitlines()[-5:],
             "scenes": scenes, "stage_seconds_summed_over_scenes": totals, "stage_shares": shares}
 
 
 def bench_figures(log=None, runs: str | None = None, jobs: int | None = None) -> dict:
     """Wall time of `autocable figures` (every scene) in a subprocess, cold (a fresh empty
     AUTOCABLE_CACHE) then warm (the same cache again), with each stage's share of the scenes'
-    summed wall time (`figure_stage_seconds`). Scenes run in parallel, so the summed stage time
+    summed wall time (`autocable.report.stage_seconds`). Scenes run in parallel, so the summed stage time
     exceeds the wall time by up to the number of processes."""
     say = log or (lambda s: None)
     with tempfile.TemporaryDirectory() as tmp:

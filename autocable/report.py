@@ -20,9 +20,12 @@ from pathlib import Path
 from typing import Callable
 
 __all__ = ["SceneData", "load_scene_data", "overlay_comparison", "build_report", "write_report",
-           "STUDY_MAX_ERROR", "REASONS", "REPORT_MD"]
+           "stage_seconds", "FIGURE_STAGES", "PAPER_FIGURES", "STUDY_MAX_ERROR", "REASONS", "REPORT_MD"]
 
 REPORT_MD = "report.md"
+#: The published figures (ERRATA.md's table of Sect. 5), by scene name.
+PAPER_FIGURES = ("fig03", "fig04a", "fig04b", "fig04c", "fig05a", "fig05b", "fig06", "fig07", "fig08", "fig09",
+                 "fig10", "fig11")
 
 #: Largest same-branch relative a1 error of the AME against eq. (21) per eta* over sigma in
 #: [-0.05, 0.05] and the wind speeds studied (docs/ame_vs_ode21.md, `autocable bench ame-vs-ode`).
@@ -699,10 +702,66 @@ def _compare_lines(d: SceneData) -> list[str]:
     return lines
 
 
+#: Stage groups of a scene's wall time (`stage_seconds`).
+FIGURE_STAGES = ("derive", "build", "continue", "integrate", "plot", "write", "other")
+
+
+def stage_seconds(stages: dict) -> dict:
+    """One scene's wall time split into `FIGURE_STAGES` from run.json's ``provenance.stages``
+    (autocable/scene.py): derive = eq. (21) + AME derivation; build = the continuation runs'
+    ``setup_s`` (PyDSTool generator build or load); continue = the rest of the runs' wall time
+    (PyCont and autocable's analysis, follow-ups included); integrate = the overlays and any other
+    integration stage (eq. 21 / AME time series); plot; write; other = the total minus all these."""
+    runs = stages.get("runs") or {}
+    build = sum(float(r.get("setup_s", 0.0)) for r in runs.values() if isinstance(r, dict))
+    run_wall = sum(float(r.get("wall_s", 0.0)) for r in runs.values() if isinstance(r, dict))
+    out = {k: 0.0 for k in FIGURE_STAGES}
+    out["derive"] = float(stages.get("derive_s", 0.0)) + float(stages.get("ame_s", 0.0))
+    out["build"] = build
+    out["continue"] = max(run_wall - build, 0.0)
+    out["plot"] = float(stages.get("plot_s", 0.0))
+    out["write"] = float(stages.get("write_s", 0.0))
+    known = {"derive_s", "ame_s", "plot_s", "write_s", "total_s"}
+    for key, value in stages.items():
+        if key in known or not key.endswith("_s") or not isinstance(value, (int, float)):
+            continue
+        # overlay_s and whatever integration stage a scene adds (the time series of Fig. 11)
+        group = "integrate" if any(w in key for w in ("overlay", "series", "integr", "time", "ode")) else "other"
+        out[group] += float(value)
+    total = float(stages.get("total_s", sum(out.values())))
+    out["other"] += max(total - sum(out.values()), 0.0)
+    out["total"] = total
+    return out
+
+
 def _stage_line(d: SceneData) -> str:
-    st = ((d.run or {}).get("provenance") or {}).get("stages") or {}
-    parts = [f"{k[:-2]} {v:.2f} s" for k, v in st.items() if k.endswith("_s") and isinstance(v, (int, float))]
-    return ", ".join(parts)
+    st = stage_seconds(((d.run or {}).get("provenance") or {}).get("stages") or {})
+    return ", ".join(f"{k} {st[k]:.2f} s" for k in FIGURE_STAGES if st[k] > 0) + f" (total {st['total']:.2f} s)"
+
+
+def _main_result(scenes: dict) -> list[str]:
+    """The ratio of the largest a2 over sigma with wind (Fig. 10, U* = 1.3) and without (Fig. 6),
+    both at eta* = 1.4e-3; Fig. 9 (U* = 0.7) beside it when present."""
+    ref = scenes.get("fig06")
+    if ref is None or not ref.ok:
+        return ["Not computed: fig06 has no results."]
+    a20, r20 = max_amplitude(ref, "a2")
+    lines = [f"Without wind (fig06): largest a2 over sigma = {_e(a20)}"
+             + (f" at sigma = {_g(_num(r20['sigma']), 5)} on branch {r20['branch']}." if r20 else ".")]
+    for name in ("fig09", "fig10"):
+        d = scenes.get(name)
+        if d is None or not d.ok:
+            lines.append(f"- {name}: no results" + ("" if d is None else f" ({d.error or d.status})") + ".")
+            continue
+        a2, r2 = max_amplitude(d, "a2")
+        s2, s20 = max_amplitude(d, "a2", stable_only=True)[0], max_amplitude(ref, "a2", stable_only=True)[0]
+        lines.append(f"- {name} (U* = {_g(d.fixed().get('U'))}): largest a2 = {_e(a2)}"
+                     + (f" at sigma = {_g(_num(r2['sigma']), 5)}" if r2 else "")
+                     + f": ratio to fig06 {_g(a2 / a20 if a20 > 0 else _NAN, 3)}; on stable points "
+                       f"{_e(s2)} / {_e(s20)} = {_g(s2 / s20 if s20 > 0 else _NAN, 3)}.")
+    if scenes.get("fig10") is None or not scenes["fig10"].ok:
+        lines.append("The paper's comparison is Fig. 10 against Fig. 6; without fig10 results it is not shown here.")
+    return lines
 
 
 def build_report(out_dir: str | Path) -> str:
@@ -732,6 +791,12 @@ def build_report(out_dir: str | Path) -> str:
     if failed:
         lines += ["", f"**{len(failed)} scene(s) failed**: " + "; ".join(f"{d.name}: {d.error or d.status}"
                                                                         for d in failed)]
+    absent = [f for f in PAPER_FIGURES if f not in scenes]
+    if absent:
+        lines += ["", "Published figures without results here (no scene file in runs/, or not selected): "
+                  + ", ".join(absent) + "."]
+    lines += ["", "## The main result: wind cuts the out-of-plane amplitude (Fig. 10 against Fig. 6)", ""]
+    lines += _main_result(scenes)
     lines += ["", "## Figures", "",
               "For each figure: what Sect. 5 states (ERRATA.md's table), whether autocable shows it "
               "(yes / partly / no), where and with what numbers; where not, why."]
