@@ -63,6 +63,9 @@ def discover(runs_dir: str | Path, only: Sequence[str] = (), quick: bool = False
     wanted = list(only) if only else (list(QUICK) if quick else list(by_name))
     if quick and not only:
         wanted = [n for n in wanted if n in by_name]
+        if not wanted:
+            raise SpecError("--quick", "", f"none of the quick scenes {', '.join(QUICK)} is in {folder}; "
+                                           f"use --only with some of {', '.join(by_name)}")
     missing = [n for n in wanted if n not in by_name]
     if missing:
         raise SpecError("--only", "", f"no scene {', '.join(missing)} in {folder}; "
