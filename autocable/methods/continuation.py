@@ -46,12 +46,20 @@ compiled library serves every scene). Eigenvalues are unchanged by this scaling.
 Cost. EP-C points cost PyCont's few ms each plus autocable's analysis (~0.3 ms); LC-C points AUTO's
 collocation plus one variational integration each (~10-50 ms). `bench_continuation` measures both.
 
+Engines. ``continue_equilibria(..., engine="compiled")`` and ``switch_branch(..., engine="compiled")``
+replace PyCont's EP-C by autocable's own C kernel (`compiled_equilibria`, built by
+`autocable.codegen.ckernel` from the same sympy field): a Keller pseudo-arclength loop with
+PyCont's step control that also evaluates the test functions and counts unstable eigenvalues at
+every point, a few microseconds per point; the analysis and the records are the same code as
+above (special points then have ``confirmed_by_pycont = None``). The default stays ``"pycont"``.
+
 Where. This module is the public face and holds no code; the code lives in small modules named for
 what they hold: `system` (System, ame_system, auto_state_scale), `continuation_problem` (problem,
 settings, result, StartError), `continuation_chart` (scaled coordinates, corrector, locator, Branch
 assembly), `bifurcation_functions` (bialternate product, l1, eigenvalue checks), `curve_chart` (the
 two-parameter chart and its codimension-2 test functions), `pycont_driver` (everything that calls
-PyCont), `equilibria`, `cycles`, `curves`, `continuation_bench`. Import from here.
+PyCont), `equilibria`, `compiled_equilibria`, `cycles`, `curves`, `continuation_bench`. Import
+from here.
 """
 from __future__ import annotations
 
@@ -61,7 +69,7 @@ from autocable.methods.continuation_problem import (ContinuationResult, Continua
                                                     StartError)
 from autocable.methods.curves import continue_folds, continue_hopf
 from autocable.methods.cycles import continue_cycles
-from autocable.methods.equilibria import continue_equilibria, equilibrium_near, settle, switch_branch
+from autocable.methods.equilibria import ENGINES, continue_equilibria, equilibrium_near, settle, switch_branch
 from autocable.methods.system import System, ame_system, auto_state_scale
 
 __all__ = [
@@ -82,4 +90,5 @@ __all__ = [
     "bialternate",
     "bench_continuation",
     "auto_state_scale",
+    "ENGINES",
 ]
