@@ -189,8 +189,6 @@ def cmd_simulate(args) -> int:
 
     if getattr(args, "modes", None) is not None:
         return _simulate_nmode(args, d, q0, show, progress)
-    if getattr(args, "modes", None) is not None:
-        return _simulate_nmode(args, d, q0, show, progress)
     if args.method == "ame":
         return _simulate_ame(args, d, q0, show, progress)
     integ = Ode21Integrator(d.ode)
@@ -247,46 +245,6 @@ def _simulate_ame(args, d, q0, show, progress) -> int:
                               "max_real_eigenvalue": eq.max_real,
                               "eigenvalues": [[e.real, e.imag] for e in eq.eigenvalues]}
     _print_simulation(args, r, out)
-    return 0
-
-
-def _simulate_nmode(args, d, q0, show, progress) -> int:
-    """`autocable simulate --modes N`: eq. (21) with N in-plane and N out-of-plane modes (issue 6)."""
-    from autocable.methods.nmode_integration import NModeIntegrator
-    if args.method != "ode21":
-        raise SpecError("--modes", "", "--modes integrates the N-mode equations directly; drop --method ame")
-    if args.modes < 1:
-        raise SpecError("--modes", "", f"the number of modes per plane must be >= 1, got {args.modes}")
-    integ = NModeIntegrator(d, args.modes, args.modes)
-    x0 = None
-    if args.q0:
-        # --q0 sets the first in-plane and out-of-plane modes, as for eq. (21); the others start at rest.
-        ode, x = integ.ode, [0.0] * (2 * integ.ode.n)
-        x[integ._i1], x[ode.n + integ._i1], x[integ._i2], x[ode.n + integ._i2] = q0
-        x0 = tuple(x)
-    r = integ.simulate(args.U, args.eta, args.sigma, x0, max_time=args.max_time, progress=progress)
-    if show:
-        print(file=sys.stderr)
-
-    def finite(x):
-        return x if math.isfinite(x) else None
-
-    out = {"a1": finite(r.a1), "a2": finite(r.a2), "amplitudes": {k: finite(v) for k, v in r.amplitudes.items()},
-           "omegas": dict(zip(integ.ode.names, integ.ode.omegas)), "steady": r.steady,
-           "periodic": r.periodic, "diverged": r.diverged, "t_end": r.t_end, "U": r.U, "eta": r.eta,
-           "sigma": r.sigma, "Omega": r.Omega,
-           "amplitude_convention": "a_k = half the peak-to-peak of each modal coordinate over the last 20 "
-                                   "forcing periods; a1 = first in-plane (v1), a2 = first out-of-plane (w1)",
-           "message": r.message, "method": "nmode", "modes_per_plane": args.modes,
-           "wall_seconds": r.wall_seconds}
-    if args.json:
-        print(json.dumps(out, indent=1))
-    else:
-        print(f"U* = {r.U:g}  eta* = {r.eta:g}  sigma = {r.sigma:g}  (Omega = {r.Omega:.6g})  "
-              f"method nmode ({args.modes} in-plane + {args.modes} out-of-plane modes)")
-        print(f"a1 = {r.a1:.9e}   a2 = {r.a2:.9e}   ({r.message}; "
-              f"{'periodic' if r.periodic else 'not period-1'}; t_end = {r.t_end:.1f})")
-        print("modal amplitudes: " + "  ".join(f"{k} = {v:.6e}" for k, v in r.amplitudes.items()))
     return 0
 
 
@@ -416,9 +374,6 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--method", choices=["ode21", "ame"], default="ode21",
                    help="ode21: direct integration of eq. (21); ame: the Multiple Scales amplitude "
                         "equations (24) to their steady state (default ode21)")
-    s.add_argument("--modes", type=int, metavar="N",
-                   help="integrate eq. (21) with N in-plane and N out-of-plane modes (the check that "
-                        "two modes suffice, issue 6); a1, a2 are the first modes' amplitudes")
     s.add_argument("--modes", type=int, metavar="N",
                    help="integrate eq. (21) with N in-plane and N out-of-plane modes (the check that "
                         "two modes suffice, issue 6); a1, a2 are the first modes' amplitudes")
