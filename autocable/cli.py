@@ -319,7 +319,30 @@ def _write_history(path: Path, r) -> None:
     atomic_write_text(path, "\n".join(rows) + "\n")
 
 
+def cmd_work_precision(args) -> int:
+    """`autocable bench --out DIR` without a subcommand: the method ladder's work-precision bench."""
+    from autocable.bench_methods import run_bench as run_work_precision
+    if not args.out:
+        raise SpecError("bench", "--out", "the work-precision bench writes files: give --out DIR "
+                        "(or name a subcommand: derive, ame-vs-ode, continuation, auto, ...)")
+    result = run_work_precision(args.out, scenes=args.scene or None, quick=args.quick,
+                                repeats=max(args.repeats, 0),
+                                log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
+    print(json.dumps({"summary": result["summary"], "notes": result["notes"],
+                      "wall_seconds": result["wall_seconds"],
+                      "files": [str(Path(args.out) / f) for f in ("bench.json", "work_precision.png",
+                                                                  "work_precision.md")]}, indent=1))
+    return 0
+
+
+def _cmd_advise(args) -> int:
+    from autocable.advise import cmd_advise
+    return cmd_advise(args)
+
+
 def cmd_bench(args) -> int:
+    if args.what is None:
+        return cmd_work_precision(args)
     from autocable.bench import run_bench
     result = run_bench(args.what, args.model, repeats=args.repeats,
                        log=None if args.quiet else (lambda s: print(s, file=sys.stderr)),
@@ -380,18 +403,32 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=cmd_simulate)
 
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
-    b.add_argument("what", choices=["derive", "ame-vs-ode", "continuation", "auto", "figures"],
+    b.add_argument("what", nargs="?", default=None, choices=["derive", "ame-vs-ode", "continuation", "auto", "figures"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
                         "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
                         "auto: EP-C cost per point against AUTO-07p (bifpy; set AUTOCABLE_AUTO_PYTHON "
                         "or install autocable[auto]); figures: wall time of `autocable figures` (all scenes), "
-                        "cold and warm cache, with the share of each stage")
+                        "cold and warm cache, with the share of each stage. Without a subcommand "
+                        "(--out DIR): the work-precision bench of the method ladder (bench.json, "
+                        "work_precision.png, work_precision.md)")
     b.add_argument("--model", default=str(Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"))
     b.add_argument("--repeats", type=int, default=3)
     b.add_argument("--out", help="folder to write bench_<what>.json")
     b.add_argument("--quiet", action="store_true")
+    b.add_argument("--quick", action="store_true", help="work-precision bench: the one-minute version "
+                   "(Fig. 5a only, coarse reference, two knob settings per method, no repeats)")
+    b.add_argument("--scene", action="append", metavar="SCENE",
+                   help="work-precision bench: a scene name (fig06) or file; repeatable (default: "
+                        "fig05a, fig06, fig09 and fig10 when its file exists)")
     b.set_defaults(func=cmd_bench)
+
+    adv = sub.add_parser("advise", help="which rung of the method ladder a scene needs at a tolerance "
+                                        "(1-dof AME, 2-dof AME, or eq. (21) itself), with the evidence")
+    adv.add_argument("scene", help="scene file (runs/*.toml)")
+    adv.add_argument("--tol", type=float, default=0.02, help="relative tolerance on a1, a2 (default 0.02)")
+    adv.add_argument("--json", action="store_true", help="one JSON object instead of the report")
+    adv.set_defaults(func=_cmd_advise)
 
     fm = sub.add_parser("failure-map", help="maps over (sigma, eta) and (sigma, U) of where the AME "
                         "and the integrators fail; writes failure_map.md and failure_map_<k>.png")
