@@ -76,7 +76,7 @@ PARAMETERS = ("sigma", "U", "eta")
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_\-]*$")
 _LABEL = re.compile(r"^([A-Za-z0-9_\-]+):([A-Z]+[0-9]+)$")
 _TOP_KEYS = ("title", "description", "model", "ame", "state_scale", "fixed", "run", "plot", "compare",
-             "overlay")
+             "overlay", "time")
 _RUN_KEYS = ("name", "kind", "parameter", "range", "start", "at", "directions", "cycles", "switch",
              "fixed", "steps", "parameter2", "range2")
 _STEP_KEYS = ("step", "min_step", "max_step", "max_points", "chunk", "max_corrector_iters", "tol",
@@ -87,6 +87,9 @@ _PLOT_KEYS = ("x", "y", "title", "labels", "plane")
 _COMPARE_KEYS = ("csv", "panel", "label")
 _OVERLAY_KEYS = ("method", "parameter", "range", "points", "directions", "max_time")
 _KINDS = ("equilibria", "cycles", "switch", "curve")
+_TIME_KEYS = ("U", "eta", "sigma", "t_end", "start", "ode21", "summary_from", "samples_per_period")
+#: `run_scene(..., resolution=...)`: "full" as written; "coarse" for the tests (see `coarse_settings`).
+RESOLUTIONS = ("full", "coarse")
 
 Progress = Callable[[str], None]
 
@@ -170,6 +173,21 @@ class Scene:
     compare: CompareSpec | None = None
     text: str = field(default="", repr=False)
     overlay: OverlaySpec | None = None
+    time: "TimeSpec | None" = None
+
+
+@dataclass(frozen=True)
+class TimeSpec:
+    """A time-evolution scene (Fig. 11): the AME (24) integrated from ``start`` over [0, t_end] at
+    one parameter point, and the amplitude envelope of eq. (21) integrated from the same start."""
+    U: float
+    eta: float
+    sigma: float
+    t_end: float
+    start: tuple[float, float] | None       # (a1, a2) with phases 0; None: rest with q2 = 1e-6
+    ode21: bool = True
+    summary_from: float = 0.0               # min/max and modulation period over t >= summary_from
+    samples_per_period: int = 2             # AME output samples per forcing period
 
 
 # ================================================================================================
@@ -271,6 +289,8 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
         if key in data and not isinstance(data[key], str):
             raise SpecError(path, key, "expected a string")
     fixed = _params(data.get("fixed", {}), path, "fixed")
+    if "time" in data:
+        return _time_scene(data, path, text, model, ame, scale)
     raw_runs = data.get("run")
     if not isinstance(raw_runs, list) or not raw_runs:
         raise SpecError(path, "run", "missing; add at least one [[run]] table")
@@ -433,6 +453,59 @@ def _overlay(table, path, x: str, runs) -> OverlaySpec:
     return OverlaySpec(method, parameter, (lo, hi), points, tuple(directions), max_time)
 
 
+def _time_scene(data, path: Path, text: str, model: Path, ame: str, scale) -> Scene:
+    """A scene with a ``[time]`` table: a time evolution (Fig. 11) instead of continuation runs."""
+    if "run" in data or "overlay" in data or "compare" in data:
+        extra = next(k for k in ("run", "overlay", "compare") if k in data)
+        raise SpecError(path, extra, "a [time] scene has no runs, overlay or comparison; remove it or the [time] table")
+    if ame != "2dof":
+        raise SpecError(path, "ame", 'a [time] scene integrates the 2-dof AME (24): use ame = "2dof"')
+    t = data["time"]
+    _check_keys(t, _TIME_KEYS, path, "time")
+    for key in ("U", "eta", "sigma", "t_end"):
+        if key not in t:
+            raise SpecError(path, f"time.{key}", "missing; a [time] scene needs U, eta, sigma and t_end")
+    vals = _params({k: t[k] for k in ("U", "eta", "sigma")}, path, "time")
+    if vals["U"] == 0.0:
+        # One vector field for the time scenes: the AME with its wind rows (1/U powers).
+        raise SpecError(path, "time.U", "a [time] scene needs wind, U > 0 (the aerodynamic terms carry 1/U)")
+    t_end = _num(t["t_end"], path, "time.t_end")
+    if t_end <= 0:
+        raise SpecError(path, "time.t_end", f"expected a positive time (t* units), got {t_end}")
+    start = t.get("start", "rest")
+    if start == "rest":
+        start = None
+    elif isinstance(start, dict) and set(start) == {"amplitudes"} and isinstance(start["amplitudes"], list) \
+            and len(start["amplitudes"]) == 2:
+        start = tuple(_num(v, path, "time.start.amplitudes") for v in start["amplitudes"])
+        if min(start) < 0:
+            raise SpecError(path, "time.start.amplitudes", "amplitudes must be >= 0")
+    else:
+        raise SpecError(path, "time.start", f'expected "rest" or {{amplitudes = [a1, a2]}}, got {start!r}')
+    summary_from = _num(t.get("summary_from", t_end / 2), path, "time.summary_from")
+    if not 0 <= summary_from < t_end:
+        raise SpecError(path, "time.summary_from", f"expected a time in [0, t_end = {t_end:g}), got {summary_from:g}")
+    spp = t.get("samples_per_period", 2)
+    if isinstance(spp, bool) or not isinstance(spp, int) or not 1 <= spp <= 64:
+        raise SpecError(path, "time.samples_per_period", f"expected a whole number from 1 to 64, got {spp!r}")
+    plot = data.get("plot", {})
+    _check_keys(plot, ("title", "y"), path, "plot")
+    y = plot.get("y", ["a1", "a2"])
+    y = [y] if isinstance(y, str) else y
+    if not isinstance(y, list) or not y or any(v not in ("a1", "a2") for v in y):
+        raise SpecError(path, "plot.y", f'expected a list of "a1" and/or "a2", got {plot.get("y")!r}')
+    title = data.get("title", path.stem)
+    ptitle = plot.get("title", title)
+    if not isinstance(ptitle, str):
+        raise SpecError(path, "plot.title", "expected a string")
+    spec = TimeSpec(U=vals["U"], eta=vals["eta"], sigma=vals["sigma"], t_end=t_end, start=start,
+                    ode21=_bool(t.get("ode21", True), path, "time.ode21"), summary_from=summary_from,
+                    samples_per_period=spp)
+    return Scene(path=path, name=path.stem, title=title, description=data.get("description", ""),
+                 model=model, ame=ame, state_scale=scale, fixed=vals, runs=(),
+                 plot=PlotSpec("t", tuple(y), ptitle, False), text=text, time=spec)
+
+
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene file; errors are one-line `SpecError`s."""
     path = Path(path)
@@ -496,14 +569,35 @@ def _system_for(scene: Scene, ame, values: Mapping[str, float], parameter: str, 
     return ame_system(ame, scene.ame, wind=wind)
 
 
-def _settings(run: RunSpec):
+def coarse_settings(steps: Mapping[str, Any]) -> dict[str, Any]:
+    """The ``resolution = "coarse"`` step controls for a run's ``steps`` (what the tests run):
+    longer largest steps (x3 for equilibria, x2 for cycles and curves, at most 0.1 of the range),
+    at most 40 points per cycle branch and 150 per curve direction. Special points are still
+    located and refined by autocable's test functions, so their locations do not depend on the
+    step; only the density of the drawn branches does."""
     from autocable.methods.continuation import ContinuationSettings
-    return ContinuationSettings(**run.steps)
+    base = ContinuationSettings(**steps)
+    out = dict(steps)
+    out["max_step"] = max(base.max_step, min(3 * base.max_step, 0.1))
+    out["cycle_max_step"] = max(base.cycle_max_step, min(2 * base.cycle_max_step, 0.1))
+    out["curve_max_step"] = max(base.curve_max_step, min(2 * base.curve_max_step, 0.1))
+    out["cycle_max_points"] = min(base.cycle_max_points, 40)
+    out["curve_max_points"] = min(base.curve_max_points, 150)
+    return out
+
+
+def _settings(run: RunSpec, resolution: str = "full"):
+    from autocable.methods.continuation import ContinuationSettings
+    return ContinuationSettings(**(coarse_settings(run.steps) if resolution == "coarse" else run.steps))
 
 
 def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = None,
-              plot: bool = True):
+              plot: bool = True, resolution: str = "full"):
     """Run every run of ``scene`` in order, write the results into ``out_dir`` and plot them.
+
+    ``resolution = "coarse"`` (the tests) runs the same scene with longer steps and capped cycle
+    and curve runs (`coarse_settings`) and every other overlay point; a ``[time]`` scene is the
+    same at both resolutions.
 
     Returns the `RunResults`. A branch that fails part-way is kept with its points and an end
     reason; a start that does not converge, or a start value outside the range, stops the scene
@@ -519,6 +613,11 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
     def say(msg: str) -> None:
         if progress:
             progress(f"[{scene.name}] {msg}")
+
+    if resolution not in RESOLUTIONS:
+        raise ValueError(f"resolution must be one of {RESOLUTIONS}, got {resolution!r}")
+    if scene.time is not None:
+        return _run_time_scene(scene, out_dir, say, plot, resolution)
 
     t_all = time.perf_counter()
     stages: dict[str, Any] = {}
@@ -597,7 +696,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
             system = _system_for(scene, ame, values, run.parameter, run.range, path, where)
         scale = scene.state_scale or C.auto_state_scale(system, values)
         problem = C.EquilibriumProblem(system, run.parameter, values, run.range, state_scale=scale)
-        settings = _settings(run)
+        settings = _settings(run, resolution)
         if run.kind == "curve":
             say(f"run {run.name}: curve of {'folds' if ':LP' in run.start.label else 'Hopf points'} in "
                 f"({run.parameter}, {run.parameter2}) over [{lo:g}, {hi:g}] x [{run.range2[0]:g}, "
@@ -677,22 +776,25 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
                                 "modes normalised to a unit maximum); Omega = omega1 + sigma",
         "stability": "autocable's eigenvalues (equilibria) and Floquet multipliers (cycles), not PyCont's flags",
         "versions": _versions(), "platform": platform.platform(), "argv": list(sys.argv),
+        "resolution": resolution,
     }
     res = RunResults(scene.name, tuple(branches), {**provenance, "stages": stages})
     out = Path(out_dir)
     overlay_rows = None
     if scene.overlay is not None:
         t0 = time.perf_counter()
-        overlay_rows = _run_overlay(scene, deriv, ame, say)
+        overlay_rows = _run_overlay(scene, deriv, ame, say, resolution)
         _write_overlay(overlay_rows, out / "overlay.csv")
         stages["overlay_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     write_results(res, out)
     stages["write_s"] = time.perf_counter() - t0
+    compare = read_compare(scene.compare) if scene.compare else None
+    if compare and branches:
+        write_compare(scene, compare, branches, out)
     if plot and branches:
         t0 = time.perf_counter()
         from autocable.plotting.diagrams import plot_scene
-        compare = read_compare(scene.compare) if scene.compare else None
         files = plot_scene(res, out / scene.name, x=scene.plot.x, y=scene.plot.y, title=scene.plot.title,
                            labels=scene.plot.labels, compare=compare,
                            compare_panel=scene.compare.panel if scene.compare else None,
@@ -711,13 +813,28 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
     return res
 
 
-def _run_overlay(scene: Scene, deriv, ame, say) -> list[dict]:
+def write_compare(scene: Scene, rows: list[dict], branches, out: Path) -> Path:
+    """``compare.json``: per curve label of the digitised points, their distance to the computed
+    branches in the compared panel (`autocable.compare`)."""
+    from autocable.codegen.cache import atomic_write_json
+    from autocable.compare import compare_summary
+    try:
+        summary = compare_summary(rows, branches, scene.plot.x, scene.compare.panel)
+    except ValueError as exc:
+        raise SpecError(scene.path, "compare.panel", str(exc)) from None
+    return atomic_write_json(out / "compare.json", {"csv": str(scene.compare.csv), "label": scene.compare.label,
+                                                    **summary})
+
+
+def _run_overlay(scene: Scene, deriv, ame, say, resolution: str = "full") -> list[dict]:
     """Sweep the overlay's method up and down over its parameter values (methods/sweeps.py)."""
     import numpy as np
 
     from autocable.methods.sweeps import sweep, to_rows
     ov = scene.overlay
     values = np.linspace(ov.range[0], ov.range[1], ov.points)
+    if resolution == "coarse":
+        values = values[::2]        # a subset of the same values (the first and, for odd points, the last)
     fixed = {k: v for k, v in scene.fixed.items() if k != ov.parameter}
     if ov.method == "ode21":
         from autocable.methods.integration import Ode21Integrator
@@ -747,6 +864,195 @@ def _write_overlay(rows: list[dict], path: Path) -> None:
     writer.writerows(rows)
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(path, buf.getvalue())
+
+
+# ================================================================================================
+# time evolutions (Fig. 11)
+# ================================================================================================
+#: Columns of ``time_series.csv`` (one row per sample; source "ame" or "ode21").
+TIME_SERIES_COLUMNS = ("source", "t", "a1", "a2")
+
+
+def modulation_period(t, a) -> float | None:
+    """The period of an amplitude-modulated signal a(t): the mean spacing of its upward crossings
+    of the mid-level (min + max)/2, linearly interpolated. None when a(t) is flat (an equilibrium
+    of the AME: relative swing below 1e-6) or crosses fewer than three times."""
+    import numpy as np
+
+    t, a = np.asarray(t, float), np.asarray(a, float)
+    if len(a) < 3 or not np.all(np.isfinite(a)):
+        return None
+    lo, hi = float(np.min(a)), float(np.max(a))
+    if hi - lo <= 1e-6 * max(abs(hi), 1e-300):
+        return None
+    mid = 0.5 * (lo + hi)
+    up = np.nonzero((a[:-1] < mid) & (a[1:] >= mid))[0]
+    if len(up) < 3:
+        return None
+    tc = t[up] + (mid - a[up]) / (a[up + 1] - a[up]) * (t[up + 1] - t[up])
+    return float(np.mean(np.diff(tc)))
+
+
+def _ame_time_series(system, spec: TimeSpec, Omega: float):
+    """Integrate the AME (24) over [0, t_end] (compiled DOP853 of the continuation's own field, at
+    its unscaled setting); returns t and the amplitudes a1, a2."""
+    import numpy as np
+
+    from autocable.codegen.pydstool import integrate, make_ode_generator
+    gen = make_ode_generator(system.scaled_field(), "Dopri", algparams={"rtol": 1e-10, "atol": 1e-16})
+    y0 = [0.0, 0.0, 1e-6, 0.0] if spec.start is None else [spec.start[0], 0.0, spec.start[1], 0.0]
+    pars = {"U": spec.U, "eta": spec.eta, "sigma": spec.sigma, "xscale": 1.0}
+    tt, ys = integrate(gen, y0, pars, 0.0, spec.t_end, (2 * math.pi / Omega) / spec.samples_per_period,
+                       algparams={"rtol": 1e-10, "atol": 1e-16})
+    return tt, np.hypot(ys[:, 0], ys[:, 1]), np.hypot(ys[:, 2], ys[:, 3])
+
+
+def _ode21_envelope(deriv, spec: TimeSpec, Omega: float):
+    """Integrate eq. (21) from the same start (q_k = a_k, q_k' = 0: r_k = a_k, s_k = 0 at t = 0) and
+    take the half peak-to-peak of q1, q2 over each forcing period, at the period's mid time.
+    Returns (t, a1, a2, message); a divergence ends the arrays where it happens."""
+    import numpy as np
+
+    from autocable.codegen.compat import PyDSToolError
+    from autocable.methods.integration import DIVERGED, Ode21Integrator, parameter_values, refined_peak
+    integ = Ode21Integrator(deriv.ode)
+    period = 2 * math.pi / Omega
+    n = 64
+    pars = parameter_values(spec.U, spec.eta, Omega)
+    q = (0.0, 1e-6, 0.0, 0.0) if spec.start is None else (spec.start[0], spec.start[1], 0.0, 0.0)
+    ts, a1s, a2s = [], [], []
+    t, message = 0.0, "bounded over [0, t_end]"
+    chunk = 200 * period
+    while t < spec.t_end - 1e-9:
+        t1 = min(t + chunk, spec.t_end)
+        whole = max(1, int(round((t1 - t) / period)))
+        t1 = t + whole * period
+        try:
+            tt, ys = integ.run(q, t, t1, period / n, pars)
+        except PyDSToolError as exc:
+            message = f"eq. (21) diverges between t = {t:.6g} and {t1:.6g}: {str(exc).splitlines()[0]}"
+            break
+        m = (len(tt) - 1) // n
+        for k in range(m):
+            w = ys[k * n:(k + 1) * n + 1]
+            if not np.all(np.isfinite(w)) or np.max(np.abs(w[:, :2])) > DIVERGED:
+                message = f"eq. (21) diverges at t = {tt[k * n]:.6g} (|q| > {DIVERGED:g})"
+                break
+            ts.append(tt[k * n] + 0.5 * period)
+            a1s.append(0.5 * (refined_peak(w[:, 0], 1) - refined_peak(w[:, 0], -1)))
+            a2s.append(0.5 * (refined_peak(w[:, 1], 1) - refined_peak(w[:, 1], -1)))
+        if message.startswith("eq. (21) diverges"):
+            break
+        q, t = tuple(ys[m * n]), float(tt[m * n])
+    return np.array(ts), np.array(a1s), np.array(a2s), message
+
+
+def _summary(t, a1, a2, since: float) -> dict:
+    import numpy as np
+
+    sel = t >= since
+    if not np.any(sel):
+        return {"samples": 0}
+    return {"samples": int(sel.sum()), "t_from": float(t[sel][0]), "t_to": float(t[sel][-1]),
+            "a1_min": float(a1[sel].min()), "a1_max": float(a1[sel].max()),
+            "a2_min": float(a2[sel].min()), "a2_max": float(a2[sel].max()),
+            "modulation_period": modulation_period(t[sel], a1[sel])}
+
+
+def _run_time_scene(scene: Scene, out_dir, say, plot: bool, resolution: str):
+    """Fig. 11: a1(t), a2(t) of the AME and the amplitude envelope of eq. (21), on the same axes."""
+    import csv
+    import io
+
+    import numpy as np
+
+    from autocable.codegen.cache import atomic_write_json, atomic_write_text
+    from autocable.methods.continuation import ame_system
+    from autocable.model.ame_cache import derive_ame
+    from autocable.model.derive import derive
+    from autocable.results import RunResults
+
+    spec = scene.time
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    t_all = time.perf_counter()
+    stages: dict[str, Any] = {}
+    t0 = time.perf_counter()
+    model = load_model(scene.model)
+    deriv = derive(model)
+    stages["derive_s"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    cached = derive_ame(deriv)
+    ame = cached.ame
+    stages["ame_s"] = time.perf_counter() - t0
+    omega1 = float(ame.omegas[0])
+    Omega = omega1 + spec.sigma
+    if not Omega > 0:
+        raise SpecError(scene.path, "time.sigma", f"sigma = {spec.sigma:g} gives a non-positive forcing "
+                                                  f"frequency Omega = omega1 + sigma")
+    start = "rest (q2 = 1e-6)" if spec.start is None else f"a = {list(spec.start)}"
+    say(f"time evolution at U = {spec.U:g}, eta = {spec.eta:g}, sigma = {spec.sigma:g} from {start}, "
+        f"t in [0, {spec.t_end:g}]")
+    t0 = time.perf_counter()
+    system = ame_system(ame, "2dof", wind=True)
+    ta, a1, a2 = _ame_time_series(system, spec, Omega)
+    stages["ame_integration_s"] = time.perf_counter() - t0
+    series = {"ame": (ta, a1, a2)}
+    summary: dict[str, Any] = {"ame": {**_summary(ta, a1, a2, spec.summary_from), "diverged": False,
+                                       "message": "bounded over [0, t_end]"}}
+    say(f"  AME: a1 in [{summary['ame'].get('a1_min', math.nan):.4e}, {summary['ame'].get('a1_max', math.nan):.4e}], "
+        f"a2 in [{summary['ame'].get('a2_min', math.nan):.4e}, {summary['ame'].get('a2_max', math.nan):.4e}], "
+        f"modulation period {summary['ame'].get('modulation_period')}")
+    if spec.ode21:
+        t0 = time.perf_counter()
+        te, e1, e2, message = _ode21_envelope(deriv, spec, Omega)
+        stages["ode21_integration_s"] = time.perf_counter() - t0
+        series["ode21"] = (te, e1, e2)
+        diverged = message.startswith("eq. (21) diverges")
+        summary["ode21"] = {**_summary(te, e1, e2, spec.summary_from), "diverged": diverged,
+                            "message": message}
+        say(f"  eq. (21): {message}; envelope a1 in [{summary['ode21'].get('a1_min', math.nan):.4e}, "
+            f"{summary['ode21'].get('a1_max', math.nan):.4e}], a2 in [{summary['ode21'].get('a2_min', math.nan):.4e}, "
+            f"{summary['ode21'].get('a2_max', math.nan):.4e}]")
+    summary["window"] = f"t >= {spec.summary_from:g} (summary_from): after the transient"
+    summary["ame_settings"] = {"integrator": "compiled DOP853", "rtol": 1e-10, "atol": 1e-16,
+                               "samples_per_period": spec.samples_per_period}
+    summary["ode21_envelope"] = "half peak-to-peak of q_k over each forcing period (64 samples, parabolic peaks)"
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(TIME_SERIES_COLUMNS)
+    for src, (tt, x1, x2) in series.items():
+        for row in zip(tt, x1, x2):
+            w.writerow([src] + [repr(float(v)) for v in row])
+    atomic_write_text(out / "time_series.csv", buf.getvalue())
+    files = []
+    if plot:
+        t0 = time.perf_counter()
+        from autocable.plotting.diagrams import plot_time_series
+        files = plot_time_series(series, out / scene.name, y=scene.plot.y, title=scene.plot.title,
+                                 ode21_message=summary.get("ode21", {}).get("message", ""),
+                                 ode21_diverged=summary.get("ode21", {}).get("diverged", False))
+        stages["plot_s"] = time.perf_counter() - t0
+        say(f"plot: {', '.join(str(f) for f in files)}")
+    stages["total_s"] = time.perf_counter() - t_all
+    provenance = {
+        "scene": str(scene.path), "scene_name": scene.name, "title": scene.title, "scene_text": scene.text,
+        "model": str(scene.model), "model_name": model.name, "model_hash": model.content_hash(),
+        "ode_hash": deriv.ode.content_hash(), "ame_key": cached.key, "ame": scene.ame, "omega1": omega1,
+        "omega2": float(ame.omegas[1]), "Omega": Omega, "kind": "time",
+        "parameters": {"U": spec.U, "eta": spec.eta, "sigma": spec.sigma, "t_end": spec.t_end,
+                       "start": "rest" if spec.start is None else list(spec.start)},
+        "resolution": resolution,
+        "amplitude_convention": "a_k = sqrt(r_k^2 + s_k^2) (AME); half peak-to-peak of q_k per forcing "
+                                "period (eq. 21); Omega = omega1 + sigma",
+        "versions": _versions(), "platform": platform.platform(), "argv": list(sys.argv), "stages": stages,
+    }
+    res = RunResults(scene.name, (), {**provenance, "summary": summary})
+    from autocable.results import _finite_or_none
+    atomic_write_json(out / "run.json", {"format": "autocable.run/1", "name": scene.name,
+                                         "provenance": _finite_or_none(provenance), "branches": [],
+                                         "special_points": [], "summary": _finite_or_none(summary)})
+    return res
 
 
 # ================================================================================================

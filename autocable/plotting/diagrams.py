@@ -21,7 +21,7 @@ from typing import Sequence
 
 import numpy as np
 
-__all__ = ["plot_scene", "plot_plane", "AXIS_LABELS"]
+__all__ = ["plot_scene", "plot_plane", "plot_time_series", "AXIS_LABELS"]
 
 #: Axis labels in the paper's symbols (eqs. 17-18: nondimensional quantities).
 AXIS_LABELS = {"sigma": r"$\sigma$", "U": r"$U$", "eta": r"$\eta$", "a1": r"$a_1$", "a2": r"$a_2$"}
@@ -88,15 +88,23 @@ def plot_scene(results, stem: str | Path, *, x: str, y: Sequence[str] = ("a1",),
 
 
 def _plot_overlay(ax, rows, x: str, amp: str) -> None:
-    shown = [r for r in rows if r["parameter"] == x and r["steady"] and np.isfinite(r[amp])]
-    if not shown:
+    mine = [r for r in rows if r["parameter"] == x]
+    shown = [r for r in mine if r["steady"] and np.isfinite(r[amp])]
+    # A diverged integration has no amplitude: never a box; a caret on the top edge instead.
+    diverged = sorted({r["value"] for r in mine if not np.isfinite(r[amp])})
+    if not mine:
         return
-    label = "integration of eq. (21)" if shown[0]["method"] == "ode21" else "integration of the AME"
-    ax.plot([r["value"] for r in shown], [r[amp] for r in shown], ls="none", marker="s", ms=5,
-            mfc="none", mec="tab:blue", label=label)
+    name = "eq. (21)" if mine[0]["method"] == "ode21" else "the AME"
+    if shown:
+        ax.plot([r["value"] for r in shown], [r[amp] for r in shown], ls="none", marker="s", ms=5,
+                mfc="none", mec="tab:blue", label=f"integration of {name}")
     for r in shown:
         if not r["periodic"]:
             ax.plot([r["value"]] * 2, [r[f"{amp}_min"], r[f"{amp}_max"]], color="tab:blue", lw=_THIN)
+    if diverged:
+        ax.plot(diverged, [1.0] * len(diverged), ls="none", marker="v", ms=5, color="tab:red",
+                transform=ax.get_xaxis_transform(), clip_on=False,
+                label=f"{name} diverges ({len(diverged)} values)")
     ax.legend(fontsize=7, frameon=False)
 
 
@@ -241,3 +249,50 @@ def _plot_plane(results, stem, *, x, y, title, labels) -> list[Path]:
         _save(fig, p)
         paths.append(p)
     return paths
+
+
+def plot_time_series(series, stem: str | Path, *, y: Sequence[str] = ("a1", "a2"), title: str = "",
+                     ode21_message: str = "", ode21_diverged: bool = False) -> list[Path]:
+    """Fig. 11: a1(t), a2(t) of the AME (thick) and the amplitude envelope of eq. (21) (thin, half
+    peak-to-peak per forcing period) on the same axes, one panel per amplitude. ``series`` maps
+    "ame" / "ode21" to (t, a1, a2) arrays. A divergence of eq. (21) is marked where it happens
+    (a caret on the top edge) and named in the legend. Writes ``<stem>.png`` and ``<stem>.pdf``."""
+    with _matplotlib_quiet():
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        stem = Path(stem)
+        stem.parent.mkdir(parents=True, exist_ok=True)
+        panels = list(y)
+        fig = Figure(figsize=(6.5, 2.8 * len(panels)))
+        FigureCanvasAgg(fig)
+        axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
+        for ax, amp in zip(axes, panels):
+            k = 1 if amp == "a1" else 2
+            if "ame" in series:
+                t, *a = series["ame"]
+                ax.plot(t, a[k - 1], color="black", lw=_THICK, label="AME (24)")
+            if "ode21" in series:
+                t, *a = series["ode21"]
+                if len(t):
+                    ax.plot(t, a[k - 1], color="tab:blue", lw=_THIN, label="eq. (21): envelope")
+                if ode21_diverged:
+                    t_div = float(t[-1]) if len(t) else 0.0
+                    ax.plot([t_div], [1.0], marker="v", ms=6, color="tab:red", ls="none",
+                            transform=ax.get_xaxis_transform(), clip_on=False,
+                            label=f"eq. (21) diverges (t = {t_div:.4g})")
+            ax.set_ylabel(AXIS_LABELS.get(amp, amp))
+            ax.set_ylim(bottom=0.0)
+            ax.tick_params(direction="in", top=True, right=True, labelsize=8)
+            ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
+            ax.legend(fontsize=7, frameon=False, loc="upper right")
+        axes[-1].set_xlabel(r"$t$")
+        if title:
+            axes[0].set_title(title, fontsize=9)
+        fig.tight_layout()
+        paths = []
+        for ext in (".png", ".pdf"):
+            p = stem.with_suffix(ext)
+            _save(fig, p)
+            paths.append(p)
+        return paths
