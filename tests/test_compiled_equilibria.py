@@ -117,15 +117,22 @@ def test_points_lie_on_the_pycont_branch(both_engines):
         assert eb.value == pytest.approx(ea.value, abs=1e-12)
 
 
-def test_switching_at_the_first_branch_point_follows_the_same_branch(both_engines):
-    """The bi-modal branch through Fig. 6's BP1 (a closed curve back to BP1): the same points and
-    ends. (Where it crosses a2 = 0 again, a branch point, whether `_locate` lands on it depends on
-    how close a computed point falls to it: both engines share that locator.)"""
+def test_switching_at_the_first_branch_point_agrees(both_engines):
+    """The bi-modal branch through Fig. 6's BP1, a closed curve back to BP1 that crosses a2 = 0 at
+    a second branch point (where the island II of the scene starts): the same special points,
+    points and ends with both engines. (The second BP falls close to a computed point of the
+    compiled branch: `_sharpen_branch_point` is what finds it there.)"""
     scene, problem, settings, pyc, comp = both_engines
     if scene != "fig06.toml":
         pytest.skip("no branch point on Fig. 5a's branch I")
     a = switch_branch(pyc, "BP1")
     b = switch_branch(comp, "BP1", engine="compiled")
+    assert [s.label for s in a.branch.special_points] == [s.label for s in b.branch.special_points] \
+        == ["BP0", "BP1"]
+    for sa, sb in zip(a.branch.special_points, b.branch.special_points):
+        assert sb.value == pytest.approx(sa.value, abs=1e-8)
+        assert sb.a1 == pytest.approx(sa.a1, rel=1e-8)
+        assert abs(sb.a2) < 1e-10 and sb.converged
     assert b.branch.special("BP0").value == pytest.approx(a.branch.special("BP0").value, abs=1e-8)
     assert [e.reason for e in b.branch.ends] == [e.reason for e in a.branch.ends] == ["closed", "closed"]
     assert b.branch.info["kernel_stability_disagreements"] == 0

@@ -179,6 +179,8 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
                 x, p = chart.to_phys(Y)
                 return _hopf_test(sysm.jac(x, p))
         Y, ok = _locate(chart, Ya, Yb, tau, settings.newton_tol)
+        if kind == "BP":
+            Y, ok = _sharpen_branch_point(chart, Y, ok, float(np.linalg.norm(ref)), settings.newton_tol)
         x, p = chart.to_phys(Y)
         J = sysm.jac(x, p)
         ev = np.linalg.eigvals(J)
@@ -276,6 +278,56 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
             "neutral_saddles": neutral, "rejected_candidates": rejected,
             "lp_merged_into_bp": [chart.value(f[2][-1]) for f in merged], "points_kept_unpolished": moved}
     return _Analysis(tuple(Ys), X, P, eig, stable, tuple(specials), info)
+
+
+def _sharpen_branch_point(chart: _Chart, Y: np.ndarray, ok: bool, reach: float, tol: float,
+                          maxiter: int = 20) -> tuple[np.ndarray, bool]:
+    """A branch point located by `_locate` made exact, when it is not yet rank-deficient to 1e-7.
+
+    Next to a BP both branches cross the chord's normal hyperplane, so the corrections of
+    `_locate` are ill-conditioned there and its zero of det [DF; chord] can land ~1e-6 off the BP
+    (or on the other branch), depending on how close a computed point falls to it. Newton on the
+    regular defining system of a simple BP (Govaerts, Numerical Methods for Bifurcations, Sect.
+    6.2; MATCONT's EP-curve BP locator): F(Y) + beta psi = 0, DF(Y)^T psi = 0, psi.psi = 1, in
+    (Y, beta, psi), with the derivative of DF^T psi by central differences of DF. The refined
+    point is used when Newton converges within ``reach`` (the bracket's length) of the located
+    point with sigma_min/sigma_max of DF below 1e-7; otherwise the located point is kept."""
+    DF = chart.DF(Y)
+    U_, sv, _ = np.linalg.svd(DF)
+    if sv[-1] <= 1e-7 * sv[0]:
+        return Y, ok
+    n = DF.shape[0]
+    psi = U_[:, -1].copy()
+    Z = np.concatenate([Y, [0.0], psi])
+    h = 1e-6
+    for _ in range(maxiter):
+        Yz, beta, psi = Z[:n + 1], Z[n + 1], Z[n + 2:]
+        DF = chart.DF(Yz)
+        G = np.concatenate([chart.F(Yz) + beta * psi, DF.T @ psi, [psi @ psi - 1.0]])
+        A = np.zeros((2 * n + 2, 2 * n + 2))
+        A[:n, :n + 1] = DF
+        A[:n, n + 1] = psi
+        A[:n, n + 2:] = beta * np.eye(n)
+        for k in range(n + 1):
+            e = np.zeros(n + 1)
+            e[k] = h
+            A[n:2 * n + 1, k] = (chart.DF(Yz + e) - chart.DF(Yz - e)).T @ psi / (2 * h)
+        A[n:2 * n + 1, n + 2:] = DF.T
+        A[2 * n + 1, n + 2:] = 2 * psi
+        try:
+            step = np.linalg.solve(A, G)
+        except np.linalg.LinAlgError:
+            return Y, ok
+        Z = Z - step
+        if not np.all(np.isfinite(Z)):
+            return Y, ok
+        if np.linalg.norm(step[:n + 1]) <= tol * (1.0 + np.linalg.norm(Z[:n + 1])):
+            Yr = Z[:n + 1]
+            sv = np.linalg.svd(chart.DF(Yr), compute_uv=False)
+            if np.linalg.norm(Yr - Y) <= reach and sv[-1] <= 1e-7 * sv[0]:
+                return Yr, True
+            return Y, ok
+    return Y, ok
 
 
 #: The equilibrium engines: PyCont's EP-C, or autocable's compiled C kernel.
