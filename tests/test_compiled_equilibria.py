@@ -10,7 +10,8 @@
   every point on the PyCont branch within the step tolerance (max_step^2 in chart units), both
   branches ending exactly on the range.
 * Branch switching at Fig. 6's first branch point: the same special points on the new branch.
-* The Duffing slow flow: folds against the closed form to 1e-5, the middle branch unstable.
+* The Duffing slow flow: folds against the closed form to 1e-5, the middle branch unstable; the
+  Hopf normal form: H, omega and l1 against the closed form.
 * A right-hand side C cannot compile, or a missing compiler: a one-line `KernelBuildError`.
 """
 from __future__ import annotations
@@ -182,6 +183,29 @@ def test_duffing_folds_with_the_compiled_engine():
     G = A * (MU_D**2 + (b["sigma"] - KAPPA * A) ** 2) - F_D**2
     assert np.max(np.abs(G)) < 1e-12
     assert b.ends[-1].reason == "range" and b.ends[-1].value == pytest.approx(6.0, abs=1e-12)
+
+
+def test_hopf_normal_form_with_the_compiled_engine():
+    """x' = mu x - w y + a x r^2, y' = w x + mu y + a y r^2: H at mu = 0 with omega = w and
+    Kuznetsov's l1 = 2a/w (closed form, as in test_continuation); the origin stable for mu < 0."""
+    w_h, a_h = 2.0, -1.0
+    x, y, mu = sp.symbols("x y mu")
+    r2 = x * x + y * y
+    system = System("hopf_nf_compiled", ("x", "y"), (mu * x - w_h * y + a_h * x * r2, w_h * x + mu * y + a_h * y * r2),
+                    {"mu": -0.2}, (("a1", ("x", "y")),))
+    problem = EquilibriumProblem(system, "mu", {"mu": -0.2}, (-0.2, 0.3))
+    b = continue_equilibria(problem, ContinuationSettings(), name="EQ", engine="compiled").branch
+    assert [s.label for s in b.special_points] == ["H1"]
+    h = b.special("H1")
+    assert abs(h.value) < 1e-10 and h.converged and h.confirmed_by_pycont is None
+    assert h.extra["omega"] == pytest.approx(w_h, rel=1e-12)
+    assert h.extra["l1"] == pytest.approx(2 * a_h / w_h, rel=1e-10)
+    away = np.abs(b["mu"]) > 1e-12
+    assert np.all(b.stable[away] == (b["mu"][away] < 0))
+    counts = np.array(b.info["kernel_unstable_counts"])
+    assert np.all(counts[away & (b["mu"] < 0)] == 0) and np.all(counts[away & (b["mu"] > 0)] == 2)
+    assert [e.reason for e in b.ends] == ["range", "range"]
+    assert b["mu"][0] == pytest.approx(-0.2, abs=1e-12) and b["mu"][-1] == pytest.approx(0.3, abs=1e-12)
 
 
 def test_kernel_functions_equal_sympys_and_numpys():

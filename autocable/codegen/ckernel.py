@@ -56,7 +56,7 @@ __all__ = ["KERNEL_VERSION", "KernelBuildError", "CKernel", "kernel_source", "co
            "build_timing", "REASONS"]
 
 #: Bump when the emitted C changes meaning: it is part of the content hash.
-KERNEL_VERSION = "1"
+KERNEL_VERSION = "2"
 CFLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Werror=implicit-function-declaration")
 
 #: How a side of the branch ended (the ``reason`` code returned by the C loop).
@@ -117,11 +117,11 @@ def kernel_source(variables: Sequence[str], parameters: Sequence[str], rhs: Sequ
     F = sp.Matrix([sp.sympify(e) for e in rhs])
     J = F.jacobian(xs)
     Jp = F.jacobian(ps) if m else sp.zeros(n, 0)
-    body_f = _block(pr, list(F), [f"out[{i}]" for i in range(n)], "tf")
+    body_f = _block(pr, list(F), [f"out[{i}]" for i in range(n)], "ac_tf")
     body_j = _block(pr, [J[i, j] for i in range(n) for j in range(n)],
-                    [f"out[{i * n + j}]" for i in range(n) for j in range(n)], "tj")
+                    [f"out[{i * n + j}]" for i in range(n) for j in range(n)], "ac_tj")
     body_p = _block(pr, [Jp[i, j] for i in range(n) for j in range(m)],
-                    [f"out[{i * m + j}]" for i in range(n) for j in range(m)], "tp") if m else []
+                    [f"out[{i * m + j}]" for i in range(n) for j in range(m)], "ac_tp") if m else []
     head = f"""/* autocable C kernel (version {KERNEL_VERSION}): x = ({', '.join(variables)}),
    p = ({', '.join(parameters)}). Generated from sympy; do not edit. */
 #include <math.h>
@@ -220,7 +220,7 @@ static double lu_solve(int n, double *A, double *b) {
 }
 
 static double norm(int n, const double *v) { double s = 0; int i; for (i = 0; i < n; i++) s += v[i] * v[i]; return sqrt(s); }
-static int finite(int n, const double *v) { int i; for (i = 0; i < n; i++) if (!isfinite(v[i])) return 0; return 1; }
+static int all_finite(int n, const double *v) { int i; for (i = 0; i < n; i++) if (!isfinite(v[i])) return 0; return 1; }
 
 /* det(2A (.) I), the bialternate product in the pair order of bifurcation_functions.bialternate. */
 static double hopf_test(const double *A) {
@@ -292,7 +292,7 @@ static int tangent(const double *DF, const double *tref, double *t) {
     memcpy(A, DF, sizeof(double) * N * (N + 1));
     for (i = 0; i <= N; i++) { A[N * (N + 1) + i] = tref[i]; t[i] = 0.0; }
     t[N] = 1.0;
-    if (lu_solve(N + 1, A, t) == 0.0 || !finite(N + 1, t)) return 0;
+    if (lu_solve(N + 1, A, t) == 0.0 || !all_finite(N + 1, t)) return 0;
     double s = norm(N + 1, t);
     for (i = 0; i <= N; i++) t[i] /= s;
     return 1;
@@ -309,7 +309,7 @@ static int correct(const chart_t *c, double *Y, const double *target, const doub
         g[N] = 0; for (i = 0; i <= N; i++) { g[N] += normal[i] * (Y[i] - target[i]); A[N * (N + 1) + i] = normal[i]; }
         if (lu_solve(N + 1, A, g) == 0.0) return 0;
         for (i = 0; i <= N; i++) Y[i] -= g[i];
-        if (!finite(N + 1, Y)) { memcpy(Y, target, sizeof(double) * (N + 1)); return 0; }
+        if (!all_finite(N + 1, Y)) { memcpy(Y, target, sizeof(double) * (N + 1)); return 0; }
         if (norm(N + 1, g) <= tol * (1.0 + norm(N + 1, Y))) return 1;
     }
     return 0;
@@ -326,7 +326,7 @@ static int polish(const chart_t *c, double *Y, double tol) {
         for (i = 0; i < N; i++) for (j = 0; j < N; j++) J[i * N + j] = DF[i * (N + 1) + j];
         if (lu_solve(N, J, F) == 0.0) break;
         for (i = 0; i < N; i++) Z[i] -= F[i];
-        if (!finite(N + 1, Z)) return 0;
+        if (!all_finite(N + 1, Z)) return 0;
         if (norm(N, F) <= tol * (norm(N, Z) + 1.0)) { ok = 1; break; }
     }
     if (!ok) return 0;
@@ -382,9 +382,9 @@ int ac_continue(const double *cfg, const double *Y0, const double *d0, const dou
             g[N] = 0; for (i = 0; i <= N; i++) { g[N] += t[i] * (Yc[i] - Yp[i]); A[N * (N + 1) + i] = t[i]; }
             if (lu_solve(N + 1, A, g) == 0.0) break;
             for (i = 0; i <= N; i++) Yc[i] -= g[i];
-            if (!finite(N + 1, Yc)) break;
+            if (!all_finite(N + 1, Yc)) break;
             chart_eval(&c, Yc, F, NULL, NULL);
-            if (!finite(N, F)) break;
+            if (!all_finite(N, F)) break;
             if (norm(N, F) < tol && norm(N + 1, g) < tol) { conv = 1; break; }
         }
         if (!conv) {
@@ -585,6 +585,8 @@ def _load(path: Path, n: int, m: int, timings) -> CKernel:
     return CKernel(n, m, path, lib, timings)
 
 
+# A process keeps the kernels it loaded (a shared library stays mapped anyway); keyed by content,
+# so two equal systems share one.
 @functools.lru_cache(maxsize=32)
 def _kernel_for(name: str, variables: tuple, parameters: tuple, rhs: tuple, cc: str) -> CKernel:
     key = _key(name, variables, parameters, rhs, cc)
