@@ -24,6 +24,12 @@ process start cancels) is reported beside it. Compilation and linking are report
 For context the same problem is also run through bifpy's default path (``bifpy.auto.run``: AUTO
 calling Python callbacks, lambdified from the same sympy expressions), per point likewise.
 
+The same cases are also run by autocable's compiled engine (``engine="compiled"``,
+`autocable.methods.compiled_equilibria`): the whole call per step, best of 20 runs after a warm-up
+(`continuation_bench.time_compiled`), its special points and a1 against AUTO's, its ratio to AUTO
+(``cases[i]["ratio_compiled_to_auto"]``, worst in ``compiled["ratio_to_auto_worst"]``), and the
+kernel's one-time costs from scratch (``compiled["one_time"]``: emitting the C, gcc).
+
 (PyDSTool spec strings are written by `autocable.codegen.pydstool` only; AUTO strings are a
 separate backend and live here.)
 """
@@ -506,6 +512,13 @@ def _autocable_a1_at(result, sigma: float) -> float | None:
     return None
 
 
+def _a1_difference(system, result, sigma: float, x_auto) -> dict:
+    """Relative a1 difference between a result's branch and AUTO's point at ``sigma``."""
+    a_auto = float(system.amplitude_values(x_auto)[0])
+    a_ac = _autocable_a1_at(result, sigma)
+    return {"sigma": sigma, "relative_difference": None if a_ac is None else abs(a_ac - a_auto) / abs(a_auto)}
+
+
 def _stability_changes(sigma: Sequence[float], stable: Sequence[bool]) -> list[list[float]]:
     """[sigma_i, sigma_i+1] of consecutive points whose stability differs."""
     return [[float(sigma[i]), float(sigma[i + 1])] for i in range(len(stable) - 1)
@@ -691,9 +704,7 @@ def bench_auto(model_path: str, auto_python: str | None = None, repeats: int = 3
             "stable_points": int(np.sum(cres.branch.stable)),
             "stability_changes": _stability_changes(cres.branch.table["sigma"], cres.branch.stable),
             "kernel_undecided_stability": cres.branch.info["kernel_undecided_stability"],
-            "a1_check": [{"sigma": v, "relative_difference": None if a_ is None else
-                          abs(a_ - float(system.amplitude_values(x)[0])) / abs(float(system.amplitude_values(x)[0]))}
-                         for v, x in uz for a_ in [_autocable_a1_at(cres, v)]]}
+            "a1_check": [_a1_difference(system, cres, v, x) for v, x in uz]}
         case["ratio_compiled_to_auto"] = comp["seconds_per_point"] / auto_pp
         case["ratio_compiled_cpu_to_auto"] = comp["cpu_seconds_per_point"] / auto_pp
         cases.append(case)

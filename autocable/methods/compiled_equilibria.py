@@ -134,7 +134,8 @@ def _analysis_inputs(chart: _KernelChart, arr: dict) -> tuple[dict, dict]:
     decided = count >= 0
     used = np.where(decided, count, numpy_count)
     stable = used == 0
-    pre = {"X": Y[:, :-1] * chart.xscale, "P": P, "eigen": ev, "stable": stable, "T": arr["T"], "hopf": arr["tests"][:, 2], "bdet": arr["tests"][:, 1]}
+    pre = {"X": Y[:, :-1] * chart.xscale, "P": P, "eigen": ev, "stable": stable, "T": arr["T"],
+           "hopf": arr["tests"][:, 2], "bdet": arr["tests"][:, 1]}
     info = {"engine": "compiled", "kernel_undecided_stability": int(np.sum(~decided)),
             "kernel_stability_disagreements": int(np.sum(decided & (count != numpy_count))),
             "kernel_unstable_counts": [int(c) for c in count]}

@@ -270,7 +270,8 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
             parameter=sysm.parameter_names[chart.k], value=chart.value(Y[-1]),
             a1=float(amps[0]) if amps else math.nan, a2=float(amps[1]) if len(amps) > 1 else math.nan,
             state=tuple(x), parameters=sysm.parameter_dict(p), index=int(i), converged=bool(ok),
-            confirmed_by_pycont=None if confirmed is None else bool(confirmed), origin=origin, message=message, extra=extra))
+            confirmed_by_pycont=None if confirmed is None else bool(confirmed), origin=origin, message=message,
+            extra=extra))
     disagree = [i for i, s in enumerate(pycont_stab) if s is not None and (s == "S") != bool(stable[i])]
     info = {"pycont_stability_disagreements": len(disagree),
             "pycont_stability_disagreement_points": disagree[:50],
