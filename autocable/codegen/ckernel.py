@@ -56,7 +56,7 @@ __all__ = ["KERNEL_VERSION", "KernelBuildError", "CKernel", "kernel_source", "co
            "build_timing", "REASONS"]
 
 #: Bump when the emitted C changes meaning: it is part of the content hash.
-KERNEL_VERSION = "2"
+KERNEL_VERSION = "3"
 CFLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Werror=implicit-function-declaration")
 
 #: How a side of the branch ended (the ``reason`` code returned by the C loop).
@@ -352,8 +352,68 @@ static void store(const chart_t *c, int i, const double *Y, const double *t, dou
     memcpy(Js + i * N * N, J, sizeof(J));
 }
 
+/* The point where the hyperplane t . (Z - Y) = s meets the branch (Keller's corrector, to tol). */
+static int keller(const chart_t *c, const double *Y, const double *t, double s, double tol, double *Z) {
+    double P[N + 1], F[N], A[(N + 1) * (N + 1)], g[N + 1];
+    int it, i;
+    for (i = 0; i <= N; i++) Z[i] = P[i] = Y[i] + s * t[i];
+    for (it = 0; it < 25; it++) {
+        chart_eval(c, Z, F, A, NULL);
+        for (i = 0; i < N; i++) g[i] = F[i];
+        g[N] = 0; for (i = 0; i <= N; i++) { g[N] += t[i] * (Z[i] - P[i]); A[N * (N + 1) + i] = t[i]; }
+        if (lu_solve(N + 1, A, g) == 0.0) return 0;
+        for (i = 0; i <= N; i++) Z[i] -= g[i];
+        if (!all_finite(N + 1, Z)) return 0;
+        if (norm(N + 1, g) <= tol * (1.0 + norm(N + 1, Z))) return 1;
+    }
+    return 0;
+}
+
+/* (vp, det [DF; t], det 2J(.)I) at Y with tangent t. */
+static void tests_at(const chart_t *c, const double *Y, const double *t, double *v) {
+    double DF[N * (N + 1)], A[(N + 1) * (N + 1)], J[N * N];
+    chart_eval(c, Y, NULL, DF, J);
+    memcpy(A, DF, sizeof(DF));
+    memcpy(A + N * (N + 1), t, sizeof(double) * (N + 1));
+    v[0] = t[N];
+    v[1] = lu_solve(N + 1, A, NULL);
+    v[2] = hopf_test(J);
+}
+
+/* A zero of test k inside the step from (Y, t) (value f0) to the point at s = ds (value f1, end
+   tangent t1), the way AUTO puts its special points on the branch: Illinois regula falsi in s,
+   each trial point by `keller`. The tangent of a trial point is solved for LP and H; for BP it
+   is interpolated between t and t1 (next to a BP the kernel of DF is nearly 2-D and the solved
+   tangent is not defined; det [DF; t] vanishes there for any t). Returns s of the zero found
+   (|test| <= 1e-10 max(|f0|, |f1|)), or -1. */
+static double locate_zero(const chart_t *c, const double *Y, const double *t, const double *t1, double ds,
+                          int k, double f0, double f1, double ntol, double *Z, double *tz) {
+    double a = 0.0, b = ds, fa = f0, fb = f1, big = fmax(fabs(f0), fabs(f1)), v[3], DF[N * (N + 1)];
+    int it, side = 0, i;
+    for (it = 0; it < 60; it++) {
+        double s = (a * fb - b * fa) / (fb - fa);
+        if (!(s > a && s < b)) s = 0.5 * (a + b);
+        if (!keller(c, Y, t, s, ntol, Z)) return -1.0;
+        if (k == 1) {
+            double w = s / ds;
+            for (i = 0; i <= N; i++) tz[i] = (1.0 - w) * t[i] + w * t1[i];
+            double nz = norm(N + 1, tz);
+            for (i = 0; i <= N; i++) tz[i] /= nz;
+        } else {
+            chart_eval(c, Z, NULL, DF, NULL);
+            if (!tangent(DF, t, tz)) return -1.0;
+        }
+        tests_at(c, Z, tz, v);
+        if (fabs(v[k]) <= 1e-12 * big || b - a <= 1e-15 * ds) return fabs(v[k]) <= 1e-10 * big ? s : -1.0;
+        if ((v[k] > 0) == (fb > 0)) { b = s; fb = v[k]; if (side == -1) fa *= 0.5; side = -1; }
+        else { a = s; fa = v[k]; if (side == 1) fb *= 0.5; side = 1; }
+    }
+    return -1.0;
+}
+
 /* One side of a branch from Y0 along the unit direction d0.
-   opts = (step, min_step, max_step, tol, max_corrector_iters, lam_lo, lam_hi, newton_tol)
+   opts = (step, min_step, max_step, tol, max_corrector_iters, lam_lo, lam_hi, newton_tol,
+           locate): locate = 1 puts a point on every zero of a test function inside a step.
    Outputs, max_points rows each: Ys, Ts (n+1), tests (3), npos, Js (n*n), polished (1/0).
    Returns the number of points (the first is Y0); *reason gets a REASONS code. */
 int ac_continue(const double *cfg, const double *Y0, const double *d0, const double *opts, int max_points,
@@ -361,8 +421,8 @@ int ac_continue(const double *cfg, const double *Y0, const double *d0, const dou
     chart_t c;
     double Y[N + 1], Yp[N + 1], Yc[N + 1], t[N + 1], tn[N + 1], F[N], DF[N * (N + 1)], A[(N + 1) * (N + 1)], g[N + 1];
     double ds = opts[0], dsmin = opts[1], dsmax = opts[2], tol = opts[3], lo = opts[5], hi = opts[6], ntol = opts[7];
-    double span = 0.0;
-    int maxit = (int)opts[4], np_ = 0, i, k, conv;
+    double span = 0.0, used = ds;
+    int maxit = (int)opts[4], np_ = 0, i, k, conv, locate = opts[8] != 0.0;
     chart_of(cfg, &c);
     memcpy(Y, Y0, sizeof(Y));
     chart_eval(&c, Y, NULL, DF, NULL);
@@ -392,6 +452,7 @@ int ac_continue(const double *cfg, const double *Y0, const double *d0, const dou
             *reason = 4;
             return np_;
         }
+        used = ds;
         if (ds < dsmax && k < 6) ds = fmin(dsmax, ds * 1.2);
         polished[np_] = polish(&c, Yc, ntol);
         chart_eval(&c, Yc, NULL, DF, NULL);
@@ -409,6 +470,26 @@ int ac_continue(const double *cfg, const double *Y0, const double *d0, const dou
             polished[np_] = 0;
             *reason = 1;
             return np_ + 1;
+        }
+        if (locate) {
+            /* Zeros of the test functions inside this step, in order of s, become points. */
+            double v1[3], sz[3], Zs[3][N + 1], Tz[3][N + 1];
+            int kk, m = 0, order[3];
+            tests_at(&c, Yc, tn, v1);
+            for (kk = 0; kk < (N >= 2 ? 3 : 2); kk++) {
+                double f0 = tests[3 * (np_ - 1) + kk];
+                if (!(f0 * v1[kk] < 0.0)) continue;
+                sz[m] = locate_zero(&c, Y, t, tn, used, kk, f0, v1[kk], ntol, Zs[m], Tz[m]);
+                if (sz[m] > 0.0) { order[m] = m; m++; }
+            }
+            for (i = 1; i < m; i++) for (k = i; k > 0 && sz[order[k]] < sz[order[k - 1]]; k--) {
+                int tmp = order[k]; order[k] = order[k - 1]; order[k - 1] = tmp;
+            }
+            for (i = 0; i < m && np_ + 1 < max_points; i++) {
+                store(&c, np_, Zs[order[i]], Tz[order[i]], Ys, Ts, tests, npos, Js);
+                polished[np_] = 1;
+                np_++;
+            }
         }
         store(&c, np_, Yc, tn, Ys, Ts, tests, npos, Js);
         np_++;

@@ -87,8 +87,10 @@ def _single(chart: _KernelChart, Y: np.ndarray, t: np.ndarray) -> dict:
 def _run_side(chart: _KernelChart, problem: EquilibriumProblem, settings: ContinuationSettings,
               Y0: np.ndarray, direction: np.ndarray) -> _KSide:
     lo, hi = chart.lam(problem.bounds[0]), chart.lam(problem.bounds[1])
+    # The last entry: the kernel puts a point on each zero of a test function inside a step (as
+    # AUTO does), so `_locate` brackets it between two branch points next to the zero.
     opts = (settings.step, settings.min_step, settings.max_step, settings.tol, settings.max_corrector_iters,
-            lo, hi, settings.newton_tol)
+            lo, hi, settings.newton_tol, 1.0)
     out = chart.kernel.continue_side(chart.cfg, Y0, direction, opts, settings.max_points)
     last = chart.value(out["Y"][-1][-1])
     where = f"{problem.parameter} = {last:.6g}"

@@ -283,7 +283,8 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
 
 def _sharpen_branch_point(chart: _Chart, Y: np.ndarray, ok: bool, reach: float, tol: float,
                           maxiter: int = 20) -> tuple[np.ndarray, bool]:
-    """A branch point located by `_locate` made exact, when it is not yet rank-deficient to 1e-7.
+    """A branch point located by `_locate` made exact, when it is not yet rank-deficient to 1e-7
+    or `_locate` did not bracket it (``ok`` False).
 
     Next to a BP both branches cross the chord's normal hyperplane, so the corrections of
     `_locate` are ill-conditioned there and its zero of det [DF; chord] can land ~1e-6 off the BP
@@ -295,7 +296,7 @@ def _sharpen_branch_point(chart: _Chart, Y: np.ndarray, ok: bool, reach: float, 
     point with sigma_min/sigma_max of DF below 1e-7; otherwise the located point is kept."""
     DF = chart.DF(Y)
     U_, sv, _ = np.linalg.svd(DF)
-    if sv[-1] <= 1e-7 * sv[0]:
+    if ok and sv[-1] <= 1e-7 * sv[0]:
         return Y, ok
     n = DF.shape[0]
     psi = U_[:, -1].copy()
