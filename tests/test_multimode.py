@@ -108,7 +108,8 @@ def test_modes_orthogonal_unit_maximum_twist(d):
     for m in ms.out_of_plane:
         th = ms.shapes[f"{m.name}_th"].exp
         w = ms.shapes[m.name].exp
-        res = chi * th.derivative().derivative()(x) - delta**2 * th(x) + (1 + chi) * delta * w.derivative().derivative()(x)
+        th_dd, w_dd = th.derivative().derivative(), w.derivative().derivative()
+        res = chi * th_dd(x) - delta**2 * th(x) + (1 + chi) * delta * w_dd(x)
         assert np.max(np.abs(res)) < 1e-9 * np.max(np.abs(delta**2 * th(x)))
         bc = th.derivative()(np.array([0.0, 1.0])) + delta * w.derivative()(np.array([0.0, 1.0]))
         assert np.max(np.abs(bc)) < 1e-9 * np.max(np.abs(th.derivative()(x)))
@@ -151,6 +152,7 @@ def test_linear_forced_response_closed_form(d, n22, integ22):
     eta, sigma = 1e-8, 0.01
     r = integ22.simulate(0.0, eta, sigma)
     assert r.steady and r.periodic and not r.diverged
+    assert r.a1_min == pytest.approx(r.a1_max, rel=1e-6) and r.a1_max == pytest.approx(r.a1, rel=1e-6)
     Om, xi = d.ode.omega1 + sigma, d.ode.xi_s
     for m in ms.in_plane:
         F = quad(tuple(sorted((m.name, "vhat")))) / quad((m.name, m.name))
@@ -204,3 +206,8 @@ def test_cli_simulate_modes(tmp_path, capsys):
     assert out["a1"] == out["amplitudes"]["v1"] and out["steady"]
     assert main(["simulate", str(SAMPLE), "--modes", "0", "--quiet"]) == 2
     assert "--modes" in capsys.readouterr().err
+    csv = tmp_path / "h.csv"
+    assert main(["simulate", str(SAMPLE), "--modes", "2", "--eta", "1e-5", "--max-time", "700",
+                 "--csv", str(csv), "--quiet"]) == 0
+    lines = csv.read_text().splitlines()
+    assert lines[0] == "t,v1,v2,w1,w2,v1dot,v2dot,w1dot,w2dot" and len(lines) > 100

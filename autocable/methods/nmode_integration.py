@@ -57,6 +57,10 @@ class NModeResponse:
     message: str
     wall_seconds: float
     final_state: tuple         # (x, x') at t_end in `NModeODE.state_names` order
+    a1_min: float = math.nan   # envelope of the half peak-to-peak over single forcing periods of
+    a1_max: float = math.nan   # the last window (as `Response`): min = max for a period-1 response
+    a2_min: float = math.nan
+    a2_max: float = math.nan
     history: tuple = field(default=(), repr=False)   # (t, states) if asked for
 
 
@@ -149,6 +153,14 @@ class NModeIntegrator:
         n = ode.n
 
         def result(amps, steady, periodic, diverged, msg):
+            env = [(math.inf, math.inf)] * 2
+            if amps is not None:
+                m = samples_per_period
+                env = [(amps[i], amps[i]) for i in (self._i1, self._i2)]
+                if len(window) > m:
+                    per = [[_half_range(window[j:j + m + 1, i]) for j in range(0, len(window) - m, m)]
+                           for i in (self._i1, self._i2)]
+                    env = [(min(p), max(p)) for p in per]
             hist = ()
             if history:
                 hist = (np.concatenate([h[0] for h in history]), np.concatenate([h[1] for h in history]))
@@ -158,7 +170,8 @@ class NModeIntegrator:
                                  amplitudes=amp, steady=steady, periodic=periodic, diverged=diverged,
                                  t_end=t, U=U, eta=eta, sigma=sigma, Omega=Omega, message=msg,
                                  wall_seconds=time.perf_counter() - start,
-                                 final_state=tuple(float(v) for v in y), history=hist)
+                                 final_state=tuple(float(v) for v in y), history=hist,
+                                 a1_min=env[0][0], a1_max=env[0][1], a2_min=env[1][0], a2_max=env[1][1])
 
         while t < max_time - 1e-9:
             t1 = min(t + chunk, max_time)
