@@ -418,14 +418,14 @@ def _plot_ame_vs_ode(result: dict, path) -> None:
 FIGURES_TARGETS = {"cold_s": 60.0, "warm_s": 15.0}
 
 
-def _figures_pass(out_dir: str, env: dict, runs: str | None, jobs: int | None) -> dict:
+def _figures_pass(out_dir: str, env: dict, runs: str | None, jobs: int | None, only: list[str]) -> dict:
     import resource
     import subprocess
     import sys
     from pathlib import Path
 
     from autocable.report import FIGURE_STAGES, load_scene_data, stage_seconds
-    cmd = [sys.executable, "-m", "autocable.cli", "figures", "--out", out_dir, "--quiet"]
+    cmd = [sys.executable, "-m", "autocable.cli", "figures", "--out", out_dir, "--quiet", "--only", ",".join(only)]
     if runs:
         cmd += ["--runs", runs]
     if jobs:
@@ -459,16 +459,20 @@ def bench_figures(log=None, runs: str | None = None, jobs: int | None = None) ->
     AUTOCABLE_CACHE) then warm (the same cache again), with each stage's share of the scenes'
     summed wall time (`autocable.report.stage_seconds`). Scenes run in parallel, so the summed stage time
     exceeds the wall time by up to the number of processes."""
+    from autocable.figures import default_runs_dir, discover
     say = log or (lambda s: None)
+    # one list for both passes: scene files added meanwhile must not make them incomparable
+    only = [p.stem for p in discover(runs or default_runs_dir())]
+    say(f"scenes: {', '.join(only)}")
     with tempfile.TemporaryDirectory() as tmp:
         env = dict(os.environ, AUTOCABLE_CACHE=os.path.join(tmp, "cache"))
         say("autocable figures, cold (empty cache) ...")
-        cold = _figures_pass(os.path.join(tmp, "cold"), env, runs, jobs)
+        cold = _figures_pass(os.path.join(tmp, "cold"), env, runs, jobs, only)
         say(f"  {cold['wall_s']:.1f} s (exit status {cold['exit_status']})")
         say("autocable figures, warm ...")
-        warm = _figures_pass(os.path.join(tmp, "warm"), env, runs, jobs)
+        warm = _figures_pass(os.path.join(tmp, "warm"), env, runs, jobs, only)
         say(f"  {warm['wall_s']:.1f} s (exit status {warm['exit_status']})")
-    return {"what": "autocable figures, every runs/fig*.toml scene", "cpu_count": os.cpu_count(),
+    return {"what": "autocable figures, every runs/fig*.toml scene", "scenes": only, "cpu_count": os.cpu_count(),
             "jobs": jobs or os.cpu_count(), "cold": cold, "warm": warm, "targets": FIGURES_TARGETS,
             "targets_met": {"cold": cold["wall_s"] <= FIGURES_TARGETS["cold_s"] and cold["exit_status"] == 0,
                             "warm": warm["wall_s"] <= FIGURES_TARGETS["warm_s"] and warm["exit_status"] == 0}}

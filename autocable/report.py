@@ -101,6 +101,9 @@ class SceneData:
         prov = (self.run or {}).get("provenance") or {}
         return str(prov.get("title") or self.name)
 
+    def provenance(self) -> dict:
+        return dict((self.run or {}).get("provenance") or {})
+
     def branches(self) -> list[dict]:
         return list((self.run or {}).get("branches") or [])
 
@@ -113,6 +116,9 @@ class SceneData:
     def fixed(self) -> dict[str, float]:
         """Parameters constant over every equilibrium or cycle row (the figure's fixed values)."""
         rows = [r for r in self.rows if r.get("kind") in ("equilibrium", "cycle")]
+        if not rows:        # a time scene (Fig. 11): no branches, its parameters in the provenance
+            pars = self.provenance().get("parameters") or {}
+            return {p: float(pars[p]) for p in ("sigma", "U", "eta") if isinstance(pars.get(p), (int, float))}
         out = {}
         for p in ("sigma", "U", "eta"):
             vals = {_num(r.get(p)) for r in rows}
@@ -566,16 +572,22 @@ def _fig04(d: SceneData, all_: dict) -> list[Feature]:
 
 def _fig11(d: SceneData, all_: dict) -> list[Feature]:
     out: list[Feature] = []
-    summary = (d.run or {}).get("summary")
+    summary = (d.run or {}).get("summary") or d.provenance().get("summary")
     by = {}
     for r in d.series:
         by.setdefault(r.get("source", ""), []).append((_num(r.get("t")), _num(r.get("a1")), _num(r.get("a2"))))
     ame = by.get("ame", [])
+    since = {}
+    if isinstance(summary, dict):
+        for src in ("ame", "ode21"):
+            t_from = (summary.get(src) or {}).get("t_from") if isinstance(summary.get(src), dict) else None
+            if isinstance(t_from, (int, float)):
+                since[src] = float(t_from)
     if ame:
-        per = _periodicity(ame)
+        per = _periodicity(ame, since.get("ame"))
         out.append(("a periodic solution of the amplitude equations (time evolution of a1, a2)",
                     "yes" if per["periodic"] else "no",
-                    f"AME over t in [{_g(ame[0][0])}, {_g(ame[-1][0])}], last half: a1 in [{_e(per['a1_min'])}, "
+                    f"AME over t in [{_g(ame[0][0])}, {_g(ame[-1][0])}], for t >= {_g(per['t_from'])}: a1 in [{_e(per['a1_min'])}, "
                     f"{_e(per['a1_max'])}], a2 in [{_e(per['a2_min'])}, {_e(per['a2_max'])}], "
                     + (f"period {_g(per['period'], 5)} (spread {_e(per['spread'], 1)} over {per['cycles']} cycles)"
                        if per["periodic"] else per["why"])))
@@ -585,9 +597,9 @@ def _fig11(d: SceneData, all_: dict) -> list[Feature]:
     ode = by.get("ode21", [])
     if ode:
         finite = all(math.isfinite(a) and math.isfinite(b) for _, a, b in ode)
-        per = _periodicity(ode)
+        per = _periodicity(ode, since.get("ode21"))
         out.append(("the amplitude envelope of (21) on the same axes", "yes" if finite else "partly",
-                    f"eq. (21) envelope over t in [{_g(ode[0][0])}, {_g(ode[-1][0])}], last half a1 in "
+                    f"eq. (21) envelope over t in [{_g(ode[0][0])}, {_g(ode[-1][0])}], for t >= {_g(per['t_from'])}: a1 in "
                     f"[{_e(per['a1_min'])}, {_e(per['a1_max'])}], a2 in [{_e(per['a2_min'])}, {_e(per['a2_max'])}]"
                     + ("" if finite else f"; not finite throughout: {_reason('divergence')}")))
     else:
@@ -607,15 +619,18 @@ def _fmt_any(v) -> str:
     return str(v)
 
 
-def _periodicity(series: list[tuple[float, float, float]]) -> dict:
-    """Period of a1(t) over the second half of a series, from its successive maxima: periodic when
-    a1 oscillates (max - min > 1e-3 of the max) and the spacings agree to 2 %."""
-    half = [p for p in series if p[0] >= series[0][0] + 0.5 * (series[-1][0] - series[0][0])]
+def _periodicity(series: list[tuple[float, float, float]], since: float | None = None) -> dict:
+    """Period of a1(t) for t >= ``since`` (default: the second half of the series, after the
+    transient), from its successive maxima: periodic when a1 oscillates (max - min > 1e-3 of the
+    max) and the spacings agree to 2 %."""
+    if since is None:
+        since = series[0][0] + 0.5 * (series[-1][0] - series[0][0])
+    half = [p for p in series if p[0] >= since]
     a1 = [p[1] for p in half]
     a2 = [p[2] for p in half]
     out = {"a1_min": min(a1, default=_NAN), "a1_max": max(a1, default=_NAN), "a2_min": min(a2, default=_NAN),
            "a2_max": max(a2, default=_NAN), "periodic": False, "period": _NAN, "spread": _NAN, "cycles": 0,
-           "why": ""}
+           "why": "", "t_from": since}
     if len(half) < 5 or not all(math.isfinite(x) for x in a1):
         out["why"] = "too few or non-finite samples"
         return out
@@ -812,7 +827,9 @@ def build_report(out_dir: str | Path) -> str:
         if feats:
             lines += ["", "| Sect. 5 states | shown | where, numbers, why |", "|---|---|---|"]
             lines += [f"| {a} | {b} | {c} |" for a, b, c in feats]
-        lines += [""] + _branch_table(d) + [""] + _special_table(d) + _compare_lines(d)
+        if d.branches():
+            lines += [""] + _branch_table(d) + [""] + _special_table(d)
+        lines += _compare_lines(d)
     lines += ["", "## The amplitude equations against the integration of eq. (21) at the overlay points", "",
               "Each overlay point is a steady response of eq. (21) (swept up and down, each point from the "
               "previous state). Beside it, the stable AME equilibrium nearest to it in (a1, a2) at the same "
