@@ -589,7 +589,8 @@ def _fig11(d: SceneData, all_: dict) -> list[Feature]:
                     "yes" if per["periodic"] else "no",
                     f"AME over t in [{_g(ame[0][0])}, {_g(ame[-1][0])}], for t >= {_g(per['t_from'])}: a1 in [{_e(per['a1_min'])}, "
                     f"{_e(per['a1_max'])}], a2 in [{_e(per['a2_min'])}, {_e(per['a2_max'])}], "
-                    + (f"period {_g(per['period'], 5)} (spread {_e(per['spread'], 1)} over {per['cycles']} cycles)"
+                    + (f"period {_g(per['period'], 5)} (spacings of the mean crossings of a1 agree to {_e(per['spread'], 1)} "
+                       f"over {per['cycles']} cycles)"
                        if per["periodic"] else per["why"])))
     else:
         out.append(("a periodic solution of the amplitude equations", "no",
@@ -601,7 +602,15 @@ def _fig11(d: SceneData, all_: dict) -> list[Feature]:
         out.append(("the amplitude envelope of (21) on the same axes", "yes" if finite else "partly",
                     f"eq. (21) envelope over t in [{_g(ode[0][0])}, {_g(ode[-1][0])}], for t >= {_g(per['t_from'])}: a1 in "
                     f"[{_e(per['a1_min'])}, {_e(per['a1_max'])}], a2 in [{_e(per['a2_min'])}, {_e(per['a2_max'])}]"
+                    + (f"; {per['why']}" if per["why"] else f"; period {_g(per['period'], 5)}")
                     + ("" if finite else f"; not finite throughout: {_reason('divergence')}")))
+        if ame:
+            pa = _periodicity(ame, since.get("ame"))
+            agree = pa["periodic"] and per["periodic"] and abs(per["period"] / pa["period"] - 1) < 0.05
+            out.append(("(21) and the AME show the same motion", "yes" if agree else "no",
+                        f"AME: {'period ' + _g(pa['period'], 5) if pa['periodic'] else pa['why']}; eq. (21): "
+                        f"{'period ' + _g(per['period'], 5) if per['periodic'] else per['why']}"
+                        + ("" if agree else f"; {_reason('msm')}")))
     else:
         out.append(("the amplitude envelope of (21) on the same axes", "no",
                     "no eq. (21) time series (time_series.csv, source = ode21)"
@@ -621,33 +630,45 @@ def _fmt_any(v) -> str:
 
 def _periodicity(series: list[tuple[float, float, float]], since: float | None = None) -> dict:
     """Period of a1(t) for t >= ``since`` (default: the second half of the series, after the
-    transient), from its successive maxima: periodic when a1 oscillates (max - min > 1e-3 of the
-    max) and the spacings agree to 2 %."""
+    transient): a1 is resampled by a cubic spline (the series may hold a few samples per period)
+    and its upward crossings of its mean are located by linear interpolation; periodic when a1
+    oscillates (max - min > 1e-3 of the max) and the spacings of the crossings agree to 2 %."""
+    import numpy as np
+    from scipy.interpolate import CubicSpline
+
     if since is None:
         since = series[0][0] + 0.5 * (series[-1][0] - series[0][0])
     half = [p for p in series if p[0] >= since]
     a1 = [p[1] for p in half]
     a2 = [p[2] for p in half]
     out = {"a1_min": min(a1, default=_NAN), "a1_max": max(a1, default=_NAN), "a2_min": min(a2, default=_NAN),
-           "a2_max": max(a2, default=_NAN), "periodic": False, "period": _NAN, "spread": _NAN, "cycles": 0,
-           "why": "", "t_from": since}
+           "a2_max": max(a2, default=_NAN), "periodic": False, "constant": False, "period": _NAN,
+           "spread": _NAN, "cycles": 0, "why": "", "t_from": since}
     if len(half) < 5 or not all(math.isfinite(x) for x in a1):
         out["why"] = "too few or non-finite samples"
         return out
     if out["a1_max"] - out["a1_min"] <= 1e-3 * abs(out["a1_max"]):
-        out["why"] = "a1 is constant: an equilibrium, not a periodic solution"
+        out["constant"] = True
+        out["why"] = "a1 is constant: a steady amplitude, not a periodic solution"
         return out
-    peaks = [half[i][0] for i in range(1, len(half) - 1) if a1[i] > a1[i - 1] and a1[i] >= a1[i + 1]
-             and a1[i] > out["a1_min"] + 0.5 * (out["a1_max"] - out["a1_min"])]
-    gaps = [b - a for a, b in zip(peaks, peaks[1:])]
+    t = np.array([p[0] for p in half])
+    keep = np.concatenate([[True], np.diff(t) > 0])
+    t, x = t[keep], np.array(a1)[keep]
+    dt = float(np.min(np.diff(t))) / 4
+    tf = np.arange(t[0], t[-1], dt)
+    xf = CubicSpline(t, x)(tf)
+    m = float(np.mean(xf))
+    i = np.where((xf[:-1] < m) & (xf[1:] >= m))[0]
+    ups = tf[i] + (m - xf[i]) / (xf[i + 1] - xf[i]) * dt
+    gaps = np.diff(ups)
     if len(gaps) < 2:
-        out["why"] = f"fewer than 3 maxima of a1 in the last half ({len(peaks)})"
+        out["why"] = f"fewer than 3 upward crossings of the mean of a1 after t = {_g(since)}"
         return out
-    mean = sum(gaps) / len(gaps)
-    spread = (max(gaps) - min(gaps)) / mean
+    mean = float(np.mean(gaps))
+    spread = float((np.max(gaps) - np.min(gaps)) / mean)
     out.update(period=mean, spread=spread, cycles=len(gaps), periodic=spread < 0.02)
     if not out["periodic"]:
-        out["why"] = f"maxima spacings differ by {spread:.1%} (not periodic: modulated or chaotic)"
+        out["why"] = f"the spacings of the mean crossings of a1 differ by {spread:.1%} (not periodic: modulated or chaotic)"
     return out
 
 

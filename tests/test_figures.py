@@ -146,3 +146,35 @@ def test_discover_globs_figure_scenes_and_rejects_unknown_names(figures):
     with pytest.raises(SpecError, match="no scene figt5 .* there are figt1, figt2, figt9"):
         discover(runs, ["figt5"])
     assert main(["figures", "--out", str(runs / "x"), "--runs", str(runs), "--only", "nope"]) == 2
+
+
+def test_periodicity_of_a_sampled_amplitude_history():
+    """Fig. 11's test of a periodic AME solution on coarse samples (3.27 per the forcing period, as
+    the scene writes them): the period of a1 = 1 + 0.5 sin(2 pi t / T) + 0.2 sin(4 pi t / T) comes
+    back to 1e-4; a constant a1 is not periodic; two incommensurate tones are not periodic either."""
+    from autocable.report import _periodicity
+    T, dt = 35.968, 3.2657
+    ts = [k * dt for k in range(6000)]
+    periodic = [(t, 1 + 0.5 * math.sin(2 * math.pi * t / T) + 0.2 * math.sin(4 * math.pi * t / T), 0.1) for t in ts]
+    p = _periodicity(periodic)
+    assert p["periodic"] and p["period"] == pytest.approx(T, rel=1e-4)
+    assert p["a1_max"] == pytest.approx(max(a for _, a, _ in periodic[3000:]))
+    c = _periodicity([(t, 2.0, 0.1) for t in ts])
+    assert c["constant"] and not c["periodic"]
+    quasi = [(t, 1 + 0.5 * math.sin(2 * math.pi * t / T) + 0.5 * math.sin(2 * math.pi * t / (T * math.sqrt(2))), 0.1)
+             for t in ts]
+    assert not _periodicity(quasi)["periodic"]
+
+
+def test_stage_groups_add_up_to_the_scene_total(figures):
+    """The benchmark's stage shares: derive + build + continue + integrate + plot + write + other is
+    the scene's total, build is the runs' setup time, and a time scene's integration is 'integrate'."""
+    from autocable.report import FIGURE_STAGES, stage_seconds
+    _, out, _ = figures
+    stages = json.loads((out / "figt1" / "run.json").read_text())["provenance"]["stages"]
+    st = stage_seconds(stages)
+    assert sum(st[k] for k in FIGURE_STAGES) == pytest.approx(stages["total_s"], rel=1e-12)
+    assert st["build"] == pytest.approx(sum(r["setup_s"] for r in stages["runs"].values()), rel=1e-12)
+    timed = stage_seconds({"derive_s": 1.0, "ame_s": 0.5, "ame_integration_s": 4.0, "ode21_integration_s": 3.0,
+                           "plot_s": 0.25, "total_s": 9.0})
+    assert (timed["derive"], timed["integrate"], timed["plot"], timed["other"]) == (1.5, 7.0, 0.25, 0.25)
