@@ -16,7 +16,11 @@ Luongo & Zulli, or any `autocable.methods.system.System`) it writes one C file w
 * per point, the test functions autocable uses (`autocable.methods.equilibria`): the tangent's
   parameter component (LP), det [DF~; t] (BP), det(2J (.) I) (Hopf and neutral saddles, the
   bialternate product of `autocable.methods.bifurcation_functions`), and the number of
-  eigenvalues of J with positive real part from the Routh array of the characteristic polynomial.
+  eigenvalues of J with positive real part from the Routh array of the characteristic polynomial;
+* inside a step where a test function changes sign, an extra point on its zero (Illinois regula
+  falsi in the arclength of the step, each trial point by Keller's corrector), as AUTO puts its
+  special points on the branch: the special point is then bracketed tightly for autocable's
+  locator, which makes the final location (Python) cheap.
 
 Degenerate Routh arrays. The characteristic polynomial (Faddeev-LeVerrier) is taken for J / ||J||_F
 so that its coefficients are O(1); when an entry of the Routh array's first column is below 1e-9

@@ -6,7 +6,8 @@ continues, F, J_x, J_p, the scaled chart (x~ = x / xscale, lam = (p - p0) / psca
 pseudo-arclength loop with PyCont's step control; per point it returns the polished point, its
 tangent, the test functions autocable uses (the tangent's parameter component for LP,
 det [DF~; t] for BP, det(2J (.) I) for Hopf) and the count of eigenvalues with positive real part
-(Routh array; -1 when undecided). Python then does what the PyCont path does with PyCont's points,
+(Routh array; -1 when undecided), and it puts an extra point on each zero of a test function
+inside a step (as AUTO does). Python then does what the PyCont path does with PyCont's points,
 with the same code (`_analyse_equilibria` given the kernel's arrays): sign changes of the test
 functions, location by `continuation_chart._locate` (Brent on the chord, `_correct` onto the
 branch, here on the compiled chart), the rank test that tells LP from BP, the Hopf pair check,
