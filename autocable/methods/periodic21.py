@@ -76,7 +76,8 @@ class PeriodicBranch21:
     q_min: np.ndarray = field(default=None, repr=False)   # (n, 2): min of q1, q2 over the orbit
     q_max: np.ndarray = field(default=None, repr=False)   # (n, 2)
     states: np.ndarray = field(default=None, repr=False)  # (n, 4): (q1, q2, q1', q2') at phase 0
-    closure: np.ndarray = field(default=None, repr=False)  # |phi_T(state) - state| / |state| of (21)
+    closure: np.ndarray = field(default=None, repr=False)  # |phi_T(state) - state| / |state| under (21):
+    #                                                          the collocation error of the state
     info: dict = field(default_factory=dict)
 
     def __len__(self) -> int:
@@ -144,6 +145,21 @@ def polynomial_extremes(t: np.ndarray, x: np.ndarray, ncol: int) -> tuple[float,
                 best = max(best, sign * float(np.polyval(c, r)))
         out.append(sign * best)
     return out[0], out[1]
+
+
+def polynomial_value(t: np.ndarray, X: np.ndarray, ncol: int, tq: float) -> np.ndarray:
+    """The piecewise polynomial of degree ``ncol`` through AUTO's profile (rows of ``X``) at ``tq``."""
+    nint = (len(t) - 1) // ncol
+    j = int(np.clip(np.searchsorted(t[::ncol], tq, side="right") - 1, 0, nint - 1))
+    tt = t[j * ncol:(j + 1) * ncol + 1]
+    XX = X[j * ncol:(j + 1) * ncol + 1]
+    # Lagrange basis at tq on the interval's ncol + 1 points.
+    w = np.ones(len(tt))
+    for k in range(len(tt)):
+        for m in range(len(tt)):
+            if m != k:
+                w[k] *= (tq - tt[m]) / (tt[k] - tt[m])
+    return w @ XX
 
 
 def _profile(pt):
@@ -242,7 +258,21 @@ def _specials(values, a1, a2, mults, states=None) -> tuple:
             s = d0 / (d0 - d1) if d0 != d1 else 0.5
             at(i, min(max(s, 0.0), 1.0), kind, {})
     out.sort(key=lambda d: (d["index"], d["type"]))
-    return tuple(out)
+    # AUTO may wobble back and forth across a pitchfork (several turns within a few orbits): one
+    # passage is reported, at the middle detection of the cluster.
+    merged, cluster = [], []
+    for d in out + [None]:
+        if d is not None and cluster and d["type"] == cluster[-1]["type"] \
+                and d["index"] - cluster[-1]["index"] <= 4:
+            cluster.append(d)
+            continue
+        if cluster:
+            keep = dict(cluster[len(cluster) // 2])
+            if len(cluster) > 1:
+                keep["detections"] = len(cluster)
+            merged.append(keep)
+        cluster = [d] if d is not None else []
+    return tuple(merged)
 
 
 # -- the driver ----------------------------------------------------------------------------------
@@ -358,8 +388,13 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
         return pts[::-1] if how == "backward" else pts
 
     def measure(pt):
-        return np.array([float(pt["lam"])] + [float(pt[f"{v}_{m}"]) for v in ("q1", "q2")
-                                              for m in ("max", "min")])
+        # The profile's first point (the orbit at AUTO's phase origin) keep the sign of q2, so
+        # an orbit and its mirror image q2 -> -q2 differ here (their max/min may not).
+        got = _profile(pt)
+        if got is None:
+            return np.array([float(pt["lam"])] + [float(pt[f"{v}_{m}"]) for v in VARIABLES[:3]
+                                                  for m in ("max", "min")])
+        return np.concatenate([[float(pt["lam"])], got[1][0]])
 
     def closed_loop(kept, pt):
         """Back at the side's start (within two steps) after having gone more than ten away."""
@@ -441,11 +476,15 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
         t = t * per if t[-1] <= 1.0 + 1e-9 else t
         q = X[:, :4] * ascale
         ext = [polynomial_extremes(t, q[:, k], ncol) for k in (0, 1)]
+        # The orbit at forcing phase 0 (x = sin 0, y = cos 0), read off the collocation polynomial:
+        # AUTO's profile starts at whatever phase its phase condition chose.
         phase = math.atan2(X[0, 4], X[0, 5]) % (2 * math.pi)
+        t_zero = ((2 * math.pi - phase) / Om) % per
+        y_zero = polynomial_value(t, q, ncol, t_zero)
         try:
-            M, yT = system.monodromy(U, eta, Om, q[0], rtol=floquet_rtol, t0=phase / Om)
+            M, yT = system.monodromy(U, eta, Om, y_zero, rtol=floquet_rtol)
             mu = multipliers_of(M)
-            clos = float(np.linalg.norm(yT - q[0]) / max(np.linalg.norm(q[0]), 1e-300))
+            clos = float(np.linalg.norm(yT - y_zero) / max(np.linalg.norm(y_zero), 1e-300))
         except RuntimeError:
             mu, clos = np.full(4, np.nan + 0j), math.inf
         ev = _auto_multipliers(pt)
@@ -461,7 +500,7 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
         rows["T"].append(per)
         rows["mu"].append(mu)
         rows["stable"].append(bool(np.all(np.isfinite(mu)) and np.abs(mu[0]) < 1 - STABILITY_MARGIN))
-        rows["state"].append(q[0])
+        rows["state"].append(y_zero)
         rows["closure"].append(clos)
     timings["analysis_s"] = time.perf_counter() - t0
     values, a1, a2 = (np.array(rows[k], float) for k in ("sigma", "a1", "a2"))
