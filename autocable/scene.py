@@ -42,6 +42,25 @@ start that does not converge raise `autocable.spec.SpecError` with one line nami
     csv = "fig05a_digitised.csv"      # columns x, y, curve, stable (path relative to the scene)
     panel = "a1"
 
+A ``[time]`` scene (Fig. 11) has no runs: it integrates the AME (24) at one parameter point over
+[0, t_end] and the amplitude envelope of eq. (21) from the same start (runs/README.md):
+
+    [time]
+    U = 1.3                           # > 0; eta, sigma as above
+    eta = 1.4e-3
+    sigma = -0.042
+    t_end = 60000.0
+    start = "rest"                    # "rest" (q2 = 1e-6) | { amplitudes = [a1, a2] }
+    ode21 = true                      # also the envelope of eq. (21): half peak-to-peak per forcing period
+    summary_from = 40000.0            # the summary's window t >= summary_from (default t_end / 2)
+    samples_per_period = 2            # AME output samples per forcing period
+
+and writes ``time_series.csv`` (columns source,t,a1,a2; source "ame" or "ode21"), ``run.json`` (the
+provenance and a "summary": per source a1/a2 min/max and the modulation period) and
+``<scene>.png``/``.pdf``. A ``[compare]`` table also writes ``compare.json`` (`autocable.compare`:
+distance of the digitised points to the computed branches). ``run_scene(..., resolution="coarse")``
+runs a scene with longer steps and capped cycle runs (`coarse_settings`; the tests).
+
 `run_scene(load_scene(path), out_dir)` runs it and writes ``branches.csv``, ``special_points.csv``,
 ``run.json`` (`autocable.results`) and ``<scene>.png``/``.pdf`` (`autocable.plotting.diagrams`), with
 curve runs also ``<scene>_plane.png``/``.pdf``.
@@ -1065,6 +1084,8 @@ def add_run_parser(subparsers) -> None:
     r.add_argument("--out", help="output folder (default: out/<scene name>)")
     r.add_argument("--quiet", action="store_true", help="no progress on stderr")
     r.add_argument("--no-plot", action="store_true", help="write the tables only")
+    r.add_argument("--resolution", choices=RESOLUTIONS, default="full",
+                   help="coarse: longer steps, capped cycle runs, every other overlay value (what the tests run)")
     r.set_defaults(func=cmd_run)
 
 
@@ -1074,8 +1095,21 @@ def cmd_run(args) -> int:
     out = Path(args.out) if getattr(args, "out", None) else Path("out") / scene.name
     quiet = bool(getattr(args, "quiet", False))
     progress = None if quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
-    res = run_scene(scene, out, progress=progress, plot=not getattr(args, "no_plot", False))
-    if not quiet:
+    res = run_scene(scene, out, progress=progress, plot=not getattr(args, "no_plot", False),
+                    resolution=getattr(args, "resolution", "full") or "full")
+    if not quiet and scene.time is not None:
+        print(f"{scene.title}")
+        summary = res.provenance["summary"]
+        for src in ("ame", "ode21"):
+            if src in summary:
+                s = summary[src]
+                period = s.get("modulation_period")
+                print(f"  {src:<6} a1 in [{s.get('a1_min', math.nan):.6e}, {s.get('a1_max', math.nan):.6e}]  "
+                      f"a2 in [{s.get('a2_min', math.nan):.6e}, {s.get('a2_max', math.nan):.6e}]  modulation period "
+                      + (f"{period:.6g}" if period else "none (steady amplitude)") + f"  ({s['message']})")
+        print(f"  results in {out}/ (time_series.csv, run.json"
+              + (f", {scene.name}.png, {scene.name}.pdf" if not getattr(args, "no_plot", False) else "") + ")")
+    elif not quiet:
         print(f"{scene.title}")
         for b in res.branches:
             ends = "; ".join(f"{e.side}: {e.reason}" + (f" ({e.message})" if e.reason not in ("range",) and e.message else "")

@@ -301,3 +301,67 @@ def test_overlay_schema_errors(tmp_path, body, field):
     scene_file.write_text(text + "\n" + body)
     with pytest.raises(SpecError, match=field):
         load_scene(scene_file)
+
+
+# --------------------------------------------------------------------------------------------
+# [compare]: distances of digitised points (autocable/compare.py), end to end
+def _write_points(path, rows):
+    path.write_text("x,y,curve,stable\n" + "".join(f"{x!r},{y!r},{c},{int(s)}\n" for x, y, c, s in rows))
+
+
+def test_compare_distances_of_points_on_and_off_a_computed_branch(tmp_path, fig05a):
+    """A synthetic 'digitised' CSV taken from Fig. 5a's computed branch is at distance ~0; a copy
+    shifted by 1e-3 (normalised units, along each segment's normal, from segment midpoints) is at
+    exactly that distance. End to end: the scene's [compare] writes compare.json and the plot."""
+    import json
+
+    from autocable.compare import compare_summary
+
+    res, _ = fig05a
+    b = res.branch("I")
+    x, y = np.asarray(b["sigma"]), np.asarray(b["a1"])
+    xr, yr = float(x.max() - x.min()), float(y.max())
+    picks = range(5, len(b) - 5, 7)
+    on = [(x[i], y[i], "I", True) for i in picks]
+    shift = 1e-3
+    off = []
+    for i in picks:
+        dx, dy = (x[i + 1] - x[i]) / xr, (y[i + 1] - y[i]) / yr
+        n = np.array([-dy, dx]) / math.hypot(dx, dy)
+        mx, my = 0.5 * (x[i] + x[i + 1]) / xr, 0.5 * (y[i] + y[i + 1]) / yr
+        off.append(((mx + shift * n[0]) * xr, (my + shift * n[1]) * yr, "shifted", False))
+    rows = [{"x": a, "y": c, "curve": k, "stable": s} for a, c, k, s in on + off]
+    summary = compare_summary(rows, res.branches, "sigma", "a1")
+    assert summary["x_range"] == pytest.approx(xr) and summary["y_range"] == pytest.approx(yr)
+    assert summary["curves"]["I"]["n_points"] == len(on) and summary["curves"]["I"]["max_distance"] <= 1e-9
+    assert summary["curves"]["shifted"]["max_distance"] == pytest.approx(shift, rel=1e-6)
+    assert summary["curves"]["shifted"]["rms_distance"] == pytest.approx(shift, rel=1e-6)
+
+    _write_points(tmp_path / "digitised.csv", on + off)
+    scene = tmp_path / "fig05a_compare.toml"
+    text = FIG05A.read_text().replace('"../models/luongo_zulli_2012.toml"', repr(str(MODEL)).replace("'", '"'))
+    scene.write_text(text + '\n[compare]\ncsv = "digitised.csv"\npanel = "a1"\n')
+    out = tmp_path / "o"
+    run_scene(load_scene(scene), out)
+    written = json.loads((out / "compare.json").read_text())
+    assert written["curves"]["I"]["max_distance"] <= 1e-9
+    assert written["curves"]["shifted"]["max_distance"] == pytest.approx(shift, rel=1e-6)
+    assert written["curves"]["shifted"]["n_points"] == len(off) and (out / "fig05a_compare.png").stat().st_size > 0
+
+
+def test_time_scene_schema_errors(tmp_path):
+    base = ('title = "t"\nmodel = "%s"\n' % str(MODEL))
+    cases = [
+        ('[time]\nU = 1.3\neta = 1e-3\nsigma = 0.0\n', "time.t_end"),
+        ('[time]\nU = 1.3\neta = 1e-3\nsigma = 0.0\nt_end = 100.0\nstep = 1\n', "time.step"),
+        ('[time]\nU = 0.0\neta = 1e-3\nsigma = 0.0\nt_end = 100.0\n', "time.U"),
+        ('[time]\nU = 1.3\neta = 1e-3\nsigma = 0.0\nt_end = 100.0\nstart = "moving"\n', "time.start"),
+        ('ame = "1dof"\n[time]\nU = 1.3\neta = 1e-3\nsigma = 0.0\nt_end = 100.0\n', "ame"),
+        ('[time]\nU = 1.3\neta = 1e-3\nsigma = 0.0\nt_end = 100.0\n[[run]]\nparameter = "sigma"\nrange = [0, 1]\n', "run"),
+    ]
+    for body, field in cases:
+        f = tmp_path / "t.toml"
+        f.write_text(base + body)
+        with pytest.raises(SpecError) as err:
+            load_scene(f)
+        assert err.value.field == field and "\n" not in str(err.value), (body, err.value.field)
