@@ -12,6 +12,7 @@
 * Branch switching at Fig. 6's first branch point: the same special points on the new branch.
 * The Duffing slow flow: folds against the closed form to 1e-5, the middle branch unstable; the
   Hopf normal form: H, omega and l1 against the closed form.
+* A closed branch (the unit circle): its folds, stability, the closed end; the point budget.
 * A right-hand side C cannot compile, or a missing compiler: a one-line `KernelBuildError`.
 """
 from __future__ import annotations
@@ -206,6 +207,26 @@ def test_hopf_normal_form_with_the_compiled_engine():
     assert np.all(counts[away & (b["mu"] < 0)] == 0) and np.all(counts[away & (b["mu"] > 0)] == 2)
     assert [e.reason for e in b.ends] == ["range", "range"]
     assert b["mu"][0] == pytest.approx(-0.2, abs=1e-12) and b["mu"][-1] == pytest.approx(0.3, abs=1e-12)
+
+
+def test_closed_curve_folds_and_point_budget():
+    """x' = x^2 + p^2 - 1: the branch is the unit circle, folds at p = -1 and p = 1 (x = 0); the
+    kernel goes round and stops where it started; with 30 points it stops at the budget."""
+    x, p = sp.symbols("x p")
+    system = System("circle_compiled", ("x",), (x * x + p * p - 1,), {"p": 0.0}, (("a1", ("x",)),))
+    problem = EquilibriumProblem(system, "p", {"p": 0.0}, (-2.0, 2.0))
+    b = continue_equilibria(problem, ContinuationSettings(), [1.0], engine="compiled").branch
+    assert [e.reason for e in b.ends] == ["closed", "closed"]
+    assert np.max(np.abs(b["x"] ** 2 + b["p"] ** 2 - 1)) < 1e-12
+    folds = sorted(b.of_type("LP"), key=lambda s_: s_.value)
+    assert [f.value for f in folds] == pytest.approx([-1.0, 1.0], abs=1e-10)
+    assert all(abs(f.state[0]) < 1e-5 and f.converged for f in folds)
+    away = np.abs(b["x"]) > 1e-6                      # f_x = 2x: stable on the lower half-circle
+    assert np.all(b.stable[away] == (b["x"][away] < 0))
+    short = continue_equilibria(problem, ContinuationSettings(max_points=30), [1.0], directions="forward",
+                                engine="compiled").branch
+    assert short.ends[-1].reason == "max_points" and len(short) == 30
+    assert "raise max_points" in short.ends[-1].message
 
 
 def test_kernel_functions_equal_sympys_and_numpys():
