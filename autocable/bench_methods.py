@@ -155,6 +155,49 @@ def compare(result: R.MethodResult, ref: R.MethodResult) -> dict:
             "per_point": per_point}
 
 
+def agreement(ame: R.MethodResult, periodic: R.MethodResult, valid_sigma=None, tol: float = 0.02) -> dict:
+    """The AME's equilibria against the periodic orbits of eq. (21) (issue: "on the Fig. 6 settings
+    the periodic orbits of (21) and the AME agree where the AME is valid"): at every point of the
+    periodic branch, the nearest AME response at that sigma (distance as in `compare`) and whether
+    their stability (Floquet multipliers of 21 against AME eigenvalues) agrees. ``valid_sigma``: the
+    sigma interval(s) where the AME is within ``tol`` of the eq. (21) sweeps, if known."""
+    rows = []
+    for s, a1, a2, st in zip(periodic.values, periodic.a1, periodic.a2, periodic.stable):
+        cands = crossings(ame, float(s))
+        if not cands:
+            rows.append({"sigma": float(s), "error": None, "stable_21": bool(st), "stable_ame": None})
+            continue
+        d = [R._distance(c[0], c[1], float(a1), float(a2)) for c in cands]
+        k = int(np.argmin(d))
+        rows.append({"sigma": float(s), "error": float(d[k]), "stable_21": bool(st), "stable_ame": bool(cands[k][2])})
+    inside = [r for r in rows if valid_sigma is None or any(lo <= r["sigma"] <= hi for lo, hi in valid_sigma)]
+    errs = [r["error"] for r in inside if r["error"] is not None]
+    same = [r for r in inside if r["error"] is not None and r["stable_21"] == r["stable_ame"]]
+    return {"points": len(rows), "points_where_ame_valid": len(inside),
+            "max_error_where_ame_valid": max(errs) if errs else None,
+            "within_tol": sum(e <= tol for e in errs), "no_ame_response": sum(r["error"] is None for r in inside),
+            "stability_agrees": len(same), "valid_sigma": valid_sigma, "rows": rows}
+
+
+def _valid_intervals(per_point, tol: float = 0.02) -> list[tuple[float, float]]:
+    """Maximal sigma intervals of the reference grid where every reference response is matched by
+    the method within ``tol``."""
+    by = {}
+    for p in per_point:
+        ok = p["error"] is not None and p["error"] <= tol
+        by[p["sigma"]] = by.get(p["sigma"], True) and ok
+    out, cur = [], None
+    for s in sorted(by):
+        if by[s]:
+            cur = (cur[0], s) if cur else (s, s)
+        elif cur:
+            out.append(cur)
+            cur = None
+    if cur:
+        out.append(cur)
+    return out
+
+
 def _timed(method, setting, knobs, tools, repeats: int) -> R.MethodResult:
     """Warm-up, then best of ``repeats`` (one run when a single run takes over 3 s)."""
     best = R.run(method, setting, knobs, tools)
@@ -201,7 +244,7 @@ def run_bench(out_dir, *, scenes=None, quick: bool = False, repeats: int = 2, lo
     methods = R.available_methods()
     tools = R.Tools(settings[0].model)
     ref_knobs = dict(R.REFERENCE_KNOBS, points=11) if quick else dict(R.REFERENCE_KNOBS)
-    records, references, notes = [], {}, []
+    records, references, notes, kept = [], {}, [], {}
     if skipped:
         notes.append(f"no scene file for {', '.join(skipped)}: not benched")
     for st in settings:
@@ -230,6 +273,9 @@ def run_bench(out_dir, *, scenes=None, quick: bool = False, repeats: int = 2, lo
                                     "missed": None, "message": f"failed: {exc}"})
                     continue
                 c = compare(r, ref)
+                if (name, dict(knobs)) in (("ame-2dof", {"max_step": 0.02, "engine": "compiled"}),
+                                           ("ame-2dof", {"max_step": 0.02}), ("ode21-periodic", {"ntst": 20})):
+                    kept.setdefault(st.scene, {}).setdefault(name, (r, c))
                 rec = {"scene": st.scene, "method": name, "setting": dict(knobs), "error": c["error"],
                        "median_error": c["median_error"], "seconds": r.seconds,
                        "build_seconds": r.build_seconds, "found": c["found"], "missed": c["missed"],
@@ -244,6 +290,13 @@ def run_bench(out_dir, *, scenes=None, quick: bool = False, repeats: int = 2, lo
                     f"(build {r.build_seconds:.3g} s), found {c['found']}, missed {c['missed']}, "
                     f"boundaries {c['special_found']}/{c['special_found'] + c['special_missed']}")
     summary = _summary(records, settings)
+    for scene, got in kept.items():
+        if "ame-2dof" in got and "ode21-periodic" in got:
+            (ame, c_ame), (per, c_per) = got["ame-2dof"], got["ode21-periodic"]
+            valid = _valid_intervals(c_ame["per_point"])
+            summary.setdefault(scene, {})["ame_vs_periodic21"] = agreement(ame, per, valid)
+            summary[scene]["periodic21_vs_sweeps"] = {"error": c_per["error"], "median_error": c_per["median_error"],
+                                                      "found": c_per["found"], "missed": c_per["missed"]}
     result = {"records": records, "references": references, "summary": summary, "notes": notes,
               "builds": dict(tools.builds), "quick": quick, "repeats": repeats,
               "methods": {n: _method_json(m) for n, m in methods.items()},
@@ -382,6 +435,14 @@ def markdown(result: dict) -> str:
                       + ", ".join(f"{k} {v:.3g} s" for k, v in s["ame_2dof_seconds"].items())
                       + ". Brute-force eq. (21) sweep (up and down) / AME diagram: "
                       + ", ".join(f"{k}: {_f(v)}x" for k, v in s["ratio_sweep_over_ame"].items()) + "."]
+        if "ame_vs_periodic21" in s:
+            a = s["ame_vs_periodic21"]
+            iv = ", ".join(f"[{lo:+.4f}, {hi:+.4f}]" for lo, hi in a["valid_sigma"]) or "nowhere"
+            lines += ["", f"Periodic orbits of eq. (21) (ntst 20) against the 2-dof AME where the AME is within 2 % of "
+                      f"the eq. (21) sweeps (sigma in {iv}): {a['points_where_ame_valid']} of {a['points']} orbits "
+                      f"there; max distance {_f(a['max_error_where_ame_valid'])}, {a['within_tol']} within 2 %, "
+                      f"{a['no_ame_response']} without an AME response at their sigma, stability agreeing at "
+                      f"{a['stability_agrees']}."]
         if "ame_2dof_within_2pct_sigma" in s:
             good, bad = s["ame_2dof_within_2pct_sigma"], s["ame_2dof_beyond_2pct_sigma"]
             lines += ["", f"2-dof AME within 2 % of eq. (21) at {len(good)} of {len(good) + len(bad)} reference "

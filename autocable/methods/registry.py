@@ -109,7 +109,7 @@ def _ladder(*rows) -> tuple:
 _STEP = Knob("max_step", 2e-2, "largest pseudo-arclength step (scaled units: the sigma range is 1)")
 _CTOL = Knob("tol", 1e-10, "corrector tolerance (points are then polished by Newton to 1e-12)")
 _ENGINE = Knob("engine", "pycont", "continuation engine: PyCont's EP-C or autocable's compiled C kernel")
-_CONT_LADDER = ({"max_step": 0.1}, {"max_step": 0.05}, {"max_step": 0.02},
+_CONT_LADDER = ({"max_step": 0.05}, {"max_step": 0.02},
                 {"max_step": 0.1, "engine": "compiled"}, {"max_step": 0.05, "engine": "compiled"},
                 {"max_step": 0.02, "engine": "compiled"}, {"max_step": 0.01, "engine": "compiled"},
                 {"max_step": 0.005, "engine": "compiled"})
@@ -133,7 +133,7 @@ METHODS: Mapping[str, Method] = MappingProxyType({
         "equilibria refined by Newton (~1e-12); only attractors reachable by the sweep", None, None,
         ("number of sigma points", "slow-flow transients ~ 1/(xi_s omega1)"),
         (Knob("rtol", 1e-8, "LSODA relative tolerance"), Knob("points", 21, "sigma values per sweep")),
-        _ladder({"rtol": 1e-6, "points": 11}, {"rtol": 1e-8, "points": 21}, {"rtol": 1e-10, "points": 41}),
+        _ladder({"rtol": 1e-6, "points": 11}, {"rtol": 1e-8, "points": 21}),
         "the AME's own error against eq. (21): O(eta^2) relative"),
     "ode21-sweep": Method(
         "ode21-sweep", "steady responses of eq. (21) by compiled DOP853 integration, sigma swept up "
@@ -171,7 +171,7 @@ def _optional_methods() -> dict[str, Method]:
                                                                    "(error order ncol + 1 in ntst)"),
              Knob("step", None, "largest step in sigma (None: 1/100 of the range)"),
              Knob("max_points", 400, "points per direction")),
-            _ladder({"ntst": 10}, {"ntst": 20}, {"ntst": 40}))
+            _ladder({"ntst": 10}, {"ntst": 20}))
     try:
         info = importlib.import_module("autocable.methods.nmode_integration").METHOD_INFO
     except (ImportError, AttributeError):
