@@ -60,6 +60,21 @@ def test_one_mode_per_plane_is_eq21(d):
                                    d.ode.accelerations(x, 0.7, 1.4e-3, f, fd, fdd), rtol=1e-11, atol=0)
 
 
+def test_closed_form_and_quadrature_agree(d, n22):
+    """The whole N = 2 table computed a second, independent way (Gauss-Legendre quadrature of the
+    directly evaluated shapes, twist included): the same coefficients to 1e-8 relative; terms that
+    are exact zeros by symmetry in the closed form are round-off there (< 1e-9 of the equation's
+    largest coefficient)."""
+    quad = derive_nmode(d, 2, 2, use_cache=False, integrator="quadrature").table()
+    closed = n22.table()
+    scale = {e: max(abs(c) for (eq, _), c in quad.items() if eq == e) for e in n22.names}
+    for k, c in closed.items():
+        assert quad[k] == pytest.approx(c, rel=1e-8), k
+    for k, c in quad.items():
+        if k not in closed:
+            assert abs(c) < 1e-9 * scale[k[0]], k
+
+
 def test_mode_frequencies(d, n33):
     """(b) antisymmetric in-plane 2k exactly, symmetric at roots of Irvine's equation (checked
     against a Rayleigh-Ritz sine series), out-of-plane k; the stiffness of each equation is omega^2."""

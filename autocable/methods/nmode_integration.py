@@ -33,7 +33,7 @@ METHOD_INFO = {
     "accuracy": "integration error of DOP853 at rtol 1e-10 plus the steady-state test (1e-8 relative "
                 "between chunks); reproduces eq. (21) exactly with n_in = n_out = 1; the truncation "
                 "error of eq. (21) is what it measures",
-    "cost_drivers": "number of terms (89 for 1+1 modes, ~400 for 2+2, ~1300 for 3+3 on the sample "
+    "cost_drivers": "number of terms (89 for 1+1 modes, 360 for 2+2, 1209 for 3+3 on the sample "
                     "cable), the settling time ~ 1/(xi_s omega) per point, one C build per model",
     "knobs": {"n_in": "in-plane modes", "n_out": "out-of-plane modes", "rtol": "integration tolerance"},
 }

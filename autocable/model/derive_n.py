@@ -12,21 +12,28 @@ from autocable.model.derive import DERIVATION_VERSION, Derivation, derive
 from autocable.model.galerkin_n import ExactZeroIntegrator, project_n
 from autocable.model.modes_n import mode_set
 from autocable.model.multimode import NModeODE
+from autocable.model.shapes import QuadratureIntegrator
 from autocable.spec import ModelSpec
 
 #: Bump when a change in the N-mode projection changes the numbers.
-NMODE_VERSION = "nmode-v1"
+NMODE_VERSION = "nmode-v2"
 
 
 def derive_nmode(source: Derivation | ModelSpec, n_in: int, n_out: int,
-                 use_cache: bool = True) -> NModeODE:
-    """The equations with the lowest ``n_in`` in-plane and ``n_out`` out-of-plane modes."""
+                 use_cache: bool = True, integrator: str = "closed-form") -> NModeODE:
+    """The equations with the lowest ``n_in`` in-plane and ``n_out`` out-of-plane modes.
+
+    ``integrator="quadrature"`` takes every integral by Gauss-Legendre quadrature instead of the
+    closed form: the independent second path that tests compare with.
+    """
     d = source if isinstance(source, Derivation) else derive(source)
     if not (isinstance(n_in, int) and isinstance(n_out, int) and n_in >= 1 and n_out >= 1):
         raise ValueError(f"the number of modes must be integers >= 1, got n_in = {n_in!r}, n_out = {n_out!r}")
     spec = d.spec
     key = content_hash({"spec": spec.content_hash(), "eq21": DERIVATION_VERSION, "version": NMODE_VERSION,
-                        "n_in": n_in, "n_out": n_out})
+                        "n_in": n_in, "n_out": n_out, "integrator": integrator})
+    if integrator not in ("closed-form", "quadrature"):
+        raise ValueError(f"unknown integrator {integrator!r}; use 'closed-form' or 'quadrature'")
     path = cache_dir("derivations") / f"{spec.name}-nmode{n_in}x{n_out}-{key}.json"
     data = read_json(path) if use_cache else None
     if data is not None:
@@ -35,7 +42,8 @@ def derive_nmode(source: Derivation | ModelSpec, n_in: int, n_out: int,
     ms = mode_set(st, n_in, n_out)
     aero = expand_load(spec.aero.lift, spec.aero.drag, st.alpha, d.beta, d.theta0, spec.aero.angle_convention)
     ode = project_n(st, ms, aero, d.aero_scale, d.velocity_ratio, spec.cable.damping_ratio,
-                    ExactZeroIntegrator(ms.shapes),
+                    ExactZeroIntegrator(ms.shapes) if integrator == "closed-form"
+                    else QuadratureIntegrator(ms.shapes, nodes=128),
                     provenance={"model": spec.name, "model_hash": spec.content_hash(),
                                 "derivation": NMODE_VERSION, "n_in": n_in, "n_out": n_out})
     atomic_write_json(path, ode.to_dict())

@@ -13,7 +13,10 @@ modal damping 2 xi_s omega q' is added, as for eq. (21). The modes are orthogona
 in the stiffness because they are eigenfunctions: the cross inertia and cross linear-stiffness
 integrals are round-off, checked (<= 1e-12 of the diagonal) and dropped. Integrals that vanish by
 the symmetry of the modes about s = 1/2 come out of the closed form as round-off too; they are made
-the exact zeros they are when |int| <= 1e-12 int |.| (the latter by quadrature).
+the exact zeros they are when |int| <= 1e-10 int |.| (the latter by quadrature). The closed form
+needs that margin: the slaved twist of w1 is dominated by C cosh(kappa (s - 1/2)) with C ~ -477
+(its mean balances the end slopes, int theta = [w']/delta), so a product's exponential terms are
+far larger than the product, and a zero comes out at ~2e-12 of int |.|.
 """
 from __future__ import annotations
 
@@ -28,8 +31,10 @@ from autocable.model.multimode import NModeODE, NTerm
 from autocable.model.shapes import ClosedFormIntegrator
 from autocable.model.statics import CableStatics
 
-#: Relative size below which an integral, a cross mass or a cross stiffness is round-off of zero.
+#: Relative size below which a cross mass or a cross stiffness is round-off of zero.
 ZERO_TOL = 1e-12
+#: Relative size (to the integral of the absolute value) below which an integral is a zero.
+INTEGRAL_ZERO_TOL = 1e-10
 
 
 class Algebra:
@@ -119,7 +124,7 @@ def _pscale(p: dict, a: float) -> dict:
 
 class ExactZeroIntegrator:
     """Closed-form integrals (`shapes.ClosedFormIntegrator`), with those that vanish by symmetry
-    (|int| <= ZERO_TOL int |.|, the latter by Gauss-Legendre quadrature) set to exactly zero."""
+    (|int| <= INTEGRAL_ZERO_TOL int |.|, the latter by Gauss-Legendre quadrature) set to exactly zero."""
 
     name = "closed-form"
 
@@ -137,7 +142,7 @@ class ExactZeroIntegrator:
             prod = np.ones_like(self._s)
             for name in key:
                 prod = prod * self._shapes[name].evaluate(self._s)
-            if abs(value) <= ZERO_TOL * float(np.dot(self._w, np.abs(prod))):
+            if abs(value) <= INTEGRAL_ZERO_TOL * float(np.dot(self._w, np.abs(prod))):
                 value = 0.0
                 self.zeros += 1
             self._memo[key] = value
