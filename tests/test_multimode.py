@@ -100,6 +100,16 @@ def test_mode_frequencies(d, n33):
     assert n33.provenance["orthogonality_residual"] <= 1e-12
 
 
+def test_mode_order_past_the_crossover(d):
+    """Irvine's lambda^2 > 4 pi^2: the first symmetric mode rises above the first antisymmetric one
+    (omega = 2), and the in-plane modes are taken by frequency."""
+    from dataclasses import replace
+    st = replace(d.statics, lambda2=60.0)
+    ms = mode_set(st, 3, 1)
+    assert [(m.symmetry, m.k) for m in ms.in_plane] == [(ANTISYMMETRIC, 1), (SYMMETRIC, 1), (SYMMETRIC, 2)]
+    assert 2.0 < ms.in_plane[1].omega < ms.in_plane[2].omega < 4.0
+
+
 def test_modes_orthogonal_unit_maximum_twist(d):
     """(b) mass orthogonality <= 1e-12 two ways; unit maxima; the twist solves eq. (19)_3 with its
     natural boundary conditions, odd about s = 1/2 (no cosh part) for the antisymmetric modes."""

@@ -19,7 +19,7 @@ import numpy as np
 from autocable.codegen.compat import PyDSToolError
 from autocable.methods.integration import DIVERGED, refined_peak
 from autocable.model.derive_n import derive_nmode
-from autocable.model.modes_n import IN_PLANE, OUT_OF_PLANE
+from autocable.model.modes_n import IN_PLANE, OUT_OF_PLANE, SYMMETRIC
 from autocable.model.multimode import NModeODE, first_order_rhs_n
 from autocable.model.symbolic import PARAMETERS, T, parameter_values
 
@@ -89,7 +89,14 @@ class NModeIntegrator:
         self._numeric = None
         self.build_seconds = 0.0
         names = self.ode.names
-        self._i1 = names.index(next(m.name for m in self.ode.modes if m.plane == IN_PLANE))
+        # a1 is the first symmetric in-plane mode, as in eq. (21); it is the lowest one unless
+        # lambda^2 > 4 pi^2 (see statics.regime_warnings), when an antisymmetric mode comes first.
+        first_sym = [m.name for m in self.ode.modes if m.plane == IN_PLANE and m.symmetry == SYMMETRIC]
+        if not first_sym:
+            n_plane = sum(m.plane == IN_PLANE for m in self.ode.modes)
+            raise ValueError(f"the {n_plane} lowest in-plane modes hold no symmetric mode (Irvine's lambda^2 "
+                             "exceeds 4 pi^2): take more in-plane modes")
+        self._i1 = names.index(first_sym[0])
         self._i2 = names.index(next(m.name for m in self.ode.modes if m.plane == OUT_OF_PLANE))
 
     def _sym(self):
