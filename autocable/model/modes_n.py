@@ -20,8 +20,8 @@ for odd k (w symmetric about s = 1/2) D = 0 and C = k pi (B + delta) / (kappa si
 even k (w antisymmetric) C = 0 and D = -k pi (B + delta) / (kappa cosh(kappa/2)): the twist of an
 antisymmetric mode has no cosh part. k = 1 is the twist of `modes.linear_modes`.
 
-Every mode is normalised to a unit maximum of |displacement| (Sect. 5), positive at its first
-interior extremum; for the symmetric in-plane modes max |cos(b (s - 1/2)) - c| = 1 + |c| with
+Every mode is normalised to a unit maximum of |displacement| (Sect. 5), the sine modes rising from
+s = 0, the symmetric in-plane modes positive at mid-span; for the symmetric in-plane modes max |cos(b (s - 1/2)) - c| = 1 + |c| with
 c = cos(b/2) (an extremum of the cosine of the opposite sign to c lies inside the span), so
 N = 1 + |c|, which is 1 - c for the first mode as in `modes.linear_modes`.
 """
