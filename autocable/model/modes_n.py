@@ -21,9 +21,10 @@ even k (w antisymmetric) C = 0 and D = -k pi (B + delta) / (kappa cosh(kappa/2))
 antisymmetric mode has no cosh part. k = 1 is the twist of `modes.linear_modes`.
 
 Every mode is normalised to a unit maximum of |displacement| (Sect. 5), the sine modes rising from
-s = 0, the symmetric in-plane modes positive at mid-span; for the symmetric in-plane modes max |cos(b (s - 1/2)) - c| = 1 + |c| with
-c = cos(b/2) (an extremum of the cosine of the opposite sign to c lies inside the span), so
-N = 1 + |c|, which is 1 - c for the first mode as in `modes.linear_modes`.
+s = 0, the symmetric in-plane modes positive at mid-span. For the symmetric in-plane modes
+max |cos(b (s - 1/2)) - c| = 1 + |c| with c = cos(b/2) (an extremum of the cosine of the opposite
+sign to c lies inside the span), so N = 1 + |c|, which is 1 - c for the first mode as in
+`modes.linear_modes`.
 """
 from __future__ import annotations
 
