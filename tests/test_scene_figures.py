@@ -1,7 +1,7 @@
 """Every figure scene (runs/fig*.toml) at coarse resolution, with its key numbers.
 
 `run_scene(..., resolution="coarse")` runs a scene with longer continuation steps, capped cycle and
-curve runs and every other overlay point (`autocable.scene.coarse_settings`). Special points are
+curve runs and every third overlay value (`autocable.scene.coarse_settings`). Special points are
 located and refined by autocable's own test functions whatever the step, so their parameter values
 are asserted against the values measured at full resolution (``autocable run runs/figNN.toml``) to
 1e-4 relative; peak amplitudes (the largest sampled point of a branch, which depends on the
@@ -43,20 +43,22 @@ SPECIAL = {
               "II": {"H": [-0.015862535], "LP": [0.0020577113, 0.0073619734, 0.010179009]}},
     "fig08": {"I": {"LP": [0.002288533524, 0.007946854523]}},
     "fig09": {"I": {"LP": [-0.010039204]},
-              "III": {"H": [-0.048986601, -0.028511852], "LP": [-0.006626866]}},
+              "III": {"H": [-0.048986601, -0.028511852], "LP": [-0.006626866]},
+              "IV": {"H": [0.023225426], "LP": [0.034299515, 0.037821306]}},
     "fig10": {"I": {"H": [-0.03305072109], "LP": [0.01994453397]}},
 }
 
-#: Full-resolution largest a1 (and a2) of an equilibrium branch, or a1_max of a cycle branch.
+#: Full-resolution largest a1 of an equilibrium branch, and the relative tolerance of the coarse
+#: run's sampled peak (wider where the peak lies on a sharply bent stretch between coarse points).
 PEAKS = {
-    "fig04a": {"II": 4.846062e-03},
-    "fig04b": {"II": 5.467793e-03},
-    "fig05a": {"I": 3.350085e-04},
-    "fig05b": {"I": 2.347367e-03},
-    "fig06": {"I": 1.085510e-02, "II": 1.620427e-02},
-    "fig07": {"I": 6.330226e-03},
-    "fig08": {"I": 4.268133e-03},
-    "fig10": {"I": 9.714057e-03},
+    "fig04a": {"II": (4.846062e-03, PEAK_RTOL)},
+    "fig04b": {"II": (5.467793e-03, PEAK_RTOL)},
+    "fig05a": {"I": (3.350085e-04, PEAK_RTOL)},
+    "fig05b": {"I": (2.347367e-03, PEAK_RTOL)},
+    "fig06": {"I": (1.085510e-02, PEAK_RTOL), "II": (1.620427e-02, PEAK_RTOL)},
+    "fig07": {"I": (6.330226e-03, PEAK_RTOL)},
+    "fig08": {"I": (4.268133e-03, PEAK_RTOL)},
+    "fig10": {"I": (9.714057e-03, 2e-2)},
 }
 
 
@@ -100,9 +102,9 @@ def test_special_points_and_peaks_at_coarse_resolution(scene_results, name):
             assert len(have) == len(want), (name, bname, kind, have, want)
             for h, w in zip(have, want):
                 assert h == pytest.approx(w, rel=SPECIAL_RTOL, abs=1e-7), (name, bname, kind)
-    for bname, peak in PEAKS.get(name, {}).items():
+    for bname, (peak, rtol) in PEAKS.get(name, {}).items():
         b = res.branch(bname)
-        assert float(np.nanmax(b["a1"])) == pytest.approx(peak, rel=PEAK_RTOL), (name, bname)
+        assert float(np.nanmax(b["a1"])) == pytest.approx(peak, rel=rtol), (name, bname)
 
 
 def test_fig03_equals_the_closed_form(scene_results):
@@ -160,8 +162,8 @@ def test_fig10_overlay_marks_eq21_divergence(scene_results):
     rows = list(csv.DictReader((out / "overlay.csv").open()))
     diverged = sorted({float(r["value"]) for r in rows if not math.isfinite(float(r["a1"]))})
     bounded = sorted({float(r["value"]) for r in rows if math.isfinite(float(r["a1"]))})
-    # eq. (21) stays bounded at sigma = -0.05, -0.03 and diverges from sigma = -0.01 on
-    assert diverged and min(diverged) > -0.02 and bounded and max(bounded) < -0.02
+    # full resolution: eq. (21) bounded for sigma <= -0.02, diverging from sigma = -0.01 on
+    assert diverged and min(diverged) >= -0.01 - 1e-9 and bounded and max(bounded) <= -0.02 + 1e-9
 
 
 def test_fig11_time_evolution(scene_results):
