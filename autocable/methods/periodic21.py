@@ -26,7 +26,14 @@ turns, a real multiplier crosses +1; PD: a real one crosses -1; NS: a complex pa
 
 Accuracy. Collocation with ``ncol`` Gauss points per interval has error O(h^(ncol+1)) uniformly and
 O(h^(2 ncol)) at mesh points (de Boor & Swartz); the extremes are taken on the polynomials, so the
-amplitude error is O(ntst^-(ncol+1)) (declared in `METHOD_INFO`, measured in the tests).
+amplitude error is O(ntst^-(ncol+1)) (declared in `METHOD_INFO`, measured in the tests). The state at
+forcing phase 0 (``states``) is read off the polynomial too; ``closure`` (how far one period of (21)
+from it lands from it) therefore measures the collocation error of the orbit.
+
+Cost. One AUTO build per model (cached); AUTO's collocation step, run in chunks of ``chunk``
+points (PyCont's per-point cost grows with the length of a curve); one variational integration of
+(21) per orbit for the multipliers, which is the larger part (~0.05 s against AUTO's 0.02-0.1 s).
+A branch that comes back to its start (the bi-modal loops of Fig. 6) ends as "closed loop".
 """
 from __future__ import annotations
 
@@ -47,7 +54,9 @@ METHOD_INFO = {
               "fixed U*, eta*, with Floquet stability of (21) and LPC/PD/NS from multiplier crossings",
     "engine": "PyCont LC-C (AUTO orthogonal collocation) on (21) + a forcing oscillator",
     "accuracy": "amplitude error O(ntst^-(ncol+1)) (collocation polynomial of degree ncol per mesh "
-                "interval; O(ntst^-2 ncol) at mesh points); Floquet multipliers to ~1e-9 (rtol 1e-10)",
+                "interval; O(ntst^-2 ncol) at mesh points); at the peak of a near-sinusoid the odd "
+                "derivatives vanish and even ncol shows ncol+2 (measured 5.5 for ncol = 4 on a linear "
+                "oscillator); Floquet multipliers to ~1e-9 (rtol 1e-10)",
     "declared_order": "ncol + 1 in ntst",
     "cost_drivers": "one AUTO build per model (seconds, cached); per point AUTO's Newton on "
                     "6 * ntst * ncol unknowns plus one variational integration of (21) over a period "
@@ -288,8 +297,12 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
                         floquet_rtol: float = 1e-10, tol: float = 1e-8, chunk: int = 40) -> PeriodicBranch21:
     """The branch of period-1 orbits of eq. (21) through the response reached by integration at
     ``start_sigma`` (from ``q0`` = (q1, q1', q2, q2'), `Ode21Integrator`'s default if None),
-    continued both ways in sigma over ``sigma_range``. ``step`` is the largest step in sigma
-    (default: 1/100 of the range); ``max_points`` bounds each direction. Pass ``integrator`` (an
+    continued both ways in sigma over ``sigma_range``. ``step`` bounds AUTO's pseudo-arclength step
+    (in sigma / span units plus the orbit scaled by its start amplitude; default 1/20 of the range,
+    the orbit usually limits the step first); ``max_points`` bounds each direction, ``chunk`` is the
+    length of one PyCont curve, ``tol`` AUTO's Newton tolerance (relative), ``floquet_rtol`` the
+    tolerance of the variational integration. Never raises for a numerical failure: the branch
+    computed so far is returned with ``end_reason`` saying what happened. Pass ``integrator`` (an
     `Ode21Integrator` of the same ODE) to reuse its compiled generator."""
     from autocable.methods.integration import DEFAULT_Q0, Ode21Integrator
 
@@ -306,7 +319,7 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
     if ntst < 2 or ncol < 2 or ncol > 7:
         raise ValueError(f"ntst >= 2 and 2 <= ncol <= 7 are required (AUTO), got ntst={ntst}, ncol={ncol}")
     span = hi - lo
-    step = float(step) if step else span / 100
+    step = float(step) if step else span / 20
     settings["step"] = step
     timings = {}
 
@@ -391,17 +404,17 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
         # The profile's first point (the orbit at AUTO's phase origin) keep the sign of q2, so
         # an orbit and its mirror image q2 -> -q2 differ here (their max/min may not).
         got = _profile(pt)
-        if got is None:
-            return np.array([float(pt["lam"])] + [float(pt[f"{v}_{m}"]) for v in VARIABLES[:3]
-                                                  for m in ("max", "min")])
-        return np.concatenate([[float(pt["lam"])], got[1][0]])
+        return None if got is None else np.concatenate([[float(pt["lam"])], got[1][0]])
 
     def closed_loop(kept, pt):
         """Back at the side's start (within two steps) after having gone more than ten away."""
-        m0, m = measure(kept[0]), measure(pt)
+        m0, m, last = measure(kept[0]), measure(pt), measure(kept[-1])
+        if m0 is None or m is None or last is None:
+            return False
         here = np.linalg.norm(m - m0)
-        stepn = np.linalg.norm(m - measure(kept[-1]))
-        far = max(np.linalg.norm(measure(k) - m0) for k in kept[-5:])
+        stepn = np.linalg.norm(m - last)
+        far = max((np.linalg.norm(mk - m0) for mk in map(measure, kept[-5:]) if mk is not None),
+                  default=0.0)
         travelled[0] = max(travelled[0], far)
         return travelled[0] > 10 * stepn and here < 2 * stepn
 
@@ -417,9 +430,10 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
                 pts = run_chunk(init, how, n)
                 if kept:
                     # A restart carries AUTO's tangent; make sure it kept the direction of travel.
-                    prev = measure(kept[-1]) - measure(kept[-2]) if len(kept) > 1 else None
-                    if prev is not None and len(pts) > 1 and \
-                            np.dot(measure(pts[1]) - measure(pts[0]), prev) < 0:
+                    ms = [measure(p_) for p_ in (kept[-2] if len(kept) > 1 else None, kept[-1])
+                          if p_ is not None] + [measure(p_) for p_ in pts[:2]]
+                    if len(ms) == 4 and all(m_ is not None for m_ in ms) and \
+                            np.dot(ms[3] - ms[2], ms[1] - ms[0]) < 0:
                         how = "backward" if how == "forward" else "forward"
                         pts = run_chunk(init, how, n)
                     pts = pts[1:]           # the restart point itself
@@ -441,7 +455,7 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
                 if len(pts) < n - (1 if init is not None else 0):
                     reason = "AUTO stopped before the point budget"
                     break
-                init, how = kept[-1], "forward" if how == "forward" else how
+                init = kept[-1]
                 if progress:
                     progress(f"periodic21 {direction}: {len(kept)} orbits, sigma = "
                              f"{start_sigma + span * float(kept[-1]['lam']):.6g}")
