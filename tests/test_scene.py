@@ -365,3 +365,15 @@ def test_time_scene_schema_errors(tmp_path):
         with pytest.raises(SpecError) as err:
             load_scene(f)
         assert err.value.field == field and "\n" not in str(err.value), (body, err.value.field)
+
+
+def test_modulation_period_of_a_sampled_signal():
+    """Fig. 11's period: mean spacing of the upward mid-level crossings, to the sampling's linear
+    interpolation error; none for a flat signal or too few crossings."""
+    from autocable.scene import modulation_period
+
+    t = np.linspace(0.0, 1000.0, 20001)
+    a = 3e-3 + 1e-3 * np.sin(2 * np.pi * t / 36.0) + 2e-4 * np.sin(4 * np.pi * t / 36.0 + 0.3)
+    assert modulation_period(t, a) == pytest.approx(36.0, rel=1e-6)
+    assert modulation_period(t, np.full_like(t, 3e-3)) is None
+    assert modulation_period(t[:2000], a[:2000]) is None          # 100 time units: two crossings
