@@ -93,7 +93,7 @@ def run_bench(what: str, model_path: str, repeats: int = 3, log=None, out=None) 
         from autocable.bench_auto import bench_auto
         return bench_auto(model_path, repeats=repeats, log=log)
     if what == "figures":
-        return bench_figures(log=log)
+        return bench_figures(log=log, out=out)
     if what == "continuation":
         from autocable.methods.continuation import bench_continuation
         return bench_continuation(model_path, repeats=repeats, cold=True, progress=log)
@@ -454,11 +454,12 @@ def _figures_pass(out_dir: str, env: dict, runs: str | None, jobs: int | None, o
             "scenes": scenes, "stage_seconds_summed_over_scenes": totals, "stage_shares": shares}
 
 
-def bench_figures(log=None, runs: str | None = None, jobs: int | None = None) -> dict:
+def bench_figures(log=None, runs: str | None = None, jobs: int | None = None, out=None) -> dict:
     """Wall time of `autocable figures` (every scene) in a subprocess, cold (a fresh empty
     AUTOCABLE_CACHE) then warm (the same cache again), with each stage's share of the scenes'
     summed wall time (`autocable.report.stage_seconds`). Scenes run in parallel, so the summed stage time
-    exceeds the wall time by up to the number of processes."""
+    exceeds the wall time by up to the number of processes. With ``out``, the warm pass's
+    figures, data and report.md are kept in ``out/figures``."""
     from autocable.figures import default_runs_dir, discover
     say = log or (lambda s: None)
     # one list for both passes: scene files added meanwhile must not make them incomparable
@@ -470,7 +471,8 @@ def bench_figures(log=None, runs: str | None = None, jobs: int | None = None) ->
         cold = _figures_pass(os.path.join(tmp, "cold"), env, runs, jobs, only)
         say(f"  {cold['wall_s']:.1f} s (exit status {cold['exit_status']})")
         say("autocable figures, warm ...")
-        warm = _figures_pass(os.path.join(tmp, "warm"), env, runs, jobs, only)
+        warm_dir = os.path.join(str(out), "figures") if out else os.path.join(tmp, "warm")
+        warm = _figures_pass(warm_dir, env, runs, jobs, only)
         say(f"  {warm['wall_s']:.1f} s (exit status {warm['exit_status']})")
     return {"what": "autocable figures, every runs/fig*.toml scene", "scenes": only, "cpu_count": os.cpu_count(),
             "jobs": jobs or os.cpu_count(), "cold": cold, "warm": warm, "targets": FIGURES_TARGETS,

@@ -278,7 +278,10 @@ def overlay_comparison(data: SceneData) -> list[dict]:
             best = min(cands, key=lambda c: math.hypot(c["a1"] - a1, c["a2"] - a2))
             row.update(ame_branch=best["branch"], ame_a1=best["a1"], ame_a2=best["a2"])
         if not steady or not math.isfinite(a1):
-            row["note"] = "no steady response of eq. (21): " + (row["message"] or "diverged")
+            # the message's first clause ("the response diverged between t = .. and .."): the rest is
+            # the integrator's advice, which is in overlay.csv
+            why = (row["message"] or "diverged").split(" (")[0].split(":")[0]
+            row["note"] = "no steady response of eq. (21): " + why
         elif not periodic:
             row["note"] = "eq. (21) not period-1 (amplitude-modulated): no AME equilibrium to compare"
         elif not cands:
@@ -439,7 +442,14 @@ def _hopf_moved(d: SceneData, ref: SceneData | None) -> Feature:
     if not h and not h0:
         return ("wind moves the Hopf points", "no",
                 f"no Hopf point with wind nor in {ref.name} (no wind); {_reason('inputs')}")
-    return ("wind moves the Hopf points", "yes" if h != h0 else "no",
+    if not h0:
+        return ("wind moves the Hopf points", "partly",
+                f"with wind: {_sp_list(h, 'sigma')}; without ({ref.name}): none, so the wind creates Hopf "
+                f"points here rather than moving them")
+    if not h:
+        return ("wind moves the Hopf points", "no",
+                f"with wind: none; without ({ref.name}): {_sp_list(h0, 'sigma')}; {_reason('inputs')}")
+    return ("wind moves the Hopf points", "yes",
             f"with wind: {_sp_list(h, 'sigma')}; without ({ref.name}): {_sp_list(h0, 'sigma')}")
 
 
@@ -449,10 +459,17 @@ def _wind_features(d: SceneData, all_: dict, ref_name: str, branch_ii: bool = Tr
     a1, _ = max_amplitude(d, "a1")
     a2, _ = max_amplitude(d, "a2")
     names = [b["name"] for b in d.branches() if b.get("kind") == "equilibrium"]
-    small = math.isfinite(a2) and a2 < 0.1 * a1
-    out.append(("branches I, II bi-modal with a2 very close to zero", "yes" if small and a2 > 0 else "partly",
-                f"equilibrium branches {', '.join(names) or 'none'}; largest a2 = {_e(a2)} "
-                f"({_e(a2 / a1 if a1 else _NAN, 2)} of the largest a1 = {_e(a1)})"))
+    ratios = {}
+    for n in names:
+        rows = d.branch_rows(n)
+        b1 = max((_num(r["a1"]) for r in rows), default=_NAN)
+        ratios[n] = max((_num(r["a2"]) for r in rows), default=_NAN) / b1 if b1 > 0 else _NAN
+    small_i = {n for n in ("I", "II") if n in ratios and 0 < ratios[n] < 0.1}
+    out.append(("branches I, II bi-modal with a2 very close to zero",
+                "yes" if small_i == {"I", "II"} else ("partly" if small_i else "no"),
+                "largest a2 / largest a1 per branch: " + ", ".join(f"{n} {_e(r, 2)}" for n, r in ratios.items())
+                + f" (overall largest a2 = {_e(a2)}, a1 = {_e(a1)})"
+                + "; below 0.1 counts as close to zero" + ("" if "II" in ratios else "; no branch II")))
     m, at = multiplicity(d)
     if not branch_ii:
         pass
@@ -554,19 +571,25 @@ def _fig04(d: SceneData, all_: dict) -> list[Feature]:
     else:
         out.append(("a stable periodic solution (max/min of a1) as backbone", "no",
                     "no cycle branch" + (f"; {_reason('inputs')}" if not h else "")))
-    series = sorted((n for n in all_ if n.startswith("fig04")), key=lambda n: all_[n].fixed().get("eta", 0))
-    sizes = []
+    series = sorted((n for n in all_ if n.startswith("fig04") and all_[n].ok),
+                    key=lambda n: all_[n].fixed().get("eta", 0))
+    sizes, without = [], []
     for n in series:
         dd = all_[n]
         cl = [b for b in dd.branches() if b.get("kind") == "equilibrium" and _closed(b)]
         if cl:
             us = [_num(r["U"]) for b in cl for r in dd.branch_rows(b["name"])]
             sizes.append((n, dd.fixed().get("eta", _NAN), max(us) - min(us)))
+        else:
+            without.append(n)
     if series and d.name == series[-1]:
         grow = len(sizes) >= 2 and all(b[2] > a[2] for a, b in zip(sizes, sizes[1:]))
-        out.append(("the island grows with eta", "yes" if grow else "no",
-                    ("; ".join(f"{n} (eta* = {_g(e)}): U-width {_g(w, 4)}" for n, e, w in sizes) or "no islands")
-                    + f" (eta* here {_g(fixed.get('eta'))})"))
+        shown = "yes" if grow and not without else ("partly" if grow else "no")
+        out.append(("the island grows with eta", shown,
+                    ("; ".join(f"{n} (eta* = {_g(e)}): closed island {_g(w, 4)} wide in U" for n, e, w in sizes)
+                     or "no closed island")
+                    + (f"; no closed island in {', '.join(without)} (the branch reaches the ends of the U range)"
+                       if without else "")))
     return out
 
 
