@@ -590,14 +590,14 @@ def _system_for(scene: Scene, ame, values: Mapping[str, float], parameter: str, 
 
 def coarse_settings(steps: Mapping[str, Any]) -> dict[str, Any]:
     """The ``resolution = "coarse"`` step controls for a run's ``steps`` (what the tests run):
-    longer largest steps (x3 for equilibria, x2 for cycles and curves, at most 0.1 of the range),
+    longer largest steps (x2, at most 0.1 of the range; x3 made Fig. 6's II step over a branch point),
     at most 20 points per cycle branch and 150 per curve direction. Special points are still
     located and refined by autocable's test functions, so their locations do not depend on the
     step; only the density of the drawn branches does."""
     from autocable.methods.continuation import ContinuationSettings
     base = ContinuationSettings(**steps)
     out = dict(steps)
-    out["max_step"] = max(base.max_step, min(3 * base.max_step, 0.1))
+    out["max_step"] = max(base.max_step, min(2 * base.max_step, 0.1))
     out["cycle_max_step"] = max(base.cycle_max_step, min(2 * base.cycle_max_step, 0.1))
     out["curve_max_step"] = max(base.curve_max_step, min(2 * base.curve_max_step, 0.1))
     out["cycle_max_points"] = min(base.cycle_max_points, 20)

@@ -159,7 +159,9 @@ def test_fig10_overlay_marks_eq21_divergence(scene_results):
     import csv
 
     _, out = scene_results("fig10")
-    rows = list(csv.DictReader((out / "overlay.csv").open()))
+    # The up sweep starts from rest at sigma = -0.05; the down sweep's restarts depend on which
+    # values are sampled (coexisting bounded and diverging responses), so only "up" is asserted.
+    rows = [r for r in csv.DictReader((out / "overlay.csv").open()) if r["direction"] == "up"]
     diverged = sorted({float(r["value"]) for r in rows if not math.isfinite(float(r["a1"]))})
     bounded = sorted({float(r["value"]) for r in rows if math.isfinite(float(r["a1"]))})
     # full resolution: eq. (21) bounded for sigma <= -0.02, diverging from sigma = -0.01 on
