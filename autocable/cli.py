@@ -371,21 +371,6 @@ def cmd_failure_map(args) -> int:
     return 0
 
 
-def cmd_failure_map(args) -> int:
-    """`autocable failure-map`: where the AME and the integrators fail (issue 6, item 3)."""
-    import time
-    from autocable.failure_map import run_failure_map
-    from autocable.failure_map_report import write_failure_map
-    say = None if args.quiet else (lambda s: print(s, file=sys.stderr))
-    t0 = time.perf_counter()
-    result = run_failure_map(args.model, quick=args.quick, log=say)
-    command = "autocable failure-map --out DIR" + (" --quick" if args.quick else "")
-    files = write_failure_map(result, args.out, command)
-    print("\n".join(result["statement"]))
-    print(f"wrote {', '.join(str(f) for f in files)} in {time.perf_counter() - t0:.0f} s")
-    return 0
-
-
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="autocable", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"autocable {__version__}")
@@ -444,14 +429,6 @@ def build_parser() -> argparse.ArgumentParser:
     adv.add_argument("--tol", type=float, default=0.02, help="relative tolerance on a1, a2 (default 0.02)")
     adv.add_argument("--json", action="store_true", help="one JSON object instead of the report")
     adv.set_defaults(func=_cmd_advise)
-
-    fm = sub.add_parser("failure-map", help="maps over (sigma, eta) and (sigma, U) of where the AME "
-                        "and the integrators fail; writes failure_map.md and failure_map_<k>.png")
-    fm.add_argument("--out", required=True, help="folder for failure_map.md and the figures")
-    fm.add_argument("--quick", action="store_true", help="a tiny grid (seconds, for tests)")
-    fm.add_argument("--model", default=str(Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"))
-    fm.add_argument("--quiet", action="store_true", help="no progress")
-    fm.set_defaults(func=cmd_failure_map)
 
     fm = sub.add_parser("failure-map", help="maps over (sigma, eta) and (sigma, U) of where the AME "
                         "and the integrators fail; writes failure_map.md and failure_map_<k>.png")
