@@ -178,3 +178,19 @@ def test_stage_groups_add_up_to_the_scene_total(figures):
     timed = stage_seconds({"derive_s": 1.0, "ame_s": 0.5, "ame_integration_s": 4.0, "ode21_integration_s": 3.0,
                            "plot_s": 0.25, "total_s": 9.0})
     assert (timed["derive"], timed["integrate"], timed["plot"], timed["other"]) == (1.5, 7.0, 0.25, 0.25)
+
+
+def test_report_lists_the_distance_to_digitised_points(figures):
+    """compare.json (autocable/compare.py: per curve label, n_points and max/RMS distance) becomes a
+    table in the figure's section, the numbers as written."""
+    from autocable.report import build_report
+    _, out, _ = figures
+    path = out / "figt2" / "compare.json"
+    path.write_text(json.dumps({"panel": "a1", "x": "sigma", "curves": {
+        "I": {"n_points": 7, "max_distance": 1.25e-05, "rms_distance": 6.5e-06}}}))
+    try:
+        text = build_report(out).split("### tiny: Fig. 5a")[1].split("###")[0]
+    finally:
+        path.unlink()
+    assert "| curve | n_points | max_distance | rms_distance |" in text
+    assert "| I | 7 | 1.25e-05 | 6.5e-06 |" in text
