@@ -227,7 +227,7 @@ def cmd_figures(args) -> int:
     failed = [o for o in outcomes if o.status != "ok"]
     if not args.quiet:
         print(f"{len(outcomes) - len(failed)} of {len(outcomes)} scenes done in {wall:.1f} s "
-              f"({max(1, int(args.jobs or os.cpu_count() or 1))} processes); report: {report}")
+              f"({min(len(outcomes), max(1, int(args.jobs or os.cpu_count() or 1)))} at a time); report: {report}")
         for o in outcomes:
             print(f"  {o.name:<8} {o.status:<6} {o.wall_s:7.1f} s  "
                   + (", ".join(o.files) if o.status == "ok" else o.error))
