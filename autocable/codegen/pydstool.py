@@ -609,7 +609,8 @@ def _jsonable_fnspecs(fnspecs):
 def integrate(generator: OdeGenerator, ics: Mapping[str, float] | Sequence[float],
               pars: Mapping[str, float] | None, t0: float, t1: float,
               dt_sample: float, *,
-              algparams: Mapping[str, Any] | None = None) -> tuple[np.ndarray, np.ndarray]:
+              algparams: Mapping[str, Any] | None = None,
+              max_points: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Integrate from ``t0`` to ``t1`` and sample every ``dt_sample``.
 
     Returns ``(t, states)``: ``t`` = t0, t0+dt, ... (t1 included when it falls on the grid),
@@ -621,7 +622,9 @@ def integrate(generator: OdeGenerator, ics: Mapping[str, float] | Sequence[float
     Vode they are read from PyDSTool's trajectory on a mesh put on the sample times (slow; for
     cross-checks only).
     ``pars`` and ``algparams`` (e.g. ``{"rtol": 1e-8, "atol": 1e-10}``) override, for this call
-    only, the values the generator was made with. Settings made directly on
+    only, the values the generator was made with. ``max_points`` caps the accepted steps plus
+    samples of this call (default and upper limit `MAX_OUTPUT_POINTS`): a caller that knows how
+    many steps a bounded solution needs gives up on a blow-up that much sooner. Settings made directly on
     ``generator.pydstool`` do not survive: every call re-applies the handle's own.
     """
     vf, gen = generator.field, generator.pydstool
@@ -660,14 +663,10 @@ def integrate(generator: OdeGenerator, ics: Mapping[str, float] | Sequence[float
 
     # The output buffer holds every accepted step plus the samples; PyDSTool cannot grow it, so a
     # run that needs more steps is repeated with a larger buffer.
-    max_pts = max(int(gen.algparams.get("max_pts", 0)), 2 * n + 10_000)
+    ceiling = MAX_OUTPUT_POINTS if max_points is None else min(int(max_points), MAX_OUTPUT_POINTS)
+    max_pts = min(max(int(gen.algparams.get("max_pts", 0)), 2 * n + 10_000), ceiling)
     for attempt in range(6):
-        if max_pts > MAX_OUTPUT_POINTS:
-            # A solution that needs this many steps is blowing up or far too stiff: growing the
-            # buffer further only exhausts memory (8x per retry).
-            raise PyDSToolError(f"{what} failed: more than {MAX_OUTPUT_POINTS:,} integration steps "
-                                "(the solution may be blowing up); shorten the interval or check "
-                                "the parameters", what=what)
+        buffer_full = False
         with quiet() as chatter, pydstool_errors(what, chatter):
             gen.set(ics=state, pars=params, tdata=[t0, t1],
                     algparams={**settings, "specialtimes": grid.tolist(),
@@ -677,13 +676,19 @@ def integrate(generator: OdeGenerator, ics: Mapping[str, float] | Sequence[float
                 break
             except Exception as exc:
                 reasons = [str(info) for _, info in getattr(gen.diagnostics, "errors", [])]
-                if attempt < 5 and any("nmax" in r or "max_pts" in r for r in reasons):
-                    max_pts *= 8
-                    continue
-                if reasons:
-                    raise PyDSToolError(f"{what} failed: {reasons[-1]}", what=what,
-                                        chatter=chatter.tail()) from exc
-                raise
+                buffer_full = any("nmax" in r or "max_pts" in r for r in reasons)
+                if not buffer_full:
+                    if reasons:
+                        raise PyDSToolError(f"{what} failed: {reasons[-1]}", what=what,
+                                            chatter=chatter.tail()) from exc
+                    raise
+        if max_pts >= ceiling or attempt == 5:
+            # A solution that needs this many steps is blowing up or far too stiff: growing the
+            # buffer further only exhausts memory (8x per retry).
+            raise PyDSToolError(f"{what} failed: more than {ceiling:,} integration steps "
+                                "(the solution may be blowing up); shorten the interval or check "
+                                "the parameters", what=what)
+        max_pts = min(8 * max_pts, ceiling)
     solver = gen._solver  # PyDSTool's integrator object; its arrays hold the raw output
     times = np.asarray(solver.times, dtype=float)
     points = np.asarray(solver.points, dtype=float)
