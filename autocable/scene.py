@@ -474,9 +474,10 @@ def _overlay(table, path, x: str, runs) -> OverlaySpec:
 
 def _time_scene(data, path: Path, text: str, model: Path, ame: str, scale) -> Scene:
     """A scene with a ``[time]`` table: a time evolution (Fig. 11) instead of continuation runs."""
-    if "run" in data or "overlay" in data or "compare" in data:
-        extra = next(k for k in ("run", "overlay", "compare") if k in data)
-        raise SpecError(path, extra, "a [time] scene has no runs, overlay or comparison; remove it or the [time] table")
+    extra = [k for k in ("run", "overlay", "compare", "fixed", "state_scale") if k in data]
+    if extra:
+        raise SpecError(path, extra[0], "a [time] scene has no runs, overlay, comparison, [fixed] or state_scale "
+                                        "(its parameters are in [time]); remove it or the [time] table")
     if ame != "2dof":
         raise SpecError(path, "ame", 'a [time] scene integrates the 2-dof AME (24): use ame = "2dof"')
     t = data["time"]

@@ -357,6 +357,7 @@ def test_time_scene_schema_errors(tmp_path):
         ('[time]\nU = 0.0\neta = 1e-3\nsigma = 0.0\nt_end = 100.0\n', "time.U"),
         ('[time]\nU = 1.3\neta = 1e-3\nsigma = 0.0\nt_end = 100.0\nstart = "moving"\n', "time.start"),
         ('ame = "1dof"\n[time]\nU = 1.3\neta = 1e-3\nsigma = 0.0\nt_end = 100.0\n', "ame"),
+        ('[fixed]\nU = 1.0\n[time]\nU = 1.3\neta = 1e-3\nsigma = 0.0\nt_end = 100.0\n', "fixed"),
         ('[time]\nU = 1.3\neta = 1e-3\nsigma = 0.0\nt_end = 100.0\n[[run]]\nparameter = "sigma"\nrange = [0, 1]\n', "run"),
     ]
     for body, field in cases:
