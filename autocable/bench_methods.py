@@ -28,6 +28,7 @@ import platform
 import time
 from dataclasses import replace
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
@@ -37,22 +38,22 @@ MATCH_TOL = 0.10            # a reference response is "found" within 10 %
 DEFAULT_SCENES = ("fig05a", "fig06", "fig09", "fig10")
 QUICK_SCENES = ("fig05a",)
 #: The one-minute bench: the cheap settings of the core rungs (the optional rungs are left out).
-QUICK_LADDERS = {
+QUICK_LADDERS = MappingProxyType({
     "ame-1dof": ({"max_step": 0.05, "engine": "compiled"}, {"max_step": 0.02, "engine": "compiled"}),
     "ame-2dof": ({"max_step": 0.05, "engine": "compiled"}, {"max_step": 0.02, "engine": "compiled"},
                  {"max_step": 0.02}),
     "ame-sweep": ({"rtol": 1e-6, "points": 6},),
     "ode21-sweep": ({"rtol": 1e-6, "points": 11},),
-}
+})
 
 
 #: Figure settings the paper gives but no scene file holds yet (Fig. 10 caption: "when U = 1.3 and
 #: eta = 1.4e-3"), over the sigma range of the other figures.
-PAPER_ONLY = {
+PAPER_ONLY = MappingProxyType({
     "fig10": R.Setting("fig10", "Fig. 10: U = 1.3, eta = 1.4e-3 (paper caption)",
                        Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml",
                        1.3, 1.4e-3, (-0.05, 0.05), ""),
-}
+})
 
 
 def _runs_dir() -> Path:
