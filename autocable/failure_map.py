@@ -440,7 +440,7 @@ def region_statement(result: dict, tol: float = 0.02) -> list:
         if prefix is not None:
             head += f"within {pct} at every sigma for {ax} <= {prefix:g}"
         else:
-            head += f"not within {pct} at every sigma for any {ax} of the grid"
+            head += f"no row of the grid is within {pct} at every sigma"
         parts = []
         for v in values:
             if prefix is not None and v <= prefix:

@@ -136,8 +136,17 @@ def plot_plane(plane: dict, result: dict, path) -> None:
     ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2)
     ax.set_title("(c) struggles: continuation stalls (LP/H/BP: special points), steps, divergence",
                  fontsize=9)
+    s_lo, s_hi = min(plane["sigmas"]), max(plane["sigmas"])
+    v_lo, v_hi = min(plane["values"]), max(plane["values"])
+    pad = 0.06 * (s_hi - s_lo)
     for ax in axes:
         _boundary(ax, plane, result)
+        # The contours would otherwise set the limits and clip the edge rows of markers.
+        ax.set_xlim(s_lo - pad, s_hi + pad)
+        if ax_name == "eta":
+            ax.set_ylim(v_lo / 1.5, v_hi * 1.5)
+        else:
+            ax.set_ylim(v_lo - 0.08 * (v_hi - v_lo), v_hi + 0.12 * (v_hi - v_lo))
         ax.set_xlabel("sigma (Omega = omega1 + sigma)")
         ax.set_ylabel(ax_name + "*")
         if ax_name == "eta":
@@ -232,13 +241,13 @@ def markdown(result: dict, pngs, command: str) -> str:
     stalls = [(n, c) for n, c in cont if c["stalled"]]
     lines.append(f"- **Continuation (c).** Coarse EP-C of the AME equilibria in sigma on every row, forward "
                  f"from the small forced response at the lower end: {len(cont)} rows, "
-                 + (f"{len(stalls)} stall(s): " + "; ".join(
+                 + (f"{len(stalls)} stall(s) (the branch ended inside the range): " + "; ".join(
                      f"U = {c['U']:g}, eta = {c['eta']:g}: {c['end_reason']} at sigma = {c['end_sigma']:+.4g} "
                      f"after {c['points']} points ({c['message'][:90]})" for _, c in stalls)
                     if stalls else "no stall: every branch reached the end of the range")
-                 + "".join(f"; U = {c['U']:g}, eta = {c['eta']:g}: the branch turned back at a fold and "
-                           f"left the range at sigma = {c['end_sigma']:+.4g} (the rest of the row needs "
-                           "another start)" for _, c in cont if c.get("turned_back"))
+                 + "".join(f". U = {c['U']:g}, eta = {c['eta']:g}: not a stall, but the branch turned back "
+                           f"at a fold and left the range at sigma = {c['end_sigma']:+.4g} (the rest of the "
+                           "row needs another start)" for _, c in cont if c.get("turned_back"))
                  + ". Special points met (LP fold, H Hopf, BP branch point): " + "; ".join(
                      f"U = {c['U']:g}, eta = {c['eta']:g}: " + (", ".join(
                          f"{s['type']} {s['sigma']:+.4f}" for s in c["special"]) or "none")

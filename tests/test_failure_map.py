@@ -123,6 +123,12 @@ def test_statement_is_computed_from_the_grid():
     assert total == "Over all 15 distinct grid points: within 2 % at 11, not within 2 % at 4, unchecked " \
                     "(eq. (21) diverges) at 0."
     assert "within 2 % at 13, not within 2 % at 2," in total2
+    # The smallest eta fails somewhere: no prefix of the rows is within everywhere.
+    worse = copy.deepcopy(grid)
+    worse["planes"][0]["rows"][0]["rel_a1"] = 0.03
+    line4, _ = region_statement(worse, 0.02)
+    assert "no row of the grid is within 2 % at every sigma" in line4
+    assert "for eta = 0.0001: within 2 % only at sigma in [-0.01, +0.02]; not within 2 % at sigma = -0.02" in line4
     # A looser tolerance moves the boundary too.
     line3, _ = region_statement(grid, 0.06)
     assert "for eta <= 0.0004" in line3
