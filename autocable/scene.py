@@ -14,6 +14,9 @@ start that does not converge raise `autocable.spec.SpecError` with one line nami
     title = "Fig. 5a: ..."            # optional text
     model = "../models/luongo_zulli_2012.toml"
     ame = "2dof"                      # "2dof" | "1dof" | "1dof-amplitude" (eta = 0, Fig. 3)
+    engine = "pycont"                 # equilibria and switching: "pycont" (PyCont EP-C, default) or
+                                      # "compiled" (autocable's C kernel: the same branches, tested to
+                                      # agree, about 100x faster); cycles and curves always use PyCont
     state_scale = "auto"              # amplitude scale for the continuation ("auto" or a number)
     [fixed]                           # U, eta, sigma shared by every run (default 0)
     [[run]]
@@ -92,9 +95,12 @@ __all__ = [
 ]
 
 PARAMETERS = ("sigma", "U", "eta")
+#: The equilibrium engines of `autocable.methods.equilibria.ENGINES` (not imported here: parsing a
+#: scene must not load PyDSTool).
+ENGINES = ("pycont", "compiled")
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_\-]*$")
 _LABEL = re.compile(r"^([A-Za-z0-9_\-]+):([A-Z]+[0-9]+)$")
-_TOP_KEYS = ("title", "description", "model", "ame", "state_scale", "fixed", "run", "plot", "compare",
+_TOP_KEYS = ("title", "description", "model", "ame", "engine", "state_scale", "fixed", "run", "plot", "compare",
              "overlay", "time")
 _RUN_KEYS = ("name", "kind", "parameter", "range", "start", "at", "directions", "cycles", "switch",
              "fixed", "steps", "parameter2", "range2")
@@ -193,6 +199,7 @@ class Scene:
     text: str = field(default="", repr=False)
     overlay: OverlaySpec | None = None
     time: "TimeSpec | None" = None
+    engine: str = "pycont"             # equilibria and branch switching: "pycont" | "compiled"
 
 
 @dataclass(frozen=True)
@@ -297,6 +304,10 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
     ame = data.get("ame", "2dof")
     if ame not in AME_KINDS:
         raise SpecError(path, "ame", f'expected "2dof", "1dof" or "1dof-amplitude", got {ame!r}')
+    engine = data.get("engine", "pycont")
+    if engine not in ENGINES:
+        raise SpecError(path, "engine", f'expected "pycont" (PyCont EP-C) or "compiled" (autocable\'s C '
+                                        f'kernel, same branches), got {engine!r}')
     scale = data.get("state_scale", "auto")
     if scale == "auto":
         scale = None
@@ -437,7 +448,7 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
     return Scene(path=path, name=path.stem, title=title, description=data.get("description", ""),
                  model=model, ame=ame, state_scale=scale, fixed=fixed, runs=tuple(runs),
                  plot=PlotSpec(x, tuple(y), ptitle, labels, plane), compare=compare, text=text,
-                 overlay=overlay)
+                 overlay=overlay, engine=engine)
 
 
 def _overlay(table, path, x: str, runs) -> OverlaySpec:
@@ -738,8 +749,12 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         elif run.kind in ("cycles", "switch"):
             # The labelled point in this run's problem (its parameter and range).
             src = C.ContinuationResult(source.branch, problem, settings)
-            fn = C.continue_cycles if run.kind == "cycles" else C.switch_branch
-            result = fn(src, run.start.label.split(":")[1], settings, name=run.name, progress=say)
+            label = run.start.label.split(":")[1]
+            if run.kind == "cycles":
+                result = C.continue_cycles(src, label, settings, name=run.name, progress=say)
+            else:
+                result = C.switch_branch(src, label, settings, name=run.name, progress=say,
+                                         engine=scene.engine)
             add(result)
         else:
             try:
@@ -762,7 +777,8 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
                 else:
                     x0 = start_state
                 result = C.continue_equilibria(problem, settings, x0, name=run.name,
-                                               directions=run.directions, progress=say)
+                                               directions=run.directions, progress=say,
+                                               engine=scene.engine)
             except C.StartError as exc:
                 raise SpecError(path, f"{where}.start", str(exc)) from None
             add(result)
@@ -781,7 +797,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
                     continue
                 say(f"  switching branches at {bp.name}")
                 add(C.switch_branch(results[run.name], bp.label, settings, name=f"{run.name}-{bp.label}",
-                                    progress=say))
+                                    progress=say, engine=scene.engine))
                 follow["switch"] += 1
         run_times[run.name] = {"wall_s": time.perf_counter() - t_run,
                                **{k: v for k, v in results[run.name].timings.items()},
@@ -791,7 +807,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         "scene": str(scene.path), "scene_name": scene.name, "title": scene.title,
         "scene_text": scene.text, "model": str(scene.model), "model_name": spec.name,
         "model_hash": spec.content_hash(), "ode_hash": deriv.ode.content_hash(), "ame_key": cached.key,
-        "ame": scene.ame, "omega1": omega1, "omega2": float(ame.omegas[1]) if len(ame.omegas) > 1 else None,
+        "ame": scene.ame, "engine": scene.engine, "omega1": omega1, "omega2": float(ame.omegas[1]) if len(ame.omegas) > 1 else None,
         "amplitude_convention": "a_k = sqrt(r_k^2 + s_k^2): peak modal amplitude (peak displacement / l, "
                                 "modes normalised to a unit maximum); Omega = omega1 + sigma",
         "stability": "autocable's eigenvalues (equilibria) and Floquet multipliers (cycles), not PyCont's flags",

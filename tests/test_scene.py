@@ -3,6 +3,7 @@ part-way keeping its points in the written results."""
 from __future__ import annotations
 
 import argparse
+import json
 import math
 from pathlib import Path
 
@@ -101,6 +102,7 @@ def _scene(tmp_path: Path, body: str) -> Path:
     ('[[run]]\nparameter = "sigma"\nrange = [-0.05, 0.05]\nstart = "II:H1"\n', "run[0].start", "earlier run"),
     ('[[run]]\nparameter = "sigma"\nrange = [-0.05, 0.05]\n[run.steps]\nstep = 1.0\nmax_step = 0.1\n',
      "run[0].steps", "step"),
+    ('engine = "auto07p"\n[[run]]\nparameter = "sigma"\nrange = [-0.05, 0.05]\n', "engine", "compiled"),
 ])
 def test_scene_schema_errors_are_one_line(tmp_path, body, field, words):
     with pytest.raises(SpecError) as err:
@@ -149,6 +151,30 @@ def test_run_command_with_an_integrated_start_and_a_comparison(tmp_path, capsys,
     b = read_results(tmp_path / "o").branch("I")
     ref = fig05a[0].branch("I")
     assert b["sigma"][0] == pytest.approx(-0.05) and b["a1"][0] == pytest.approx(ref["a1"][0], rel=1e-10)
+
+
+def test_scene_engines_agree_and_are_named_in_the_provenance(tmp_path, fig05a):
+    """`engine = "compiled"` runs Fig. 5a's equilibria in autocable's C kernel: the same branch as
+    the PyCont run of the shipped scene (every point within the continuation tolerance of the
+    PyCont branch, same end values), the engine recorded in run.json, no PyCont confirmation."""
+    from autocable.methods.equilibria import ENGINES as METHOD_ENGINES
+    from autocable.scene import ENGINES
+
+    assert ENGINES == METHOD_ENGINES
+    text = FIG05A.read_text().replace('model = "../models/', f'model = "{REPO}/models/')
+    assert 'engine = "compiled"' not in text
+    path = tmp_path / "fig05a_compiled.toml"
+    path.write_text(text.replace('ame = "2dof"', 'engine = "compiled"\name = "2dof"', 1))
+    res = run_scene(load_scene(path), tmp_path / "out")
+    ref, new = fig05a[0].branch("I"), res.branch("I")
+    assert json.loads((tmp_path / "out" / "run.json").read_text())["provenance"]["engine"] == "compiled"
+    assert json.loads((fig05a[1] / "run.json").read_text())["provenance"]["engine"] == "pycont"
+    assert new["sigma"][[0, -1]] == pytest.approx(ref["sigma"][[0, -1]], abs=1e-12)
+    # a1 along the PyCont branch, interpolated at the compiled points (sigma is monotone on Fig. 5a)
+    order = np.argsort(ref["sigma"])
+    a1_ref = np.interp(new["sigma"], ref["sigma"][order], ref["a1"][order])
+    assert np.max(np.abs(new["a1"] - a1_ref)) < 1e-3 * np.max(ref["a1"])
+    assert bool(np.all(new.stable)) and bool(np.all(ref.stable))    # Fig. 5a: stable throughout
 
 
 def test_the_one_dof_reduction_has_the_two_dof_branch_when_a2_vanishes(fig05a):
