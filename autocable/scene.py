@@ -1065,7 +1065,14 @@ def _run_time_scene(scene: Scene, out_dir, say, plot: bool, resolution: str):
     if plot:
         t0 = time.perf_counter()
         from autocable.plotting.diagrams import plot_time_series
+        # A modulation period is tens of time units against a run of tens of thousands: beside the
+        # whole run, a window of the last few periods shows the periodic solution itself.
+        period = summary.get("ame", {}).get("modulation_period")
+        t_last = float(series["ame"][0][-1]) if len(series["ame"][0]) else 0.0
+        zoom = ((t_last - 5.0 * period, t_last) if period and math.isfinite(period)
+                and 5.0 * period < t_last - spec.summary_from else None)
         files = plot_time_series(series, out / scene.name, y=scene.plot.y, title=scene.plot.title,
+                                 zoom=zoom,
                                  ode21_message=summary.get("ode21", {}).get("message", ""),
                                  ode21_diverged=summary.get("ode21", {}).get("diverged", False))
         stages["plot_s"] = time.perf_counter() - t0

@@ -251,12 +251,46 @@ def _plot_plane(results, stem, *, x, y, title, labels) -> list[Path]:
     return paths
 
 
+def _time_panel(ax, series, amp: str, window, ode21_diverged: bool) -> None:
+    """One amplitude against time, over the whole run or over ``window`` = (t0, t1)."""
+    k = 1 if amp == "a1" else 2
+
+    def part(t, a):
+        t = np.asarray(t, dtype=float)
+        a = np.asarray(a, dtype=float)
+        if window is None:
+            return t, a
+        keep = (t >= window[0]) & (t <= window[1])
+        return t[keep], a[keep]
+
+    if "ame" in series:
+        t, *a = series["ame"]
+        ax.plot(*part(t, a[k - 1]), color="black", lw=_THICK, label="AME (24)")
+    if "ode21" in series:
+        t, *a = series["ode21"]
+        if len(t):
+            ax.plot(*part(t, a[k - 1]), color="tab:blue", lw=_THIN, label="eq. (21): envelope")
+        if ode21_diverged and window is None:
+            t_div = float(t[-1]) if len(t) else 0.0
+            ax.plot([t_div], [1.0], marker="v", ms=6, color="tab:red", ls="none",
+                    transform=ax.get_xaxis_transform(), clip_on=False,
+                    label=f"eq. (21) diverges (t = {t_div:.4g})")
+    ax.set_ylabel(AXIS_LABELS.get(amp, amp))
+    ax.set_ylim(bottom=0.0)
+    ax.tick_params(direction="in", top=True, right=True, labelsize=8)
+    ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
+    if window is None:
+        ax.legend(fontsize=7, frameon=False, loc="best")
+
+
 def plot_time_series(series, stem: str | Path, *, y: Sequence[str] = ("a1", "a2"), title: str = "",
-                     ode21_message: str = "", ode21_diverged: bool = False) -> list[Path]:
+                     ode21_message: str = "", ode21_diverged: bool = False,
+                     zoom: tuple[float, float] | None = None) -> list[Path]:
     """Fig. 11: a1(t), a2(t) of the AME (thick) and the amplitude envelope of eq. (21) (thin, half
     peak-to-peak per forcing period) on the same axes, one panel per amplitude. ``series`` maps
     "ame" / "ode21" to (t, a1, a2) arrays. A divergence of eq. (21) is marked where it happens
-    (a caret on the top edge) and named in the legend. Writes ``<stem>.png`` and ``<stem>.pdf``."""
+    (a caret on the top edge) and named in the legend. ``zoom = (t0, t1)`` adds a right-hand column
+    with that window (a few modulation periods). Writes ``<stem>.png`` and ``<stem>.pdf``."""
     with _matplotlib_quiet():
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
@@ -264,31 +298,20 @@ def plot_time_series(series, stem: str | Path, *, y: Sequence[str] = ("a1", "a2"
         stem = Path(stem)
         stem.parent.mkdir(parents=True, exist_ok=True)
         panels = list(y)
-        fig = Figure(figsize=(6.5, 2.8 * len(panels)))
+        ncol = 2 if zoom else 1
+        fig = Figure(figsize=(6.5 if ncol == 1 else 10.0, 2.8 * len(panels)))
         FigureCanvasAgg(fig)
-        axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
-        for ax, amp in zip(axes, panels):
-            k = 1 if amp == "a1" else 2
-            if "ame" in series:
-                t, *a = series["ame"]
-                ax.plot(t, a[k - 1], color="black", lw=_THICK, label="AME (24)")
-            if "ode21" in series:
-                t, *a = series["ode21"]
-                if len(t):
-                    ax.plot(t, a[k - 1], color="tab:blue", lw=_THIN, label="eq. (21): envelope")
-                if ode21_diverged:
-                    t_div = float(t[-1]) if len(t) else 0.0
-                    ax.plot([t_div], [1.0], marker="v", ms=6, color="tab:red", ls="none",
-                            transform=ax.get_xaxis_transform(), clip_on=False,
-                            label=f"eq. (21) diverges (t = {t_div:.4g})")
-            ax.set_ylabel(AXIS_LABELS.get(amp, amp))
-            ax.set_ylim(bottom=0.0)
-            ax.tick_params(direction="in", top=True, right=True, labelsize=8)
-            ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
-            ax.legend(fontsize=7, frameon=False, loc="upper right")
-        axes[-1].set_xlabel(r"$t$")
+        grid = fig.subplots(len(panels), ncol, sharex="col", squeeze=False)
+        for col in range(ncol):
+            window = zoom if col == 1 else None
+            for ax, amp in zip(grid[:, col], panels):
+                _time_panel(ax, series, amp, window, ode21_diverged)
+            grid[-1, col].set_xlabel(r"$t$")
+        if zoom:
+            grid[0, 1].set_title(f"last {zoom[1] - zoom[0]:.4g} time units", fontsize=8)
+        axes = grid[:, 0]
         if title:
-            axes[0].set_title(title, fontsize=9)
+            (fig.suptitle if zoom else axes[0].set_title)(title, fontsize=9)
         fig.tight_layout()
         paths = []
         for ext in (".png", ".pdf"):
