@@ -307,10 +307,21 @@ def run_bench(out_dir, *, scenes=None, quick: bool = False, repeats: int = 2, lo
                            for s in settings],
               "wall_seconds": time.perf_counter() - t_all, "platform": platform.platform()}
     from autocable.codegen.cache import atomic_write_json, atomic_write_text
-    atomic_write_json(out / "bench.json", json.loads(json.dumps(result, default=_json_default)))
+    atomic_write_json(out / "bench.json", _finite(json.loads(json.dumps(result, default=_json_default))))
     plot_work_precision(records, settings, out / "work_precision.png")
     atomic_write_text(out / "work_precision.md", markdown(result))
     return result
+
+
+def _finite(x):
+    """JSON has no NaN or infinity: non-finite numbers (a diverged response) become null."""
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    if isinstance(x, dict):
+        return {k: _finite(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_finite(v) for v in x]
+    return x
 
 
 def _json_default(x):
