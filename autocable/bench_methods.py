@@ -392,15 +392,18 @@ def plot_work_precision(records, settings, path: Path) -> None:
                "ode21-periodic": "v", "ode21-nmode": "P"}
     for ax, st in zip(axes[0], settings):
         rs = [r for r in records if r["scene"] == st.scene and r["seconds"] is not None and r["error"] is not None]
-        for name in dict.fromkeys(r["method"] for r in rs):
-            mine = sorted((r for r in rs if r["method"] == name), key=lambda r: r["seconds"])
+        def curve(r):
+            return r["method"] + (" (compiled)" if r["setting"].get("engine") == "compiled" else "")
+        for name in dict.fromkeys(curve(r) for r in rs):
+            mine = sorted((r for r in rs if curve(r) == name), key=lambda r: r["seconds"])
             x = [r["seconds"] for r in mine]
             y = [max(r["error"], 1e-12) for r in mine]
-            line, = ax.loglog(x, y, marker=markers.get(name, "x"), label=name)
-            for r in mine:
-                if r["missed"]:
-                    ax.annotate(f"{r['missed']} missed", (r["seconds"], max(r["error"], 1e-12)), fontsize=6,
-                                color=line.get_color(), xytext=(3, 3), textcoords="offset points")
+            line, = ax.loglog(x, y, marker=markers.get(name.split()[0], "x"), label=name,
+                              ls="--" if "compiled" in name else "-")
+            worst = max(mine, key=lambda r: r["missed"] or 0)
+            if worst["missed"]:
+                ax.annotate(f"{worst['missed']} missed", (worst["seconds"], max(worst["error"], 1e-12)), fontsize=6,
+                            color=line.get_color(), xytext=(3, 3), textcoords="offset points")
         ax.axhline(0.02, color="0.6", lw=0.8, ls=":")
         ax.set_title(f"{st.scene}: U = {st.U:g}, eta = {st.eta:g}", fontsize=9)
         ax.set_xlabel("warm wall time [s]")
