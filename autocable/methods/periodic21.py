@@ -303,7 +303,9 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
     length of one PyCont curve, ``tol`` AUTO's Newton tolerance (relative), ``floquet_rtol`` the
     tolerance of the variational integration. Never raises for a numerical failure: the branch
     computed so far is returned with ``end_reason`` saying what happened. Pass ``integrator`` (an
-    `Ode21Integrator` of the same ODE) to reuse its compiled generator."""
+    `Ode21Integrator` of the same ODE) to reuse its compiled generator. Start inside the range:
+    from a start on (or a step from) a range end AUTO may take the outward sense on both sides,
+    and nothing is left inside the range."""
     from autocable.methods.integration import DEFAULT_Q0, Ode21Integrator
 
     start_clock = time.perf_counter()
@@ -377,6 +379,7 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
                           "indepvararray": ts.copy(), "indepvarname": "t"})
     sides, reasons = {}, {}
     lam_lo, lam_hi = (lo - start_sigma) / span, (hi - start_sigma) / span
+    edge = 1e-3 * step / span
     curve_args = dict(freepars=["lam"], StepSize=0.2 * step / span, MinStepSize=1e-9,
                       MaxStepSize=step / span, NumIntervals=int(ntst), NumCollocation=int(ncol),
                       NumSPOut=1, LocBifPoints=["LPC", "PD", "NS"], SolutionMeasures=["max", "min"],
@@ -385,8 +388,7 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
     counter = [0]
 
     def run_chunk(init, how, n):
-        """One PyCont curve of n points from ``init``, in travel order (a backward curve's
-        solution is stored far end first)."""
+        """One PyCont curve of n points from ``init``, in travel order."""
         counter[0] += 1
         name = f"P21_{counter[0]}"
         start_args = ({"initpoint": dict(ics, lam=0.0), "initcycle": cycle} if init is None
@@ -398,7 +400,13 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
                                    **curve_args))
             getattr(cont[name], how)()
         pts = list(cont[name].sol)
-        return pts[::-1] if how == "backward" else pts
+        # Travel order starts at the point handed in. PyCont stores some curves far end first
+        # (not tied to forward/backward, as once assumed): orient by which end is the start.
+        ref = 0.0 if init is None else float(init["lam"])
+        if len(pts) > 1 and abs(float(pts[-1]["lam"]) - ref) < abs(float(pts[0]["lam"]) - ref):
+            pts = pts[::-1]
+        return pts
+
 
     def measure(pt):
         # The profile's first point (the orbit at AUTO's phase origin) keep the sign of q2, so
@@ -418,6 +426,11 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
         travelled[0] = max(travelled[0], far)
         return travelled[0] > 10 * stepn and here < 2 * stepn
 
+    # From the initial cycle PyCont's backward() may travel the same way as forward() (seen on
+    # Fig. 5a): AUTO picks the sense from its own tangent, and neither the call nor the sign of
+    # the parametrisation changes it (both tried). See the restart below.
+    side_sign = {"forward": 1.0, "backward": 1.0}
+    first_travel = 0.0
     for direction in ("forward", "backward"):
         if direction == "backward" and reasons.get("forward", "").startswith("closed"):
             sides["backward"], reasons["backward"] = [], "not needed (closed loop)"
@@ -428,6 +441,23 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
             while len(kept) < max_points:
                 n = min(chunk, max_points - len(kept) + (1 if kept else 0))
                 pts = run_chunk(init, how, n)
+                travel = (float(pts[-1]["lam"]) - float(pts[0]["lam"])) if len(pts) > 1 else 0.0
+                if init is None and direction == "forward":
+                    first_travel = travel
+                if (direction == "backward" and init is None and travel * first_travel > 0
+                        and len(sides["forward"]) > 1):
+                    # From the initial cycle AUTO chose the forward side's sense again: restart
+                    # from the forward side's first corrected orbit, which carries AUTO's tangent
+                    # so that the sense can be chosen, and keep the sense that travels away.
+                    f1 = sides["forward"][1]
+                    for how in ("backward", "forward"):
+                        pts = run_chunk(f1, how, n)
+                        if len(pts) > 1 and (float(pts[-1]["lam"]) - float(pts[0]["lam"])) * first_travel < 0:
+                            break
+                    else:
+                        reason = "AUTO did not continue against the forward side"
+                        break
+                    pts = [sides["forward"][0]] + pts[1:]     # the side starts at the start orbit
                 if kept:
                     # A restart carries AUTO's tangent; make sure it kept the direction of travel.
                     ms = [measure(p_) for p_ in (kept[-2] if len(kept) > 1 else None, kept[-1])
@@ -442,11 +472,13 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
                     if len(kept) > 2 and closed_loop(kept, pt):
                         reason, stop = "closed loop (the branch came back to its start)", True
                         break
-                    lam, per = float(pt["lam"]), float(pt["_T"])
+                    lam, per = side_sign[direction] * float(pt["lam"]), float(pt["_T"])
                     if "MX" in pt.labels or not (math.isfinite(lam) and math.isfinite(per)):
                         reason, stop = "AUTO stopped (no convergence, MX point)", True
                         break
-                    if not lam_lo - 1e-12 <= lam <= lam_hi + 1e-12:
+                    # AUTO corrects the start with lam free: a start on the range's end may
+                    # land a hair outside it, which must not end the branch at its first point.
+                    if not lam_lo - edge <= lam <= lam_hi + edge:
                         reason, stop = "range", True
                         break
                     kept.append(pt)
@@ -458,7 +490,7 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
                 init = kept[-1]
                 if progress:
                     progress(f"periodic21 {direction}: {len(kept)} orbits, sigma = "
-                             f"{start_sigma + span * float(kept[-1]['lam']):.6g}")
+                             f"{start_sigma + span * side_sign[direction] * float(kept[-1]['lam']):.6g}")
         except Exception as exc:  # noqa: BLE001 - a failure is a result; the points so far stay
             reason = f"AUTO failed: {_one_line(exc)}"
         sides[direction], reasons[direction] = kept, reason
@@ -470,13 +502,14 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
     t0 = time.perf_counter()
     # The start point itself is dropped: AUTO reports it as handed in (its profile re-interpolated
     # to AUTO's mesh, not corrected), so it is not a collocation solution; its neighbours are.
-    ordered = list(reversed(sides["backward"][1:])) + sides["forward"][1:]
+    ordered = ([(pt, side_sign["backward"]) for pt in reversed(sides["backward"][1:])]
+               + [(pt, 1.0) for pt in sides["forward"][1:]])
     if not ordered:
         return failed("; ".join(f"{k}: {v}" for k, v in reasons.items()))
     rows = {k: [] for k in ("sigma", "a1", "a2", "qmin", "qmax", "T", "mu", "stable", "state", "closure")}
     auto_diff, auto_labels, skipped = [], [], 0
-    for pt in ordered:
-        lam, per = float(pt["lam"]), float(pt["_T"])
+    for pt, sign in ordered:
+        lam, per = sign * float(pt["lam"]), float(pt["_T"])
         sigma = start_sigma + span * lam
         Om = ode.omega1 + sigma
         for kind in pt.labels:

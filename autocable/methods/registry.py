@@ -411,8 +411,10 @@ def _optional_run(tools: Tools, name: str, setting: Setting, knobs: Mapping):
         lo, hi = setting.sigma_range
         integ = tools.ode21(1e-10)
         t0 = time.perf_counter()
+        # Started mid-range: from a start on a range end AUTO may take the outward sense on both
+        # sides (periodic21's docstring), leaving nothing inside the range.
         br = continue_periodic21(tools.derivation, U=setting.U, eta=setting.eta, sigma_range=(lo, hi),
-                                 start_sigma=lo, integrator=integ, **dict(knobs))
+                                 start_sigma=0.5 * (lo + hi), integrator=integ, **dict(knobs))
         build = float(br.info.get("timings", {}).get("build_s", 0.0))
         key = "auto-periodic21"
         if key not in tools.builds:
