@@ -429,7 +429,6 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
     # From the initial cycle PyCont's backward() may travel the same way as forward() (seen on
     # Fig. 5a): AUTO picks the sense from its own tangent, and neither the call nor the sign of
     # the parametrisation changes it (both tried). See the restart below.
-    side_sign = {"forward": 1.0, "backward": 1.0}
     first_travel = 0.0
     for direction in ("forward", "backward"):
         if direction == "backward" and reasons.get("forward", "").startswith("closed"):
@@ -472,7 +471,7 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
                     if len(kept) > 2 and closed_loop(kept, pt):
                         reason, stop = "closed loop (the branch came back to its start)", True
                         break
-                    lam, per = side_sign[direction] * float(pt["lam"]), float(pt["_T"])
+                    lam, per = float(pt["lam"]), float(pt["_T"])
                     if "MX" in pt.labels or not (math.isfinite(lam) and math.isfinite(per)):
                         reason, stop = "AUTO stopped (no convergence, MX point)", True
                         break
@@ -490,7 +489,7 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
                 init = kept[-1]
                 if progress:
                     progress(f"periodic21 {direction}: {len(kept)} orbits, sigma = "
-                             f"{start_sigma + span * side_sign[direction] * float(kept[-1]['lam']):.6g}")
+                             f"{start_sigma + span * float(kept[-1]['lam']):.6g}")
         except Exception as exc:  # noqa: BLE001 - a failure is a result; the points so far stay
             reason = f"AUTO failed: {_one_line(exc)}"
         sides[direction], reasons[direction] = kept, reason
@@ -502,14 +501,13 @@ def continue_periodic21(derivation, *, U: float, eta: float, sigma_range, start_
     t0 = time.perf_counter()
     # The start point itself is dropped: AUTO reports it as handed in (its profile re-interpolated
     # to AUTO's mesh, not corrected), so it is not a collocation solution; its neighbours are.
-    ordered = ([(pt, side_sign["backward"]) for pt in reversed(sides["backward"][1:])]
-               + [(pt, 1.0) for pt in sides["forward"][1:]])
+    ordered = list(reversed(sides["backward"][1:])) + sides["forward"][1:]
     if not ordered:
         return failed("; ".join(f"{k}: {v}" for k, v in reasons.items()))
     rows = {k: [] for k in ("sigma", "a1", "a2", "qmin", "qmax", "T", "mu", "stable", "state", "closure")}
     auto_diff, auto_labels, skipped = [], [], 0
-    for pt, sign in ordered:
-        lam, per = sign * float(pt["lam"]), float(pt["_T"])
+    for pt in ordered:
+        lam, per = float(pt["lam"]), float(pt["_T"])
         sigma = start_sigma + span * lam
         Om = ode.omega1 + sigma
         for kind in pt.labels:
