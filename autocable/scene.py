@@ -13,7 +13,10 @@ start that does not converge raise `autocable.spec.SpecError` with one line nami
 
     title = "Fig. 5a: ..."            # optional text
     model = "../models/luongo_zulli_2012.toml"
-    ame = "2dof"                      # "2dof" | "1dof" | "1dof-amplitude" (eta = 0, Fig. 3)
+    ame = "2dof"                      # "2dof" | "1dof" | "1dof-amplitude" (eta = 0, Fig. 3) | "auto":
+                                      # the lightest AME within ame_tol (autocable.advise), chosen by
+                                      # cheap probes before the runs and recorded in run.json
+    ame_tol = 0.02                    # only with ame = "auto"
     engine = "pycont"                 # equilibria and switching: "pycont" (PyCont EP-C, default) or
                                       # "compiled" (autocable's C kernel: the same branches, tested to
                                       # agree, about 100x faster); cycles and curves always use PyCont
@@ -75,7 +78,7 @@ import platform
 import re
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
@@ -100,7 +103,7 @@ PARAMETERS = ("sigma", "U", "eta")
 ENGINES = ("pycont", "compiled")
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_\-]*$")
 _LABEL = re.compile(r"^([A-Za-z0-9_\-]+):([A-Z]+[0-9]+)$")
-_TOP_KEYS = ("title", "description", "model", "ame", "engine", "state_scale", "fixed", "run", "plot", "compare",
+_TOP_KEYS = ("title", "description", "model", "ame", "ame_tol", "engine", "state_scale", "fixed", "run", "plot", "compare",
              "overlay", "time")
 _RUN_KEYS = ("name", "kind", "parameter", "range", "start", "at", "directions", "cycles", "switch",
              "fixed", "steps", "parameter2", "range2")
@@ -200,6 +203,7 @@ class Scene:
     overlay: OverlaySpec | None = None
     time: "TimeSpec | None" = None
     engine: str = "pycont"             # equilibria and branch switching: "pycont" | "compiled"
+    ame_tol: float = 0.02              # with ame = "auto": the tolerance the advice uses
 
 
 @dataclass(frozen=True)
@@ -302,8 +306,13 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
     if not model.is_file():
         raise SpecError(path, "model", f"no such file: {model}")
     ame = data.get("ame", "2dof")
-    if ame not in AME_KINDS:
-        raise SpecError(path, "ame", f'expected "2dof", "1dof" or "1dof-amplitude", got {ame!r}')
+    if ame not in AME_KINDS + ("auto",):
+        raise SpecError(path, "ame", f'expected "2dof", "1dof", "1dof-amplitude" or "auto", got {ame!r}')
+    ame_tol = data.get("ame_tol", 0.02)
+    if "ame_tol" in data and ame != "auto":
+        raise SpecError(path, "ame_tol", 'only with ame = "auto" (the tolerance `autocable advise` chooses by)')
+    if isinstance(ame_tol, bool) or not isinstance(ame_tol, (int, float)) or not 0 < ame_tol < 1:
+        raise SpecError(path, "ame_tol", f"expected a relative tolerance in (0, 1), got {ame_tol!r}")
     engine = data.get("engine", "pycont")
     if engine not in ENGINES:
         raise SpecError(path, "engine", f'expected "pycont" (PyCont EP-C) or "compiled" (autocable\'s C '
@@ -448,7 +457,7 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
     return Scene(path=path, name=path.stem, title=title, description=data.get("description", ""),
                  model=model, ame=ame, state_scale=scale, fixed=fixed, runs=tuple(runs),
                  plot=PlotSpec(x, tuple(y), ptitle, labels, plane), compare=compare, text=text,
-                 overlay=overlay, engine=engine)
+                 overlay=overlay, engine=engine, ame_tol=float(ame_tol))
 
 
 def _overlay(table, path, x: str, runs) -> OverlaySpec:
@@ -652,6 +661,18 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
 
     t_all = time.perf_counter()
     stages: dict[str, Any] = {}
+    advice = None
+    if scene.ame == "auto":
+        # The lightest AME that reproduces this scene within ame_tol (issue 6, `autocable advise`):
+        # cheap probes first, then the whole scene with the chosen rung.
+        from autocable.advise import advice_report, choose_ame
+        t0 = time.perf_counter()
+        say(f'ame = "auto": probing which amplitude equations this scene needs (tol {scene.ame_tol:g})')
+        advice = choose_ame(scene, tol=scene.ame_tol)
+        for line in advice_report(advice).splitlines():
+            say(f"  {line}")
+        scene = replace(scene, ame=advice.ame)
+        stages["advise_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     say(f"model {scene.model.name}: eq. (21)")
     spec = load_model(scene.model)
@@ -807,7 +828,10 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         "scene": str(scene.path), "scene_name": scene.name, "title": scene.title,
         "scene_text": scene.text, "model": str(scene.model), "model_name": spec.name,
         "model_hash": spec.content_hash(), "ode_hash": deriv.ode.content_hash(), "ame_key": cached.key,
-        "ame": scene.ame, "engine": scene.engine, "omega1": omega1, "omega2": float(ame.omegas[1]) if len(ame.omegas) > 1 else None,
+        "ame": scene.ame, "engine": scene.engine,
+        "ame_advice": None if advice is None else {"requested": "auto", "tol": advice.tol, "chosen": advice.ame,
+                                                   "lightest_rung": advice.rung, "reasons": list(advice.reasons)},
+        "omega1": omega1, "omega2": float(ame.omegas[1]) if len(ame.omegas) > 1 else None,
         "amplitude_convention": "a_k = sqrt(r_k^2 + s_k^2): peak modal amplitude (peak displacement / l, "
                                 "modes normalised to a unit maximum); Omega = omega1 + sigma",
         "stability": "autocable's eigenvalues (equilibria) and Floquet multipliers (cycles), not PyCont's flags",

@@ -404,3 +404,24 @@ def test_modulation_period_of_a_sampled_signal():
     assert modulation_period(t, a) == pytest.approx(36.0, rel=1e-6)
     assert modulation_period(t, np.full_like(t, 3e-3)) is None
     assert modulation_period(t[:2000], a[:2000]) is None          # 100 time units: two crossings
+
+
+def test_ame_auto_picks_the_one_dof_reduction_for_fig05a(tmp_path):
+    """`ame = "auto"` (issue 6): the scene runs `autocable advise`'s probes first; Fig. 5a's settings
+    are mono-modal (a2 = 0), so the 1-dof AME is chosen, run and recorded with its reasons. A
+    tolerance without "auto", or outside (0, 1), is a one-line error."""
+    text = FIG05A.read_text().replace('model = "../models/', f'model = "{REPO}/models/')
+    path = tmp_path / "fig05a_auto.toml"
+    path.write_text(text.replace('ame = "2dof"', 'ame = "auto"\name_tol = 0.02', 1))
+    res = run_scene(load_scene(path), tmp_path / "out", resolution="coarse")
+    prov = json.loads((tmp_path / "out" / "run.json").read_text())["provenance"]
+    assert prov["ame"] == "1dof" and prov["ame_advice"]["chosen"] == "1dof"
+    assert prov["ame_advice"]["requested"] == "auto" and prov["ame_advice"]["reasons"]
+    assert np.max(np.abs(res.branch("I")["a2"])) == 0.0
+    for body, words in (('ame = "2dof"\name_tol = 0.02\n', 'only with ame = "auto"'),
+                        ('ame = "auto"\name_tol = 2.0\n', "(0, 1)")):
+        bad = tmp_path / "bad_tol.toml"
+        bad.write_text(f'model = "{MODEL}"\n' + body + '[[run]]\nparameter = "sigma"\nrange = [-0.05, 0.05]\n')
+        with pytest.raises(SpecError) as err:
+            load_scene(bad)
+        assert err.value.field == "ame_tol" and words in str(err.value) and "\n" not in str(err.value)
