@@ -549,7 +549,6 @@ def _fig10(d, all_):
 
 def _fig04(d: SceneData, all_: dict) -> list[Feature]:
     out: list[Feature] = []
-    fixed = d.fixed()
     eq = [b for b in d.branches() if b.get("kind") == "equilibrium"]
     closed = [b for b in eq if _closed(b)]
     out.append(("the bifurcated path becomes a looped island", "yes" if closed else "no",

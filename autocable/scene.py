@@ -1024,8 +1024,6 @@ def _run_time_scene(scene: Scene, out_dir, say, plot: bool, resolution: str):
     import csv
     import io
 
-    import numpy as np
-
     from autocable.codegen.cache import atomic_write_json, atomic_write_text
     from autocable.methods.continuation import ame_system
     from autocable.model.ame_cache import derive_ame

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from autocable.bench_methods import compare, crossings, run_bench
+from autocable.bench_methods import compare, crossings
 from autocable.cli import main
 from autocable.methods import registry as R
 from autocable.model.symbolic import parameter_values

@@ -31,7 +31,7 @@ from autocable.codegen.ckernel import CKernel, compiled_kernel
 from autocable.methods.bifurcation_functions import _hopf_test
 from autocable.methods.continuation_chart import _build_branch, _Chart, _correct, _tangent
 from autocable.methods.continuation_problem import (ContinuationResult, ContinuationSettings,
-                                                    EquilibriumProblem, Progress, StartError, _resolve)
+                                                    EquilibriumProblem, Progress, _resolve)
 from autocable.results import EndPoint, SpecialPoint
 
 
@@ -152,25 +152,14 @@ def continue_equilibria_compiled(problem: EquilibriumProblem,
     """`autocable.methods.equilibria.continue_equilibria` with the compiled kernel (same arguments,
     same result records). Raises `StartError` for a start that does not converge and
     `autocable.codegen.ckernel.KernelBuildError` (one line) when the kernel cannot be built."""
-    from autocable.methods.equilibria import _analyse_equilibria, equilibrium_near
+    from autocable.methods.equilibria import _analyse_equilibria, _start_on_chart
 
     t0 = time.perf_counter()
     sysm = problem.system
     kernel = compiled_kernel(sysm)
     chart = _KernelChart.around(_Chart.of(problem), kernel)
-    x0 = np.zeros(sysm.dimension) if start is None else np.asarray(start, float)
-    if x0.shape != (sysm.dimension,):
-        raise StartError(f"start state must have {sysm.dimension} entries {sysm.variables}, got {x0.shape}")
     # Newton on the kernel's F and J (equilibrium_near only calls f and jac).
-    x, ok, res = equilibrium_near(kernel, x0, chart.p(0.0), tol=settings.newton_tol, scale=chart.xscale)
-    if not ok:
-        raise StartError(f"Newton from the start state did not converge to an equilibrium at "
-                         f"{problem.parameter} = {chart.value(0.0):g} (residual {res:.3g}); start by "
-                         f"integration or from a labelled point")
-    Y0 = chart.to_chart(x, chart.value(0.0))
-    v0 = _tangent(chart.DF(Y0))
-    if abs(v0[-1]) > 1e-12:
-        v0 = v0 * np.sign(v0[-1])
+    Y0, v0 = _start_on_chart(problem, settings, start, chart, kernel)
     wanted = {"both": ("forward", "backward"), "forward": ("forward",), "backward": ("backward",)}[directions]
     t_setup = time.perf_counter()
     sides: dict[str, _KSide] = {}

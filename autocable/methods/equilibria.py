@@ -355,6 +355,27 @@ def _relabel(points: Sequence[SpecialPoint]) -> tuple[SpecialPoint, ...]:
     return tuple(out)
 
 
+def _start_on_chart(problem: EquilibriumProblem, settings: ContinuationSettings, start, chart,
+                    fields) -> tuple[np.ndarray, np.ndarray]:
+    """The start state corrected by Newton at the run's start value, on ``chart``, and the unit
+    tangent there, oriented towards increasing parameter. ``fields`` gives f and jac: the
+    `System` (PyCont engine) or the compiled kernel."""
+    sysm = problem.system
+    x0 = np.zeros(sysm.dimension) if start is None else np.asarray(start, float)
+    if x0.shape != (sysm.dimension,):
+        raise StartError(f"start state must have {sysm.dimension} entries {sysm.variables}, got {x0.shape}")
+    x, ok, res = equilibrium_near(fields, x0, chart.p(0.0), tol=settings.newton_tol, scale=chart.xscale)
+    if not ok:
+        raise StartError(f"Newton from the start state did not converge to an equilibrium at "
+                         f"{problem.parameter} = {chart.value(0.0):g} (residual {res:.3g}); start by "
+                         f"integration or from a labelled point")
+    Y0 = chart.to_chart(x, chart.value(0.0))
+    v0 = _tangent(chart.DF(Y0))
+    if abs(v0[-1]) > 1e-12:
+        v0 = v0 * np.sign(v0[-1])
+    return Y0, v0
+
+
 def continue_equilibria(problem: EquilibriumProblem, settings: ContinuationSettings = ContinuationSettings(),
                         start=None, *, name: str = "EQ", directions: str = "both",
                         progress: Progress | None = None, engine: str = "pycont") -> ContinuationResult:
@@ -373,18 +394,7 @@ def continue_equilibria(problem: EquilibriumProblem, settings: ContinuationSetti
     t0 = time.perf_counter()
     sysm = problem.system
     chart = _Chart.of(problem)
-    x0 = np.zeros(sysm.dimension) if start is None else np.asarray(start, float)
-    if x0.shape != (sysm.dimension,):
-        raise StartError(f"start state must have {sysm.dimension} entries {sysm.variables}, got {x0.shape}")
-    x, ok, res = equilibrium_near(sysm, x0, chart.p(0.0), tol=settings.newton_tol, scale=chart.xscale)
-    if not ok:
-        raise StartError(f"Newton from the start state did not converge to an equilibrium at "
-                         f"{problem.parameter} = {chart.value(0.0):g} (residual {res:.3g}); start by "
-                         f"integration or from a labelled point")
-    Y0 = chart.to_chart(x, chart.value(0.0))
-    v0 = _tangent(chart.DF(Y0))
-    if abs(v0[-1]) > 1e-12:
-        v0 = v0 * np.sign(v0[-1])
+    Y0, v0 = _start_on_chart(problem, settings, start, chart, sysm)
     sides = {}
     wanted = {"both": ("forward", "backward"), "forward": ("forward",), "backward": ("backward",)}[directions]
     cont, why = _contclass(chart, Y0)
