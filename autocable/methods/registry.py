@@ -411,23 +411,39 @@ def _optional_run(tools: Tools, name: str, setting: Setting, knobs: Mapping):
         lo, hi = setting.sigma_range
         integ = tools.ode21(1e-10)
         t0 = time.perf_counter()
-        # Started mid-range: from a start on a range end AUTO may take the outward sense on both
-        # sides (periodic21's docstring), leaving nothing inside the range.
-        br = continue_periodic21(tools.derivation, U=setting.U, eta=setting.eta, sigma_range=(lo, hi),
-                                 start_sigma=0.5 * (lo + hi), integrator=integ, **dict(knobs))
-        build = float(br.info.get("timings", {}).get("build_s", 0.0))
+        # Started inside the range (from a start on a range end AUTO may take the outward sense on
+        # both sides, periodic21's docstring): mid-range, and again at 80 % of the range unless the
+        # response reached there from rest lies on a branch already found (Fig. 6: mid-range
+        # starts on the bi-modal loop, 80 % on the planar lower branch where the AME is valid).
+        parts, ends, build = [], [], None
+        for k, frac in enumerate((0.5, 0.8)):
+            s0 = lo + frac * (hi - lo)
+            if parts:
+                r = integ.simulate(setting.U, setting.eta, s0)
+                if not (r.steady and r.periodic) or any(
+                        len(p.values) and np.min(np.abs(p.values - s0)) < 0.02 * (hi - lo)
+                        and abs(p.a1[int(np.argmin(np.abs(p.values - s0)))] - r.a1) < 1e-3 * r.a1
+                        for p in parts):
+                    continue
+            br = continue_periodic21(tools.derivation, U=setting.U, eta=setting.eta, sigma_range=(lo, hi),
+                                     start_sigma=s0, integrator=integ, **dict(knobs))
+            build = float(br.info.get("timings", {}).get("build_s", 0.0)) if build is None else build
+            parts.append(br)
+            ends.append(f"P{k + 1} from sigma = {s0:+.4f}: {len(br.values)} points, {br.end_reason}")
         key = "auto-periodic21"
         if key not in tools.builds:
             tools.builds[key] = build
         seconds = time.perf_counter() - t0 - (build if tools.builds[key] == build else 0.0)
-        special = tuple(MappingProxyType({"type": s.get("type", "?"), "sigma": float(s.get("sigma", math.nan)),
-                                          "a1": float(s.get("a1", math.nan)), "a2": float(s.get("a2", math.nan)),
-                                          "branch": "P"}) for s in br.special)
-        n = len(br.values)
-        return dict(values=np.asarray(br.values, float), a1=np.asarray(br.a1, float),
-                    a2=np.asarray(br.a2, float), stable=np.asarray(br.stable, bool), branch=("P",) * n,
+        special = tuple(MappingProxyType({"type": sp_.get("type", "?"), "sigma": float(sp_.get("sigma", math.nan)),
+                                          "a1": float(sp_.get("a1", math.nan)), "a2": float(sp_.get("a2", math.nan)),
+                                          "branch": f"P{k + 1}"})
+                        for k, br in enumerate(parts) for sp_ in br.special)
+        cat = (lambda field, dtype=float: np.concatenate([np.asarray(getattr(br, field), dtype) for br in parts]))
+        n = sum(len(br.values) for br in parts)
+        return dict(values=cat("values"), a1=cat("a1"), a2=cat("a2"), stable=cat("stable", bool),
+                    branch=tuple(f"P{k + 1}" for k, br in enumerate(parts) for _ in br.values),
                     special=special, seconds=seconds, build_seconds=tools.builds[key], ok=np.ones(n, bool),
-                    message=f"{n} points; end: {br.end_reason}", info={"points": n})
+                    message="; ".join(ends), info={"points": n, "branches": len(parts)})
     if name == "ode21-nmode":
         from autocable.methods.nmode_integration import NModeIntegrator
         knobs = dict(knobs)
