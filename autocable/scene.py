@@ -587,8 +587,12 @@ def _versions() -> dict[str, str]:
     return out
 
 
-def _system_for(scene: Scene, ame, values: Mapping[str, float], parameter: str, rng, path, where):
-    """The AME system for a run: aerodynamic rows only when the wind blows (1/U powers)."""
+def _system_for(scene: Scene, ame, values: Mapping[str, float], parameter: str, rng, path, where,
+                memo: dict | None = None):
+    """The AME system for a run: aerodynamic rows only when the wind blows (1/U powers).
+
+    ``memo`` (one per scene run) hands every run the same `System` object: building the wind AME
+    as sympy data costs about a second, and its numeric functions and C kernel load once."""
     from autocable.methods.continuation import ame_system
     if scene.ame == "1dof-amplitude":
         from autocable.methods.amplitude_system import galloping_amplitude_system
@@ -606,7 +610,10 @@ def _system_for(scene: Scene, ame, values: Mapping[str, float], parameter: str, 
         wind = True
     else:
         wind = values.get("U", 0.0) != 0.0
-    return ame_system(ame, scene.ame, wind=wind)
+    memo = {} if memo is None else memo
+    if (scene.ame, wind) not in memo:
+        memo[(scene.ame, wind)] = ame_system(ame, scene.ame, wind=wind)
+    return memo[(scene.ame, wind)]
 
 
 def coarse_settings(steps: Mapping[str, Any]) -> dict[str, Any]:
@@ -685,6 +692,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
     stages["ame_s"] = time.perf_counter() - t0
     omega1 = float(ame.omegas[0])
     results: dict[str, C.ContinuationResult] = {}
+    systems: dict = {}
     branches = []
     run_times: dict[str, Any] = {}
     path = scene.path
@@ -743,9 +751,9 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
             if run.parameter2 == "sigma":
                 check_values({**values, "sigma": lo2}, f"{where}.range2")
         if run.kind == "curve" and run.parameter2 == "U":
-            system = _system_for(scene, ame, values, "U", run.range2, path, where)
+            system = _system_for(scene, ame, values, "U", run.range2, path, where, systems)
         else:
-            system = _system_for(scene, ame, values, run.parameter, run.range, path, where)
+            system = _system_for(scene, ame, values, run.parameter, run.range, path, where, systems)
         scale = scene.state_scale or C.auto_state_scale(system, values)
         problem = C.EquilibriumProblem(system, run.parameter, values, run.range, state_scale=scale)
         settings = _settings(run, resolution)

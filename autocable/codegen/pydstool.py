@@ -401,12 +401,22 @@ def _spec_strings(vf: VectorField, jacobian: bool):
     """(name, varspecs, fnspecs) of ``vf``: printing and the symbolic Jacobian cost up to seconds
     for the amplitude equations, and continuation asks for the same model many times. A pure
     function of the frozen `VectorField`, so memoising it changes no result."""
-    fnspecs: dict[str, Any] = {a.name: (tuple(a.args), pydstool_str(a.expr)) for a in vf.auxiliary}
-    if jacobian:
-        args, text = jacobian_spec(vf)
-        fnspecs["Jacobian"] = (tuple(args), text)
+    name = model_name(vf, jacobian)
     varspecs = {v: pydstool_str(e) for v, e in zip(vf.variables, vf.rhs)}
-    return model_name(vf, jacobian), MappingProxyType(varspecs), MappingProxyType(fnspecs)
+    # The symbolic Jacobian of the wind AME takes seconds of sympy in every process; its text is
+    # kept next to the libraries, under the model name (a hash of the printed equations).
+    path = pydstool_cache_dir() / "specs" / f"{name}.json"
+    stored = cache.read_json(path)
+    if isinstance(stored, dict) and stored.get("varspecs") == varspecs and isinstance(stored.get("fnspecs"), dict):
+        fnspecs = {k: (tuple(v[0]), v[1]) for k, v in stored["fnspecs"].items()}
+    else:
+        fnspecs = {a.name: (tuple(a.args), pydstool_str(a.expr)) for a in vf.auxiliary}
+        if jacobian:
+            args, text = jacobian_spec(vf)
+            fnspecs["Jacobian"] = (tuple(args), text)
+        cache.atomic_write_json(path, {"model": name, "varspecs": varspecs,
+                                       "fnspecs": _jsonable_fnspecs(fnspecs)})
+    return name, MappingProxyType(varspecs), MappingProxyType(fnspecs)
 
 
 def pydstool_args(vf: VectorField, *, tdata: Sequence[float] = (0.0, 1.0),

@@ -13,6 +13,7 @@ import numpy as np
 import sympy as sp
 
 from autocable.codegen.pydstool import VectorField
+from autocable.methods.lambda_cache import numeric_function, rhs_key
 
 
 #: Names the scaled PyCont vector field reserves for itself.
@@ -109,22 +110,22 @@ class System:
         return ([sp.Symbol(v) for v in self.variables], [sp.Symbol(p) for p in self.parameter_names])
 
     @cached_property
+    def _rhs_key(self) -> str:
+        return rhs_key(self.rhs)
+
+    @cached_property
     def _numeric(self):
-        xs, ps = self._symbols
-        F = sp.Matrix(self.rhs)
-        f = sp.lambdify((xs, ps), F, modules="numpy", cse=True)
-        J = sp.lambdify((xs, ps), F.jacobian(xs), modules="numpy", cse=True)
-        Jp = sp.lambdify((xs, ps), F.jacobian(ps), modules="numpy", cse=True)
-        return f, J, Jp
+        # The generated text is cached across processes (`lambda_cache`): the Jacobians of the wind
+        # AME cost seconds of sympy per process otherwise.
+        args = (self.variables, self.parameter_names, self.rhs)
+        return tuple(numeric_function(kind, *args, key=self._rhs_key) for kind in ("f", "jac", "jac_p"))
 
     @cached_property
     def _higher(self):
         """Second and third derivative tensors (for the first Lyapunov coefficient)."""
-        xs, ps = self._symbols
-        d2 = sp.derive_by_array(sp.derive_by_array(list(self.rhs), xs), xs)     # [k][j][i]
-        d3 = sp.derive_by_array(d2, xs)                                           # [l][k][j][i]
-        f2 = sp.lambdify((xs, ps), d2.tolist(), modules="numpy", cse=True)
-        f3 = sp.lambdify((xs, ps), d3.tolist(), modules="numpy", cse=True)
+        args = (self.variables, self.parameter_names, self.rhs)
+        f2 = numeric_function("d2", *args, key=self._rhs_key)                    # [k][j][i]
+        f3 = numeric_function("d3", *args, key=self._rhs_key)                    # [l][k][j][i]
         n = self.dimension
         # derive_by_array puts the derivative index first: reorder to [i, j, k(, l)].
         return (lambda x, p: np.broadcast_to(np.array(f2(x, p), dtype=float), (n,) * 3).transpose(2, 1, 0),

@@ -1,0 +1,78 @@
+"""Numeric functions of a `System` (f, J_x, J_p and the derivative tensors of the first Lyapunov
+coefficient) from sympy, with the generated Python kept in the cache folder.
+
+Why. For the wind AME (24) the Jacobians, the second and third derivative tensors and sympy's common
+subexpression elimination take 5-15 s per process, every process, although the text sympy prints
+is the same each time: a scene of Figs. 7-10 spent most of its warm run there. The text that
+``sympy.lambdify`` generates is therefore stored under ``cache_dir("lambdas")``, named by a content
+hash of the right-hand side (``sympy.srepr``), the argument names, the kind of function and the
+sympy version, and executed on later calls in the namespace lambdify itself uses: the function is
+the one lambdify would have made, without the differentiation and the elimination.
+"""
+from __future__ import annotations
+
+import inspect
+from typing import Callable, Sequence
+
+import sympy as sp
+
+from autocable.codegen.cache import atomic_write_text, cache_dir, content_hash
+
+#: What `numeric_function` can build from a right-hand side F(x; p).
+KINDS = ("f", "jac", "jac_p", "d2", "d3")
+
+
+def _expression(kind: str, rhs: Sequence[sp.Expr], xs, ps):
+    """The sympy object lambdify prints for ``kind``; derive_by_array puts the new index first."""
+    F = sp.Matrix(list(rhs))
+    if kind == "f":
+        return F
+    if kind == "jac":
+        return F.jacobian(xs)
+    if kind == "jac_p":
+        return F.jacobian(ps)
+    d2 = sp.derive_by_array(sp.derive_by_array(list(rhs), xs), xs)
+    if kind == "d2":
+        return d2.tolist()
+    return sp.derive_by_array(d2, xs).tolist()
+
+
+def _namespace() -> dict:
+    """The globals lambdify gives its numpy functions (``from numpy import *`` and its additions)."""
+    return dict(sp.lambdify([], 0, modules="numpy").__globals__)
+
+
+def rhs_key(rhs: Sequence[sp.Expr]) -> str:
+    """A content hash of the right-hand side (``sympy.srepr``: exact, including every Float)."""
+    return content_hash([sp.srepr(e) for e in rhs])
+
+
+def function_key(kind: str, variables: Sequence[str], parameters: Sequence[str], key: str) -> str:
+    """The content hash that names a cached function; ``key`` is `rhs_key` of the right-hand side."""
+    return content_hash({"kind": kind, "variables": list(variables), "parameters": list(parameters),
+                         "rhs": key, "sympy": sp.__version__, "format": 1})
+
+
+def numeric_function(kind: str, variables: Sequence[str], parameters: Sequence[str],
+                     rhs: Sequence[sp.Expr], *, key: str | None = None,
+                     use_cache: bool = True) -> Callable:
+    """``g(x, p)`` for ``kind`` in `KINDS`: f -> F (n x 1), jac -> dF/dx (n x n), jac_p -> dF/dp,
+    d2 / d3 -> nested lists of the second / third derivatives (derivative indices first).
+
+    ``rhs`` holds plain symbols named as ``variables`` and ``parameters``; ``key`` is its `rhs_key`
+    when the caller has it already (hashing a long right-hand side takes a tenth of a second)."""
+    if kind not in KINDS:
+        raise ValueError(f"unknown numeric function {kind!r}: expected one of {KINDS}")
+    xs = [sp.Symbol(v) for v in variables]
+    ps = [sp.Symbol(p) for p in parameters]
+    if not use_cache:
+        return sp.lambdify((xs, ps), _expression(kind, rhs, xs, ps), modules="numpy", cse=True)
+    path = cache_dir("lambdas") / f"{kind}-{function_key(kind, variables, parameters, key or rhs_key(rhs))}.py"
+    if path.exists():
+        namespace = _namespace()
+        source = path.read_text(encoding="utf-8")
+        exec(compile(source, str(path), "exec"), namespace)  # noqa: S102 - text lambdify wrote
+        return namespace["_lambdifygenerated"]
+    fn = sp.lambdify((xs, ps), _expression(kind, rhs, xs, ps), modules="numpy", cse=True)
+    atomic_write_text(path, inspect.getsource(fn))
+    return fn
