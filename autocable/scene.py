@@ -1147,6 +1147,12 @@ def cmd_run(args) -> int:
     """Run a scene; print a summary (branches, special points, files) on stdout."""
     scene = load_scene(args.scene)
     out = Path(args.out) if getattr(args, "out", None) else Path("out") / scene.name
+    # Before the computation, not after it: a folder that cannot be made would lose the results.
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SpecError("--out", "", f"cannot make the output folder {out}: {exc.strerror or exc}; "
+                                     "give a folder that can be created") from None
     quiet = bool(getattr(args, "quiet", False))
     progress = None if quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
     res = run_scene(scene, out, progress=progress, plot=not getattr(args, "no_plot", False),

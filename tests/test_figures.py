@@ -194,3 +194,19 @@ def test_report_lists_the_distance_to_digitised_points(figures):
         path.unlink()
     assert "| curve | n_points | max_distance | rms_distance |" in text
     assert "| I | 7 | 1.25e-05 | 6.5e-06 |" in text
+
+
+def test_the_runner_starts_the_expensive_scenes_first(figures):
+    """Longest first keeps the set's wall time near total / cores; the summary keeps name order."""
+    from autocable.figures import default_runs_dir, expected_cost
+    _, out, runs = figures
+    assert expected_cost(runs / "figt9.toml") == 0.0           # unreadable: fails at once anyway
+    assert expected_cost(runs / "figt1.toml") == expected_cost(runs / "figt2.toml") == 2.0
+    paper = {p.stem: expected_cost(p) for p in discover(default_runs_dir())}
+    order = sorted(paper, key=paper.get, reverse=True)
+    # Fig. 9 (three runs with periodic orbits and the overlay), Fig. 11 (a time history of the AME
+    # and of eq. (21)) and Fig. 10 (orbits and overlay) are the long ones; Figs. 3, 5a-b the short.
+    assert set(order[:3]) == {"fig09", "fig10", "fig11"}
+    assert max(paper[n] for n in ("fig03", "fig05a", "fig05b")) < min(paper[n] for n in order[:3])
+    summary = json.loads((out / "figures.json").read_text())
+    assert [s["name"] for s in summary["scenes"]] == ["figt1", "figt2", "figt9"]

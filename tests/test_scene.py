@@ -153,6 +153,22 @@ def test_run_command_with_an_integrated_start_and_a_comparison(tmp_path, capsys,
     assert b["sigma"][0] == pytest.approx(-0.05) and b["a1"][0] == pytest.approx(ref["a1"][0], rel=1e-10)
 
 
+def test_run_command_refuses_an_output_folder_it_cannot_make_before_computing(tmp_path, monkeypatch):
+    """--out under a file: one line naming --out, and no computation spent first."""
+    import autocable.scene as S
+    (tmp_path / "a_file").write_text("")
+    scene = _scene(tmp_path, '[fixed]\neta = 8.2e-5\n[[run]]\nname = "I"\nparameter = "sigma"\n'
+                             'range = [-0.05, -0.045]\nstart = "trivial"\n')
+    monkeypatch.setattr(S, "run_scene", lambda *a, **k: pytest.fail("computed before checking --out"))
+    parser = argparse.ArgumentParser()
+    add_run_parser(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(["run", str(scene), "--out", str(tmp_path / "a_file" / "o"), "--quiet"])
+    with pytest.raises(SpecError) as err:
+        args.func(args)
+    assert err.value.path == "--out" and "cannot make the output folder" in str(err.value)
+    assert "\n" not in str(err.value)
+
+
 def test_scene_engines_agree_and_are_named_in_the_provenance(tmp_path, fig05a):
     """`engine = "compiled"` runs Fig. 5a's equilibria in autocable's C kernel: the same branch as
     the PyCont run of the shipped scene (every point within the continuation tolerance of the
