@@ -13,6 +13,8 @@ Luongo & Zulli, or any `autocable.methods.system.System`) it writes one C file w
   iterations, shrinks by 0.8 after a failure, and the branch ends when it fails at the minimum
   step), every point polished by Newton at fixed parameter (as autocable does after PyCont), the
   range end put exactly on the boundary, a closed curve detected as the PyCont driver does;
+* F~ and DF~ at many points in one call (``ac_chart_batch``: the collocation points of a periodic
+  orbit, `autocable.methods.compiled_cycles`);
 * per point, the test functions autocable uses (`autocable.methods.equilibria`): the tangent's
   parameter component (LP), det [DF~; t] (BP), det(2J (.) I) (Hopf and neutral saddles, the
   bialternate product of `autocable.methods.bifurcation_functions`), and the number of
@@ -60,7 +62,7 @@ __all__ = ["KERNEL_VERSION", "KernelBuildError", "CKernel", "kernel_source", "co
            "build_timing", "REASONS"]
 
 #: Bump when the emitted C changes meaning: it is part of the content hash.
-KERNEL_VERSION = "3"
+KERNEL_VERSION = "4"
 CFLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Werror=implicit-function-declaration")
 
 #: How a side of the branch ended (the ``reason`` code returned by the C loop).
@@ -191,6 +193,13 @@ static void chart_eval(const chart_t *c, const double *Y, double *Fo, double *DF
 
 void ac_chart(const double *cfg, const double *Y, double *Fo, double *DF) {
     chart_t c; chart_of(cfg, &c); chart_eval(&c, Y, Fo, DF, NULL);
+}
+
+/* F~ and DF~ at K points at once (the rows of Y, n+1 numbers each; Fo K x n, DF K x n x (n+1)):
+   one call per collocation Jacobian instead of one per collocation point. */
+void ac_chart_batch(const double *cfg, int K, const double *Y, double *Fo, double *DF) {
+    chart_t c; int q; chart_of(cfg, &c);
+    for (q = 0; q < K; q++) chart_eval(&c, Y + q * (N + 1), Fo + q * N, DF + q * N * (N + 1), NULL);
 }
 
 /* Gaussian elimination with partial pivoting of the n x n row-major A (destroyed); solves A z = b
@@ -624,6 +633,14 @@ class CKernel:
         self.lib.ac_chart(cfg.ctypes.data, Y.ctypes.data, f.ctypes.data, df.ctypes.data)
         return f, df
 
+    def chart_batch(self, cfg: np.ndarray, Y) -> tuple[np.ndarray, np.ndarray]:
+        """(F~, DF~) at every row of ``Y`` (K x (n+1)): arrays K x n and K x n x (n+1)."""
+        Y = np.ascontiguousarray(Y, float)
+        K = Y.shape[0]
+        f, df = np.empty((K, self.n)), np.empty((K, self.n, self.n + 1))
+        self.lib.ac_chart_batch(cfg.ctypes.data, K, Y.ctypes.data, f.ctypes.data, df.ctypes.data)
+        return f, df
+
     def continue_side(self, cfg: np.ndarray, Y0, d0, opts: Sequence[float], max_points: int) -> dict:
         """One side of a branch (see the C ``ac_continue``): arrays of the points and their tests."""
         n1, mp = self.n + 1, max(int(max_points), 1)
@@ -655,6 +672,8 @@ def _load(path: Path, n: int, m: int, timings) -> CKernel:
         getattr(lib, fn).restype = None
     lib.ac_chart.argtypes = [vp, vp, vp, vp]
     lib.ac_chart.restype = None
+    lib.ac_chart_batch.argtypes = [vp, ip, vp, vp, vp]
+    lib.ac_chart_batch.restype = None
     lib.ac_continue.argtypes = [vp, vp, vp, vp, ip, vp, vp, vp, vp, vp, vp, vp]
     lib.ac_continue.restype = ip
     lib.ac_dims.argtypes = [vp]

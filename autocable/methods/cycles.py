@@ -68,11 +68,18 @@ def _cycle_counts(mults: np.ndarray) -> tuple[int, int, int]:
             int(np.sum(~real & (np.abs(rest) > 1))))
 
 
+#: The cycle engines: PyCont's LC-C (AUTO) or autocable's own collocation on the C kernel.
+CYCLE_ENGINES = ("pycont", "compiled")
+
+
 def continue_cycles(source: ContinuationResult, hopf: str | SpecialPoint,
                     settings: ContinuationSettings | None = None, *, name: str | None = None,
-                    progress: Progress | None = None) -> ContinuationResult:
+                    progress: Progress | None = None, engine: str = "pycont") -> ContinuationResult:
     """Periodic orbits born at the Hopf point ``hopf`` of ``source`` (PyCont LC-C, AUTO collocation
     with ``ntst`` intervals of ``ncol`` points), in the continued parameter's range.
+
+    ``engine="compiled"``: the same records from autocable's own collocation on the C kernel
+    (`autocable.methods.compiled_cycles`), no PyDSTool.
 
     Per cycle: the period, the min/max of every amplitude over the cycle (from a dense integration of
     one period started on AUTO's profile), the Floquet multipliers from the variational equations
@@ -80,6 +87,11 @@ def continue_cycles(source: ContinuationResult, hopf: str | SpecialPoint,
     (every non-trivial multiplier inside the unit circle), and LPC/PD/NS from multiplier crossings.
     The branch ends at the range, at ``cycle_max_points``, when AUTO fails (NaNs) or when the period
     exceeds ``max_period_ratio`` times the Hopf period (a homoclinic approach, Sect. 5)."""
+    if engine not in CYCLE_ENGINES:
+        raise ValueError(f"engine must be one of {list(CYCLE_ENGINES)}, got {engine!r}")
+    if engine == "compiled":
+        from autocable.methods.compiled_cycles import continue_cycles_compiled
+        return continue_cycles_compiled(source, hopf, settings, name=name, progress=progress)
     hp, problem, base_settings = _resolve(source, hopf)
     settings = settings or base_settings
     if hp.type != "H":
@@ -140,7 +152,7 @@ def continue_cycles(source: ContinuationResult, hopf: str | SpecialPoint,
         if progress and i % 10 == 0:
             progress(f"{name}: {problem.parameter} = {chart.value(lam):.6g}, period {T:.4g}, {len(rows)} cycles")
     n = sysm.dimension
-    X, P, mults, stable, cols = [], [], [], [], {c: [] for c in ("period", "a1_min", "a1_max", "a2_min", "a2_max")}
+    X, P, periods, mults, amin, amax = [], [], [], [], [], []
     auto_diff, closure = [], []
     for lam, T, cyc, auto_ev in rows:
         p = chart.p(lam)
@@ -164,33 +176,71 @@ def continue_cycles(source: ContinuationResult, hopf: str | SpecialPoint,
             a = np.sort_complex(auto_ev)
             b = np.sort_complex(mu)
             auto_diff.append(float(np.max(np.abs(a - b))))
-        amps = sysm.amplitude_values(samples)
-        for k, a in enumerate(amps[:2]):
-            a = np.asarray(a) * np.ones(len(samples))
-            cols[f"a{k + 1}_min"].append(float(np.min(a)))
-            cols[f"a{k + 1}_max"].append(float(np.max(a)))
-        for k in range(len(amps), 2):
-            cols[f"a{k + 1}_min"].append(math.nan)
-            cols[f"a{k + 1}_max"].append(math.nan)
-        cols["period"].append(T)
+        lo_, hi_ = _sampled_extremes(sysm, samples)
+        amin.append(lo_)
+        amax.append(hi_)
+        periods.append(T)
         X.append(x0)
         P.append(p)
         mults.append(mu)
+    if rows and reason == "max_points" and len(rows) < settings.cycle_max_points:
+        reason, message = "no_convergence", "AUTO stopped before the point budget (see AUTO's limits)"
+    side = EndPoint("forward", reason, chart.value(rows[-1][0]) if rows else hp.value, len(rows), message)
+    info = {"from": hp.name, "hopf_period": T_H, "closure_error_max": max(closure) if closure else None,
+            "auto_multiplier_max_diff": max(auto_diff) if auto_diff else None, "ntst": settings.ntst,
+            "ncol": settings.ncol}
+    return cycle_result(name, problem, settings, chart, X, P, periods, mults, amin, amax, auto_labels, side,
+                        info, {"auto_s": t1 - t0, "analysis_s": time.perf_counter() - t1, "points": len(rows)},
+                        t_analysis=t1)
+
+
+def _sampled_extremes(sysm: System, samples) -> tuple[tuple[float, float], tuple[float, float]]:
+    """((a1_min, a2_min), (a1_max, a2_max)) over the sampled states of a cycle (NaN for a missing a2)."""
+    amps = sysm.amplitude_values(samples)
+    lo, hi = [math.nan, math.nan], [math.nan, math.nan]
+    for k, a in enumerate(amps[:2]):
+        a = np.asarray(a) * np.ones(len(samples))
+        lo[k], hi[k] = float(np.min(a)), float(np.max(a))
+    return (lo[0], lo[1]), (hi[0], hi[1])
+
+
+def cycle_result(name: str, problem, settings: ContinuationSettings, chart: _Chart, X, P, periods, mults,
+                 amin, amax, auto_labels, side: EndPoint, info: dict, timings: dict,
+                 t_analysis: float | None = None) -> ContinuationResult:
+    """The cycle branch record from per-cycle data (both engines): x(0), the parameter vector, the
+    period, the Floquet multipliers and the amplitude extremes of every cycle (the first one is the
+    Hopf point, a degenerate cycle); stability (every non-trivial multiplier inside the unit circle)
+    and LPC/PD/NS from multiplier crossings, located by linear interpolation between two cycles.
+
+    ``auto_labels``: AUTO's (type, index) list to compare with (PyCont engine), or None (compiled
+    engine: ``confirmed_by_pycont`` stays None). ``timings["analysis_s"]`` is measured from
+    ``t_analysis`` when given."""
+    sysm = chart.system
+    n = sysm.dimension
+    cols = {c: [] for c in ("period", "a1_min", "a1_max", "a2_min", "a2_max")}
+    stable = []
+    mults = [np.asarray(m_, complex) for m_ in mults]
+    for T, lo_, hi_, mu in zip(periods, amin, amax, mults):
+        for k in (0, 1):
+            cols[f"a{k + 1}_min"].append(float(lo_[k]))
+            cols[f"a{k + 1}_max"].append(float(hi_[k]))
+        cols["period"].append(float(T))
         m = stability_measure("cycle", mu)
         stable.append(bool(math.isfinite(m) and m < 1.0))
+    auto_list = list(auto_labels or ())
     # Bifurcations of cycles from multiplier crossings, compared with AUTO's labels.
     specials = []
     counts = [_cycle_counts(m) for m in mults]
     counters: dict[str, int] = {}
     used = set()
-    for i in range(len(rows) - 1):
+    for i in range(len(X) - 1):
         c0, c1 = counts[i], counts[i + 1]
         if -1 in c0 or -1 in c1 or i == 0:
             continue  # the first point is the Hopf point itself (a degenerate cycle)
         for slot, kind in enumerate(("LPC", "PD", "NS")):
             if c0[slot] == c1[slot]:
                 continue
-            match = next((m for m, (t, j) in enumerate(auto_labels)
+            match = next((m for m, (t, j) in enumerate(auto_list)
                           if m not in used and t == kind and abs(j - (i + 0.5)) <= 2), None)
             if match is not None:
                 used.add(match)
@@ -202,16 +252,20 @@ def continue_cycles(source: ContinuationResult, hopf: str | SpecialPoint,
             x = (1 - s) * X[i] + s * X[i + 1]
             p = (1 - s) * P[i] + s * P[i + 1]
             amps = [(1 - s) * cols[f"a{k}_max"][i] + s * cols[f"a{k}_max"][i + 1] for k in (1, 2)]
+            if auto_labels is None:
+                confirmed, note = None, ""
+            else:
+                confirmed = match is not None
+                note = "" if match is not None else "; not in AUTO's list (AUTO missed it)"
             specials.append(SpecialPoint(
                 branch=name, type=kind, label=f"{kind}{counters[kind]}", parameter=problem.parameter,
                 value=float(p[chart.k]), a1=amps[0], a2=amps[1], state=tuple(x),
                 parameters=sysm.parameter_dict(p), index=i, converged=False,
-                confirmed_by_pycont=match is not None, origin="autocable",
-                message="located by linear interpolation of the crossing multiplier between two cycles"
-                        + ("" if match is not None else "; not in AUTO's list (AUTO missed it)"),
+                confirmed_by_pycont=confirmed, origin="autocable",
+                message="located by linear interpolation of the crossing multiplier between two cycles" + note,
                 extra={"period": (1 - s) * cols["period"][i] + s * cols["period"][i + 1],
                        "multipliers": [complex(z) for z in mults[i + 1]]}))
-    for m, (t, j) in enumerate(auto_labels):
+    for m, (t, j) in enumerate(auto_list):
         if m in used or j >= len(X):
             continue
         counters[t] = counters.get(t, 0) + 1
@@ -221,12 +275,6 @@ def continue_cycles(source: ContinuationResult, hopf: str | SpecialPoint,
             parameters=sysm.parameter_dict(P[j]), index=j, converged=False, confirmed_by_pycont=True,
             origin="pycont", message=f"AUTO reports {t} here; autocable's multipliers show no crossing"))
     specials.sort(key=lambda s_: s_.index)
-    if rows and reason == "max_points" and len(rows) < settings.cycle_max_points:
-        reason, message = "no_convergence", "AUTO stopped before the point budget (see AUTO's limits)"
-    side = EndPoint("forward", reason, chart.value(rows[-1][0]) if rows else hp.value, len(rows), message)
-    info = {"from": hp.name, "hopf_period": T_H, "closure_error_max": max(closure) if closure else None,
-            "auto_multiplier_max_diff": max(auto_diff) if auto_diff else None, "ntst": settings.ntst,
-            "ncol": settings.ncol}
     X = np.array(X, float).reshape(len(X), n)
     P = np.array(P, float).reshape(len(X), len(sysm.parameters))
     ev = np.array(mults, dtype=complex).reshape(len(X), n) if mults else np.zeros((0, n), complex)
@@ -238,5 +286,7 @@ def continue_cycles(source: ContinuationResult, hopf: str | SpecialPoint,
         if f"a{k}" in table:
             table[f"a{k}"] = np.asarray(cols[f"a{k}_max"], float)
     branch = branch.replace(table=table)
-    return ContinuationResult(branch, problem, settings,
-                              {"auto_s": t1 - t0, "analysis_s": time.perf_counter() - t1, "points": len(rows)})
+    timings = dict(timings)
+    if t_analysis is not None:
+        timings["analysis_s"] = time.perf_counter() - t_analysis
+    return ContinuationResult(branch, problem, settings, timings)

@@ -1,0 +1,176 @@
+"""The compiled cycle engine (`continue_cycles(..., engine="compiled")`, autocable's collocation on
+the C kernel) against closed forms, against autocable's variational integration and against
+PyCont's LC-C (AUTO).
+
+* The Hopf normal form x' = mu x - y - x r^2, y' = x + mu y - y r^2: cycles r = sqrt(mu), period
+  2 pi, Floquet multipliers 1 and exp(-4 pi mu); the period error falls as ntst^-8 (Gauss
+  collocation with ncol = 4 is superconvergent, order 2 ncol).
+* Fig. 10's Hopf point H1 (U = 1.3, eta = 1.4e-3, 2-dof AME) and Fig. 4a's (1-dof AME): the
+  compiled branch equals PyCont's point by point (the same step rule, AUTO's): parameter to 1e-8
+  relative, period (interpolated in the parameter) to 1e-8, multiplier moduli to 1e-6, a1_max
+  and a2_max to 1e-5 and 3e-5 of the branch's largest value (PyCont's extremes are the largest of
+  ~560 samples of a cycle: their sampling error, which the compiled engine's refined extremes do
+  not have, is that size), the same stability at every cycle (the Hopf point itself, a degenerate
+  cycle with a multiplier pair on the unit circle, excepted), the same end.
+* The collocation monodromy equals autocable's definition (`cycles._monodromy`, the variational
+  equations integrated over one period) to 1e-7, and one period integrated from a compiled cycle
+  closes to 1e-7 of its size.
+* A label that is not a Hopf point: a one-line error.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+from scipy.interpolate import CubicSpline
+
+from autocable.methods.continuation import (ContinuationSettings, EquilibriumProblem, System, ame_system,
+                                            auto_state_scale, continue_cycles, continue_equilibria)
+from autocable.methods.cycles import _monodromy
+
+ROOT = Path(__file__).resolve().parents[1]
+x, y, mu = sp.symbols("x y mu")
+
+
+# --------------------------------------------------------------------------------------------
+def normal_form_cycles(ntst: int, max_points: int = 30):
+    r2 = x * x + y * y
+    system = System("hopf_nf_unit", ("x", "y"), (mu * x - y - x * r2, x + mu * y - y * r2), {"mu": -0.2},
+                    (("a1", ("x", "y")),))
+    problem = EquilibriumProblem(system, "mu", {"mu": -0.2}, (-0.2, 0.3))
+    settings = ContinuationSettings(cycle_step=5e-3, cycle_max_step=5e-2, cycle_max_points=max_points,
+                                    ntst=ntst, ncol=4)
+    eq = continue_equilibria(problem, settings, name="EQ", engine="compiled")
+    return eq, continue_cycles(eq, "H1", settings, engine="compiled")
+
+
+def test_normal_form_cycles_radius_period_and_multipliers():
+    _, res = normal_form_cycles(ntst=20)
+    c = res.branch
+    assert c.kind == "cycle" and len(c) == 30 and c.ends[0].reason == "max_points"
+    assert c.info["engine"] == "compiled"
+    assert c.stable[1:].all() and not c.special_points
+    for i in range(1, len(c)):
+        m = c["mu"][i]
+        assert m > 0
+        r = math.sqrt(m)
+        assert c["a1_max"][i] == pytest.approx(r, rel=1e-8)
+        assert c["a1_min"][i] == pytest.approx(r, rel=1e-8)
+        assert c["period"][i] == pytest.approx(2 * math.pi, rel=1e-10)
+        mults = np.sort(np.abs(c.eigenvalues[i]))
+        assert mults[0] == pytest.approx(math.exp(-4 * math.pi * m), rel=1e-9)
+        assert mults[1] == pytest.approx(1.0, abs=1e-10)
+    assert c["mu"][-1] > 0.03                      # 30 cycles reach mu = 0.039
+
+
+def test_normal_form_period_converges_with_order_2_ncol():
+    errs = {}
+    for ntst in (3, 6):
+        _, res = normal_form_cycles(ntst=ntst, max_points=6)
+        errs[ntst] = abs(res.branch["period"][-1] - 2 * math.pi)
+    order = math.log(errs[3] / errs[6], 2)
+    assert 7.5 < order < 8.5, (errs, order)
+
+
+# --------------------------------------------------------------------------------------------
+def scene_hopf(scene_file: str):
+    """The first run of a scene (equilibria, compiled) and its settings, built as `run_scene` does."""
+    from autocable.model.ame_cache import derive_ame
+    from autocable.model.derive import derive
+    from autocable.scene import _settings, load_scene
+    from autocable.spec import load_model
+
+    scene = load_scene(ROOT / "runs" / scene_file)
+    run = scene.runs[0]
+    ame = derive_ame(derive(load_model(scene.model))).ame
+    values = {"sigma": 0.0, "U": 0.0, "eta": 0.0, **scene.fixed, **run.fixed}
+    values[run.parameter] = run.range[0]
+    system = ame_system(ame, scene.ame, wind=True)
+    scale = scene.state_scale or auto_state_scale(system, values)
+    problem = EquilibriumProblem(system, run.parameter, values, run.range, state_scale=scale)
+    settings = _settings(run, "full")
+    settings = replace(settings, cycle_max_points=30)   # the test's budget; the scene's are 60, 120
+    eq = continue_equilibria(problem, settings, name=run.name, engine="compiled")
+    return eq, settings
+
+
+@pytest.fixture(scope="module", params=["fig10.toml", "fig04a.toml"])
+def both_cycle_engines(request):
+    eq, settings = scene_hopf(request.param)
+    assert [h.label for h in eq.branch.of_type("H")] == ["H1"]
+    pyc = continue_cycles(eq, "H1", settings, engine="pycont")
+    comp = continue_cycles(eq, "H1", settings, engine="compiled")
+    return request.param, eq, pyc, comp
+
+
+def test_compiled_cycles_equal_pycont_lc_c(both_cycle_engines):
+    scene, eq, pyc, comp = both_cycle_engines
+    a, b = pyc.branch, comp.branch
+    par = a.parameter
+    assert [e.reason for e in a.ends] == [e.reason for e in b.ends] == ["max_points"]
+    assert len(a) == len(b) == 30
+    span = eq.problem.span
+    np.testing.assert_allclose(b[par], a[par], rtol=0, atol=1e-8 * span)
+    # Interpolated in the parameter (cubic through the compiled cycles), at PyCont's cycles.
+    order = np.argsort(b[par][1:]) + 1
+    xs = b[par][order]
+    assert np.all(np.diff(xs) > 0)
+    inner = slice(2, len(a) - 1)
+    for key, tol in (("period", 1e-8), ("a1_max", 1e-5), ("a2_max", 3e-5)):
+        if np.all(np.isnan(a[key])):
+            assert np.all(np.isnan(b[key]))              # the 1-dof AME has no a2
+            continue
+        got = CubicSpline(xs, b[key][order])(a[par][inner])
+        scale = np.max(np.abs(a[key]))
+        assert np.max(np.abs(got - a[key][inner])) <= tol * scale, (scene, key)
+    ma = np.sort(np.abs(a.eigenvalues), axis=1)
+    mb = np.sort(np.abs(b.eigenvalues), axis=1)
+    assert np.max(np.abs(ma - mb)[1:]) < 1e-6
+    # The Hopf point (row 0) has a multiplier pair on the unit circle: its flag is round-off.
+    assert np.array_equal(a.stable[1:], b.stable[1:])
+    assert [s.label for s in a.special_points] == [s.label for s in b.special_points]
+
+
+def test_collocation_monodromy_is_the_variational_one(both_cycle_engines):
+    scene, eq, _, comp = both_cycle_engines
+    b = comp.branch
+    system = eq.problem.system
+    for i in (5, len(b) - 1):
+        p = np.array([b[name][i] for name in system.parameter_names])
+        Phi, xT, dense = _monodromy(system, b.states[i], p, b["period"][i], 1e-11)
+        size = np.max(np.ptp(dense, axis=0))
+        assert np.linalg.norm(xT - b.states[i]) <= 1e-7 * size, scene
+        want = np.sort_complex(np.linalg.eigvals(Phi))
+        got = np.sort_complex(np.asarray(b.eigenvalues[i]))
+        assert np.max(np.abs(want - got)) < 1e-7, (scene, want, got)
+
+
+def test_batched_chart_equals_the_pointwise_chart(both_cycle_engines):
+    from autocable.codegen.ckernel import compiled_kernel
+    _, eq, _, _ = both_cycle_engines
+    system = eq.problem.system
+    kernel = compiled_kernel(system)
+    rng = np.random.default_rng(3)
+    cfg = np.concatenate([system.parameter_vector(eq.problem.values), [0, 0.01, 0.1]])
+    Y = rng.normal(size=(7, system.dimension + 1))
+    f, df = kernel.chart_batch(cfg, Y)
+    for q in range(len(Y)):
+        f1, df1 = kernel.both(cfg, Y[q])
+        assert np.array_equal(f[q], f1) and np.array_equal(df[q], df1)
+
+
+# --------------------------------------------------------------------------------------------
+def test_a_label_that_is_not_a_hopf_point_is_one_line():
+    eq, _ = normal_form_cycles(ntst=4, max_points=3)
+    with pytest.raises(KeyError) as exc:
+        continue_cycles(eq, "H7", engine="compiled")
+    assert "no special point 'H7'" in str(exc.value) and "\n" not in str(exc.value)
+    lp = replace(eq.branch.special("H1"), type="LP", label="LP1")
+    with pytest.raises(ValueError, match=r"^EQ:LP1 is a LP point, not a Hopf point$"):
+        continue_cycles(eq, lp, engine="compiled")
+    with pytest.raises(ValueError, match="engine must be one of"):
+        continue_cycles(eq, "H1", engine="auto")
