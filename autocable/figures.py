@@ -29,6 +29,7 @@ __all__ = ["QUICK", "SceneOutcome", "default_runs_dir", "discover", "expected_co
 #: responses (Figs. 5a-b), each a few seconds with a warm cache.
 QUICK = ("fig03", "fig05a", "fig05b")
 SUMMARY_JSON = "figures.json"
+WALL_JSON = "wall_s.json"            # in cache_dir("figures"): the last wall time of each scene
 ERROR_TXT = "error.txt"
 
 Say = Callable[[str], None]
@@ -129,12 +130,28 @@ def _preload() -> None:
         pass
 
 
-def expected_cost(path: Path) -> float:
-    """A rough relative cost of a scene, to start the long ones first (the wall time of the whole
-    set is then close to the total over the cores rather than the longest scene started last):
-    periodic-orbit runs, the eq. (21) overlay and a time history weigh most. An unreadable scene
-    costs nothing: it fails at once in its process."""
+def _timings_file() -> Path:
+    from autocable.codegen.cache import cache_dir
+    return cache_dir("figures") / WALL_JSON
+
+
+def recorded_wall_times() -> dict[str, float]:
+    """Wall seconds per scene name of the last `run_figures` that ran it (the cache folder)."""
+    from autocable.codegen.cache import read_json
+    data = read_json(_timings_file())
+    return {str(k): float(v) for k, v in data.items()
+            if isinstance(v, (int, float))} if isinstance(data, dict) else {}
+
+
+def expected_cost(path: Path, recorded: dict[str, float] | None = None) -> float:
+    """The expected cost of a scene, to start the long ones first (the wall time of the whole set
+    is then close to the total over the cores rather than the longest scene started last): its
+    wall time in ``recorded`` (`recorded_wall_times`) when known, else a rough weight in which
+    periodic-orbit runs, the eq. (21) overlay and a time history weigh most (an unreadable scene
+    costs nothing: it fails at once in its process)."""
     from autocable.scene import load_scene
+    if recorded and Path(path).stem in recorded:
+        return recorded[Path(path).stem]
     try:
         scene = load_scene(path)
     except Exception:   # noqa: BLE001 - reported by the scene's own process
@@ -164,7 +181,8 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
     ctx = multiprocessing.get_context("fork" if fork else "spawn")
     if fork and len(scenes) > 1:
         _preload()
-    pending = sorted(scenes, key=expected_cost, reverse=True)
+    recorded = recorded_wall_times()
+    pending = sorted(scenes, key=lambda p: expected_cost(p, recorded), reverse=True)
     running: dict[str, tuple] = {}
     outcomes: dict[str, SceneOutcome] = {}
     total = len(pending)
@@ -191,7 +209,7 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
             name = path.stem
             folder = out / name
             # stale results of an earlier run must not pass for this one's
-            for stale in ("run.json", "branches.csv", "special_points.csv", "overlay.csv",
+            for stale in ("run.json", "branches.csv", "special_points.csv", "overlay.csv", "overlay_ame.csv",
                           "time_series.csv", "compare.json"):
                 if (folder / stale).exists():
                     (folder / stale).unlink()
@@ -230,6 +248,9 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
                 finish(name, path, *message, t0)
     ordered = [outcomes[p.stem] for p in scenes]
     from autocable.codegen.cache import atomic_write_json
+    recorded = recorded_wall_times()
+    recorded.update({o.name: round(o.wall_s, 3) for o in ordered if o.status == "ok"})
+    atomic_write_json(_timings_file(), recorded)
     atomic_write_json(out / SUMMARY_JSON, {"format": "autocable.figures/1", "jobs": jobs,
                                            "scenes": [asdict(o) for o in ordered]})
     return ordered

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-__all__ = ["SceneData", "load_scene_data", "overlay_comparison", "build_report", "write_report",
+__all__ = ["SceneData", "load_scene_data", "overlay_comparison", "exact_stable", "study_bound", "build_report", "write_report",
            "stage_seconds", "FIGURE_STAGES", "PAPER_FIGURES", "STUDY_MAX_ERROR", "REASONS", "REPORT_MD"]
 
 REPORT_MD = "report.md"
@@ -30,6 +30,13 @@ PAPER_FIGURES = ("fig03", "fig04a", "fig04b", "fig04c", "fig05a", "fig05b", "fig
 #: Largest same-branch relative a1 error of the AME against eq. (21) per eta* over sigma in
 #: [-0.05, 0.05] and the wind speeds studied (docs/ame_vs_ode21.md, `autocable bench ame-vs-ode`).
 STUDY_MAX_ERROR = {8.2e-5: 1.08e-3, 4.1e-4: 2.62e-2, 1.4e-3: 2.65e-1}
+
+#: An AME equilibrium farther than this (relative, in the (a1, a2) plane) from eq. (21)'s response
+#: is on another branch: the AME-vs-(21) study's rule.
+NEAR = 0.5
+#: Amplitudes below this (peak displacement / l: a nanometre per metre of cable) count as rest:
+#: a relative error means nothing there.
+AT_REST = 1e-9
 
 #: Why a feature the paper states may not show with autocable (the sources are named in each text).
 REASONS = {
@@ -91,6 +98,7 @@ class SceneData:
     overlay: list[dict] = field(default_factory=list)       # overlay.csv
     series: list[dict] = field(default_factory=list)        # time_series.csv (Fig. 11)
     compare: object = None                                  # compare.json
+    overlay_ame: list[dict] | None = None                   # overlay_ame.csv (None: no such file)
 
     @property
     def ok(self) -> bool:
@@ -145,7 +153,9 @@ def load_scene_data(folder: str | Path, status: str | None = None, error: str = 
     return SceneData(name=folder.name, folder=folder, status=status, error=error, run=run,
                      rows=_read_csv(folder / "branches.csv"), specials=_read_csv(folder / "special_points.csv"),
                      overlay=_read_csv(folder / "overlay.csv"), series=_read_csv(folder / "time_series.csv"),
-                     compare=_read_json(folder / "compare.json"))
+                     compare=_read_json(folder / "compare.json"),
+                     overlay_ame=_read_csv(folder / "overlay_ame.csv") if (folder / "overlay_ame.csv").is_file()
+                     else None)
 
 
 # ================================================================================================
@@ -248,17 +258,43 @@ def _sp_list(points: list[dict], parameter: str) -> str:
 # the AME against eq. (21) at the overlay points
 # ================================================================================================
 def study_bound(eta: float) -> float:
-    """The AME-vs-(21) study's largest same-branch error at this eta* (nan if it did not study it)."""
+    """The AME-vs-(21) study's largest same-branch error at this eta*; between two studied values
+    (Figs. 4a-b: eta* = 1.6e-4, 3.2e-4) the log-log interpolation of the two, since the study
+    finds the error growing as a power of eta* (p = 1.9-2.0 between 8.2e-5 and 4.1e-4,
+    docs/ame_vs_ode21.md); nan outside the studied range (no extrapolation)."""
     for e, bound in STUDY_MAX_ERROR.items():
         if math.isclose(eta, e, rel_tol=1e-6):
             return bound
+    known = sorted(STUDY_MAX_ERROR.items())
+    for (e0, b0), (e1, b1) in zip(known, known[1:]):
+        if e0 < eta < e1:
+            return math.exp(math.log(b0) + math.log(eta / e0) / math.log(e1 / e0) * math.log(b1 / b0))
     return _NAN
+
+
+def study_bound_interpolated(eta: float) -> bool:
+    """Whether `study_bound` at this eta* is an interpolation rather than a studied value."""
+    return math.isfinite(study_bound(eta)) and not any(
+        math.isclose(eta, e, rel_tol=1e-6) for e in STUDY_MAX_ERROR)
+
+
+def exact_stable(data: SceneData, parameter: str, value: float) -> list[dict]:
+    """The stable AME equilibria at ``parameter = value`` that the scene solved by Newton at the
+    overlay's values (``overlay_ame.csv``, `autocable.methods.equilibria_at`)."""
+    return [{"branch": r.get("branch", ""), "a1": _num(r.get("a1")), "a2": _num(r.get("a2"))}
+            for r in data.overlay_ame or ()
+            if r.get("parameter") == parameter and _stable(r)
+            and math.isclose(_num(r.get("value")), value, rel_tol=1e-12, abs_tol=1e-15)]
 
 
 def overlay_comparison(data: SceneData) -> list[dict]:
     """One row per overlay point: eq. (21)'s response, the nearest stable AME equilibrium at the same
     parameter value (in the (a1, a2) plane), the relative a1 error |a1_AME - a1_21| / a1_21 and
-    whether it is within the study's bound for the scene's eta*."""
+    whether it is within the study's bound for the scene's eta*.
+
+    The AME values are those solved at the overlay's values (`exact_stable`); an output folder
+    written before ``overlay_ame.csv`` existed falls back to chords of branches.csv
+    (`interpolate_stable`, with its interpolation error)."""
     fixed = data.fixed()
     out = []
     for r in data.overlay:
@@ -272,8 +308,9 @@ def overlay_comparison(data: SceneData) -> list[dict]:
                "a1_min": _num(r.get("a1_min")), "a1_max": _num(r.get("a1_max")),
                "a2_min": _num(r.get("a2_min")), "a2_max": _num(r.get("a2_max")),
                "ame_branch": "", "ame_a1": _NAN, "ame_a2": _NAN, "rel_error": _NAN,
-               "bound": study_bound(eta), "within": None, "note": ""}
-        cands = interpolate_stable(data, p, v)
+               "bound": study_bound(eta), "bound_interpolated": study_bound_interpolated(eta),
+               "within": None, "note": ""}
+        cands = exact_stable(data, p, v) if data.overlay_ame is not None else interpolate_stable(data, p, v)
         if cands and math.isfinite(a1):
             best = min(cands, key=lambda c: math.hypot(c["a1"] - a1, c["a2"] - a2))
             row.update(ame_branch=best["branch"], ame_a1=best["a1"], ame_a2=best["a2"])
@@ -286,10 +323,19 @@ def overlay_comparison(data: SceneData) -> list[dict]:
             row["note"] = "eq. (21) not period-1 (amplitude-modulated): no AME equilibrium to compare"
         elif not cands:
             row["note"] = "no stable AME equilibrium at this value"
+        elif max(abs(a1), abs(a2), abs(row["ame_a1"]), abs(row["ame_a2"])) < AT_REST:
+            row["note"] = "both at rest: no relative error to take"
+        elif math.hypot(row["ame_a1"] - a1, row["ame_a2"] - a2) > NEAR * math.hypot(a1, a2):
+            # The study's rule (methods/ame_integration.compare_with_ode21): an AME equilibrium
+            # that far is another branch, not an error of the one eq. (21) sits on.
+            row["rel_error"] = abs(row["ame_a1"] - a1) / a1 if a1 > 0 else _NAN
+            row["note"] = (f"no stable AME equilibrium near eq. (21)'s response (nearest {NEAR:.0%} or more "
+                           "away in (a1, a2)): not the same branch")
         else:
             row["rel_error"] = abs(row["ame_a1"] - a1) / a1 if a1 > 0 else _NAN
             if math.isfinite(row["bound"]) and math.isfinite(row["rel_error"]):
-                row["within"] = row["rel_error"] <= row["bound"]
+                # The bounds are stated to three significant digits: compare at that precision.
+                row["within"] = float(f"{row['rel_error']:.2e}") <= row["bound"]
             elif not math.isfinite(row["bound"]):
                 row["note"] = "the study has no bound at this eta*"
         out.append(row)
@@ -310,7 +356,8 @@ def _overlay_table(scenes: list[SceneData]) -> list[str]:
             within = {True: "yes", False: "**no**", None: "—"}[c["within"]]
             lines.append(f"| {d.name} | {c['parameter']} = {c['value']:+.4f} | {c['direction']} | {_e(c['a1'])} | "
                          f"{_e(c['a2'])} | {per} | {_e(c['ame_a1'])} | {_e(c['ame_a2'])} | {c['ame_branch'] or '—'} | "
-                         f"{_e(c['rel_error'], 2)} | {_e(c['bound'], 2)} | {within} | {c['note']} |")
+                         f"{_e(c['rel_error'], 2)} | {_e(c['bound'], 2)}{' (interp.)' if c['bound_interpolated'] else ''} | "
+                         f"{within} | {c['note']} |")
     if not n_rows:
         return ["No scene wrote an overlay (overlay.csv): no direct integrations to compare."]
     return lines
@@ -324,6 +371,7 @@ def overlay_summary(data: SceneData) -> dict:
             "not_periodic": sum(1 for r in rows if r["steady"] and not r["periodic"]),
             "not_steady": sum(1 for r in rows if not r["steady"] or not math.isfinite(r["a1"])),
             "no_ame": sum(1 for r in rows if r["note"].startswith("no stable AME")),
+            "at_rest": sum(1 for r in rows if r["note"].startswith("both at rest")),
             "max_error": max((r["rel_error"] for r in compared), default=_NAN)}
 
 
@@ -524,7 +572,9 @@ def _integrations_agree(d: SceneData) -> Feature:
     return ("direct integrations of (21) (empty boxes) agree", shown,
             f"{s['points']} overlay points: {s['within']} of {s['compared']} compared within the study's bound "
             f"(largest error {_e(s['max_error'], 2)}); {s['not_periodic']} not period-1, {s['not_steady']} without "
-            f"a steady response, {s['no_ame']} without a stable AME equilibrium" + ("; " + "; ".join(why) if why else ""))
+            f"a steady response, {s['no_ame']} without a stable AME equilibrium near it"
+            + (f", {s['at_rest']} at rest in both" if s["at_rest"] else "")
+            + ("; " + "; ".join(why) if why else ""))
 
 
 def _fig10(d, all_):
@@ -876,10 +926,14 @@ def build_report(out_dir: str | Path) -> str:
     lines += ["", "## The amplitude equations against the integration of eq. (21) at the overlay points", "",
               "Each overlay point is a steady response of eq. (21) (swept up and down, each point from the "
               "previous state). Beside it, the stable AME equilibrium nearest to it in (a1, a2) at the same "
-              "parameter value, linearly interpolated between consecutive stable points of branches.csv; "
-              "rel. error = |a1_AME - a1_21| / a1_21. The bound is the largest same-branch error the "
+              "parameter value, solved there by Newton from the continued branches (overlay_ame.csv; "
+              "folders without it: linearly interpolated in branches.csv); "
+              "rel. error = |a1_AME - a1_21| / a1_21 (compared with the bound at its three digits). "
+              "The bound is the largest same-branch error the "
               "AME-vs-(21) study (docs/ame_vs_ode21.md) found at that eta*: "
-              + ", ".join(f"{_e(v, 2)} at {_g(k)}" for k, v in STUDY_MAX_ERROR.items()) + ".", ""]
+              + ", ".join(f"{_e(v, 2)} at {_g(k)}" for k, v in STUDY_MAX_ERROR.items())
+              + "; between two of these eta* the bound is their log-log interpolation (marked interp.: the "
+              "study finds the error growing as eta*^1.9-2.0), outside them there is none.", ""]
     lines += _overlay_table([d for d in scenes.values() if d.ok])
     lines += ["", "## Known reasons a feature may not show", ""]
     lines += [f"- **{k}**: {v}." for k, v in REASONS.items()]

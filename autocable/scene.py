@@ -853,6 +853,10 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         t0 = time.perf_counter()
         overlay_rows = _run_overlay(scene, deriv, ame, say, resolution)
         _write_overlay(overlay_rows, out / "overlay.csv")
+        # The AME side of the comparison, solved at the overlay's values rather than read off a chord.
+        from autocable.methods.equilibria_at import COLUMNS, equilibria_at
+        exact = equilibria_at(results, scene.overlay.parameter, [r["value"] for r in overlay_rows])
+        _write_overlay(exact, out / "overlay_ame.csv", COLUMNS)
         stages["overlay_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     write_results(res, out)
@@ -921,13 +925,13 @@ def _run_overlay(scene: Scene, deriv, ame, say, resolution: str = "full") -> lis
                          progress=tell, max_time=ov.max_time))
 
 
-def _write_overlay(rows: list[dict], path: Path) -> None:
+def _write_overlay(rows: list[dict], path: Path, columns=("parameter",)) -> None:
     import csv
     import io
 
     from autocable.codegen.cache import atomic_write_text
     buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=list(rows[0]) if rows else ["parameter"])
+    writer = csv.DictWriter(buf, fieldnames=list(rows[0]) if rows else list(columns))
     writer.writeheader()
     writer.writerows(rows)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -196,17 +196,26 @@ def test_report_lists_the_distance_to_digitised_points(figures):
     assert "| I | 7 | 1.25e-05 | 6.5e-06 |" in text
 
 
-def test_the_runner_starts_the_expensive_scenes_first(figures):
-    """Longest first keeps the set's wall time near total / cores; the summary keeps name order."""
-    from autocable.figures import default_runs_dir, expected_cost
+def test_the_runner_starts_the_expensive_scenes_first(figures, tmp_path, monkeypatch):
+    """Longest first keeps the set's wall time near total / cores: by the wall times recorded in
+    the cache when known, else by a weight; the summary keeps name order."""
+    from autocable.figures import default_runs_dir, expected_cost, recorded_wall_times
     _, out, runs = figures
+    summary = json.loads((out / "figures.json").read_text())
+    assert [s["name"] for s in summary["scenes"]] == ["figt1", "figt2", "figt9"]
     assert expected_cost(runs / "figt9.toml") == 0.0           # unreadable: fails at once anyway
     assert expected_cost(runs / "figt1.toml") == expected_cost(runs / "figt2.toml") == 2.0
     paper = {p.stem: expected_cost(p) for p in discover(default_runs_dir())}
-    order = sorted(paper, key=paper.get, reverse=True)
-    # Fig. 9 (three runs with periodic orbits and the overlay), Fig. 11 (a time history of the AME
-    # and of eq. (21)) and Fig. 10 (orbits and overlay) are the long ones; Figs. 3, 5a-b the short.
-    assert set(order[:3]) == {"fig09", "fig10", "fig11"}
-    assert max(paper[n] for n in ("fig03", "fig05a", "fig05b")) < min(paper[n] for n in order[:3])
-    summary = json.loads((out / "figures.json").read_text())
-    assert [s["name"] for s in summary["scenes"]] == ["figt1", "figt2", "figt9"]
+    # Fig. 9: four runs, periodic orbits from two of them and the eq. (21) overlay
+    assert max(paper, key=paper.get) == "fig09"
+    assert paper["fig11"] > paper["fig05a"]
+    # the recorded wall times win over the weights; a run records its own
+    monkeypatch.setenv("AUTOCABLE_CACHE", str(tmp_path / "cache"))
+    assert recorded_wall_times() == {}
+    (tmp_path / "cache" / "figures").mkdir(parents=True, exist_ok=True)
+    (tmp_path / "cache" / "figures" / "wall_s.json").write_text('{"figt2": 9.5, "figt1": 0.5}')
+    assert expected_cost(runs / "figt2.toml", recorded_wall_times()) == 9.5
+    assert main(["figures", "--out", str(tmp_path / "o"), "--runs", str(runs), "--only", "figt1",
+                 "--quiet"]) == 0
+    times = recorded_wall_times()
+    assert times["figt2"] == 9.5 and 0 < times["figt1"] != 0.5 and "figt9" not in times

@@ -308,6 +308,11 @@ def test_one_dof_amplitude_scene_refuses_support_motion(tmp_path):
         run_scene(load_scene(bad), tmp_path / "o", plot=False)
 
 
+def _without_overlay(text: str) -> str:
+    """The scene text up to its own [overlay] table (the last table of runs/fig05a.toml)."""
+    return text.split("\n[overlay]")[0]
+
+
 def test_overlay_of_direct_integrations(tmp_path):
     """[overlay] sweeps eq. (21) up and down (the empty boxes of Figs. 9-10), writes overlay.csv,
     and at Fig. 5a's settings the boxes sit on the stable AME branch within the AME-vs-(21) error
@@ -315,7 +320,8 @@ def test_overlay_of_direct_integrations(tmp_path):
     import csv
 
     scene_file = tmp_path / "fig05a_overlay.toml"
-    text = FIG05A.read_text().replace('"../models/luongo_zulli_2012.toml"', repr(str(MODEL)).replace("'", '"'))
+    text = _without_overlay(FIG05A.read_text()).replace('"../models/luongo_zulli_2012.toml"',
+                                                         repr(str(MODEL)).replace("'", '"'))
     scene_file.write_text(text + '\n[overlay]\nmethod = "ode21"\npoints = 3\nrange = [-0.04, 0.04]\n')
     out = tmp_path / "o"
     run_scene(load_scene(scene_file), out)
@@ -339,7 +345,8 @@ def test_overlay_of_direct_integrations(tmp_path):
 ])
 def test_overlay_schema_errors(tmp_path, body, field):
     scene_file = tmp_path / "bad.toml"
-    text = FIG05A.read_text().replace('"../models/luongo_zulli_2012.toml"', repr(str(MODEL)).replace("'", '"'))
+    text = _without_overlay(FIG05A.read_text()).replace('"../models/luongo_zulli_2012.toml"',
+                                                         repr(str(MODEL)).replace("'", '"'))
     scene_file.write_text(text + "\n" + body)
     with pytest.raises(SpecError, match=field):
         load_scene(scene_file)

@@ -25,6 +25,7 @@ import importlib
 import importlib.machinery
 import keyword
 import math
+import os
 import re
 import sys
 import time
@@ -571,14 +572,23 @@ def make_ode_generator(vf: VectorField, kind: str = "Dopri", *,
         return handle(gen, True)
     package = f"{libname}_temp"
     so_file, py_file, manifest_file = _library_files(folder / package, modname)
+    pickled = folder / package / f"{modname}.generator.pickle"
     with _build_lock(folder, modname), pydstool_session(what, folder) as chatter:
         manifest = cache.read_json(manifest_file)
         reusable = (so_file.exists() and py_file.exists() and isinstance(manifest, dict)
                     and manifest.get("environment") == _environment())
-        # Never let PyDSTool build on its own: its reuse check looks for '_<mod>.so' while Python 3
-        # names extensions '_<mod>.cpython-311-...so' (so it would recompile every time), and its
-        # build breaks in folders with a dot in their path (see compat.build_generator_library).
-        gen = gen_class(dst.args(**args, nobuild=True))
+        # PyDSTool's FuncSpec parsing of the equations takes seconds for the wind AME in every
+        # process; the generator as constructed (before any run, no algparams) is kept next to
+        # its library and unpickled instead (PyDSTool's own pickling protocol: the C module is
+        # re-imported on first use).
+        gen = _unpickle_generator(pickled, modname) if reusable else None
+        from_pickle = gen is not None
+        if gen is None:
+            # Never let PyDSTool build on its own: its reuse check looks for '_<mod>.so' while
+            # Python 3 names extensions '_<mod>.cpython-311-...so' (so it would recompile every
+            # time), and its build breaks in folders with a dot in their path (see
+            # compat.build_generator_library).
+            gen = gen_class(dst.args(**{k: v for k, v in args.items() if k != "algparams"}, nobuild=True))
         # `modname` also creates PyDSTool's build helper, which makes '<lib>_temp' in the *current*
         # directory: touch it here, inside the cache folder.
         if gen.modname != modname:
@@ -605,8 +615,44 @@ def make_ode_generator(vf: VectorField, kind: str = "Dopri", *,
                 "spec": {"varspecs": args["varspecs"], "fnspecs": _jsonable_fnspecs(args["fnspecs"]),
                          "pars": sorted(args["pars"])},
             })
+        if not from_pickle:
+            _pickle_generator(gen, pickled)
+        unknown = sorted(set(settings) - set(gen.algparams))
+        if unknown:
+            raise ValueError(f"Invalid keys present in algparams argument: {unknown}")
+        gen.set(ics=args["ics"], pars=args["pars"], tdata=args["tdata"], algparams=settings)
     _LIVE[modname] = gen
     return handle(gen, reusable)
+
+
+def _pickle_generator(gen: Any, path: Path) -> None:
+    """Keep ``gen`` (constructed, never run) for later processes; a failure only costs speed."""
+    import pickle
+    try:
+        blob = pickle.dumps(gen, protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception:   # noqa: BLE001 - an unpicklable generator is simply rebuilt next time
+        return
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_bytes(blob)
+        os.replace(tmp, path)
+    except OSError:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+
+
+def _unpickle_generator(path: Path, modname: str) -> Any | None:
+    """The generator `_pickle_generator` kept for ``modname``, or None (none, stale or unreadable).
+    The file sits in the user's own cache folder next to the compiled library it drives, written
+    by this module under the same content-hashed name."""
+    import pickle
+    if not path.is_file():
+        return None
+    try:
+        gen = pickle.loads(path.read_bytes())  # noqa: S301 - autocable's own cache file
+    except Exception:   # noqa: BLE001 - a truncated or incompatible file: build instead
+        return None
+    return gen if getattr(gen, "modname", None) == modname else None
 
 
 def _jsonable_fnspecs(fnspecs):

@@ -6,6 +6,12 @@ so a sweep follows an attractor until it disappears; sweeping both ways shows co
 (the two sides of a hysteresis loop). A diverged or non-steady point is kept with its message, and
 the next point restarts from the default start.
 
+Modelling choice (eq. 21): the carried state gets the start's small offset ``q0`` added (by
+default q2 = 1e-6, the out-of-plane imperfection every run starts from). Eq. (21) is symmetric
+under q2 -> -q2 and rest is a solution at eta = 0, so a carried state with a2 ~ 1e-30 would sit on
+the invariant mono-modal (or rest) subspace even where it is unstable and be reported as a steady
+attractor: the offset lets an unstable a2 = 0 response leave, and decays where it is stable.
+
 Works with `integration.Ode21Integrator` (eq. 21) and `ame_integration.AmeIntegrator` (the AME):
 both have ``simulate(U, eta, sigma, q0=..., **options)``; the state is carried as the eq. (21)
 start q0 = (q1, q1', q2, q2') for the former and as the AME state y0 = (r1, s1, r2, s2) for the
@@ -66,7 +72,7 @@ def sweep(integrator, parameter: str, values, fixed: dict, *, directions=("up", 
         for value in (values if direction == "up" else values[::-1]):
             point = dict(base, **{parameter: value})
             if is_ode21:
-                start = q0 if carried is None else carried
+                start = q0 if carried is None else tuple(c + d for c, d in zip(carried, q0))
                 r = integrator.simulate(point["U"], point["eta"], point["sigma"], start, **options)
                 ok = r.steady and math.isfinite(r.a1)
                 # simulate takes (q1, q1', q2, q2'); its final state is (q1, q2, q1', q2').
