@@ -17,9 +17,10 @@ start that does not converge raise `autocable.spec.SpecError` with one line nami
                                       # the lightest AME within ame_tol (autocable.advise), chosen by
                                       # cheap probes before the runs and recorded in run.json
     ame_tol = 0.02                    # only with ame = "auto"
-    engine = "pycont"                 # equilibria and switching: "pycont" (PyCont EP-C, default) or
-                                      # "compiled" (autocable's C kernel: the same branches, tested to
-                                      # agree, about 100x faster); cycles and curves always use PyCont
+    engine = "pycont"                 # equilibria, switching and cycles: "pycont" (PyCont EP-C and
+                                      # LC-C, default) or "compiled" (autocable's C kernel and its own
+                                      # collocation: the same branches, tested to agree, 25-100x
+                                      # faster); curves always use PyCont
     state_scale = "auto"              # amplitude scale for the continuation ("auto" or a number)
     [fixed]                           # U, eta, sigma shared by every run (default 0)
     [[run]]
@@ -202,7 +203,7 @@ class Scene:
     text: str = field(default="", repr=False)
     overlay: OverlaySpec | None = None
     time: "TimeSpec | None" = None
-    engine: str = "pycont"             # equilibria and branch switching: "pycont" | "compiled"
+    engine: str = "pycont"             # equilibria, branch switching and cycles: "pycont" | "compiled"
     ame_tol: float = 0.02              # with ame = "auto": the tolerance the advice uses
 
 
@@ -780,7 +781,8 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
             src = C.ContinuationResult(source.branch, problem, settings)
             label = run.start.label.split(":")[1]
             if run.kind == "cycles":
-                result = C.continue_cycles(src, label, settings, name=run.name, progress=say)
+                result = C.continue_cycles(src, label, settings, name=run.name, progress=say,
+                                           engine=scene.engine)
             else:
                 result = C.switch_branch(src, label, settings, name=run.name, progress=say,
                                          engine=scene.engine)
@@ -818,7 +820,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
                     continue
                 say(f"  cycles from {h.name}")
                 add(C.continue_cycles(results[run.name], h.label, settings, name=f"{run.name}-{h.label}",
-                                      progress=say))
+                                      progress=say, engine=scene.engine))
                 follow["cycles"] += 1
         if run.kind != "cycles" and run.switch:
             for bp in results[run.name].branch.of_type("BP"):
@@ -843,6 +845,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         "amplitude_convention": "a_k = sqrt(r_k^2 + s_k^2): peak modal amplitude (peak displacement / l, "
                                 "modes normalised to a unit maximum); Omega = omega1 + sigma",
         "stability": "autocable's eigenvalues (equilibria) and Floquet multipliers (cycles), not PyCont's flags",
+        "cycle_engine": scene.engine,
         "versions": _versions(), "platform": platform.platform(), "argv": list(sys.argv),
         "resolution": resolution,
     }
