@@ -287,3 +287,35 @@ def test_overlays_mark_eq21_divergence_above_the_critical_wind(scene_results, na
     for r in rows:
         if float(r["value"]) > 1.05 or name == "fig08":
             assert not math.isfinite(float(r["a1"])) and r["steady"] == "False", r
+
+
+#: Cycle branches from Hopf points. Full resolution (``autocable run runs/figNN.toml``): Fig. 10's
+#: I-H1 ends at max_points after 60 cycles (sigma = -0.0327689886, largest a1_max 5.177323e-3),
+#: Fig. 4a's after 120 (U = 1.00748996, 4.294200e-3). The coarse run keeps the first 20 cycles
+#: (`coarse_settings`; the steps never reach the full run's cycle_max_step before them), so it
+#: must end at the full run's 20th cycle: its parameter value and the largest a1_max up to it.
+#: Both engines give these (a scratch copy with engine = "pycont": parameter within 4e-11, a1_max
+#: within 2.3e-6 relative, PyCont's a1_max being the largest of ~560 samples of a cycle).
+CYCLES = {
+    "fig10": {"I-H1": {"reason": "max_points", "points": 20, "end": -0.03302107452671806,
+                       "a1_max": 4.546959224450731e-03}},
+    "fig04a": {"I-H1": {"reason": "max_points", "points": 20, "end": 1.0002311706774671,
+                        "a1_max": 8.44190050021748e-04}},
+}
+
+
+@pytest.mark.parametrize("name", sorted(CYCLES))
+def test_cycle_branches_at_coarse_resolution(scene_results, name):
+    res, out = scene_results(name)
+    prov = json.loads((out / "run.json").read_text())["provenance"]
+    assert prov["cycle_engine"] == load_scene(RUNS / f"{name}.toml").engine
+    for bname, want in CYCLES[name].items():
+        b = res.branch(bname)
+        assert b.kind == "cycle"
+        assert [e.reason for e in b.ends] == [want["reason"]]
+        assert len(b) == want["points"]
+        assert b.ends[0].value == pytest.approx(want["end"], rel=1e-8)
+        assert float(np.max(b["a1_max"])) == pytest.approx(want["a1_max"], rel=1e-5)
+        # Fig. 4a's orbits are stable (the thin lines), Fig. 10's unstable (Sect. 5); the Hopf point
+        # itself (row 0) has a multiplier pair on the unit circle.
+        assert b.stable[1:].all() if name == "fig04a" else not b.stable[1:].any()
