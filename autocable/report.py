@@ -563,7 +563,10 @@ def _integrations_agree(d: SceneData) -> Feature:
         return ("direct integrations of (21) (empty boxes) agree", "no", "no overlay in this scene")
     fixed = d.fixed()
     why = []
-    if s["not_steady"] and fixed.get("U", 0) > 1:
+    above = fixed.get("U", 0) > 1 or any(
+        r.get("parameter") == "U" and _num(r.get("value")) > 1 and not math.isfinite(_num(r.get("a1")))
+        for r in d.overlay)
+    if s["not_steady"] and above:
         why.append(_reason("divergence"))
     if (s["compared"] > s["within"] or s["no_ame"]) and math.isclose(fixed.get("eta", 0), 1.4e-3, rel_tol=1e-6):
         why.append(_reason("msm"))
@@ -753,7 +756,10 @@ _FEATURES: dict[str, Callable[[SceneData, dict], list[Feature]]] = {
 def _features(d: SceneData, all_: dict) -> list[Feature]:
     key = d.name[:5]
     fn = _FEATURES.get(key)
-    return fn(d, all_) if fn else []
+    out = fn(d, all_) if fn else []
+    if d.overlay and not any(f[0].startswith("direct integrations") for f in out):
+        out.append(_integrations_agree(d))
+    return out
 
 
 # ================================================================================================
