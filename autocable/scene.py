@@ -838,7 +838,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         "scene": str(scene.path), "scene_name": scene.name, "title": scene.title,
         "scene_text": scene.text, "model": str(scene.model), "model_name": spec.name,
         "model_hash": spec.content_hash(), "ode_hash": deriv.ode.content_hash(), "ame_key": cached.key,
-        "ame": scene.ame, "engine": scene.engine,
+        "ame": scene.ame, "engine": scene.engine, "ode21_engine": _ode21_engine(),
         "ame_advice": None if advice is None else {"requested": "auto", "tol": advice.tol, "chosen": advice.ame,
                                                    "lightest_rung": advice.rung, "reasons": list(advice.reasons)},
         "omega1": omega1, "omega2": float(ame.omegas[1]) if len(ame.omegas) > 1 else None,
@@ -901,6 +901,12 @@ def write_compare(scene: Scene, rows: list[dict], branches, out: Path) -> Path:
                                                     **summary})
 
 
+def _ode21_engine() -> str:
+    """The engine of the scenes' direct integrations of eq. (21) (provenance)."""
+    from autocable.methods.integration import SCENE_ENGINE
+    return SCENE_ENGINE
+
+
 def _run_overlay(scene: Scene, deriv, ame, say, resolution: str = "full") -> list[dict]:
     """Sweep the overlay's method up and down over its parameter values (methods/sweeps.py)."""
     import numpy as np
@@ -912,8 +918,8 @@ def _run_overlay(scene: Scene, deriv, ame, say, resolution: str = "full") -> lis
         values = values[::3]        # a subset of the same values, from the first
     fixed = {k: v for k, v in scene.fixed.items() if k != ov.parameter}
     if ov.method == "ode21":
-        from autocable.methods.integration import Ode21Integrator
-        integrator = Ode21Integrator(deriv.ode)
+        from autocable.methods.integration import SCENE_ENGINE, Ode21Integrator
+        integrator = Ode21Integrator(deriv.ode, engine=SCENE_ENGINE)
     else:
         from autocable.methods.ame_integration import AmeIntegrator
         integrator = AmeIntegrator(ame)
@@ -969,57 +975,26 @@ def modulation_period(t, a) -> float | None:
 
 
 def _ame_time_series(system, spec: TimeSpec, Omega: float):
-    """Integrate the AME (24) over [0, t_end] (compiled DOP853 of the continuation's own field, at
-    its unscaled setting); returns t and the amplitudes a1, a2."""
+    """Integrate the AME (24) over [0, t_end] (autocable's compiled DOP853, `ame_time_series`);
+    returns t and the amplitudes a1, a2."""
     import numpy as np
 
-    from autocable.codegen.pydstool import integrate, make_ode_generator
-    gen = make_ode_generator(system.scaled_field(), "Dopri", algparams={"rtol": 1e-10, "atol": 1e-16})
+    from autocable.methods.ame_integration import ame_time_series
     y0 = [0.0, 0.0, 1e-6, 0.0] if spec.start is None else [spec.start[0], 0.0, spec.start[1], 0.0]
-    pars = {"U": spec.U, "eta": spec.eta, "sigma": spec.sigma, "xscale": 1.0}
-    tt, ys = integrate(gen, y0, pars, 0.0, spec.t_end, (2 * math.pi / Omega) / spec.samples_per_period,
-                       algparams={"rtol": 1e-10, "atol": 1e-16})
+    tt, ys = ame_time_series(system, {"U": spec.U, "eta": spec.eta, "sigma": spec.sigma}, y0, spec.t_end,
+                             (2 * math.pi / Omega) / spec.samples_per_period, rtol=1e-10, atol=1e-16)
     return tt, np.hypot(ys[:, 0], ys[:, 1]), np.hypot(ys[:, 2], ys[:, 3])
 
 
 def _ode21_envelope(deriv, spec: TimeSpec, Omega: float):
     """Integrate eq. (21) from the same start (q_k = a_k, q_k' = 0: r_k = a_k, s_k = 0 at t = 0) and
-    take the half peak-to-peak of q1, q2 over each forcing period, at the period's mid time.
-    Returns (t, a1, a2, message); a divergence ends the arrays where it happens."""
-    import numpy as np
-
-    from autocable.codegen.compat import PyDSToolError
-    from autocable.methods.integration import DIVERGED, Ode21Integrator, parameter_values, refined_peak
-    integ = Ode21Integrator(deriv.ode)
-    period = 2 * math.pi / Omega
-    n = 64
-    pars = parameter_values(spec.U, spec.eta, Omega)
+    take the half peak-to-peak of q1, q2 over each forcing period, at the period's mid time
+    (`Ode21Integrator.envelope`). Returns (t, a1, a2, message); a divergence ends the arrays where
+    it happens."""
+    from autocable.methods.integration import SCENE_ENGINE, Ode21Integrator
     q = (0.0, 1e-6, 0.0, 0.0) if spec.start is None else (spec.start[0], spec.start[1], 0.0, 0.0)
-    ts, a1s, a2s = [], [], []
-    t, message = 0.0, "bounded over [0, t_end]"
-    chunk = 200 * period
-    while t < spec.t_end - 1e-9:
-        t1 = min(t + chunk, spec.t_end)
-        whole = max(1, int(round((t1 - t) / period)))
-        t1 = t + whole * period
-        try:
-            tt, ys = integ.run(q, t, t1, period / n, pars)
-        except PyDSToolError as exc:
-            message = f"eq. (21) diverges between t = {t:.6g} and {t1:.6g}: {str(exc).splitlines()[0]}"
-            break
-        m = (len(tt) - 1) // n
-        for k in range(m):
-            w = ys[k * n:(k + 1) * n + 1]
-            if not np.all(np.isfinite(w)) or np.max(np.abs(w[:, :2])) > DIVERGED:
-                message = f"eq. (21) diverges at t = {tt[k * n]:.6g} (|q| > {DIVERGED:g})"
-                break
-            ts.append(tt[k * n] + 0.5 * period)
-            a1s.append(0.5 * (refined_peak(w[:, 0], 1) - refined_peak(w[:, 0], -1)))
-            a2s.append(0.5 * (refined_peak(w[:, 1], 1) - refined_peak(w[:, 1], -1)))
-        if message.startswith("eq. (21) diverges"):
-            break
-        q, t = tuple(ys[m * n]), float(tt[m * n])
-    return np.array(ts), np.array(a1s), np.array(a2s), message
+    return Ode21Integrator(deriv.ode, engine=SCENE_ENGINE).envelope(
+        spec.U, spec.eta, spec.sigma, q, spec.t_end, samples_per_period=64, Omega=Omega)
 
 
 def _summary(t, a1, a2, since: float) -> dict:
@@ -1088,8 +1063,9 @@ def _run_time_scene(scene: Scene, out_dir, say, plot: bool, resolution: str):
             f"{summary['ode21'].get('a1_max', math.nan):.4e}], a2 in [{summary['ode21'].get('a2_min', math.nan):.4e}, "
             f"{summary['ode21'].get('a2_max', math.nan):.4e}]")
     summary["window"] = f"t >= {spec.summary_from:g} (summary_from): after the transient"
-    summary["ame_settings"] = {"integrator": "compiled DOP853", "rtol": 1e-10, "atol": 1e-16,
-                               "samples_per_period": spec.samples_per_period}
+    summary["ame_settings"] = {"integrator": "compiled DOP853 (autocable.codegen.cintegrate)", "rtol": 1e-10,
+                               "atol": 1e-16, "samples_per_period": spec.samples_per_period,
+                               "ode21_engine": _ode21_engine()}
     summary["ode21_envelope"] = "half peak-to-peak of q_k over each forcing period (64 samples, parabolic peaks)"
     buf = io.StringIO()
     w = csv.writer(buf)
@@ -1119,7 +1095,7 @@ def _run_time_scene(scene: Scene, out_dir, say, plot: bool, resolution: str):
         "scene": str(scene.path), "scene_name": scene.name, "title": scene.title, "scene_text": scene.text,
         "model": str(scene.model), "model_name": model.name, "model_hash": model.content_hash(),
         "ode_hash": deriv.ode.content_hash(), "ame_key": cached.key, "ame": scene.ame, "omega1": omega1,
-        "omega2": float(ame.omegas[1]), "Omega": Omega, "kind": "time",
+        "omega2": float(ame.omegas[1]), "Omega": Omega, "kind": "time", "ode21_engine": _ode21_engine(),
         "parameters": {"U": spec.U, "eta": spec.eta, "sigma": spec.sigma, "t_end": spec.t_end,
                        "start": "rest" if spec.start is None else list(spec.start)},
         "resolution": resolution,

@@ -281,6 +281,27 @@ class AmeIntegrator:
                            final_state=tuple(float(v) for v in y), equilibrium=eq, history=hist)
 
 
+# -- time series (Fig. 11) ----------------------------------------------------------------------------
+def ame_time_series(system, values: dict, y0, t_end: float, dt: float, *, rtol: float = 1e-10,
+                    atol: float = 1e-16) -> tuple[np.ndarray, np.ndarray]:
+    """The AME ``system`` (a `autocable.methods.system.System`, e.g. the Cartesian AME (24) of
+    `ame_system`) integrated from ``y0`` over [0, t_end], sampled every ``dt``: (t, states).
+
+    One call of autocable's compiled DOP853 (`autocable.codegen.cintegrate`, dense output at the
+    sample times) with the parameters ``values`` over the system's defaults. Raises RuntimeError if
+    the integration stops before t_end (a blow-up or a step-size collapse)."""
+    from autocable.codegen.cintegrate import compiled_integrator, sample_grid
+
+    ci = compiled_integrator(f"{system.name}_flow", system.variables, system.parameter_names,
+                             system.rhs, None)
+    grid = sample_grid(0.0, t_end, dt)
+    r = ci.run(np.asarray(y0, float), grid, system.parameter_vector(values), rtol=rtol, atol=atol)
+    if not r.ok:
+        raise RuntimeError(f"the AME integration stopped at t = {r.t_reached:.6g} of {t_end:g} "
+                           f"({r.status}): no bounded solution over [0, t_end]")
+    return r.t, r.y
+
+
 # -- comparison with the direct integration of eq. (21) ----------------------------------------------
 #: Comparison statuses (`Comparison.status`).
 STATUSES = {

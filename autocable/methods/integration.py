@@ -8,8 +8,13 @@ a_k is the peak modal amplitude, half the peak-to-peak of q_k over the last forc
 maximum. A response is called periodic when it repeats with the forcing period (period-1); an
 amplitude-modulated (quasi-periodic in q_k) response is steady only in its envelope.
 
-`engine="scipy"` integrates the same sympy right-hand side with scipy's DOP853 in Python: a slow
-independent cross-check of the compiled path.
+`engine="compiled"` integrates the same sympy right-hand side with autocable's own DOP853 in C
+(`autocable.codegen.cintegrate`: Hairer's coefficients, step control and dense output, one C call
+per chunk of forcing periods, and a stop as soon as |q_k| exceeds `DIVERGED` instead of spending the
+step budget on a finite-time blow-up). It takes the same steps as PyDSTool's Dopri up to the
+restart details and agrees with it to ~1e-9 relative on the steady amplitudes
+(tests/test_compiled_integration.py); the scenes use it. `engine="scipy"` integrates the same
+right-hand side with scipy's DOP853 in Python: a slow independent cross-check of both.
 """
 from __future__ import annotations
 
@@ -31,6 +36,16 @@ DEFAULT_Q0 = (0.0, 0.0, 1e-6, 0.0)   # order (q1, q1', q2, q2') as on the comman
 DIVERGED = 0.1
 #: Accepted integration steps per unit time beyond which a chunk is taken as blowing up (see run).
 STEPS_PER_TIME_UNIT_CAP = 400
+#: The engines of `Ode21Integrator` (module docstring).
+ENGINES = ("dopri", "compiled", "scipy")
+#: The engine the scenes' overlays and time evolutions use: the fastest that meets the accuracy
+#: (the compiled DOP853 agrees with PyDSTool's Dopri to ~1e-9 on the steady amplitudes).
+SCENE_ENGINE = "compiled"
+
+
+class IntegrationError(RuntimeError):
+    """The compiled engine stopped before the end of the interval (step budget, step size
+    collapsing, non-finite state or a bound exceeded): for eq. (21), a blow-up."""
 
 
 @dataclass(frozen=True)
@@ -68,6 +83,36 @@ def refined_peak(samples: np.ndarray, sign: int) -> float:
     return sign * y[i]
 
 
+def _stopped(r, t0: float, t1: float) -> str:
+    """Why the compiled engine stopped inside [t0, t1] (one line)."""
+    why = {"bound": f"|q_k| > {DIVERGED:g}", "not_finite": "a non-finite state",
+           "step_budget": f"more than {r.accepted:,} integration steps",
+           "step_too_small": "the step size collapsed"}.get(r.status, r.status)
+    return f"{why} at t = {r.t_reached:.6g} (integrating from t = {t0:g} to {t1:g})"
+
+
+def half_ranges(w: np.ndarray) -> np.ndarray:
+    """`_half_range` of every row of ``w`` (m x k samples), vectorised: the same parabolic peaks."""
+    w = np.asarray(w, dtype=float)
+    if w.shape[0] == 0:
+        return np.empty(0)
+
+    def peak(y):
+        i = np.argmax(y, axis=1)
+        rows = np.arange(len(y))
+        best = y[rows, i]
+        inner = (i > 0) & (i < y.shape[1] - 1)
+        a = y[rows, np.maximum(i - 1, 0)]
+        c = y[rows, np.minimum(i + 1, y.shape[1] - 1)]
+        den = a - 2 * best + c
+        ok = inner & (den < 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            refined = best - 0.125 * (a - c) ** 2 / den
+        return np.where(ok, refined, best)
+
+    return 0.5 * (peak(w) + peak(-w))
+
+
 def _half_range(x: np.ndarray) -> float:
     return 0.5 * (refined_peak(x, 1) - refined_peak(x, -1))
 
@@ -76,18 +121,19 @@ class Ode21Integrator:
     """Integrates one `TwoModeODE`; the compiled generator is built once and reused."""
 
     def __init__(self, ode: TwoModeODE, engine: str = "dopri", rtol: float = 1e-10, atol: float = 1e-13):
-        if engine not in ("dopri", "scipy"):
-            raise ValueError(f"unknown engine {engine!r}: use 'dopri' or 'scipy'")
+        if engine not in ENGINES:
+            raise ValueError(f"unknown engine {engine!r}: use one of {', '.join(ENGINES)}")
         self.ode, self.engine, self.rtol, self.atol = ode, engine, rtol, atol
         self._rhs = first_order_rhs(ode)
         self._generator = None
         self._numeric = None
+        self._c = None
         self.build_seconds = 0.0
 
     def with_tolerances(self, rtol: float, atol: float) -> "Ode21Integrator":
         """The same integrator at other tolerances, sharing the compiled generator."""
         other = Ode21Integrator(self.ode, self.engine, rtol, atol)
-        other._generator, other._numeric = self._generator, self._numeric
+        other._generator, other._numeric, other._c = self._generator, self._numeric, self._c
         return other
 
     # -- engines -------------------------------------------------------------------------------
@@ -103,6 +149,32 @@ class Ode21Integrator:
             self.build_seconds = time.perf_counter() - t0
         return self._generator
 
+    def _c_integrator(self):
+        if self._c is None:
+            from autocable.codegen.cintegrate import compiled_integrator
+            t0 = time.perf_counter()
+            self._c = compiled_integrator(f"eq21_{self.ode.content_hash()}", tuple(s.name for s in STATE),
+                                          tuple(p.name for p in PARAMETERS), self._rhs, T.name)
+            self.build_seconds = time.perf_counter() - t0
+        return self._c
+
+    @staticmethod
+    def _budget(t0: float, t1: float, n_samples: int) -> int:
+        # A bounded response takes about 27 accepted steps per forcing period (about 4 per time
+        # unit) at rtol 1e-10; a hundred times that only a blow-up needs, and stopping there
+        # spares the multi-million-step retries of a finite-time blow-up.
+        return n_samples + 10_000 + int(STEPS_PER_TIME_UNIT_CAP * (t1 - t0))
+
+    def run_compiled(self, y0, t0: float, t1: float, dt: float, pars: dict, bound: float = math.inf):
+        """The compiled engine's `CRun` (autocable.codegen.cintegrate) over [t0, t1] sampled every
+        ``dt``, state order (q1, q2, q1', q2'), stopping early once |q1| or |q2| exceeds ``bound``."""
+        from autocable.codegen.cintegrate import sample_grid
+        grid = sample_grid(t0, t1, dt)
+        p = [pars[s.name] for s in PARAMETERS]
+        return self._c_integrator().run(y0, grid, p, rtol=self.rtol, atol=self.atol, max_step=1.0,
+                                        max_steps=self._budget(t0, t1, len(grid)), bound=bound,
+                                        n_bound=2)
+
     def _scipy_rhs(self):
         if self._numeric is None:
             import sympy as sp
@@ -114,13 +186,16 @@ class Ode21Integrator:
         """Samples (t, states) on t0, t0+dt, ..., states in the order (q1, q2, q1', q2')."""
         if self.engine == "dopri":
             from autocable.codegen.pydstool import integrate
-            # Tolerances are per integrator object while the compiled generator is shared.
-            # A bounded response takes about 27 accepted steps per forcing period (about 4 per
-            # time unit) at rtol 1e-10; a hundred times that only a blow-up needs, and stopping
-            # there spares the multi-million-step retries of a finite-time blow-up.
-            budget = 2 * int((t1 - t0) / dt) + 10_000 + int(STEPS_PER_TIME_UNIT_CAP * (t1 - t0))
+            # Tolerances are per integrator object while the compiled generator is shared; the
+            # buffer holds the samples and the accepted steps (see _budget).
+            budget = 2 * int((t1 - t0) / dt) + self._budget(t0, t1, 0)
             return integrate(self._compiled(), list(y0), pars, t0, t1, dt,
                              algparams={"rtol": self.rtol, "atol": self.atol}, max_points=budget)
+        if self.engine == "compiled":
+            r = self.run_compiled(y0, t0, t1, dt, pars)
+            if not r.ok:
+                raise IntegrationError(_stopped(r, t0, t1))
+            return r.t, r.y
         from scipy.integrate import solve_ivp
         f = self._scipy_rhs()
         p = tuple(pars[s.name] for s in PARAMETERS)
@@ -159,8 +234,26 @@ class Ode21Integrator:
         window = np.array([y])
         while t < max_time - 1e-9:
             t1 = min(t + chunk, max_time)
+            if t1 - t < dt * (1 - 1e-9):
+                # Less than one sample interval is left before max_time (the chunks end on the
+                # sample grid): another chunk would not advance t.
+                break
+            if self.engine == "compiled":
+                # One C call per chunk that stops at the divergence bound itself.
+                r = self.run_compiled(y, t, t1, dt, pars, bound=DIVERGED)
+                if not r.ok:
+                    if keep_history and len(r.t) > 1:
+                        history.append((r.t[:-1], r.y[:-1]))
+                    return self._response(U, eta, sigma, Omega, (math.inf, math.inf), False, False,
+                                          r.t_reached, None, "the response diverged (no bounded steady "
+                                          f"state): {_stopped(r, t, t1)}", start,
+                                          tuple(r.y_reached), history)
+                tt, ys = r.t, r.y
+            else:
+                tt = None
             try:
-                tt, ys = self.run(y, t, t1, dt, pars)
+                if tt is None:
+                    tt, ys = self.run(y, t, t1, dt, pars)
             except PyDSToolError as exc:
                 # A finite-time blow-up of the cubic model ends in a collapsing step: a result.
                 return self._response(U, eta, sigma, Omega, (math.inf, math.inf), False, False, t,
@@ -189,6 +282,57 @@ class Ode21Integrator:
         msg = "steady" if steady else f"not steady after t = {t:g} (amplitudes still changing)"
         return self._response(U, eta, sigma, Omega, amps, steady, periodic, t, window, msg, start, y,
                               history, samples_per_period)
+
+    def envelope(self, U: float, eta: float, sigma: float, y0, t_end: float, *,
+                 samples_per_period: int = 64, chunk_periods: int = 200, Omega: float | None = None):
+        """The amplitude envelope of eq. (21) from ``y0`` = (q1, q2, q1', q2') over [0, t_end]
+        (Fig. 11): the half peak-to-peak of q1, q2 over each forcing period (``samples_per_period``
+        samples, parabolic peaks), at the period's mid time. Returns (t, a1, a2, message); a
+        divergence (|q_k| > `DIVERGED`, a non-finite state or a failed integration) ends the arrays
+        at the last whole period before it. ``Omega`` overrides omega1 + sigma."""
+        Om = self.ode.omega1 + sigma if Omega is None else float(Omega)
+        if not Om > 0:
+            raise ValueError(f"sigma = {sigma} gives a non-positive forcing frequency Omega = {Om}")
+        period, n = 2 * math.pi / Om, int(samples_per_period)
+        pars = parameter_values(U, eta, Om)
+        q, t = tuple(float(v) for v in y0), 0.0
+        ts, a1s, a2s = [], [], []
+        message = "bounded over [0, t_end]"
+        while t < t_end - 1e-9:
+            t1 = min(t + chunk_periods * period, t_end)
+            t1 = t + max(1, int(round((t1 - t) / period))) * period
+            stop = ""
+            if self.engine == "compiled":
+                r = self.run_compiled(q, t, t1, period / n, pars, bound=DIVERGED)
+                tt, ys = r.t, r.y
+                if not r.ok:
+                    stop = (f"eq. (21) diverges between t = {t:.6g} and {t1:.6g}: {_stopped(r, t, t1)}"
+                            if r.status in ("step_budget", "step_too_small") else "bound")
+            else:
+                try:
+                    tt, ys = self.run(q, t, t1, period / n, pars)
+                except PyDSToolError as exc:
+                    message = f"eq. (21) diverges between t = {t:.6g} and {t1:.6g}: {str(exc).splitlines()[0]}"
+                    break
+            m = (len(tt) - 1) // n
+            idx = np.arange(m)[:, None] * n + np.arange(n + 1)[None, :]
+            w = ys[:, :2][idx] if m else np.empty((0, n + 1, 2))
+            bad = ~np.all(np.isfinite(w), axis=(1, 2)) | (np.max(np.abs(np.nan_to_num(w, nan=np.inf)),
+                                                                 axis=(1, 2), initial=0.0) > DIVERGED)
+            good = m if not bad.any() else int(np.argmax(bad))
+            ts.append(tt[:good * n:n] + 0.5 * period)
+            a1s.append(half_ranges(w[:good, :, 0]))
+            a2s.append(half_ranges(w[:good, :, 1]))
+            if good < m or stop == "bound":
+                # the first period with a sample beyond the bound, or the one the integration stopped in
+                message = f"eq. (21) diverges at t = {tt[good * n]:.6g} (|q| > {DIVERGED:g})"
+                break
+            if stop:
+                message = stop
+                break
+            q, t = tuple(ys[m * n]), float(tt[m * n])
+        cat = (lambda parts: np.concatenate(parts) if parts else np.empty(0))
+        return cat(ts), cat(a1s), cat(a2s), message
 
     @staticmethod
     def _is_periodic(window: np.ndarray, n: int, floor: float, tol: float = 1e-6) -> bool:

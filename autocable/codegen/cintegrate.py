@@ -1,0 +1,394 @@
+"""sympy -> C: an adaptive DOP853 integrator compiled for one first-order system y' = f(t, y; p).
+
+What it holds. The direct integrations of autocable spend their time stepping a small polynomial
+vector field (eq. (21) of Luongo & Zulli, 4 states; the Cartesian AME (24), 4 states) over tens of
+thousands of time units. Done in C in one call, a forcing period of eq. (21) costs microseconds;
+through PyDSTool's generator interface each call also pays for setting the generator up, its
+special-times list and copies of its whole output. This module writes one C file per right-hand side
+with
+
+* f(t, y; p) from ``sympy.cse`` and the C printer of `autocable.codegen.ckernel` (integer powers as
+  products, 17-digit constants);
+* Hairer & Wanner's DOP853 (explicit Runge-Kutta 8(5,3), "Solving ODEs I", Sect. II.10): the
+  coefficients are scipy's table of it (`scipy.integrate._ivp.dop853_coefficients`, printed into
+  the C source with 17 digits), the error estimate is Hairer's mixed 5th/3rd-order norm
+  err = |h| E5^2 / sqrt(n (E5^2 + 0.01 E3^2)) with sk = atol + rtol max(|y_old|, |y_new|), the
+  step control is his (safety 0.9, 0.333 <= h_new / h <= 6, exponent 1/8, no growth right after a
+  rejection, h <= max_step), the first step his ``hinit``; PyDSTool's Dopri generator wraps the
+  same code (Hairer's dop853.c), so both engines take the same steps up to details of the restart;
+* the 7th-order dense output of DOP853 (three extra stages per accepted step) evaluated at the
+  caller's sample times, so samples cost a polynomial each and never shorten a step;
+* stops that a caller needs to tell a blow-up from a response: a budget of accepted steps, a step
+  size below 10 ulp of t, a non-finite state, and ``|y_i| > bound`` for the first ``n_bound``
+  components (a modal amplitude beyond the model's validity), each reported with a status code.
+
+Build and cache as for `autocable.codegen.ckernel` (whose printer, compiler call and build lock are
+reused): the library is keyed by a content hash of the right-hand side, names, coefficient table
+and this emitter's version, and lives in ``cache_root()/cintegrate/<name>-<hash>/``.
+"""
+from __future__ import annotations
+
+import ctypes
+import functools
+import math
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import sympy as sp
+
+from autocable.codegen import cache
+from autocable.codegen.ckernel import CFLAGS, KernelBuildError, _block, _compile, _lock, _Printer
+
+__all__ = ["INTEGRATOR_VERSION", "STATUS", "CIntegrator", "CRun", "compiled_integrator",
+           "integrator_source", "sample_grid"]
+
+#: Bump when the emitted C changes meaning: it is part of the content hash.
+INTEGRATOR_VERSION = "1"
+
+#: How a run ended (the status code of the C loop).
+STATUS = {0: "done", 1: "step_budget", 2: "step_too_small", 3: "bound", 4: "not_finite"}
+
+
+def _coefficients():
+    """Hairer's DOP853 table as scipy holds it: A (16 x 16, rows 13-15 the dense-output stages),
+    B (12), C (16), E3, E5 (13; the 13th, f at the new point, has weight 0) and D (4 x 16)."""
+    from scipy.integrate._ivp import dop853_coefficients as d
+    if d.E3[12] != 0.0 or d.E5[12] != 0.0:     # the error estimate must not need the FSAL stage
+        raise KernelBuildError("unexpected DOP853 table in scipy: the error weights use stage 13")
+    return d.A, d.B, d.C, d.E3, d.E5, d.D
+
+
+def _lin(weights, stages, skip_zero=True) -> str:
+    """C text of sum_j w_j K_j[i] over the non-zero weights."""
+    terms = [f"{float(w)!r} * K{j}[i]" for j, w in zip(stages, weights) if not (skip_zero and w == 0.0)]
+    return " + ".join(terms) if terms else "0.0"
+
+
+def integrator_source(variables: Sequence[str], parameters: Sequence[str], rhs: Sequence,
+                      time_symbol: str | None = "t") -> str:
+    """The C text of the DOP853 integrator of y' = rhs(t, y; p), y in ``variables``, p in
+    ``parameters`` order; ``time_symbol`` names t in ``rhs`` (None for an autonomous field)."""
+    n, m = len(variables), len(parameters)
+    if n < 1:
+        raise KernelBuildError("the C integrator needs at least one state variable")
+    names = {v: f"y[{i}]" for i, v in enumerate(variables)}
+    names.update({q: f"p[{j}]" for j, q in enumerate(parameters)})
+    if time_symbol:
+        names[time_symbol] = "t"
+    pr = _Printer(names)
+    body = _block(pr, [sp.sympify(e) for e in rhs], [f"out[{i}]" for i in range(n)], "ac_ti")
+    A, B, C, E3, E5, D = _coefficients()
+    stages = []
+    # Stages 2..12 (K1..K11): y + h sum_j a_sj K_j, evaluated at t + c_s h.
+    for s in range(1, 12):
+        stages.append(f"    for (i = 0; i < N; i++) yy[i] = y[i] + h * ({_lin(A[s, :s], range(s))});\n"
+                      f"    f_eval(t + {float(C[s])!r} * h, yy, p, K{s});")
+    extra = []
+    for s in range(13, 16):
+        extra.append(f"        for (i = 0; i < N; i++) yy[i] = y[i] + h * ({_lin(A[s, :s], range(s))});\n"
+                     f"        f_eval(t + {float(C[s])!r} * h, yy, p, K{s});")
+    dense = "\n".join(f"            F[{3 + r}][i] = h * ({_lin(D[r], range(16))});" for r in range(4))
+    decl = "    double " + ", ".join(f"K{j}[N]" for j in range(16)) + ";"
+    head = f"""/* autocable C integrator (version {INTEGRATOR_VERSION}): DOP853 for y = ({', '.join(variables)}),
+   p = ({', '.join(parameters)}), t = {time_symbol or '(autonomous)'}. Generated from sympy; do not edit. */
+#include <math.h>
+#include <string.h>
+#define N {n}
+#define NP {m}
+
+static void f_eval(double t, const double *y, const double *p, double *out) {{
+    (void)t; (void)y; (void)p;
+{chr(10).join(body)}
+}}
+
+void ac_rhs(double t, const double *y, const double *p, double *out) {{ f_eval(t, y, p, out); }}
+int ac_dims(int *out) {{ out[0] = N; out[1] = NP; return 0; }}
+
+/* Hairer's hinit: a first step from the size of f and of its change over an Euler step. */
+static double hinit(double t, const double *y, const double *p, const double *f0, double hmax,
+                    double rtol, double atol) {{
+    double dnf = 0.0, dny = 0.0, der2 = 0.0, h, h1, der12, sk, yy[N], f1[N];
+    int i;
+    for (i = 0; i < N; i++) {{
+        sk = atol + rtol * fabs(y[i]);
+        dnf += (f0[i] / sk) * (f0[i] / sk);
+        dny += (y[i] / sk) * (y[i] / sk);
+    }}
+    h = (dnf <= 1e-10 || dny <= 1e-10) ? 1e-6 : sqrt(dny / dnf) * 0.01;
+    h = fmin(h, hmax);
+    for (i = 0; i < N; i++) yy[i] = y[i] + h * f0[i];
+    f_eval(t + h, yy, p, f1);
+    for (i = 0; i < N; i++) {{
+        sk = atol + rtol * fabs(y[i]);
+        der2 += ((f1[i] - f0[i]) / sk) * ((f1[i] - f0[i]) / sk);
+    }}
+    der2 = sqrt(der2) / h;
+    der12 = fmax(fabs(der2), sqrt(dnf));
+    h1 = der12 <= 1e-15 ? fmax(1e-6, h * 1e-3) : pow(0.01 / der12, 1.0 / 8.0);
+    return fmin(100.0 * h, fmin(h1, hmax));
+}}
+
+/* Integrate from t0 with y0 towards t1 = grid[ng - 1] (the grid is increasing, grid[0] = t0),
+   writing the state at every grid time into ys (ng x N, row major).
+   opt = (rtol, atol, hmax, max_steps, bound, n_bound, h0): h0 = 0 takes hinit's first step.
+   info (out) = (status, t reached, accepted, rejected, f evaluations, last step, y reached[N]).
+   Returns the number of grid rows written (all of them when status is 0). */
+int ac_integrate(const double *y0, const double *grid, int ng, const double *p, const double *opt,
+                 double *ys, double *info) {{
+{decl}
+    double y[N], yy[N], ynew[N], F[7][N];
+    double t = grid[0], t1 = grid[ng - 1], rtol = opt[0], atol = opt[1], hmax = fabs(opt[2]);
+    double bound = opt[4], h, hnew, err, err3, sk, e5, e3, fac11, fac;
+    long max_steps = (long)opt[3], nacc = 0, nrej = 0, nfev = 0;
+    int i, k = 0, nb = (int)opt[5], status = 0, last = 0, reject = 0;
+    const double safe = 0.9, facc1 = 1.0 / 0.333, facc2 = 1.0 / 6.0, uround = 2.3e-16;
+    memcpy(y, y0, sizeof(y));
+    for (i = 0; i < N; i++) if (!isfinite(y[i])) status = 4;
+    f_eval(t, y, p, K0); nfev++;
+    h = opt[6] > 0.0 ? fmin(opt[6], hmax) : hinit(t, y, p, K0, hmax, rtol, atol);
+    nfev++;
+    while (k < ng && grid[k] <= t) {{ memcpy(ys + (long)k * N, y, sizeof(y)); k++; }}
+    while (status == 0 && t < t1) {{
+        if (nacc >= max_steps) {{ status = 1; break; }}
+        if (0.1 * fabs(h) <= fabs(t) * uround) {{ status = 2; break; }}
+        if (t + 1.01 * h >= t1) {{ h = t1 - t; last = 1; }}
+{chr(10).join(stages)}
+        for (i = 0; i < N; i++) ynew[i] = y[i] + h * ({_lin(B, range(12))});
+        nfev += 11;
+        err = 0.0; err3 = 0.0;
+        for (i = 0; i < N; i++) {{
+            sk = atol + rtol * fmax(fabs(y[i]), fabs(ynew[i]));
+            e5 = ({_lin(E5[:12], range(12))}) / sk;
+            e3 = ({_lin(E3[:12], range(12))}) / sk;
+            err += e5 * e5; err3 += e3 * e3;
+        }}
+        {{
+            double deno = err + 0.01 * err3;
+            if (deno <= 0.0) deno = 1.0;
+            err = fabs(h) * err * sqrt(1.0 / (deno * (double)N));
+        }}
+        if (!isfinite(err)) {{ status = 4; break; }}
+        fac11 = pow(err, 1.0 / 8.0);
+        fac = fmax(facc2, fmin(facc1, fac11 / safe));
+        hnew = h / fac;
+        if (err > 1.0) {{
+            hnew = h / fmin(facc1, fac11 / safe);
+            reject = 1; last = 0;
+            if (nacc >= 1) nrej++;
+            h = hnew;
+            continue;
+        }}
+        nacc++;
+        {{
+            double tnew = last ? t1 : t + h;
+            f_eval(tnew, ynew, p, K12); nfev++;
+            if (k < ng && grid[k] <= tnew) {{
+                /* dense output of this step: three more stages, then the 7th-degree polynomial */
+{chr(10).join(extra)}
+                nfev += 3;
+                for (i = 0; i < N; i++) {{
+                    double dy = ynew[i] - y[i];
+                    F[0][i] = dy;
+                    F[1][i] = h * K0[i] - dy;
+                    F[2][i] = 2.0 * dy - h * (K12[i] + K0[i]);
+{dense}
+                }}
+                while (k < ng && grid[k] <= tnew) {{
+                    double *out = ys + (long)k * N;
+                    if (grid[k] == tnew) memcpy(out, ynew, sizeof(ynew));
+                    else {{
+                        double x = (grid[k] - t) / h, x1 = 1.0 - x;
+                        for (i = 0; i < N; i++) {{
+                            double v = F[6][i] * x;
+                            v = (v + F[5][i]) * x1;
+                            v = (v + F[4][i]) * x;
+                            v = (v + F[3][i]) * x1;
+                            v = (v + F[2][i]) * x;
+                            v = (v + F[1][i]) * x1;
+                            v = (v + F[0][i]) * x;
+                            out[i] = y[i] + v;
+                        }}
+                    }}
+                    k++;
+                }}
+            }}
+            memcpy(K0, K12, sizeof(K0));
+            memcpy(y, ynew, sizeof(y));
+            t = tnew;
+        }}
+        for (i = 0; i < N; i++) if (!isfinite(y[i])) status = 4;
+        for (i = 0; i < nb && i < N; i++) if (fabs(y[i]) > bound) status = 3;
+        if (last) break;
+        if (fabs(hnew) > hmax) hnew = hmax;
+        if (reject) hnew = fmin(fabs(hnew), fabs(h));
+        reject = 0;
+        h = hnew;
+    }}
+    info[0] = status; info[1] = t; info[2] = (double)nacc; info[3] = (double)nrej;
+    info[4] = (double)nfev; info[5] = h;
+    for (i = 0; i < N; i++) info[6 + i] = y[i];
+    return k;
+}}
+"""
+    return head
+
+
+def sample_grid(t0: float, t1: float, dt: float) -> np.ndarray:
+    """t0, t0 + dt, ... up to t1 (t1 itself when it falls on the grid), as
+    `autocable.codegen.pydstool.integrate` samples, so both engines report the same times."""
+    t0, t1, dt = float(t0), float(t1), float(dt)
+    if not (t1 > t0 and dt > 0):
+        raise ValueError(f"need t1 > t0 and dt > 0, got t0={t0}, t1={t1}, dt={dt}")
+    n = int(math.floor((t1 - t0) / dt * (1 + 1e-12))) + 1
+    grid = t0 + dt * np.arange(n)
+    if abs(grid[-1] - t1) <= 1e-9 * dt:
+        grid[-1] = t1
+    return np.minimum(grid, t1)
+
+
+@dataclass(frozen=True)
+class CRun:
+    """One call of the compiled integrator: the samples it reached and how it ended."""
+
+    t: np.ndarray            # the grid times written (all of the grid when status == "done")
+    y: np.ndarray            # (len(t), n) states at those times
+    status: str              # a value of STATUS
+    t_reached: float         # where the integration stopped (the last accepted step)
+    y_reached: np.ndarray    # the state there
+    accepted: int
+    rejected: int
+    evaluations: int         # right-hand side evaluations
+    last_step: float
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "done"
+
+
+@dataclass(frozen=True, eq=False)
+class CIntegrator:
+    """A loaded DOP853 library of one right-hand side (see the module docstring)."""
+
+    n: int
+    m: int
+    path: Path
+    lib: ctypes.CDLL
+    timings: tuple   # (("emit_s", s), ("compile_s", s), ("load_s", s)); zeros when cached
+
+    def rhs(self, t: float, y, p) -> np.ndarray:
+        out = np.empty(self.n)
+        self.lib.ac_rhs(float(t), np.ascontiguousarray(y, float).ctypes.data,
+                        np.ascontiguousarray(p, float).ctypes.data, out.ctypes.data)
+        return out
+
+    def run(self, y0, grid, p, *, rtol: float, atol: float, max_step: float = math.inf,
+            max_steps: int = 10**9, bound: float = math.inf, n_bound: int = 0,
+            first_step: float = 0.0) -> CRun:
+        """Integrate from (grid[0], y0) to grid[-1], sampling at every grid time (increasing).
+
+        Stops early (status) after ``max_steps`` accepted steps, on a step below 10 ulp of t, on
+        a non-finite state, or when one of the first ``n_bound`` components exceeds ``bound`` in
+        modulus (checked after every accepted step)."""
+        y0 = np.ascontiguousarray(y0, float)
+        grid = np.ascontiguousarray(grid, float)
+        p = np.ascontiguousarray(p, float)
+        if y0.shape != (self.n,) or p.shape != (self.m,):
+            raise ValueError(f"the compiled integrator takes {self.n} states and {self.m} parameters, "
+                             f"got {y0.shape[0]} and {p.shape[0]}")
+        if grid.ndim != 1 or len(grid) < 2 or np.any(np.diff(grid) <= 0):
+            raise ValueError("the sample grid must be increasing with at least two times")
+        if not (rtol > 0 and atol > 0):
+            raise ValueError(f"tolerances must be positive, got rtol={rtol}, atol={atol}")
+        ys = np.empty((len(grid), self.n))
+        info = np.empty(6 + self.n)
+        hmax = min(float(max_step), float(grid[-1] - grid[0]))
+        opt = np.array([rtol, atol, hmax, float(min(max_steps, 2**52)), float(bound),
+                        float(n_bound), float(first_step)])
+        k = self.lib.ac_integrate(y0.ctypes.data, grid.ctypes.data, len(grid), p.ctypes.data,
+                                  opt.ctypes.data, ys.ctypes.data, info.ctypes.data)
+        return CRun(t=grid[:k], y=ys[:k], status=STATUS[int(info[0])], t_reached=float(info[1]),
+                    y_reached=info[6:].copy(), accepted=int(info[2]), rejected=int(info[3]),
+                    evaluations=int(info[4]), last_step=float(info[5]))
+
+
+def _key(name, variables, parameters, time_symbol, rhs, cc) -> str:
+    A, B, C, E3, E5, D = _coefficients()
+    return cache.content_hash({"version": INTEGRATOR_VERSION, "variables": list(variables),
+                               "parameters": list(parameters), "time": time_symbol,
+                               "rhs": [sp.srepr(e) for e in rhs], "cc": cc, "cflags": list(CFLAGS),
+                               "name": name,
+                               "table": [np.asarray(a).tolist() for a in (A, B, C, E3, E5, D)]})
+
+
+def _load(path: Path, n: int, m: int, timings) -> CIntegrator:
+    try:
+        lib = ctypes.CDLL(str(path))
+    except OSError as exc:
+        raise KernelBuildError(f"C integrator {path.name}: could not be loaded ({exc}); delete "
+                               f"{path.parent} to rebuild it") from None
+    vp = ctypes.c_void_p
+    lib.ac_rhs.argtypes = [ctypes.c_double, vp, vp, vp]
+    lib.ac_rhs.restype = None
+    lib.ac_integrate.argtypes = [vp, vp, ctypes.c_int, vp, vp, vp, vp]
+    lib.ac_integrate.restype = ctypes.c_int
+    lib.ac_dims.argtypes = [vp]
+    dims = np.zeros(2, np.intc)
+    lib.ac_dims(dims.ctypes.data)
+    if (int(dims[0]), int(dims[1])) != (n, m):
+        raise KernelBuildError(f"C integrator {path}: built for n = {dims[0]}, m = {dims[1]}, expected "
+                               f"{n}, {m}; delete {path.parent} to rebuild it")
+    return CIntegrator(n, m, path, lib, timings)
+
+
+@functools.lru_cache(maxsize=32)
+def _integrator_for(name: str, variables: tuple, parameters: tuple, time_symbol, rhs: tuple,
+                    cc: str) -> CIntegrator:
+    key = _key(name, variables, parameters, time_symbol, rhs, cc)
+    folder = cache.cache_dir("cintegrate", f"{name}-{key}")
+    lib = folder / "kernel.so"
+    emit_s = compile_s = 0.0
+    with _lock(folder):
+        if not lib.exists():
+            t0 = time.perf_counter()
+            try:
+                source = integrator_source(variables, parameters, rhs, time_symbol)
+            except KernelBuildError:
+                raise
+            except Exception as exc:  # noqa: BLE001 - sympy's printer raises many kinds
+                text = " ".join(str(exc).split())
+                raise KernelBuildError(f"C integrator of {name!r}: the right-hand side cannot be "
+                                       f"written as C ({type(exc).__name__}: {text}); use "
+                                       f"engine='dopri'") from None
+            t1 = time.perf_counter()
+            try:
+                _compile(source, folder, cc, repr(name))
+            except KernelBuildError as exc:
+                raise KernelBuildError(str(exc).replace("engine='pycont'", "engine='dopri'")) from None
+            emit_s, compile_s = t1 - t0, time.perf_counter() - t1
+    t2 = time.perf_counter()
+    k = _load(lib, len(variables), len(parameters), ())
+    return CIntegrator(k.n, k.m, k.path, k.lib, (("emit_s", emit_s), ("compile_s", compile_s),
+                                                 ("load_s", time.perf_counter() - t2)))
+
+
+def compiled_integrator(name: str, variables: Sequence[str], parameters: Sequence[str], rhs: Sequence,
+                        time_symbol: str | None = "t", cc: str | None = None) -> CIntegrator:
+    """The loaded DOP853 library of y' = rhs(t, y; p), built if needed (cached across processes).
+
+    ``rhs``: sympy expressions in the symbols named by ``variables``, ``parameters`` and
+    ``time_symbol``; ``cc``: the C compiler (default ``$CC`` or ``gcc``). Raises
+    `autocable.codegen.ckernel.KernelBuildError` (one line)."""
+    cc = cc or os.environ.get("CC", "").strip() or "gcc"
+    plain = tuple(sp.sympify(e).xreplace({s: sp.Symbol(s.name) for s in sp.sympify(e).free_symbols})
+                  for e in rhs)
+    known = set(variables) | set(parameters) | ({time_symbol} if time_symbol else set())
+    for e in plain:
+        extra = {s.name for s in e.free_symbols} - known
+        if extra:
+            raise KernelBuildError(f"C integrator of {name!r}: undeclared symbols {sorted(extra)} in "
+                                   f"the right-hand side")
+    return _integrator_for(name, tuple(variables), tuple(parameters), time_symbol, plain, cc)

@@ -1,0 +1,195 @@
+"""The compiled DOP853 integrator (autocable/codegen/cintegrate.py) and the engines built on it:
+`Ode21Integrator(engine="compiled")` (eq. 21 overlays), `Ode21Integrator.envelope` and
+`ame_time_series` (Fig. 11). Checked against closed forms, against its own convergence order and
+against PyDSTool's Dopri (Hairer's dop853.c) on eq. (21)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from autocable.codegen.cintegrate import compiled_integrator, sample_grid
+from autocable.codegen.ckernel import KernelBuildError
+
+X, V, W, Z, T = sp.symbols("x v w z t")
+
+
+@pytest.fixture(scope="module")
+def oscillator():
+    """x'' + 2 z w x' + w^2 x = sin(t)."""
+    return compiled_integrator("test_oscillator", ("x", "v"), ("w", "z"),
+                               (V, -W**2 * X - 2 * Z * W * V + sp.sin(T)))
+
+
+def forced_undamped(t, w):
+    """x'' + w^2 x = sin t, x(0) = 1, x'(0) = 0."""
+    return np.cos(w * t) + (np.sin(t) - np.sin(w * t) / w) / (w**2 - 1)
+
+
+@pytest.fixture(scope="module")
+def eq21():
+    from autocable.methods.integration import Ode21Integrator
+    from autocable.model.derive import derive
+    from autocable.spec import load_model
+    from pathlib import Path
+    d = derive(load_model(Path(__file__).parent.parent / "models" / "luongo_zulli_2012.toml"))
+    return d, Ode21Integrator(d.ode, "dopri"), Ode21Integrator(d.ode, "compiled")
+
+
+# -- the integrator itself ---------------------------------------------------------------------------
+def test_closed_form_forced_oscillator_at_every_sample(oscillator):
+    """Adaptive steps at rtol 1e-10 and dense output between them: the forced undamped response
+    equals its closed form at 500 sample times to 1e-8 (measured 8e-10)."""
+    g = sample_grid(0.0, 50.0, 0.1)
+    r = oscillator.run([1.0, 0.0], g, [1.3, 0.0], rtol=1e-10, atol=1e-13)
+    assert r.ok and len(r.t) == 501 and r.t[-1] == 50.0
+    assert np.max(np.abs(r.y[:, 0] - forced_undamped(g, 1.3))) < 1e-8
+
+
+def test_closed_form_damped_steady_amplitude(oscillator):
+    """Damped: after the transient (z w t >> 1) the amplitude is 1 / sqrt((w^2-1)^2 + (2 z w)^2)
+    to 1e-8 relative, measured as the half peak-to-peak of dense samples (parabolic peaks)."""
+    from autocable.methods.integration import _half_range
+    w, z = 1.3, 0.05
+    g = sample_grid(0.0, 600.0, 2 * math.pi / 512)
+    r = oscillator.run([0.0, 0.0], g, [w, z], rtol=1e-11, atol=1e-14)
+    last = r.y[-513:, 0]                                  # the last forcing period (2 pi)
+    exact = 1.0 / math.hypot(w**2 - 1, 2 * z * w)
+    assert _half_range(last) == pytest.approx(exact, rel=1e-8)
+
+
+def test_observed_order_is_eight(oscillator):
+    """Fixed steps (tolerances so loose that every step of max_step is accepted): the error at
+    t = 8 falls as h^8 (observed orders 8.0 +- 0.5), at the step ends and from the dense output
+    at the step midpoints."""
+    errs, errs_mid = [], []
+    for h in (0.8, 0.4, 0.2):
+        n = int(round(8.0 / h))
+        ends = np.arange(n + 1) * h
+        mids = np.concatenate([[0.0], (np.arange(n) + 0.5) * h])
+        r = oscillator.run([1.0, 0.0], ends, [1.3, 0.0], rtol=1e6, atol=1e6, max_step=h, first_step=h)
+        rm = oscillator.run([1.0, 0.0], mids, [1.3, 0.0], rtol=1e6, atol=1e6, max_step=h, first_step=h)
+        assert r.accepted == n and r.rejected == 0
+        errs.append(abs(r.y[-1, 0] - forced_undamped(8.0, 1.3)))
+        errs_mid.append(np.max(np.abs(rm.y[1:, 0] - forced_undamped(mids[1:], 1.3))))
+    for e in (errs, errs_mid):
+        orders = [math.log2(e[i] / e[i + 1]) for i in range(2)]
+        assert all(7.5 < p < 8.5 for p in orders), (e, orders)
+
+
+def test_error_follows_the_tolerance(oscillator):
+    """Tolerance proportionality: 100x tighter rtol gives 30x to 300x smaller global error."""
+    g = sample_grid(0.0, 50.0, 0.1)
+    err = []
+    for rtol in (1e-7, 1e-9, 1e-11):
+        r = oscillator.run([1.0, 0.0], g, [1.3, 0.0], rtol=rtol, atol=rtol * 1e-3)
+        err.append(np.max(np.abs(r.y[:, 0] - forced_undamped(g, 1.3))))
+    for a, b in zip(err, err[1:]):
+        assert 30 < a / b < 300, err
+
+
+def test_stops_bound_and_budget(oscillator):
+    """The stops a blow-up needs: a bound on the first components, a budget of accepted steps."""
+    g = sample_grid(0.0, 50.0, 0.1)
+    r = oscillator.run([1.0, 0.0], g, [1.3, 0.0], rtol=1e-10, atol=1e-13, bound=1.5, n_bound=1)
+    fine = np.linspace(0.0, 50.0, 500001)
+    first = fine[np.argmax(np.abs(forced_undamped(fine, 1.3)) > 1.5)]
+    # Checked after each accepted step (here about 0.3 long): it stops on the step that crosses.
+    assert r.status == "bound" and abs(r.y_reached[0]) > 1.5
+    assert first <= r.t_reached < first + 1.0 and r.t[-1] <= r.t_reached
+    assert np.max(np.abs(r.y[:, 0] - forced_undamped(r.t, 1.3))) < 1e-8
+    r = oscillator.run([1.0, 0.0], g, [1.3, 0.0], rtol=1e-10, atol=1e-13, max_steps=5)
+    assert r.status == "step_budget" and r.accepted == 5 and not r.ok
+
+
+def test_bad_input_is_one_line():
+    with pytest.raises(KernelBuildError, match="undeclared symbols") as exc:
+        compiled_integrator("bad", ("x",), (), (X * sp.Symbol("k"),))
+    assert "\n" not in str(exc.value)
+
+
+# -- eq. (21): the compiled engine against PyDSTool's Dopri ------------------------------------------
+@pytest.mark.parametrize("U, eta, sigma", [(0.0, 4.1e-4, 0.01),     # Fig. 5a: mono-modal
+                                           (0.0, 1.4e-3, 0.0)])     # Fig. 6: bi-modal
+def test_compiled_equals_dopri_on_steady_amplitudes(eq21, U, eta, sigma):
+    """Same start, same chunks, same sampling: the steady amplitudes agree to 1e-8 relative to a1
+    (measured 4e-10 and 7e-12), both steady and period-1 after the same time."""
+    _, dopri, compiled = eq21
+    a, b = dopri.simulate(U, eta, sigma), compiled.simulate(U, eta, sigma)
+    assert a.steady and b.steady and a.periodic and b.periodic and a.t_end == b.t_end
+    assert b.a1 == pytest.approx(a.a1, rel=1e-8)
+    assert abs(b.a2 - a.a2) <= 1e-8 * a.a1
+    assert abs(b.a2_max - a.a2_max) <= 1e-8 * a.a1
+
+
+def test_both_engines_report_the_divergence(eq21):
+    """U = 1.3, sigma = 0.03 (Fig. 10's carets): both diverge; the compiled engine stops at
+    |q| > 0.1 within the same or an earlier chunk instead of spending the step budget."""
+    _, dopri, compiled = eq21
+    a, b = dopri.simulate(1.3, 1.4e-3, 0.03), compiled.simulate(1.3, 1.4e-3, 0.03)
+    assert math.isinf(a.a1) and math.isinf(b.a1) and not a.steady and not b.steady
+    assert "diverged" in a.message and "|q_k| > 0.1" in b.message
+    assert b.t_end <= a.t_end + 100 * 2 * math.pi / a.Omega
+
+
+def test_run_samples_equal_dopri(eq21):
+    """`run` on the same grid: samples within 1e-9 of the response size (q1 ~ 1e-2)."""
+    from autocable.model.symbolic import parameter_values
+    _, dopri, compiled = eq21
+    pars = parameter_values(1.3, 1.4e-3, dopri.ode.omega1 - 0.03)
+    ta, ya = dopri.run((0.0, 1e-6, 0.0, 0.0), 0.0, 300.0, 0.05, pars)
+    tb, yb = compiled.run((0.0, 1e-6, 0.0, 0.0), 0.0, 300.0, 0.05, pars)
+    assert np.array_equal(ta, tb)
+    assert np.max(np.abs(ya - yb)) <= 1e-9 * np.max(np.abs(ya[:, :2]))
+
+
+def test_envelope_equals_per_period_loop(eq21):
+    """`Ode21Integrator.envelope` (vectorised) equals the per-period half ranges of `run`'s samples,
+    and the dopri and compiled envelopes agree to 1e-8 relative."""
+    from autocable.methods.integration import _half_range
+    from autocable.model.symbolic import parameter_values
+    _, dopri, compiled = eq21
+    U, eta, sigma = 1.3, 1.4e-3, -0.042
+    te, e1, e2, msg = compiled.envelope(U, eta, sigma, (0.0, 1e-6, 0.0, 0.0), 600.0)
+    td, d1, d2, _ = dopri.envelope(U, eta, sigma, (0.0, 1e-6, 0.0, 0.0), 600.0)
+    assert msg == "bounded over [0, t_end]" and np.array_equal(te, td)
+    assert np.max(np.abs(e1 - d1)) <= 1e-8 * np.max(d1) and np.max(np.abs(e2 - d2)) <= 1e-8 * np.max(d1)
+    Om = compiled.ode.omega1 + sigma
+    period = 2 * math.pi / Om
+    tt, ys = compiled.run((0.0, 1e-6, 0.0, 0.0), 0.0, len(te) * period, period / 64,
+                          parameter_values(U, eta, Om))
+    loop = [_half_range(ys[k * 64:(k + 1) * 64 + 1, 0]) for k in range(len(te))]
+    assert np.allclose(e1, loop, rtol=1e-9, atol=0)
+
+
+def test_envelope_reports_divergence(eq21):
+    _, _, compiled = eq21
+    t, a1, a2, msg = compiled.envelope(1.3, 1.4e-3, 0.03, (0.0, 1e-6, 0.0, 0.0), 5000.0)
+    assert msg.startswith("eq. (21) diverges at t = ") and len(t) == len(a1) and len(t) > 0
+    assert np.all(a1 < 0.1) and t[-1] < 5000.0
+
+
+# -- Fig. 11: the AME time series ---------------------------------------------------------------------
+def test_fig11_ame_series_statistics(eq21):
+    """The AME (24) at eta = 1.4e-3, sigma = -0.042, U = 1.3 from rest (q2 = 1e-6) over 60000 time
+    units, 6 samples per forcing period: the statistics over t >= 40000 are those of
+    tests/test_scene_figures.py::test_fig11_time_evolution (PyDSTool's Dopri, agreeing to 2e-10)."""
+    from autocable.methods.ame_integration import ame_time_series
+    from autocable.methods.continuation import ame_system
+    from autocable.model.ame_cache import derive_ame
+    from autocable.scene import _summary
+    d, _, _ = eq21
+    ame = derive_ame(d).ame
+    system = ame_system(ame, "2dof", wind=True)
+    Om = float(ame.omegas[0]) - 0.042
+    tt, ys = ame_time_series(system, {"U": 1.3, "eta": 1.4e-3, "sigma": -0.042}, [0.0, 0.0, 1e-6, 0.0],
+                             60000.0, 2 * math.pi / Om / 6)
+    s = _summary(tt, np.hypot(ys[:, 0], ys[:, 1]), np.hypot(ys[:, 2], ys[:, 3]), 40000.0)
+    assert s["samples"] == 18373
+    assert s["a1_min"] == pytest.approx(2.1401e-3, rel=1e-4)
+    assert s["a1_max"] == pytest.approx(5.3423e-3, rel=1e-4)
+    assert s["a2_min"] == pytest.approx(2.8625e-3, rel=1e-4)
+    assert s["a2_max"] == pytest.approx(3.6053e-3, rel=1e-4)
+    assert s["modulation_period"] == pytest.approx(35.968, rel=1e-4)
