@@ -47,7 +47,7 @@ __all__ = ["INTEGRATOR_VERSION", "STATUS", "CIntegrator", "CRun", "compiled_inte
            "integrator_source", "sample_grid"]
 
 #: Bump when the emitted C changes meaning: it is part of the content hash.
-INTEGRATOR_VERSION = "1"
+INTEGRATOR_VERSION = "2"
 
 #: How a run ended (the status code of the C loop).
 STATUS = {0: "done", 1: "step_budget", 2: "step_too_small", 3: "bound", 4: "not_finite"}
@@ -68,6 +68,35 @@ def _lin(weights, stages, skip_zero=True) -> str:
     return " + ".join(terms) if terms else "0.0"
 
 
+def _hoist(rhs, dynamic: set) -> tuple[list, list]:
+    """Split every term of the expanded right-hand sides into a factor of the parameters alone and
+    a factor of the state and t; the parameter factors (summed per distinct state factor) become
+    coefficients ``ac_c<k>`` computed once per run. Eq. (21)'s terms carry products of U, eta,
+    Omega and the wind switches that would otherwise be multiplied again at every stage."""
+    coefs: list = []
+    index: dict = {}
+    out = []
+    for e in rhs:
+        groups: dict = {}
+        for term in sp.Add.make_args(sp.expand(e)):
+            const, dyn = [], []
+            for f in sp.Mul.make_args(term):
+                (dyn if f.free_symbols & dynamic else const).append(f)
+            key = sp.Mul(*dyn)
+            groups[key] = groups.get(key, sp.Integer(0)) + sp.Mul(*const)
+        total = sp.Integer(0)
+        for key, coef in groups.items():
+            if coef.is_Number:
+                total += coef * key
+                continue
+            if coef not in index:
+                index[coef] = len(coefs)
+                coefs.append(coef)
+            total += sp.Symbol(f"ac_c{index[coef]}") * key
+        out.append(total)
+    return coefs, out
+
+
 def integrator_source(variables: Sequence[str], parameters: Sequence[str], rhs: Sequence,
                       time_symbol: str | None = "t") -> str:
     """The C text of the DOP853 integrator of y' = rhs(t, y; p), y in ``variables``, p in
@@ -79,18 +108,22 @@ def integrator_source(variables: Sequence[str], parameters: Sequence[str], rhs: 
     names.update({q: f"p[{j}]" for j, q in enumerate(parameters)})
     if time_symbol:
         names[time_symbol] = "t"
+    dynamic = {sp.Symbol(v) for v in variables} | ({sp.Symbol(time_symbol)} if time_symbol else set())
+    coefs, split = _hoist([sp.sympify(e) for e in rhs], dynamic)
+    names.update({f"ac_c{k}": f"c[{k}]" for k in range(len(coefs))})
     pr = _Printer(names)
-    body = _block(pr, [sp.sympify(e) for e in rhs], [f"out[{i}]" for i in range(n)], "ac_ti")
+    body_c = _block(pr, coefs, [f"c[{k}]" for k in range(len(coefs))], "ac_tc") if coefs else []
+    body = _block(pr, split, [f"out[{i}]" for i in range(n)], "ac_ti")
     A, B, C, E3, E5, D = _coefficients()
     stages = []
     # Stages 2..12 (K1..K11): y + h sum_j a_sj K_j, evaluated at t + c_s h.
     for s in range(1, 12):
         stages.append(f"    for (i = 0; i < N; i++) yy[i] = y[i] + h * ({_lin(A[s, :s], range(s))});\n"
-                      f"    f_eval(t + {float(C[s])!r} * h, yy, p, K{s});")
+                      f"    f_eval(t + {float(C[s])!r} * h, yy, p, c, K{s});")
     extra = []
     for s in range(13, 16):
         extra.append(f"        for (i = 0; i < N; i++) yy[i] = y[i] + h * ({_lin(A[s, :s], range(s))});\n"
-                     f"        f_eval(t + {float(C[s])!r} * h, yy, p, K{s});")
+                     f"        f_eval(t + {float(C[s])!r} * h, yy, p, c, K{s});")
     dense = "\n".join(f"            F[{3 + r}][i] = h * ({_lin(D[r], range(16))});" for r in range(4))
     decl = "    double " + ", ".join(f"K{j}[N]" for j in range(16)) + ";"
     head = f"""/* autocable C integrator (version {INTEGRATOR_VERSION}): DOP853 for y = ({', '.join(variables)}),
@@ -99,17 +132,27 @@ def integrator_source(variables: Sequence[str], parameters: Sequence[str], rhs: 
 #include <string.h>
 #define N {n}
 #define NP {m}
+#define NC {max(len(coefs), 1)}
 
-static void f_eval(double t, const double *y, const double *p, double *out) {{
-    (void)t; (void)y; (void)p;
+static void coef_eval(const double *p, double *c) {{
+    (void)p; (void)c;
+{chr(10).join(body_c)}
+}}
+
+static void f_eval(double t, const double *y, const double *p, const double *c, double *out) {{
+    (void)t; (void)y; (void)p; (void)c;
 {chr(10).join(body)}
 }}
 
-void ac_rhs(double t, const double *y, const double *p, double *out) {{ f_eval(t, y, p, out); }}
+void ac_rhs(double t, const double *y, const double *p, double *out) {{
+    double c[NC];
+    coef_eval(p, c);
+    f_eval(t, y, p, c, out);
+}}
 int ac_dims(int *out) {{ out[0] = N; out[1] = NP; return 0; }}
 
 /* Hairer's hinit: a first step from the size of f and of its change over an Euler step. */
-static double hinit(double t, const double *y, const double *p, const double *f0, double hmax,
+static double hinit(double t, const double *y, const double *p, const double *c, const double *f0, double hmax,
                     double rtol, double atol) {{
     double dnf = 0.0, dny = 0.0, der2 = 0.0, h, h1, der12, sk, yy[N], f1[N];
     int i;
@@ -121,7 +164,7 @@ static double hinit(double t, const double *y, const double *p, const double *f0
     h = (dnf <= 1e-10 || dny <= 1e-10) ? 1e-6 : sqrt(dny / dnf) * 0.01;
     h = fmin(h, hmax);
     for (i = 0; i < N; i++) yy[i] = y[i] + h * f0[i];
-    f_eval(t + h, yy, p, f1);
+    f_eval(t + h, yy, p, c, f1);
     for (i = 0; i < N; i++) {{
         sk = atol + rtol * fabs(y[i]);
         der2 += ((f1[i] - f0[i]) / sk) * ((f1[i] - f0[i]) / sk);
@@ -140,7 +183,7 @@ static double hinit(double t, const double *y, const double *p, const double *f0
 int ac_integrate(const double *y0, const double *grid, int ng, const double *p, const double *opt,
                  double *ys, double *info) {{
 {decl}
-    double y[N], yy[N], ynew[N], F[7][N];
+    double y[N], yy[N], ynew[N], F[7][N], c[NC];
     double t = grid[0], t1 = grid[ng - 1], rtol = opt[0], atol = opt[1], hmax = fabs(opt[2]);
     double bound = opt[4], h, hnew, err, err3, sk, e5, e3, fac11, fac;
     long max_steps = (long)opt[3], nacc = 0, nrej = 0, nfev = 0;
@@ -148,8 +191,9 @@ int ac_integrate(const double *y0, const double *grid, int ng, const double *p, 
     const double safe = 0.9, facc1 = 1.0 / 0.333, facc2 = 1.0 / 6.0, uround = 2.3e-16;
     memcpy(y, y0, sizeof(y));
     for (i = 0; i < N; i++) if (!isfinite(y[i])) status = 4;
-    f_eval(t, y, p, K0); nfev++;
-    h = opt[6] > 0.0 ? fmin(opt[6], hmax) : hinit(t, y, p, K0, hmax, rtol, atol);
+    coef_eval(p, c);
+    f_eval(t, y, p, c, K0); nfev++;
+    h = opt[6] > 0.0 ? fmin(opt[6], hmax) : hinit(t, y, p, c, K0, hmax, rtol, atol);
     nfev++;
     while (k < ng && grid[k] <= t) {{ memcpy(ys + (long)k * N, y, sizeof(y)); k++; }}
     while (status == 0 && t < t1) {{
@@ -185,7 +229,7 @@ int ac_integrate(const double *y0, const double *grid, int ng, const double *p, 
         nacc++;
         {{
             double tnew = last ? t1 : t + h;
-            f_eval(tnew, ynew, p, K12); nfev++;
+            f_eval(tnew, ynew, p, c, K12); nfev++;
             if (k < ng && grid[k] <= tnew) {{
                 /* dense output of this step: three more stages, then the 7th-degree polynomial */
 {chr(10).join(extra)}

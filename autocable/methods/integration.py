@@ -165,15 +165,20 @@ class Ode21Integrator:
         # spares the multi-million-step retries of a finite-time blow-up.
         return n_samples + 10_000 + int(STEPS_PER_TIME_UNIT_CAP * (t1 - t0))
 
-    def run_compiled(self, y0, t0: float, t1: float, dt: float, pars: dict, bound: float = math.inf):
+    def run_compiled(self, y0, t0: float, t1: float, dt: float, pars: dict, bound: float = math.inf,
+                     last: int | None = None):
         """The compiled engine's `CRun` (autocable.codegen.cintegrate) over [t0, t1] sampled every
-        ``dt``, state order (q1, q2, q1', q2'), stopping early once |q1| or |q2| exceeds ``bound``."""
+        ``dt``, state order (q1, q2, q1', q2'), stopping early once |q1| or |q2| exceeds ``bound``.
+        ``last``: only t0 and the last ``last`` samples of that grid are computed (the dense output
+        costs three stages per step that has a sample; the steps are the same)."""
         from autocable.codegen.cintegrate import sample_grid
         grid = sample_grid(t0, t1, dt)
+        n = len(grid)
+        if last is not None and n - last > 1:
+            grid = np.concatenate([grid[:1], grid[n - last:]])
         p = [pars[s.name] for s in PARAMETERS]
         return self._c_integrator().run(y0, grid, p, rtol=self.rtol, atol=self.atol, max_step=1.0,
-                                        max_steps=self._budget(t0, t1, len(grid)), bound=bound,
-                                        n_bound=2)
+                                        max_steps=self._budget(t0, t1, n), bound=bound, n_bound=2)
 
     def _scipy_rhs(self):
         if self._numeric is None:
@@ -240,7 +245,9 @@ class Ode21Integrator:
                 break
             if self.engine == "compiled":
                 # One C call per chunk that stops at the divergence bound itself.
-                r = self.run_compiled(y, t, t1, dt, pars, bound=DIVERGED)
+                # Only the samples the rolling window keeps, unless the history is asked for.
+                r = self.run_compiled(y, t, t1, dt, pars, bound=DIVERGED,
+                                      last=None if keep_history else keep)
                 if not r.ok:
                     if keep_history and len(r.t) > 1:
                         history.append((r.t[:-1], r.y[:-1]))
