@@ -76,6 +76,55 @@ def test_normal_form_period_converges_with_order_2_ncol():
     assert 7.5 < order < 8.5, (errs, order)
 
 
+def test_fold_of_cycles_is_put_on_the_branch():
+    """r' = mu r + r^3 - r^5, theta' = 1: a subcritical Hopf point at mu = 0, unstable cycles
+    r^2 = (1 - sqrt(1 + 4 mu)) / 2 back to the fold (LPC) at mu = -1/4, r^2 = 1/2, stable cycles
+    r^2 = (1 + sqrt(1 + 4 mu)) / 2 beyond; non-trivial multiplier exp(2 pi (mu + 3 r^2 - 5 r^4))."""
+    r2 = x * x + y * y
+    system = System("hopf_lpc", ("x", "y"), (mu * x - y + x * (r2 - r2 ** 2), x + mu * y + y * (r2 - r2 ** 2)),
+                    {"mu": 0.2}, (("a1", ("x", "y")),))
+    problem = EquilibriumProblem(system, "mu", {"mu": 0.2}, (-0.5, 0.3))
+    settings = ContinuationSettings(cycle_step=1e-2, cycle_max_step=5e-2, cycle_max_points=200, ntst=20)
+    eq = continue_equilibria(problem, settings, name="EQ", engine="compiled")
+    c = continue_cycles(eq, "H1", settings, engine="compiled").branch
+    assert [e.reason for e in c.ends] == ["range"] and 0.25 < c["mu"][-1] <= 0.3
+    lpc, = c.special_points
+    assert lpc.type == "LPC" and lpc.confirmed_by_pycont is None
+    assert lpc.value == pytest.approx(-0.25, abs=1e-12)
+    assert lpc.a1 == pytest.approx(math.sqrt(0.5), rel=1e-8)
+    i = lpc.index
+    assert not c.stable[1:i + 1].any() and c.stable[i + 2:].all()
+    for k in range(1, len(c)):
+        r2k = c["a1_max"][k] ** 2
+        want = math.exp(2 * math.pi * (c["mu"][k] + 3 * r2k - 5 * r2k ** 2))
+        got = np.abs(c.eigenvalues[k])
+        assert np.min(np.abs(got - want)) < 1e-7 * max(want, 1.0), k
+
+
+@pytest.mark.parametrize("ratio, reason", [(3.0, "period_blowup"), (20.0, "range")])
+def test_period_blowup_and_range_ends(ratio, reason):
+    """r' = mu r - r^3, theta' = 1 - r^2: cycles r^2 = mu of period 2 pi / (1 - mu), multiplier
+    exp(-2 mu T). With max_period_ratio = 3 the branch ends before mu = 2/3 (T = 3 x 2 pi)."""
+    r2 = x * x + y * y
+    w = 1 - r2
+    system = System("hopf_slow", ("x", "y"), (mu * x - w * y - x * r2, w * x + mu * y - y * r2), {"mu": -0.2},
+                    (("a1", ("x", "y")),))
+    problem = EquilibriumProblem(system, "mu", {"mu": -0.2}, (-0.2, 0.9))
+    settings = ContinuationSettings(cycle_step=1e-2, cycle_max_step=5e-2, cycle_max_points=300, ntst=30,
+                                    max_period_ratio=ratio)
+    eq = continue_equilibria(problem, settings, name="EQ", engine="compiled")
+    c = continue_cycles(eq, "H1", settings, engine="compiled").branch
+    assert [e.reason for e in c.ends] == [reason]
+    last = c["mu"][-1]
+    assert (0.6 < last < 2 / 3) if reason == "period_blowup" else (0.85 < last <= 0.9)
+    for k in range(1, len(c)):
+        m = c["mu"][k]
+        T = 2 * math.pi / (1 - m)
+        assert c["period"][k] == pytest.approx(T, rel=1e-8)
+        assert c["a1_max"][k] == pytest.approx(math.sqrt(m), rel=1e-7)
+        assert np.min(np.abs(c.eigenvalues[k])) == pytest.approx(math.exp(-2 * m * T), rel=1e-7, abs=1e-12)
+
+
 # --------------------------------------------------------------------------------------------
 def scene_hopf(scene_file: str):
     """The first run of a scene (equilibria, compiled) and its settings, built as `run_scene` does."""

@@ -56,13 +56,15 @@ from scipy.sparse.linalg import splu
 from autocable.codegen.ckernel import compiled_kernel
 from autocable.methods.continuation_chart import _Chart
 from autocable.methods.continuation_problem import ContinuationResult, ContinuationSettings, Progress, _resolve
-from autocable.methods.cycles import cycle_result
+from autocable.methods.cycles import _crossing_distance, _cycle_counts, cycle_result
 from autocable.results import EndPoint, SpecialPoint
 
 #: Newton iterations per step (PyCont passes its MaxCorrIters = 5 to AUTO as ITNW).
 NEWTON_ITERATIONS = 5
 #: Samples per mesh interval for the amplitude extremes (refined by a parabola).
 _SAMPLES = 8
+#: Regula falsi iterations when a special point of cycles is put on the branch.
+_LOCATE_ITERATIONS = 12
 
 
 def _lagrange(nodes: np.ndarray, at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -240,25 +242,88 @@ def _hopf_start(col: _Collocation, hp: SpecialPoint, YH_chart: np.ndarray, T_H: 
 
 
 def _newton(col: _Collocation, Yp, phase_row, arc_row, arc_rhs, tol: float):
-    """AUTO's corrector from the predictor Yp: (Y, iterations) or (None, iterations) on failure."""
+    """AUTO's corrector from the predictor Yp: (Y, iterations, LU of the last Jacobian), or
+    (None, iterations, None) on failure."""
     Y = Yp.copy()
     nu = col.mesh.nu
     for it in range(1, NEWTON_ITERATIONS + 1):
         G, A = col.system(Y, phase_row, arc_row, arc_rhs)
         if not np.all(np.isfinite(G)):
-            return None, it
+            return None, it, None
         try:
-            dY = splu(A).solve(G)
+            lu = splu(A)
         except RuntimeError:  # an exactly singular factor
-            return None, it
+            return None, it, None
+        dY = lu.solve(G)
         Y = Y - dY
         if not np.all(np.isfinite(Y)):
-            return None, it
+            return None, it, None
         du = np.max(np.abs(dY[:nu])) / (1.0 + np.max(np.abs(Y[:nu])))
         dl = np.max(np.abs(dY[nu:]) / (1.0 + np.abs(Y[nu:])))
         if du <= tol and dl <= tol:
-            return Y, it
-    return None, NEWTON_ITERATIONS
+            return Y, it, lu
+    return None, NEWTON_ITERATIONS, None
+
+
+@dataclass
+class _Point:
+    """An accepted cycle: the unknowns, the Newton iterations, the tangent's lam component (the
+    LPC test function: it changes sign at a fold of cycles) and the Floquet multipliers."""
+
+    Y: np.ndarray
+    nit: int
+    lam_dot: float
+    mults: np.ndarray
+    located: bool = False    # put on a zero of a test function (the next step does not test)
+
+
+class _Stepper:
+    """Steps along the branch from a point and direction, and the test functions at the result."""
+
+    def __init__(self, col: _Collocation, tol: float):
+        self.col, self.tol = col, tol
+
+    def step(self, Y, d, ref, s: float) -> _Point | None:
+        col = self.col
+        phase = col.gauss_row(ref)
+        arc = col.gauss_row(col.at_gauss(col.nodes(d))[0])
+        arc[-1] = d[-1]
+        Yn, nit, lu = _newton(col, Y + s * d, phase, arc, arc @ Y + s, self.tol)
+        if Yn is None:
+            return None
+        # The tangent t: [G_Y; arc] t = e_last (the last Jacobian, at the converged point to tol).
+        e = np.zeros(len(Yn))
+        e[-1] = 1.0
+        lam_dot = float(lu.solve(e)[-1])
+        mu = np.linalg.eigvals(col.monodromy(Yn))
+        return _Point(Yn, nit, lam_dot, mu[np.argsort(-np.abs(mu))])
+
+    def locate(self, Y, d, ref, a: _Point, b: _Point, ds: float, g, test_tol: float) -> _Point | None:
+        """The point of the step [0, ds] from Y where g (a function of a _Point) vanishes, by the
+        Illinois variant of regula falsi on the arclength, as AUTO puts a special point on the
+        branch. None when g does not change sign or a corrector fails."""
+        s0, s1, g0, g1 = 0.0, ds, g(a), g(b)
+        if not (np.isfinite(g0) and np.isfinite(g1)) or g0 * g1 >= 0:
+            return None
+        best, side, last = None, 0, math.inf
+        for _ in range(_LOCATE_ITERATIONS):
+            s = s1 - g1 * (s1 - s0) / (g1 - g0)
+            pt = self.step(Y, d, ref, s)
+            if pt is None:
+                return None
+            gs = g(pt)
+            best = pt
+            if gs == 0 or abs(s - last) <= test_tol * ds:
+                break
+            last = s
+            if gs * g1 < 0:
+                s0, g0 = s1, g1
+                side = 0
+            else:
+                g0 = g0 / 2 if side == 1 else g0
+                side = 1
+            s1, g1 = s, gs
+        return best
 
 
 def continue_cycles_compiled(source: ContinuationResult, hopf: str | SpecialPoint,
@@ -287,16 +352,19 @@ def continue_cycles_compiled(source: ContinuationResult, hopf: str | SpecialPoin
     lo, hi = chart.lam(problem.bounds[0]), chart.lam(problem.bounds[1])
     tol = settings.tol
     Y, d = _hopf_start(col, hp, YH, T_H)
-    ref = None                                  # the previous cycle's u' at the Gauss points
+    ref = col.at_gauss(col.nodes(d))[1]        # the phase reference: first the eigenfunction's u'
     ds = settings.cycle_step
-    accepted = [Y]
+    stepper = _Stepper(col, tol)
+    x_h, p_h = chart.to_phys(YH)
+    hopf_mu = np.linalg.eigvals(expm(kernel.jac(x_h, p_h) * T_H))
+    accepted = [_Point(Y, 0, 0.0, hopf_mu[np.argsort(-np.abs(hopf_mu))])]
     reason, message = "max_points", ""
-    nit = None
     t_setup = time.perf_counter()
     try:
         while len(accepted) < settings.cycle_max_points:
-            if nit is not None:
+            if len(accepted) > 1:
                 # AUTO's ADPTDS from the previous step's Newton iterations.
+                nit = accepted[-1].nit
                 n1 = max(NEWTON_ITERATIONS // 2, 2)
                 if nit <= 1:
                     ds *= 2.0
@@ -308,20 +376,32 @@ def continue_cycles_compiled(source: ContinuationResult, hopf: str | SpecialPoin
                     ds *= 0.5
                 ds = min(ds, settings.cycle_max_step)
             while True:
-                Yp = Y + ds * d
-                uref = ref if ref is not None else col.at_gauss(col.nodes(d))[1]
-                phase = col.gauss_row(uref)
-                arc = col.gauss_row(col.at_gauss(col.nodes(d))[0])
-                arc[-1] = d[-1]
-                Yn, nit = _newton(col, Yp, phase, arc, arc @ Y + ds, tol)
-                if Yn is not None:
+                new = stepper.step(Y, d, ref, ds)
+                if new is not None:
                     break
                 ds *= 0.5
                 if ds < settings.min_step:
                     raise _Stop("no_convergence",
                                 f"the collocation Newton failed at the minimum step {settings.min_step:g} near "
                                 f"{problem.parameter} = {chart.value(Y[-1]):.6g}")
-            lam, T = float(Yn[-1]), float(Yn[-2])
+            step = ds
+            prev = accepted[-1]
+            if len(accepted) > 1 and not prev.located:
+                # A fold (LPC: lam' changes sign) or a multiplier through -1 (PD) or a complex pair
+                # through the unit circle (NS) inside the step: the step ends on it, as in AUTO.
+                c0, c1 = _cycle_counts(prev.mults), _cycle_counts(new.mults)
+                tests = [lambda pt: pt.lam_dot] if prev.lam_dot * new.lam_dot < 0 else []
+                tests += [(lambda kind: lambda pt: _crossing_distance(pt.mults, kind))(kind)
+                          for slot, kind in ((1, "PD"), (2, "NS"))
+                          if -1 not in c0 and -1 not in c1 and c0[slot] != c1[slot]]
+                for g in tests:
+                    hit = stepper.locate(Y, d, ref, prev, new, ds, g, settings.test_tol)
+                    if hit is not None:
+                        step = float(_arc(col, d, hit.Y - Y))
+                        new = hit
+                        new.located = True
+                        break
+            lam, T = float(new.Y[-1]), float(new.Y[-2])
             if not lo - 1e-12 <= lam <= hi + 1e-12:
                 raise _Stop("range", f"{problem.parameter} left the range")
             if T > settings.max_period_ratio * T_H:
@@ -330,11 +410,11 @@ def continue_cycles_compiled(source: ContinuationResult, hopf: str | SpecialPoin
                             f"{T_H:.4g}) at {problem.parameter} = {chart.value(lam):.6g}: a homoclinic orbit "
                             f"is near; lower cycle_max_step to approach it more closely")
             # AUTO's secant direction, scaled to unit norm; the next phase reference is this cycle.
-            sec = (Yn - Y) / ds
+            sec = (new.Y - Y) / step
             d = sec / math.sqrt(col.norm2(sec))
-            Y = Yn
+            Y = new.Y
             ref = col.at_gauss(col.nodes(Y))[1]
-            accepted.append(Y)
+            accepted.append(new)
             if progress and len(accepted) % 10 == 0:
                 progress(f"{name}: {problem.parameter} = {chart.value(lam):.6g}, period {T:.4g}, "
                          f"{len(accepted)} cycles")
@@ -344,30 +424,35 @@ def continue_cycles_compiled(source: ContinuationResult, hopf: str | SpecialPoin
         reason, message = "error", f"the collocation failed: {type(exc).__name__}: {' '.join(str(exc).split())}"
     t1 = time.perf_counter()
     X, P, periods, mults, amin, amax = [], [], [], [], [], []
-    for i, Yc in enumerate(accepted):
-        lam, T = float(Yc[-1]), float(Yc[-2])
+    for i, pt in enumerate(accepted):
+        lam, T = float(pt.Y[-1]), float(pt.Y[-2])
         p = chart.p(lam)
         if i == 0:
-            x0 = chart.to_phys(YH)[0]
-            mu = np.linalg.eigvals(expm(kernel.jac(x0, p) * T))
+            x0 = x_h
             samples = x0[None, :]
         else:
-            mu = np.linalg.eigvals(col.monodromy(Yc))
-            samples = col.samples(Yc) * chart.xscale
+            samples = col.samples(pt.Y) * chart.xscale
             x0 = samples[0]
         lo_, hi_ = _extremes(sysm, samples)
         X.append(x0)
         P.append(p)
         periods.append(T)
-        mults.append(mu[np.argsort(-np.abs(mu))])
+        mults.append(pt.mults)
         amin.append(lo_)
         amax.append(hi_)
-    side = EndPoint("forward", reason, chart.value(accepted[-1][-1]), len(accepted), message)
+    side = EndPoint("forward", reason, chart.value(accepted[-1].Y[-1]), len(accepted), message)
     info = {"from": hp.name, "hopf_period": T_H, "engine": "compiled", "floquet": "collocation monodromy",
             "ntst": settings.ntst, "ncol": settings.ncol, "final_step": ds}
     return cycle_result(name, problem, settings, chart, X, P, periods, mults, amin, amax, None, side, info,
                         {"setup_s": t_setup - t0, "collocation_s": t1 - t_setup, "points": len(accepted)},
                         t_analysis=t1)
+
+
+def _arc(col: _Collocation, d, dY) -> float:
+    """AUTO's arclength of the step dY along the unit direction d."""
+    uz, _ = col.at_gauss(col.nodes(d))
+    vz, _ = col.at_gauss(col.nodes(dY))
+    return col.mesh.h * float(np.einsum("i,jin,jin->", col.mesh.w, uz, vz)) + d[-1] * dY[-1]
 
 
 class _Stop(Exception):
