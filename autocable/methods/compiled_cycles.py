@@ -16,11 +16,17 @@ ch. 10), in autocable's chart (x~ = x / xscale, lam = (p_k - p0_k) / pscale):
 * Newton with the sparse Jacobian (``scipy.sparse.linalg.splu``), AUTO's convergence test
   (max |du| / (1 + max |u|) and |d(T, lam)| / (1 + |(T, lam)|) below ``tol``) and at most
   `NEWTON_ITERATIONS` iterations (PyCont's MaxCorrIters), AUTO's step control (ADPTDS: the step
-  doubles after one iteration, grows by 1.5 after two, by 1.1 after three up to half the limit,
-  halves at the limit, never above ``cycle_max_step``; a failed step is halved, and below
-  ``min_step`` the branch ends);
+  doubles after one iteration, grows by 1.5 after two, by 1.1 after up to half the limit (never,
+  with a limit of 5), halves at the limit, never above ``cycle_max_step``; a failed step is
+  halved, and below ``min_step`` the branch ends);
 * the start: the Hopf point as a degenerate cycle of period 2 pi / omega, the first direction the
-  critical eigenfunction Re(q exp(2 pi i t)) of J (q J = i omega q) scaled to unit norm, lam' = 0.
+  critical eigenfunction Re(q exp(2 pi i t)) of J (J q = i omega q) scaled to unit norm, lam' = 0;
+* special points of cycles on the branch, as AUTO puts them there: when lam' (the tangent's lam
+  component, from the last Newton factorisation) changes sign inside a step (LPC), or the count
+  of multipliers beyond -1 (PD) or of complex ones outside the unit circle (NS) changes, the step
+  is shortened onto the zero of that test function (regula falsi in the arclength, to
+  ``test_tol`` of the step) and the branch goes on from there. `cycles.cycle_result` then labels
+  them from the multiplier crossings, as for PyCont's points.
 
 F~ and DF~ at all collocation points come from one call of the kernel's batched chart
 (`autocable.codegen.ckernel.CKernel.chart_batch`).
