@@ -38,6 +38,8 @@ integration of `cycles._monodromy` discretised by the same collocation as the cy
 tests/test_compiled_cycles.py checks that the two agree. The Hopf point itself (the first row)
 gets exp(J T) exactly, as `_monodromy` gives it.
 
+(``floquet_rtol`` is not used: there is no integration.)
+
 Amplitude extremes: the collocation polynomials sampled at ``_SAMPLES`` points per mesh interval,
 each extreme refined by the parabola through its sample and the two next to it.
 
@@ -68,7 +70,7 @@ from autocable.results import EndPoint, SpecialPoint
 #: Newton iterations per step (PyCont passes its MaxCorrIters = 5 to AUTO as ITNW).
 NEWTON_ITERATIONS = 5
 #: Samples per mesh interval for the amplitude extremes (refined by a parabola).
-_SAMPLES = 8
+_SAMPLES = 16
 #: Regula falsi iterations when a special point of cycles is put on the branch.
 _LOCATE_ITERATIONS = 12
 
@@ -114,8 +116,6 @@ class _Mesh:
 
 @lru_cache(maxsize=16)
 def _mesh(N: int, m: int, n: int) -> _Mesh:
-    if N < 2:
-        raise ValueError(f"ntst must be at least 2 for the compiled cycle engine, got {N}")
     g, w = np.polynomial.legendre.leggauss(m)
     z, w = (g + 1) / 2, w / 2
     nodes = np.arange(m + 1) / m
