@@ -16,6 +16,7 @@ with
   step control is his (safety 0.9, 0.333 <= h_new / h <= 6, exponent 1/8, no growth right after a
   rejection, h <= max_step), the first step his ``hinit``; PyDSTool's Dopri generator wraps the
   same code (Hairer's dop853.c), so both engines take the same steps up to details of the restart;
+* its Jacobian d f / d y (``ac_jac``) for implicit integrators and Newton steps of callers;
 * the 7th-order dense output of DOP853 (three extra stages per accepted step) evaluated at the
   caller's sample times, so samples cost a polynomial each and never shorten a step;
 * stops that a caller needs to tell a blow-up from a response: a budget of accepted steps, a step
@@ -47,7 +48,7 @@ __all__ = ["INTEGRATOR_VERSION", "STATUS", "CIntegrator", "CRun", "compiled_inte
            "integrator_source", "sample_grid"]
 
 #: Bump when the emitted C changes meaning: it is part of the content hash.
-INTEGRATOR_VERSION = "2"
+INTEGRATOR_VERSION = "3"
 
 #: How a run ended (the status code of the C loop).
 STATUS = {0: "done", 1: "step_budget", 2: "step_too_small", 3: "bound", 4: "not_finite"}
@@ -114,6 +115,8 @@ def integrator_source(variables: Sequence[str], parameters: Sequence[str], rhs: 
     pr = _Printer(names)
     body_c = _block(pr, coefs, [f"c[{k}]" for k in range(len(coefs))], "ac_tc") if coefs else []
     body = _block(pr, split, [f"out[{i}]" for i in range(n)], "ac_ti")
+    ys = [sp.Symbol(v) for v in variables]
+    jac = _block(pr, [sp.diff(e, v) for e in split for v in ys], [f"out[{k}]" for k in range(n * n)], "ac_tj")
     A, B, C, E3, E5, D = _coefficients()
     stages = []
     # Stages 2..12 (K1..K11): y + h sum_j a_sj K_j, evaluated at t + c_s h.
@@ -148,6 +151,14 @@ void ac_rhs(double t, const double *y, const double *p, double *out) {{
     double c[NC];
     coef_eval(p, c);
     f_eval(t, y, p, c, out);
+}}
+
+/* d rhs_i / d y_j, row major (for implicit integrators and Newton steps outside this file). */
+void ac_jac(double t, const double *y, const double *p, double *out) {{
+    double c[NC];
+    (void)t;
+    coef_eval(p, c);
+{chr(10).join(jac)}
 }}
 int ac_dims(int *out) {{ out[0] = N; out[1] = NP; return 0; }}
 
@@ -329,6 +340,13 @@ class CIntegrator:
                         np.ascontiguousarray(p, float).ctypes.data, out.ctypes.data)
         return out
 
+    def jac(self, t: float, y, p) -> np.ndarray:
+        """The Jacobian d rhs / d y at (t, y) (n x n)."""
+        out = np.empty((self.n, self.n))
+        self.lib.ac_jac(float(t), np.ascontiguousarray(y, float).ctypes.data,
+                        np.ascontiguousarray(p, float).ctypes.data, out.ctypes.data)
+        return out
+
     def run(self, y0, grid, p, *, rtol: float, atol: float, max_step: float = math.inf,
             max_steps: int = 10**9, bound: float = math.inf, n_bound: int = 0,
             first_step: float = 0.0) -> CRun:
@@ -377,6 +395,8 @@ def _load(path: Path, n: int, m: int, timings) -> CIntegrator:
     vp = ctypes.c_void_p
     lib.ac_rhs.argtypes = [ctypes.c_double, vp, vp, vp]
     lib.ac_rhs.restype = None
+    lib.ac_jac.argtypes = [ctypes.c_double, vp, vp, vp]
+    lib.ac_jac.restype = None
     lib.ac_integrate.argtypes = [vp, vp, ctypes.c_int, vp, vp, vp, vp]
     lib.ac_integrate.restype = ctypes.c_int
     lib.ac_dims.argtypes = [vp]

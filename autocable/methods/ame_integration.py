@@ -83,6 +83,48 @@ class AmeResponse:
     history: tuple = field(default=(), repr=False)   # (t, r1, s1, r2, s2) arrays if asked for
 
 
+def compiled_cartesian(rhs):
+    """The rows of a numeric Cartesian AME (`autocable.model.ame.CartesianRHS`) compiled to C
+    (`autocable.codegen.cintegrate`, which also writes the Jacobian): returns (integrator, extend),
+    ``extend(p)`` mapping the control vector p = (eta, U, sigma_k..., Omega) to the C parameters.
+
+    As `CartesianRHS`, an aerodynamic row vanishes at U = 0 (no wind, its 1/U powers absent): the
+    C field multiplies those rows by a switch ``wind`` (0 at U = 0) and writes a negative power of a
+    parameter as a positive power of its inverse (set to 0 when the parameter is 0)."""
+    import sympy as sp
+
+    from autocable.codegen.cintegrate import compiled_integrator
+
+    names = list(rhs.param_names)
+    iU = names.index("U") if "U" in names else 1
+    neg = [j for j in range(len(names)) if np.any(rhs.param_exponents[:, j] < 0)]
+    params = names + ["ac_wind"] + [f"ac_inv_{names[j]}" for j in neg]
+    P = [sp.Symbol(x) for x in params]
+    Y = [sp.Symbol(x) for x in rhs.state_names]
+    out = [sp.Integer(0)] * len(Y)
+    for i, c in enumerate(rhs.coefficients):
+        term = sp.Float(float(c), 17)
+        for j, e in enumerate(rhs.param_exponents[i]):
+            if e > 0:
+                term *= P[j] ** int(e)
+            elif e < 0:
+                term *= P[len(names) + 1 + neg.index(j)] ** int(-e)
+        if rhs.aero[i]:
+            term *= P[len(names)]
+        for k, e in enumerate(rhs.state_exponents[i]):
+            if e:
+                term *= Y[k] ** int(e)
+        out[int(rhs.equation[i])] += term
+    ci = compiled_integrator("ame_cartesian", rhs.state_names, params, out, None)
+
+    def extend(p) -> np.ndarray:
+        p = np.asarray(p, dtype=float)
+        inv = [1.0 / p[j] if p[j] != 0.0 else 0.0 for j in neg]
+        return np.concatenate([p, [0.0 if p[iU] == 0.0 else 1.0], inv])
+
+    return ci, extend
+
+
 def initial_amplitudes(q0, Omega: float) -> np.ndarray:
     """(r1, s1, r2, s2) from q0 = (q1, q1', q2, q2') at t = 0 by the first-order relation
     q_k = r_k cos(Omega t) - s_k sin(Omega t): r_k = q_k(0), s_k = -q_k'(0) / Omega."""
@@ -94,13 +136,27 @@ class AmeIntegrator:
     """Integrates the Cartesian AME (24) of one `AmplitudeEquations` (2 modes)."""
 
     def __init__(self, ame: AmplitudeEquations, *, method: str = "LSODA", rtol: float = 1e-10,
-                 atol: float = 1e-16, values=None):
+                 atol: float = 1e-16, values=None, compiled: bool = True):
         if method not in METHODS:
             raise ValueError(f"unknown method {method!r}: use one of {METHODS}")
         if ame.n_modes != 2:
             raise ValueError(f"the Cartesian AME (24) of eq. (21) has 2 modes, got {ame.n_modes}")
         self.ame, self.method, self.rtol, self.atol = ame, method, rtol, atol
         self.rhs = ame.cartesian_rhs(values)
+        # f and J of the time integration in C (`compiled_cartesian`): the same rows, summed in
+        # another order; the numpy `rhs` stays for the few Newton and eigenvalue evaluations.
+        self.compiled = compiled
+        self._c = None
+
+    def _numeric(self, p):
+        """(f, J) for the time integration at the parameter vector ``p``, both called as (y, p)."""
+        if self.compiled:
+            if self._c is None:
+                self._c = compiled_cartesian(self.rhs)
+            ci, extend = self._c
+            pe = extend(p)
+            return (lambda x, _p: ci.rhs(0.0, x, pe)), (lambda x, _p: ci.jac(0.0, x, pe))
+        return self.rhs.f, self.rhs.jacobian
 
     # -- parameters and equilibria -------------------------------------------------------------
     def parameters(self, U: float, eta: float, sigma: float, rho: float | None = None) -> np.ndarray:
@@ -167,7 +223,7 @@ class AmeIntegrator:
         if not Omega > 0:
             raise ValueError(f"sigma = {sigma} gives a non-positive forcing frequency Omega = {Omega}")
         y = np.asarray(y0, dtype=float) if y0 is not None else initial_amplitudes(q0, Omega)
-        f, J = self.rhs.f, self.rhs.jacobian
+        f, J = self._numeric(p)
 
         def blow(t, x):
             return blowup - np.max(np.abs(x))
