@@ -98,7 +98,7 @@ def test_fold_of_cycles_is_put_on_the_branch():
         r2k = c["a1_max"][k] ** 2
         want = math.exp(2 * math.pi * (c["mu"][k] + 3 * r2k - 5 * r2k ** 2))
         got = np.abs(c.eigenvalues[k])
-        assert np.min(np.abs(got - want)) < 1e-7 * max(want, 1.0), k
+        assert np.min(np.abs(got - want)) < 1e-6 * max(want, 1.0), k   # r from a1_max (~1e-8)
 
 
 @pytest.mark.parametrize("ratio, reason", [(3.0, "period_blowup"), (20.0, "range")])
