@@ -52,6 +52,8 @@ replace PyCont's EP-C by autocable's own C kernel (`compiled_equilibria`, built 
 PyCont's step control that also evaluates the test functions and counts unstable eigenvalues at
 every point, a few microseconds per point; the analysis and the records are the same code as
 above (special points then have ``confirmed_by_pycont = None``). The default stays ``"pycont"``.
+``continue_cycles(..., engine="compiled")`` replaces PyCont's LC-C by autocable's own collocation
+(AUTO's method, `compiled_cycles`) on the same kernel, with the same records (`cycles.cycle_result`).
 
 Where. This module is the public face and holds no code; the code lives in small modules named for
 what they hold: `system` (System, ame_system, auto_state_scale), `continuation_problem` (problem,
