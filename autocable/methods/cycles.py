@@ -1,6 +1,9 @@
 """Periodic orbits from a Hopf point: PyCont's LC-C (AUTO collocation), Floquet multipliers from the
 variational equations over one period (cross-checked with AUTO's), and LPC/PD/NS from multiplier
-crossings (`continue_cycles`)."""
+crossings (`continue_cycles`).
+
+``engine="compiled"`` hands the run to `autocable.methods.compiled_cycles` (autocable's own
+collocation on the C kernel); both engines build their records with `cycle_result`."""
 from __future__ import annotations
 
 import math
