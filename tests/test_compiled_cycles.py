@@ -5,6 +5,9 @@ PyCont's LC-C (AUTO).
 * The Hopf normal form x' = mu x - y - x r^2, y' = x + mu y - y r^2: cycles r = sqrt(mu), period
   2 pi, Floquet multipliers 1 and exp(-4 pi mu); the period error falls as ntst^-8 (Gauss
   collocation with ncol = 4 is superconvergent, order 2 ncol).
+* Special points and ends against closed forms: the fold of cycles of r' = mu r + r^3 - r^5 at
+  mu = -1/4 (to 1e-12: the step ends on it), the period blow-up (T = 2 pi / (1 - mu)) and range
+  ends; the period doubling of Rossler's cycle at c = 2.8324450 (PyCont's value, 1e-8).
 * Fig. 10's Hopf point H1 (U = 1.3, eta = 1.4e-3, 2-dof AME) and Fig. 4a's (1-dof AME): the
   compiled branch equals PyCont's point by point (the same step rule, AUTO's): parameter to 1e-8
   relative, period (interpolated in the parameter) to 1e-8, multiplier moduli to 1e-6, a1_max
@@ -123,6 +126,33 @@ def test_period_blowup_and_range_ends(ratio, reason):
         assert c["period"][k] == pytest.approx(T, rel=1e-8)
         assert c["a1_max"][k] == pytest.approx(math.sqrt(m), rel=1e-7)
         assert np.min(np.abs(c.eigenvalues[k])) == pytest.approx(math.exp(-2 * m * T), rel=1e-7, abs=1e-12)
+
+
+def test_period_doubling_of_the_rossler_cycle():
+    """Rossler's system (a = b = 0.2) in c: the cycle from the Hopf point at c = 0.4 doubles its
+    period at c = 2.8324450 (PyCont's LC-C on the same settings, measured: 2.832445027549823, the
+    same 234 cycles, the same range end). The step ends on the crossing: a cycle there has a
+    multiplier at -1. Stable before, unstable after."""
+    xs = sp.symbols("x y z")
+    a, b, c = sp.symbols("a b c")
+    X, Y, Z = xs
+    system = System("rossler", ("x", "y", "z"), (-Y - Z, X + a * Y, b + Z * (X - c)),
+                    {"a": 0.2, "b": 0.2, "c": 0.5}, (("a1", ("x", "y")),))
+    problem = EquilibriumProblem(system, "c", {"a": 0.2, "b": 0.2, "c": 0.5}, (0.3, 4.0))
+    settings = ContinuationSettings(step=1e-2, max_step=5e-2, cycle_step=0.1, cycle_max_step=0.5,
+                                    cycle_max_points=300, ntst=40)
+    eq = continue_equilibria(problem, settings, [0.1, -0.5, 0.5], name="EQ", engine="compiled")
+    assert eq.branch.special("H1").value == pytest.approx(0.4, abs=1e-10)
+    cyc = continue_cycles(eq, "H1", settings, engine="compiled").branch
+    assert [e.reason for e in cyc.ends] == ["range"] and len(cyc) == 234
+    pd, = cyc.special_points
+    assert pd.type == "PD" and pd.value == pytest.approx(2.832445027549823, rel=1e-8)
+    dist = np.min(np.abs(np.asarray(cyc.eigenvalues) + 1.0), axis=1)
+    on = int(np.argmin(dist))
+    assert dist[on] < 1e-7 and abs(cyc["c"][on] - pd.value) < 1e-9
+    assert pd.index in (on - 1, on)
+    # The cycle on the crossing itself has |mu| = 1 to round-off: its flag is not asserted.
+    assert cyc.stable[1:on].all() and not cyc.stable[on + 1:].any()
 
 
 # --------------------------------------------------------------------------------------------
