@@ -804,7 +804,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
                     y0 = np.zeros(system.dimension)
                     y0[0::2] = amps[:n_modes]
                     say(f"  integrating the AME from a = {amps[:n_modes]} to a steady state")
-                    x0 = C.settle(system, values, y0, scale=scale)
+                    x0 = C.settle(system, values, y0, scale=scale, engine=scene.engine)
                 else:
                     x0 = start_state
                 result = C.continue_equilibria(problem, settings, x0, name=run.name,

@@ -186,6 +186,17 @@ def test_duffing_folds_with_the_compiled_engine():
     assert b.ends[-1].reason == "range" and b.ends[-1].value == pytest.approx(6.0, abs=1e-12)
 
 
+def test_settle_with_the_compiled_engine_lands_on_the_closed_form_response():
+    """Integrating the Duffing slow flow from rest below resonance settles on the one response
+    there: |z|^2 = A solves A (mu^2 + (sigma - kappa A)^2) = f^2; both engines agree."""
+    from autocable.methods.equilibria import settle
+    system = duffing()
+    x = {e: settle(system, {"sigma": -1.0}, [0.0, 0.0], engine=e) for e in ("pycont", "compiled")}
+    A = float(x["compiled"] @ x["compiled"])
+    assert A * (MU_D**2 + (-1.0 - KAPPA * A) ** 2) == pytest.approx(F_D**2, rel=1e-10)
+    np.testing.assert_allclose(x["compiled"], x["pycont"], rtol=0, atol=1e-12)
+
+
 def test_hopf_normal_form_with_the_compiled_engine():
     """x' = mu x - w y + a x r^2, y' = w x + mu y + a y r^2: H at mu = 0 with omega = w and
     Kuznetsov's l1 = 2a/w (closed form, as in test_continuation); the origin stable for mu < 0."""

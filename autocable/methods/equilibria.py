@@ -45,16 +45,24 @@ def equilibrium_near(system: System, x0, p, *, tol: float = 1e-12, scale: float 
 
 
 def settle(system: System, values: Mapping[str, float], x0, *, scale: float = 1.0,
-           chunks: int = 40, patience: int = 4, rtol: float = 1e-9) -> np.ndarray:
+           chunks: int = 40, patience: int = 4, rtol: float = 1e-9, engine: str = "pycont") -> np.ndarray:
     """The stable equilibrium reached by integrating x' = f(x; p) from ``x0``, refined by Newton.
 
     Integrates (scipy LSODA with the exact Jacobian) in chunks of 25 / (mean damping rate) until the
     Newton step from the current state is below 1e-6 of |x| + ``scale`` and every eigenvalue has a
     negative real part. Raises `StartError` when the orbit leaves a ball of 1e6 (|x0| + ``scale``),
     when the Newton step has not halved for ``patience`` chunks in a row (the orbit is going round
-    a cycle, or creeping along a family of equilibria), or after ``chunks`` chunks."""
+    a cycle, or creeping along a family of equilibria), or after ``chunks`` chunks.
+
+    ``engine = "compiled"`` evaluates f and J in the system's C kernel (the same functions, tested
+    equal to the sympy ones), otherwise they are the numpy ones."""
     from scipy.integrate import solve_ivp
 
+    if _engine(engine) == "compiled":
+        from autocable.codegen.ckernel import compiled_kernel
+        rhs = compiled_kernel(system)
+    else:
+        rhs = system
     p = system.parameter_vector(values)
     y = np.array(x0, dtype=float)
     rate = abs(np.trace(system.jac(y, p))) / max(system.dimension, 1)
@@ -65,8 +73,8 @@ def settle(system: System, values: Mapping[str, float], x0, *, scale: float = 1.
     t, best, stale = 0.0, math.inf, 0
     start = np.round(np.asarray(x0, float), 12).tolist()
     for _ in range(int(chunks)):
-        sol = solve_ivp(lambda _t, z: system.f(z, p), (t, t + chunk), y, method="LSODA",
-                        jac=lambda _t, z: system.jac(z, p), rtol=rtol, atol=rtol * scale * 1e-3)
+        sol = solve_ivp(lambda _t, z: rhs.f(z, p), (t, t + chunk), y, method="LSODA",
+                        jac=lambda _t, z: rhs.jac(z, p), rtol=rtol, atol=rtol * scale * 1e-3)
         if sol.status < 0 or not np.all(np.isfinite(sol.y)):
             raise StartError(f"integrating from {start} failed at t = {t:g}: {sol.message}")
         y, t = sol.y[:, -1].copy(), float(sol.t[-1])
