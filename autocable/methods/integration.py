@@ -244,8 +244,8 @@ class Ode21Integrator:
                 # sample grid): another chunk would not advance t.
                 break
             if self.engine == "compiled":
-                # One C call per chunk that stops at the divergence bound itself.
-                # Only the samples the rolling window keeps, unless the history is asked for.
+                # One C call per chunk, stopping at the divergence bound itself, computing only the
+                # samples the rolling window keeps unless the history is asked for.
                 r = self.run_compiled(y, t, t1, dt, pars, bound=DIVERGED,
                                       last=None if keep_history else keep)
                 if not r.ok:
@@ -257,16 +257,14 @@ class Ode21Integrator:
                                           tuple(r.y_reached), history)
                 tt, ys = r.t, r.y
             else:
-                tt = None
-            try:
-                if tt is None:
+                try:
                     tt, ys = self.run(y, t, t1, dt, pars)
-            except PyDSToolError as exc:
-                # A finite-time blow-up of the cubic model ends in a collapsing step: a result.
-                return self._response(U, eta, sigma, Omega, (math.inf, math.inf), False, False, t,
-                                      None, f"the response diverged between t = {t:g} and {t1:g} "
-                                      f"(no bounded steady state): {str(exc).splitlines()[0]}",
-                                      start, y, history)
+                except PyDSToolError as exc:
+                    # A finite-time blow-up of the cubic model ends in a collapsing step: a result.
+                    return self._response(U, eta, sigma, Omega, (math.inf, math.inf), False, False, t,
+                                          None, f"the response diverged between t = {t:g} and {t1:g} "
+                                          f"(no bounded steady state): {str(exc).splitlines()[0]}",
+                                          start, y, history)
             if keep_history:
                 history.append((tt[:-1], ys[:-1]))
             y, t = tuple(ys[-1]), float(tt[-1])
