@@ -226,3 +226,21 @@ def test_ame_integrator_compiled_same_equilibrium(ame):
     b = AmeIntegrator(ame).simulate(0.0, 1.4e-3, 0.0)
     assert a.periodic and b.periodic and a.t_end == b.t_end
     assert b.a1 == pytest.approx(a.a1, rel=1e-12) and b.a1 == pytest.approx(0.0120687, rel=1e-5)
+
+
+def test_ame_integrator_compiled_dop853_equals_scipy_dop853(ame):
+    """method="DOP853": each chunk in one call of the compiled DOP853 instead of scipy's Python
+    DOP853 (the same method): the same stable equilibrium at the Fig. 6 point, a1 to 1e-12."""
+    from autocable.methods.ame_integration import AmeIntegrator
+    a = AmeIntegrator(ame, method="DOP853", compiled=False).simulate(0.0, 1.4e-3, 0.0)
+    b = AmeIntegrator(ame, method="DOP853").simulate(0.0, 1.4e-3, 0.0)
+    assert a.periodic and b.periodic and a.t_end == b.t_end
+    assert b.a1 == pytest.approx(a.a1, rel=1e-12)
+
+
+def test_ame_integrator_compiled_dop853_reports_divergence(ame):
+    """A blow-up of the AME (eta = 1e-2, U = 1.3: far outside the validity) stops at the bound
+    max |y| > blowup, a divergence as with scipy's terminal event."""
+    from autocable.methods.ame_integration import AmeIntegrator
+    r = AmeIntegrator(ame, method="DOP853").simulate(1.3, 1e-2, 0.03, max_time=5000.0, blowup=0.05)
+    assert math.isinf(r.a1) and "diverged" in r.message and r.t_end < 5000.0

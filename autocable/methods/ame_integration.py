@@ -9,7 +9,10 @@ order, q_k = r_k cos(Omega t) - s_k sin(Omega t). An equilibrium of (24) is a pe
 `AmeIntegrator.simulate` starts from the same state as the direct integration of eq. (21)
 (`autocable.methods.integration`, rest with q2 = 1e-6), mapped to amplitudes by the first-order
 relation above at t = 0: r_k = q_k(0), s_k = -q_k'(0)/Omega. It integrates with scipy's LSODA (or
-Radau) and the analytic Jacobian, in chunks, until
+Radau) and the analytic Jacobian, in chunks, f and J compiled to C (`compiled_cartesian`; the
+numpy rows with ``compiled=False``); ``method="DOP853"`` runs each chunk in one call of the compiled
+DOP853 of `autocable.codegen.cintegrate` (about 100x faster than LSODA at U = 1.3; the same method
+as scipy's DOP853, agreeing with it to the tolerance), until
 
   steady (equilibrium): the Newton step from the current state, |J^{-1} g|, is below
       ``step_tol`` |y| + ``abs_tol`` and every eigenvalue of J has a negative real part: the flow is
@@ -239,9 +242,13 @@ class AmeIntegrator:
             t1 = min(t + chunk, max_time)
             grid = np.arange(t + dt, t1, dt)
             grid = np.append(grid[grid < t1 - 1e-9], t1)
-            sol = solve_ivp(lambda _t, x: f(x, p), (t, t1), y, method=self.method, t_eval=grid,
-                            jac=(lambda _t, x: J(x, p)) if self.method != "DOP853" else None,
-                            rtol=self.rtol, atol=self.atol, events=blow)
+            if self.method == "DOP853" and self.compiled:
+                sol = self._c_chunk(y, t, grid, p, blowup)
+            else:
+                # An explicit method takes no Jacobian (scipy warns about a jac=None too).
+                jac = {} if self.method == "DOP853" else {"jac": lambda _t, x: J(x, p)}
+                sol = solve_ivp(lambda _t, x: f(x, p), (t, t1), y, method=self.method, t_eval=grid,
+                                rtol=self.rtol, atol=self.atol, events=blow, **jac)
             if sol.status == -1:
                 message = f"AME integration failed at t = {t:g}: {sol.message}"
                 break
@@ -303,6 +310,21 @@ class AmeIntegrator:
         amps, env = self._window_amplitudes(ts, ys, Omega, window, window_periods)
         return self._response(U, eta, sigma, Omega, amps, env, steady, False, t, message, start, y, None,
                               ts, ys, keep_history)
+
+    def _c_chunk(self, y, t: float, grid, p, blowup: float):
+        """One chunk by the compiled DOP853 (the method scipy's "DOP853" runs in Python), in the
+        shape of solve_ivp's result: status 0 done, 1 stopped at max |y| > ``blowup`` (the
+        terminal event, located at the step that crosses it) or a non-finite state, -1 failed."""
+        from types import SimpleNamespace
+        if self._c is None:
+            self._c = compiled_cartesian(self.rhs)
+        ci, extend = self._c
+        r = ci.run(y, np.concatenate([[t], grid]), extend(p), rtol=self.rtol, atol=self.atol,
+                   bound=blowup, n_bound=len(y))
+        status = {"done": 0, "bound": 1, "not_finite": 1}.get(r.status, -1)
+        return SimpleNamespace(status=status, t=r.t[1:], y=r.y[1:].T,
+                               t_events=[np.array([r.t_reached]) if r.status == "bound" else np.empty(0)],
+                               message=f"the compiled DOP853 stopped ({r.status}) at t = {r.t_reached:g}")
 
     def _window_amplitudes(self, ts, ys, Omega, window, window_periods):
         """Half peak-to-peak of the first-order q_k over the last forcing periods (the convention of
