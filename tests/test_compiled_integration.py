@@ -244,3 +244,14 @@ def test_ame_integrator_compiled_dop853_reports_divergence(ame):
     from autocable.methods.ame_integration import AmeIntegrator
     r = AmeIntegrator(ame, method="DOP853").simulate(1.3, 1e-2, 0.03, max_time=5000.0, blowup=0.05)
     assert math.isinf(r.a1) and "diverged" in r.message and r.t_end < 5000.0
+
+
+@pytest.mark.parametrize("engine", ["dopri", "compiled"])
+def test_max_time_off_the_sample_grid_is_not_steady(eq21, engine):
+    """A max_time that is not on the sample grid leaves less than one sample interval after the
+    last chunk: that remainder must end the run ("not steady"), not pass for a chunk whose
+    amplitudes did not change (which reported a still-growing response as steady)."""
+    from autocable.methods.integration import Ode21Integrator
+    r = Ode21Integrator(eq21[0].ode, engine).simulate(0.7, 1.4e-3, 0.01, max_time=1000.0)
+    dt = 2 * math.pi / r.Omega / 64
+    assert not r.steady and r.message.startswith("not steady") and 1000.0 - dt < r.t_end <= 1000.0
