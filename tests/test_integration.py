@@ -106,3 +106,16 @@ def test_divergence_is_a_result_not_a_crash(ode, compiled):
     assert not r.steady and math.isinf(r.a1)
     assert "diverged" in r.message
     assert r.wall_seconds < 60
+
+
+@pytest.mark.parametrize("engine", ["compiled", "dopri"])
+def test_rest_is_steady_when_decaying_and_not_when_growing(ode, engine):
+    """eta = 0: below U_c = 1 the seed q2 = 1e-6 decays to rest, which a relative test alone never
+    accepts (1e-20 keeps halving); above U_c the same tiny state grows (unstable rest): not steady,
+    however small it still is when time runs out."""
+    integ = Ode21Integrator(ode, engine=engine)
+    r = integ.simulate(0.5, 0.0, 0.0, max_time=30000.0)
+    assert r.steady and r.message.startswith("at rest") and max(r.a1, r.a2) < 1e-10
+    assert r.t_end < 30000.0
+    grow = integ.simulate(1.1, 0.0, 0.0, (1e-18, 0.0, 0.0, 0.0), max_time=1200.0)
+    assert not grow.steady and "not steady" in grow.message

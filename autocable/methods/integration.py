@@ -220,7 +220,8 @@ class Ode21Integrator:
         """Integrate from ``q0`` = (q1, q1', q2, q2') until the amplitudes are steady.
 
         Steady: the amplitudes over the last ``window_periods`` forcing periods change by less than
-        ``steady_tol`` (relative) between two consecutive chunks. Stops at ``max_time`` otherwise.
+        ``steady_tol`` (relative) between two consecutive chunks, or are at rest (all below 1e3 x
+        atol and not growing). Stops at ``max_time`` otherwise.
         """
         start = time.perf_counter()
         Omega = self.ode.omega1 + sigma
@@ -233,7 +234,8 @@ class Ode21Integrator:
         y = (q1, q2, q1d, q2d)
         t = 0.0
         chunk = periods_per_chunk * period
-        previous, steady, history = None, False, []
+        previous, steady, at_rest, history = None, False, False, []
+        rest_floor = 1e3 * self.atol
         amps = (math.nan, math.nan)
         keep = window_periods * samples_per_period + 1
         window = np.array([y])
@@ -279,12 +281,17 @@ class Ode21Integrator:
                 progress(t, amps)
             if previous is not None:
                 change = max(abs(a - b) / max(abs(a), 1e-14) for a, b in zip(amps, previous))
-                if change < steady_tol:
-                    steady = True
+                # Rest: below the integration's own absolute accuracy and not growing. A decaying
+                # 1e-20 never meets a relative test (it keeps halving), yet it is the rest state;
+                # a growing one (unstable rest) is not steady.
+                rest = max(amps) < rest_floor and all(a <= b for a, b in zip(amps, previous))
+                if change < steady_tol or rest:
+                    steady, at_rest = True, rest and not change < steady_tol
                     break
             previous = amps
-        periodic = self._is_periodic(window, samples_per_period, 1e3 * self.atol)
-        msg = "steady" if steady else f"not steady after t = {t:g} (amplitudes still changing)"
+        periodic = self._is_periodic(window, samples_per_period, rest_floor)
+        msg = ("steady" if not at_rest else f"at rest (amplitudes below {rest_floor:.0e} and decaying)") \
+            if steady else f"not steady after t = {t:g} (amplitudes still changing)"
         return self._response(U, eta, sigma, Omega, amps, steady, periodic, t, window, msg, start, y,
                               history, samples_per_period)
 
