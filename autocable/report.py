@@ -51,6 +51,9 @@ REASONS = {
               "one-parameter family (models/luongo_zulli_2012.toml), so the aerodynamic coefficients, "
               "and with them Hopf points and islands under wind, need not be the paper's",
     "missing": "the scene did not run, failed or has no results (see its error)",
+    "reduction": "modelling choice: the scene uses the A2 = 0 (1-dof) AME, as the paper does for this "
+                 "figure; the study's bound is the 2-dof AME's, and on large responses the reduction "
+                 "adds its own error (runs/fig04c.toml measures both)",
 }
 
 _NAN = float("nan")
@@ -570,8 +573,10 @@ def _integrations_agree(d: SceneData) -> Feature:
         why.append(_reason("divergence"))
     if (s["compared"] > s["within"] or s["no_ame"]) and math.isclose(fixed.get("eta", 0), 1.4e-3, rel_tol=1e-6):
         why.append(_reason("msm"))
-    shown = "yes" if s["compared"] and s["within"] == s["compared"] == s["points"] else (
-        "partly" if s["within"] else "no")
+    if s["compared"] > s["within"] and d.provenance().get("ame") == "1dof":
+        why.append(_reason("reduction"))
+    agree = s["within"] + s["at_rest"]
+    shown = "yes" if agree == s["points"] else ("partly" if agree else "no")
     return ("direct integrations of (21) (empty boxes) agree", shown,
             f"{s['points']} overlay points: {s['within']} of {s['compared']} compared within the study's bound "
             f"(largest error {_e(s['max_error'], 2)}); {s['not_periodic']} not period-1, {s['not_steady']} without "
