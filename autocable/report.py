@@ -225,14 +225,16 @@ def multiplicity(data: SceneData, parameter: str = "sigma", n: int = 201) -> tup
     xs = [x for c in curves for x in c if math.isfinite(x)]
     if not xs:
         return 0, _NAN
+    import numpy as np
     lo, hi = min(xs), max(xs)
-    best, at = 0, lo
-    for k in range(n):
-        v = lo + (hi - lo) * (k + 0.5) / n
-        count = sum(1 for c in curves for x0, x1 in zip(c, c[1:]) if min(x0, x1) <= v < max(x0, x1))
-        if count > best:
-            best, at = count, v
-    return best, at
+    grid = lo + (hi - lo) * (np.arange(n) + 0.5) / n
+    counts = np.zeros(n, dtype=int)
+    for c in curves:
+        c = np.asarray(c, dtype=float)
+        a, b = np.minimum(c[:-1], c[1:]), np.maximum(c[:-1], c[1:])
+        counts += ((a[None, :] <= grid[:, None]) & (grid[:, None] < b[None, :])).sum(axis=1)
+    k = int(np.argmax(counts))     # the first of the largest, as the grid is walked upwards
+    return (int(counts[k]), float(grid[k])) if counts[k] > 0 else (0, lo)
 
 
 def _is_mono(data: SceneData, name: str) -> bool:

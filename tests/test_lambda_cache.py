@@ -52,3 +52,63 @@ def test_a_changed_coefficient_gets_its_own_cached_function(tmp_path, monkeypatc
 def test_unknown_kind_is_refused():
     with pytest.raises(ValueError, match="unknown numeric function 'hessian'"):
         L.numeric_function("hessian", ["x"], [], [sp.Symbol("x")])
+
+
+# --------------------------------------------------------------------------------------------
+# The Cartesian AME (24) as a System, kept as srepr text (autocable.methods.system.ame_system).
+def _ame():
+    from pathlib import Path
+
+    from autocable.model.ame_cache import derive_ame
+    from autocable.model.derive import derive
+    from autocable.spec import load_model
+    return derive_ame(derive(load_model(Path(__file__).resolve().parents[1] / "models"
+                                         / "luongo_zulli_2012.toml"))).ame
+
+
+@pytest.mark.parametrize("dof, wind", [("2dof", True), ("2dof", False), ("1dof", True)])
+def test_ame_system_read_back_from_the_cache_is_the_system_sympy_builds(dof, wind, tmp_path, monkeypatch):
+    from autocable.methods import system as S
+    from autocable.model.ame import AmplitudeEquations
+
+    ame = _ame()       # derived with the usual cache; the systems go to an empty one
+    monkeypatch.setenv("AUTOCABLE_CACHE", str(tmp_path))
+    fresh = S.ame_system(ame, dof, wind=wind, use_cache=False)
+    assert not (tmp_path / "systems").exists()
+    first = S.ame_system(ame, dof, wind=wind)
+    files = list((tmp_path / "systems").glob("ame-system-*.json"))
+    assert len(files) == 1
+    # A hit must not build the expressions from the rows again.
+    monkeypatch.setattr(AmplitudeEquations, "cartesian_expressions",
+                        lambda *a, **k: pytest.fail("cache hit rebuilt the AME expressions"))
+    second = S.ame_system(ame, dof, wind=wind)
+    for got in (first, second):
+        assert got.variables == fresh.variables and got.parameters == fresh.parameters
+        assert got.amplitudes == fresh.amplitudes and got.name == fresh.name
+        assert [sp.srepr(e) for e in got.rhs] == [sp.srepr(e) for e in fresh.rhs]   # exact, every Float
+    # The key the hit carries without printing the expressions is the one printing them gives.
+    assert second._rhs_key == L.rhs_key(fresh.rhs)
+    x = np.array([1e-3, -2e-3, 5e-4, 3e-4][: fresh.dimension])
+    p = fresh.parameter_vector({"sigma": 0.01, "U": 0.7 if wind else 0.0, "eta": 4.1e-4})
+    np.testing.assert_array_equal(second.f(x, p), fresh.f(x, p))
+    np.testing.assert_array_equal(second.jac(x, p), fresh.jac(x, p))
+
+
+def test_ame_system_cache_is_per_reduction_and_a_damaged_file_is_rebuilt(tmp_path, monkeypatch):
+    from autocable.methods import system as S
+
+    ame = _ame()
+    monkeypatch.setenv("AUTOCABLE_CACHE", str(tmp_path))
+    for dof, wind in (("2dof", True), ("2dof", False), ("1dof", True), ("1dof", False)):
+        S.ame_system(ame, dof, wind=wind)
+    files = sorted((tmp_path / "systems").glob("ame-system-*.json"))
+    assert len(files) == 4
+    fresh = S.ame_system(ame, "2dof", wind=True, use_cache=False)
+    target = next(f for f in files if len(f.read_text()) == max(len(g.read_text()) for g in files))
+    for damage in ('{"format": 1, "rhs": ["Add(Symbol(\'r1\'), "]}',   # unparsable text
+                   '{"format": 1, "rhs": ["__import__(\'os\')"]}',     # no builtins in the namespace
+                   "not json"):
+        target.write_text(damage)
+        got = S.ame_system(ame, "2dof", wind=True)
+        assert [sp.srepr(e) for e in got.rhs] == [sp.srepr(e) for e in fresh.rhs]
+        assert '"rhs"' in target.read_text() and "Symbol('r1')" in target.read_text()   # written again

@@ -44,7 +44,12 @@ def _namespace() -> dict:
 
 def rhs_key(rhs: Sequence[sp.Expr]) -> str:
     """A content hash of the right-hand side (``sympy.srepr``: exact, including every Float)."""
-    return content_hash([sp.srepr(e) for e in rhs])
+    return rhs_key_of_srepr([sp.srepr(e) for e in rhs])
+
+
+def rhs_key_of_srepr(texts: Sequence[str]) -> str:
+    """`rhs_key` of the right-hand side whose ``sympy.srepr`` texts are ``texts``."""
+    return content_hash(list(texts))
 
 
 def function_key(kind: str, variables: Sequence[str], parameters: Sequence[str], key: str) -> str:

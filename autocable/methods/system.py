@@ -12,18 +12,24 @@ from typing import Any, Mapping
 import numpy as np
 import sympy as sp
 
+from autocable.codegen.cache import atomic_write_json, cache_dir, content_hash, read_json
 from autocable.codegen.pydstool import VectorField
-from autocable.methods.lambda_cache import numeric_function, rhs_key
+from autocable.methods.lambda_cache import numeric_function, rhs_key, rhs_key_of_srepr
 
 
 #: Names the scaled PyCont vector field reserves for itself.
 _RESERVED = ("xscale", "lam", "lam2", "tscale")
+#: Version of what `ame_system` builds from an AME: bump it when that construction changes, so the
+#: right-hand sides cached by earlier code are not used.
+AME_SYSTEM_VERSION = 1
 
 
 def _plain(expr):
     """sympy expression with every symbol replaced by a plain ``Symbol(name)`` (no assumptions)."""
     expr = sp.sympify(expr)
-    return expr.xreplace({s: sp.Symbol(s.name) for s in expr.free_symbols})
+    swap = {s: sp.Symbol(s.name) for s in expr.free_symbols if s != sp.Symbol(s.name)}
+    # Already plain (e.g. read back from the cache): xreplace would walk the whole tree for nothing.
+    return expr.xreplace(swap) if swap else expr
 
 
 @dataclass(frozen=True, eq=False)
@@ -195,7 +201,8 @@ class System:
         return VectorField(f"{self.name}_2p", self.variables, rhs, params)
 
 
-def ame_system(ame, dof: str = "2dof", *, wind: bool = True, name: str | None = None) -> System:
+def ame_system(ame, dof: str = "2dof", *, wind: bool = True, name: str | None = None,
+               use_cache: bool = True) -> System:
     """The Cartesian AME (24) as a `System` in the scene parameters (sigma, U, eta).
 
     ``dof="1dof"`` is the reduction A2 = 0 of Sect. 5 (a2 is then identically zero). The detunings
@@ -204,12 +211,36 @@ def ame_system(ame, dof: str = "2dof", *, wind: bool = True, name: str | None = 
     detunings and the exact Omega of the coefficients consistently. ``wind=False`` drops the
     aerodynamic rows (their 1/U powers: no wind, no term), as needed at U = 0; with wind the field
     is singular at U = 0.
+
+    The right-hand sides are kept in the cache folder (``systems/``) as ``sympy.srepr`` text under a
+    hash of the AME's content, ``dof``, ``wind``, the sympy version and `AME_SYSTEM_VERSION`:
+    building the wind AME from its rows costs about half a second of sympy in every scene that
+    uses it, reading it back a twentieth of that (``use_cache=False`` always rebuilds).
     """
     if dof not in ("2dof", "1dof"):
         raise ValueError(f"dof must be '2dof' or '1dof', got {dof!r}")
     src = ame.one_dof() if dof == "1dof" else ame
     if src.user_names:
         raise ValueError(f"the AME has unbound user symbols {src.user_names}")
+    variables = tuple(v for k in range(1, src.n_modes + 1) for v in (f"r{k}", f"s{k}"))
+    amps = [(f"a{k}", (f"r{k}", f"s{k}")) for k in range(1, src.n_modes + 1)]
+    if dof == "1dof":
+        amps.append(("a2", ()))
+    tag = name or f"ame{src.n_modes}{'w' if wind else 'n'}"
+    params = (("sigma", 0.0), ("U", 0.0), ("eta", 0.0))
+    description = f"Cartesian AME (24), {dof}, {'with' if wind else 'without'} wind terms"
+    path = None
+    if use_cache:
+        data = {k: v for k, v in ame.to_dict().items() if k != "provenance"}
+        key = content_hash({"ame": data, "dof": dof, "wind": wind, "sympy": sp.__version__,
+                            "version": AME_SYSTEM_VERSION})
+        path = cache_dir("systems") / f"ame-system-{key}.json"
+        rhs = _cached_rhs(path, len(variables))
+        if rhs is not None:
+            system = System(tag, variables, rhs[1], params, tuple(amps), description=description)
+            # The stored text is srepr of these very expressions: its hash is `rhs_key`.
+            system.__dict__["_rhs_key"] = rhs_key_of_srepr(rhs[0])
+            return system
     syms = src.symbols()
     exprs = src.cartesian_expressions(include_aero=wind)
     sigma = sp.Symbol("sigma")
@@ -225,13 +256,32 @@ def ame_system(ame, dof: str = "2dof", *, wind: bool = True, name: str | None = 
     ren[syms["eta"]] = sp.Symbol("eta")
     ren[syms["U"]] = sp.Symbol("U")
     rhs = [_plain(sp.expand(e.xreplace(rel)).xreplace(ren)) for e in exprs]
-    variables = tuple(v for k in range(1, src.n_modes + 1) for v in (f"r{k}", f"s{k}"))
-    amps = [(f"a{k}", (f"r{k}", f"s{k}")) for k in range(1, src.n_modes + 1)]
-    if dof == "1dof":
-        amps.append(("a2", ()))
-    tag = name or f"ame{src.n_modes}{'w' if wind else 'n'}"
-    return System(tag, variables, rhs, (("sigma", 0.0), ("U", 0.0), ("eta", 0.0)), tuple(amps),
-                  description=f"Cartesian AME (24), {dof}, {'with' if wind else 'without'} wind terms")
+    system = System(tag, variables, rhs, params, tuple(amps), description=description)
+    if path is not None:
+        atomic_write_json(path, {"format": AME_SYSTEM_VERSION, "rhs": [sp.srepr(e) for e in system.rhs]})
+    return system
+
+
+def _cached_rhs(path, n: int) -> tuple[list[str], list[sp.Expr]] | None:
+    """The srepr texts `ame_system` stored at ``path`` and their expressions, or None (missing,
+    corrupt or foreign: the caller builds them again)."""
+    data = read_json(path)
+    if not (isinstance(data, dict) and data.get("format") == AME_SYSTEM_VERSION):
+        return None
+    texts = data.get("rhs")
+    if not (isinstance(texts, list) and len(texts) == n and all(isinstance(t, str) for t in texts)):
+        return None
+    try:
+        return texts, [_from_srepr(t) for t in texts]
+    except Exception:   # noqa: BLE001 - a damaged file is rebuilt, never trusted
+        return None
+
+
+def _from_srepr(text: str) -> sp.Expr:
+    """The expression ``sympy.srepr`` printed as ``text`` (our own cache file: evaluated with
+    sympy's names only). About ten times faster than rebuilding the wind AME from its rows."""
+    namespace = {k: getattr(sp, k) for k in ("Add", "Mul", "Pow", "Symbol", "Float", "Integer", "Rational")}
+    return eval(text, {"__builtins__": {}}, namespace)  # noqa: S307 - text autocable wrote itself
 
 
 def _auto_scale(system: System, values: Mapping[str, float]) -> float:
