@@ -624,9 +624,17 @@ def _fig04(d: SceneData, all_: dict) -> list[Feature]:
     if cyc:
         lo = min((_num(r["a1_min"]) for r in stable_cyc), default=_NAN)
         hi = max((_num(r["a1_max"]) for r in stable_cyc), default=_NAN)
+        per = []
+        for b in cyc:
+            rows = d.branch_rows(b["name"])
+            us = [_num(r["U"]) for r in rows]
+            per.append(f"{b['name']}: U in [{_g(min(us), 4)}, {_g(max(us), 4)}], "
+                       f"{sum(1 for r in rows if _stable(r))} of {len(rows)} stable, a1 in "
+                       f"[{_e(min(_num(r['a1_min']) for r in rows))}, {_e(max(_num(r['a1_max']) for r in rows))}], "
+                       f"ends {_ends(b)}")
         out.append(("a stable periodic solution (max/min of a1) as backbone", "yes" if stable_cyc else "partly",
                     f"{len(cyc)} cycle branch(es), {len(stable_cyc)} stable cycles; a1 over them in "
-                    f"[{_e(lo)}, {_e(hi)}]"))
+                    f"[{_e(lo)}, {_e(hi)}] ({'; '.join(per)})"))
     else:
         out.append(("a stable periodic solution (max/min of a1) as backbone", "no",
                     "no cycle branch" + (f"; {_reason('inputs')}" if not h else "")))

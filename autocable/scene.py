@@ -25,11 +25,14 @@ start that does not converge raise `autocable.spec.SpecError` with one line nami
     [fixed]                           # U, eta, sigma shared by every run (default 0)
     [[run]]
     name = "I"                        # branch name; letters, digits, '_' and '-'
-    kind = "equilibria"               # "equilibria" | "cycles" (from start = "RUN:Hk") | "switch" (from "RUN:BPk")
+    kind = "equilibria"               # "equilibria" | "cycles" (from start = "RUN:Hk", or { orbit = [a1, a2] }:
+                                      # the stable periodic orbit integration reaches from there; compiled
+                                      # engine) | "switch" (from "RUN:BPk")
                                       # | "curve" (from "RUN:LPk" or "RUN:Hk": a two-parameter curve)
     parameter = "sigma"               # the continued parameter: "sigma" | "U" | "eta"
     range = [-0.05, 0.05]
     start = "trivial"                 # "trivial" | { integrate = [a1, a2] } | { state = [r1, s1, r2, s2] } | "RUN:LABEL"
+                                      # | { orbit = [a1, a2] } (cycles runs)
     at = -0.05                        # the parameter's start value (default: range[0], or the label's)
     directions = "both"               # "both" | "forward" | "backward" (curves: forward = increasing parameter2)
     parameter2 = "eta"                # curves only: the second parameter, and its range
@@ -134,7 +137,8 @@ AME_KINDS = ("2dof", "1dof", "1dof-amplitude")
 @dataclass(frozen=True)
 class StartSpec:
     """Where a run starts: ``kind`` is "trivial", "integrate" (amplitudes a_k, phases 0), "state"
-    (a state vector refined by Newton) or "label" (``label`` = "RUN:LABEL")."""
+    (a state vector refined by Newton), "label" (``label`` = "RUN:LABEL") or "orbit" (amplitudes
+    a_k, phases 0: the periodic orbit the AME settles on from there, for a cycles run)."""
 
     kind: str
     values: tuple[float, ...] = ()
@@ -264,15 +268,16 @@ def _start(value, path, where) -> StartSpec:
                                          f'{{integrate = [a1, a2]}} or {{state = [...]}}, got {value!r}')
         return StartSpec("label", label=value)
     if isinstance(value, dict):
-        _check_keys(value, ("integrate", "state"), path, where)
+        _check_keys(value, ("integrate", "state", "orbit"), path, where)
         if len(value) != 1:
-            raise SpecError(path, where, "give exactly one of integrate = [a1, a2] or state = [r1, s1, ...]")
+            raise SpecError(path, where, "give exactly one of integrate = [a1, a2], state = [r1, s1, ...] "
+                                         "or orbit = [a1, a2]")
         (kind, vals), = value.items()
         if not isinstance(vals, list) or not vals:
             raise SpecError(path, f"{where}.{kind}", f"expected a list of numbers, got {vals!r}")
         nums = tuple(_num(v, path, f"{where}.{kind}") for v in vals)
-        if kind == "integrate" and any(v < 0 for v in nums):
-            raise SpecError(path, f"{where}.integrate", "amplitudes must be >= 0")
+        if kind in ("integrate", "orbit") and any(v < 0 for v in nums):
+            raise SpecError(path, f"{where}.{kind}", "amplitudes must be >= 0")
         return StartSpec(kind, nums)
     raise SpecError(path, where, f'expected "trivial", "RUN:LABEL", {{integrate = [...]}} or '
                                  f'{{state = [...]}}, got {value!r}')
@@ -367,8 +372,12 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
             if not any(src == n or src.startswith(n + "-") for n in earlier):
                 raise SpecError(path, f"{where}.start", f"{start.label!r} refers to branch {src!r}, which is "
                                                         f"not an earlier run (or a follow-up of one) of this scene")
-        if kind == "cycles" and not (start.kind == "label" and ":H" in start.label):
-            raise SpecError(path, f"{where}.start", 'a "cycles" run starts from a Hopf point, e.g. "I:H1"')
+        if kind == "cycles" and not (start.kind == "label" and ":H" in start.label) and start.kind != "orbit":
+            raise SpecError(path, f"{where}.start", 'a "cycles" run starts from a Hopf point, e.g. "I:H1", or '
+                                                    'from the periodic orbit reached by integration, '
+                                                    '{ orbit = [a1, a2] }')
+        if start.kind == "orbit" and kind != "cycles":
+            raise SpecError(path, f"{where}.start", '{ orbit = [...] } starts a "cycles" run: set kind = "cycles"')
         if kind == "switch" and not (start.kind == "label" and ":BP" in start.label):
             raise SpecError(path, f"{where}.start", 'a "switch" run starts from a branch point, e.g. "I:BP1"')
         parameter2, range2 = "", None
@@ -773,6 +782,23 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
             try:
                 result = fn(src, label, run.parameter2, run.range2, settings, name=run.name,
                             directions=run.directions, progress=say)
+            except C.StartError as exc:
+                raise SpecError(path, f"{where}.start", str(exc)) from None
+            add(result)
+        elif run.kind == "cycles" and run.start.kind == "orbit":
+            if scene.engine != "compiled":
+                raise SpecError(path, f"{where}.start", 'a cycles run from { orbit = [...] } needs engine = '
+                                                        '"compiled" (PyCont\'s LC-C starts only at Hopf points here)')
+            amps = list(run.start.values)
+            n_modes = system.dimension // 2
+            amps += [0.0] * max(0, n_modes - len(amps))
+            y0 = np.zeros(system.dimension)
+            y0[0::2] = amps[:n_modes]
+            say(f"  integrating the AME from a = {amps[:n_modes]} to a periodic orbit")
+            try:
+                t_orb, x_orb, period = C.periodic_orbit(system, values, y0, scale=scale)
+                result = C.continue_cycles_from_orbit(problem, settings, t_orb, x_orb, period, name=run.name,
+                                                      directions=run.directions, progress=say)
             except C.StartError as exc:
                 raise SpecError(path, f"{where}.start", str(exc)) from None
             add(result)

@@ -104,6 +104,57 @@ def test_fold_of_cycles_is_put_on_the_branch():
         assert np.min(np.abs(got - want)) < 1e-6 * max(want, 1.0), k   # r from a1_max (~1e-8)
 
 
+def test_cycles_from_an_integrated_orbit_both_ways():
+    """No Hopf point needed: the stable cycle of the normal form reached by integration at mu = 0.2
+    (`periodic_orbit`: radius sqrt(0.2), period 2 pi), then continued down and up in mu. Every
+    cycle on both arms is r = sqrt(mu), period 2 pi, multipliers 1 and exp(-4 pi mu); the forward
+    arm ends at the range, the backward one at its point budget; the records run from the backward
+    end to the forward end through the start."""
+    from autocable.methods.continuation import continue_cycles_from_orbit, periodic_orbit
+
+    r2 = x * x + y * y
+    system = System("hopf_nf_orbit", ("x", "y"), (mu * x - y - x * r2, x + mu * y - y * r2), {"mu": 0.2},
+                    (("a1", ("x", "y")),))
+    t, X, T = periodic_orbit(system, {"mu": 0.2}, [0.05, 0.0], scale=0.5)
+    assert T == pytest.approx(2 * math.pi, rel=1e-8)
+    assert np.hypot(X[:, 0], X[:, 1]) == pytest.approx(math.sqrt(0.2), rel=1e-7)
+    assert t[-1] - t[0] < T <= t[-1] - t[0] + 2 * (t[1] - t[0])
+    problem = EquilibriumProblem(system, "mu", {"mu": 0.2}, (-0.2, 0.3), state_scale=0.5)
+    settings = ContinuationSettings(cycle_step=1e-2, cycle_max_step=5e-2, cycle_max_points=40, ntst=20)
+    c = continue_cycles_from_orbit(problem, settings, t, X, T, name="NF").branch
+    assert c.kind == "cycle" and c.info["from"] == "orbit" and c.info["engine"] == "compiled"
+    assert [(e.side, e.reason) for e in c.ends] == [("backward", "max_points"), ("forward", "range")]
+    i0 = c.info["start_index"]
+    assert i0 == 39 and c["mu"][i0] == pytest.approx(0.2, abs=1e-14)
+    assert np.all(np.diff(c["mu"]) > 0) and c["mu"][0] < 0.1 and 0.29 < c["mu"][-1] <= 0.3
+    assert c.stable.all() and not c.special_points
+    for k in range(len(c)):
+        m = c["mu"][k]
+        assert c["a1_max"][k] == pytest.approx(math.sqrt(m), rel=1e-8)
+        assert c["a1_min"][k] == pytest.approx(math.sqrt(m), rel=1e-8)
+        assert c["period"][k] == pytest.approx(2 * math.pi, rel=1e-10)
+        mults = np.sort(np.abs(c.eigenvalues[k]))
+        assert mults[0] == pytest.approx(math.exp(-4 * math.pi * m), rel=1e-9)
+        assert mults[1] == pytest.approx(1.0, abs=1e-10)
+    one_way = continue_cycles_from_orbit(problem, settings, t, X, T, directions="forward").branch
+    assert [e.side for e in one_way.ends] == ["forward"] and one_way.info["start_index"] == 0
+    np.testing.assert_allclose(one_way["mu"], c["mu"][i0:], rtol=0, atol=1e-14)
+
+
+def test_periodic_orbit_says_what_it_found_instead():
+    from autocable.methods.continuation import StartError, periodic_orbit
+
+    r2 = x * x + y * y
+    system = System("hopf_nf_orbit", ("x", "y"), (mu * x - y - x * r2, x + mu * y - y * r2), {"mu": 0.2},
+                    (("a1", ("x", "y")),))
+    with pytest.raises(StartError, match="settled on an equilibrium"):
+        periodic_orbit(system, {"mu": -0.2}, [0.05, 0.0], scale=0.5)
+    grow = System("hopf_grow", ("x", "y"), (mu * x - y + x * r2, x + mu * y + y * r2), {"mu": 0.2},
+                  (("a1", ("x", "y")),))
+    with pytest.raises(StartError, match="diverges"):
+        periodic_orbit(grow, {"mu": 0.2}, [0.05, 0.0], scale=0.5)
+
+
 @pytest.mark.parametrize("ratio, reason", [(3.0, "period_blowup"), (20.0, "range")])
 def test_period_blowup_and_range_ends(ratio, reason):
     """r' = mu r - r^3, theta' = 1 - r^2: cycles r^2 = mu of period 2 pi / (1 - mu), multiplier

@@ -103,6 +103,11 @@ def _scene(tmp_path: Path, body: str) -> Path:
     ('[[run]]\nparameter = "sigma"\nrange = [-0.05, 0.05]\n[run.steps]\nstep = 1.0\nmax_step = 0.1\n',
      "run[0].steps", "step"),
     ('engine = "auto07p"\n[[run]]\nparameter = "sigma"\nrange = [-0.05, 0.05]\n', "engine", "compiled"),
+    ('[[run]]\nparameter = "sigma"\nrange = [-0.05, 0.05]\nstart = { orbit = [1e-2] }\n', "run[0].start",
+     'kind = "cycles"'),
+    ('[[run]]\nkind = "cycles"\nparameter = "sigma"\nrange = [-0.05, 0.05]\n', "run[0].start", "orbit"),
+    ('[[run]]\nkind = "cycles"\nparameter = "U"\nrange = [0.5, 1.5]\nstart = { orbit = [-1e-2] }\n',
+     "run[0].start.orbit", ">= 0"),
 ])
 def test_scene_schema_errors_are_one_line(tmp_path, body, field, words):
     with pytest.raises(SpecError) as err:
@@ -110,6 +115,20 @@ def test_scene_schema_errors_are_one_line(tmp_path, body, field, words):
     text = str(err.value)
     assert "\n" not in text and text.startswith(str(tmp_path / "bad.toml"))
     assert err.value.field == field and words in text
+
+
+def test_an_orbit_start_needs_the_compiled_engine_and_a_periodic_orbit(tmp_path):
+    """A cycles run from { orbit } with PyCont, or where the AME settles on an equilibrium: one line
+    naming the run's start, before any continuation."""
+    body = ('ame = "1dof"\n[fixed]\nsigma = 0.01\neta = 3.2e-4\n[[run]]\nname = "B"\nkind = "cycles"\n'
+            'parameter = "U"\nrange = [0.05, 1.5]\nstart = { orbit = [1e-2] }\nat = AT\n')
+    for engine, at, words in (("pycont", "1.2", 'engine = "compiled"'),
+                              ("compiled", "0.5", "settled on an equilibrium")):
+        with pytest.raises(SpecError) as err:
+            run_scene(load_scene(_scene(tmp_path, f'engine = "{engine}"\n' + body.replace("AT", at))),
+                      tmp_path / "out", plot=False)
+        text = str(err.value)
+        assert "\n" not in text and err.value.field == "run[0].start" and words in text, text
 
 
 def test_scene_errors_at_run_time_are_one_line(tmp_path):

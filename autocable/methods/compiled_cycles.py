@@ -63,7 +63,8 @@ from scipy.sparse.linalg import splu
 
 from autocable.codegen.ckernel import compiled_kernel
 from autocable.methods.continuation_chart import _Chart
-from autocable.methods.continuation_problem import ContinuationResult, ContinuationSettings, Progress, _resolve
+from autocable.methods.continuation_problem import (ContinuationResult, ContinuationSettings, EquilibriumProblem,
+                                                    Progress, StartError, _resolve)
 from autocable.methods.cycles import _crossing_distance, _cycle_counts, cycle_result
 from autocable.results import EndPoint, SpecialPoint
 
@@ -247,12 +248,13 @@ def _hopf_start(col: _Collocation, hp: SpecialPoint, YH_chart: np.ndarray, T_H: 
     return Y0, d0 / math.sqrt(col.norm2(d0))
 
 
-def _newton(col: _Collocation, Yp, phase_row, arc_row, arc_rhs, tol: float):
+def _newton(col: _Collocation, Yp, phase_row, arc_row, arc_rhs, tol: float,
+            iterations: int = NEWTON_ITERATIONS):
     """AUTO's corrector from the predictor Yp: (Y, iterations, LU of the last Jacobian), or
     (None, iterations, None) on failure."""
     Y = Yp.copy()
     nu = col.mesh.nu
-    for it in range(1, NEWTON_ITERATIONS + 1):
+    for it in range(1, iterations + 1):
         G, A = col.system(Y, phase_row, arc_row, arc_rhs)
         if not np.all(np.isfinite(G)):
             return None, it, None
@@ -268,7 +270,7 @@ def _newton(col: _Collocation, Yp, phase_row, arc_row, arc_rhs, tol: float):
         dl = np.max(np.abs(dY[nu:]) / (1.0 + np.abs(Y[nu:])))
         if du <= tol and dl <= tol:
             return Y, it, lu
-    return None, NEWTON_ITERATIONS, None
+    return None, iterations, None
 
 
 @dataclass
@@ -354,18 +356,103 @@ def continue_cycles_compiled(source: ContinuationResult, hopf: str | SpecialPoin
     if not (math.isfinite(T_H) and T_H > 0):
         raise ValueError(f"{hp.name} has no Hopf period (omega): cannot start cycles there")
     col = _Collocation(kernel, chart, _mesh(int(settings.ntst), int(settings.ncol), sysm.dimension))
-    nu = col.mesh.nu
-    lo, hi = chart.lam(problem.bounds[0]), chart.lam(problem.bounds[1])
-    tol = settings.tol
     Y, d = _hopf_start(col, hp, YH, T_H)
     ref = col.at_gauss(col.nodes(d))[1]        # the phase reference: first the eigenfunction's u'
-    ds = settings.cycle_step
-    stepper = _Stepper(col, tol)
     x_h, p_h = chart.to_phys(YH)
     hopf_mu = np.linalg.eigvals(expm(kernel.jac(x_h, p_h) * T_H))
     accepted = [_Point(Y, 0, 0.0, hopf_mu[np.argsort(-np.abs(hopf_mu))])]
-    reason, message = "max_points", ""
     t_setup = time.perf_counter()
+    reason, message, ds = _march(col, problem, settings, Y, d, ref, accepted, T_H, "the Hopf period", name,
+                                 progress)
+    t1 = time.perf_counter()
+    X, P, periods, mults, amin, amax = _records(col, accepted, first_state=x_h)
+    side = EndPoint("forward", reason, chart.value(accepted[-1].Y[-1]), len(accepted), message)
+    info = {"from": hp.name, "hopf_period": T_H, "engine": "compiled", "floquet": "collocation monodromy",
+            "ntst": settings.ntst, "ncol": settings.ncol, "final_step": ds}
+    return cycle_result(name, problem, settings, chart, X, P, periods, mults, amin, amax, None, side, info,
+                        {"setup_s": t_setup - t0, "collocation_s": t1 - t_setup, "points": len(accepted)},
+                        t_analysis=t1)
+
+
+def continue_cycles_from_orbit(problem: EquilibriumProblem, settings: ContinuationSettings, t, X, period: float,
+                               *, name: str = "cycles", directions: str = "both",
+                               progress: Progress | None = None) -> ContinuationResult:
+    """The branch of periodic orbits through a known one: ``X`` (states at the times ``t``, one
+    period ``period``, e.g. from `autocable.methods.orbits.periodic_orbit`) at the start value of
+    ``problem`` (its ``values``), continued in ``problem.parameter`` over its range, in
+    ``directions`` ("both", "forward" = increasing parameter, "backward").
+
+    The orbit is put on the collocation mesh (periodic linear interpolation) and refined by Newton
+    at the fixed start value, with the phase condition against itself; the first direction is the
+    branch's tangent there (lam' > 0 forward). Each direction then goes on as from a Hopf point
+    (`continue_cycles_compiled`); the period blow-up compares with ``period``. The records are
+    those of `cycles.cycle_result`, ordered from the backward end to the forward end. Raises
+    `StartError` when Newton does not converge on the given orbit."""
+    if directions not in ("both", "forward", "backward"):
+        raise ValueError(f'directions must be "both", "forward" or "backward", got {directions!r}')
+    sysm = problem.system
+    t0 = time.perf_counter()
+    kernel = compiled_kernel(sysm)
+    chart = _Chart.of(problem)
+    col = _Collocation(kernel, chart, _mesh(int(settings.ntst), int(settings.ncol), sysm.dimension))
+    ms = col.mesh
+    t = np.asarray(t, float)
+    X = np.asarray(X, float).reshape(len(t), sysm.dimension)
+    if not (math.isfinite(period) and period > 0):
+        raise StartError(f"the orbit's period must be a positive number, got {period!r}")
+    tn = t[0] + period * np.arange(ms.N * ms.m) / (ms.N * ms.m)
+    nodes = np.column_stack([np.interp(tn, t, X[:, j], period=period) for j in range(ms.n)]) / chart.xscale
+    lam0 = chart.lam(problem.values[problem.parameter])
+    Y0 = np.concatenate([nodes.ravel(), [period, lam0]])
+    phase = col.gauss_row(col.at_gauss(col.nodes(Y0))[1])
+    fix = np.zeros(len(Y0))
+    fix[-1] = 1.0
+    Y, nit, lu = _newton(col, Y0, phase, fix, lam0, settings.tol, iterations=4 * NEWTON_ITERATIONS)
+    if Y is None:
+        raise StartError(f"the collocation Newton did not converge on the given orbit (period {period:.6g}) at "
+                         f"{problem.parameter} = {chart.value(lam0):.6g}: it is not a periodic orbit of the system "
+                         f"there, or ntst = {settings.ntst} intervals are too few for it")
+    e = np.zeros(len(Y))
+    e[-1] = 1.0
+    tangent = lu.solve(e)                      # G_Y t = 0, phase . t = 0, lam' = 1
+    d0 = tangent / math.sqrt(col.norm2(tangent))
+    mu = np.linalg.eigvals(col.monodromy(Y))
+    mu = mu[np.argsort(-np.abs(mu))]
+    T0 = float(Y[-2])
+    t_setup = time.perf_counter()
+    arms, ends, final = {}, [], settings.cycle_step
+    for direction, sign in (("backward", -1.0), ("forward", 1.0)):
+        if directions not in ("both", direction):
+            continue
+        d = sign * d0
+        accepted = [_Point(Y, nit, float(d[-1]), mu)]
+        ref = col.at_gauss(col.nodes(Y))[1]
+        reason, message, final = _march(col, problem, settings, Y, d, ref, accepted, T0, "the start orbit's period",
+                                        f"{name} ({direction})", progress)
+        arms[direction] = accepted
+        ends.append(EndPoint(direction, reason, chart.value(accepted[-1].Y[-1]), len(accepted), message))
+    t1 = time.perf_counter()
+    points = list(reversed(arms.get("backward", [])))
+    points += arms["forward"][1:] if points and "forward" in arms else arms.get("forward", [])
+    Xs, P, periods, mults, amin, amax = _records(col, points)
+    info = {"from": "orbit", "start_value": chart.value(lam0), "start_period": T0, "start_index": (
+        len(arms["backward"]) - 1 if "backward" in arms else 0), "engine": "compiled",
+        "floquet": "collocation monodromy", "ntst": settings.ntst, "ncol": settings.ncol, "final_step": final}
+    return cycle_result(name, problem, settings, chart, Xs, P, periods, mults, amin, amax, None, tuple(ends), info,
+                        {"setup_s": t_setup - t0, "collocation_s": t1 - t_setup, "points": len(points)},
+                        t_analysis=t1, first_is_hopf=False)
+
+
+def _march(col: _Collocation, problem, settings: ContinuationSettings, Y, d, ref, accepted: list,
+           T_ref: float, ref_name: str, name: str, progress: Progress | None) -> tuple[str, str, float]:
+    """Steps from ``Y`` (the last of ``accepted``) along the unit direction ``d`` with AUTO's step
+    control and special-point location, appending every accepted cycle to ``accepted``, until an
+    end; returns (end reason, message, last step). ``T_ref``: the period the blow-up test compares with."""
+    chart = col.chart
+    lo, hi = chart.lam(problem.bounds[0]), chart.lam(problem.bounds[1])
+    ds = settings.cycle_step
+    stepper = _Stepper(col, settings.tol)
+    reason, message = "max_points", ""
     try:
         while len(accepted) < settings.cycle_max_points:
             if len(accepted) > 1:
@@ -410,10 +497,10 @@ def continue_cycles_compiled(source: ContinuationResult, hopf: str | SpecialPoin
             lam, T = float(new.Y[-1]), float(new.Y[-2])
             if not lo - 1e-12 <= lam <= hi + 1e-12:
                 raise _Stop("range", f"{problem.parameter} left the range")
-            if T > settings.max_period_ratio * T_H:
+            if T > settings.max_period_ratio * T_ref:
                 raise _Stop("period_blowup",
-                            f"the period reached {T:.4g} (> {settings.max_period_ratio:g} x the Hopf period "
-                            f"{T_H:.4g}) at {problem.parameter} = {chart.value(lam):.6g}: a homoclinic orbit "
+                            f"the period reached {T:.4g} (> {settings.max_period_ratio:g} x {ref_name} "
+                            f"{T_ref:.4g}) at {problem.parameter} = {chart.value(lam):.6g}: a homoclinic orbit "
                             f"is near; lower cycle_max_step to approach it more closely")
             # AUTO's secant direction, scaled to unit norm; the next phase reference is this cycle.
             sec = (new.Y - Y) / step
@@ -428,30 +515,28 @@ def continue_cycles_compiled(source: ContinuationResult, hopf: str | SpecialPoin
         reason, message = stop.reason, stop.message
     except (np.linalg.LinAlgError, ValueError, FloatingPointError) as exc:
         reason, message = "error", f"the collocation failed: {type(exc).__name__}: {' '.join(str(exc).split())}"
-    t1 = time.perf_counter()
+    return reason, message, ds
+
+
+def _records(col: _Collocation, points, first_state=None):
+    """Per cycle: x(0), the parameter vector, the period, the multipliers and the amplitude extremes
+    (``first_state``: the first point is a degenerate cycle, the Hopf point, at that state)."""
+    chart, sysm = col.chart, col.chart.system
     X, P, periods, mults, amin, amax = [], [], [], [], [], []
-    for i, pt in enumerate(accepted):
+    for i, pt in enumerate(points):
         lam, T = float(pt.Y[-1]), float(pt.Y[-2])
-        p = chart.p(lam)
-        if i == 0:
-            x0 = x_h
-            samples = x0[None, :]
+        if i == 0 and first_state is not None:
+            samples = np.asarray(first_state, float)[None, :]
         else:
             samples = col.samples(pt.Y) * chart.xscale
-            x0 = samples[0]
         lo_, hi_ = _extremes(sysm, samples)
-        X.append(x0)
-        P.append(p)
+        X.append(samples[0])
+        P.append(chart.p(lam))
         periods.append(T)
         mults.append(pt.mults)
         amin.append(lo_)
         amax.append(hi_)
-    side = EndPoint("forward", reason, chart.value(accepted[-1].Y[-1]), len(accepted), message)
-    info = {"from": hp.name, "hopf_period": T_H, "engine": "compiled", "floquet": "collocation monodromy",
-            "ntst": settings.ntst, "ncol": settings.ncol, "final_step": ds}
-    return cycle_result(name, problem, settings, chart, X, P, periods, mults, amin, amax, None, side, info,
-                        {"setup_s": t_setup - t0, "collocation_s": t1 - t_setup, "points": len(accepted)},
-                        t_analysis=t1)
+    return X, P, periods, mults, amin, amax
 
 
 def _arc(col: _Collocation, d, dY) -> float:
@@ -469,4 +554,4 @@ class _Stop(Exception):
         self.reason, self.message = reason, message
 
 
-__all__ = ["continue_cycles_compiled", "NEWTON_ITERATIONS"]
+__all__ = ["continue_cycles_compiled", "continue_cycles_from_orbit", "NEWTON_ITERATIONS"]

@@ -14,6 +14,9 @@ parameter values, the continued parameter and its range, the state scale) and im
   ``KeyError: 'data'`` in PyCont), run in chunks so the range, a closed curve, the point budget and a
   failure are detected as they happen; a failure keeps the points computed before it.
 * `continue_cycles(result, "H1", settings)`: PyCont's LC-C (AUTO collocation) from a Hopf point.
+* `periodic_orbit(system, values, x0)` then `continue_cycles_from_orbit(problem, settings, t, X, T)`:
+  a stable periodic orbit found by integration (no Hopf point on its family in range, e.g. Fig. 4's
+  backbone) and its branch, by autocable's compiled collocation.
 * `switch_branch(result, "BP1", settings)`: the other branch through a branch point, both sides.
 * `continue_folds(result, "LP1", "eta", (lo, hi))` / `continue_hopf(result, "H1", ...)`: the curve
   of folds (PyCont's LP-C) or of Hopf points (H-C2) through a labelled point, in the plane of the
@@ -71,8 +74,16 @@ from autocable.methods.continuation_problem import (ContinuationResult, Continua
                                                     StartError)
 from autocable.methods.curves import continue_folds, continue_hopf
 from autocable.methods.cycles import continue_cycles
+from autocable.methods.orbits import periodic_orbit
 from autocable.methods.equilibria import ENGINES, continue_equilibria, equilibrium_near, settle, switch_branch
 from autocable.methods.system import System, ame_system, auto_state_scale
+
+
+def continue_cycles_from_orbit(*args, **kwargs):
+    """`autocable.methods.compiled_cycles.continue_cycles_from_orbit` (compiled engine only: PyCont's
+    LC-C starts here only at Hopf points)."""
+    from autocable.methods.compiled_cycles import continue_cycles_from_orbit as run
+    return run(*args, **kwargs)
 
 __all__ = [
     "StartError",
@@ -85,6 +96,8 @@ __all__ = [
     "settle",
     "continue_equilibria",
     "continue_cycles",
+    "continue_cycles_from_orbit",
+    "periodic_orbit",
     "switch_branch",
     "continue_folds",
     "continue_hopf",

@@ -208,8 +208,8 @@ def _sampled_extremes(sysm: System, samples) -> tuple[tuple[float, float], tuple
 
 
 def cycle_result(name: str, problem, settings: ContinuationSettings, chart: _Chart, X, P, periods, mults,
-                 amin, amax, auto_labels, side: EndPoint, info: dict, timings: dict,
-                 t_analysis: float | None = None) -> ContinuationResult:
+                 amin, amax, auto_labels, side: EndPoint | tuple[EndPoint, ...], info: dict, timings: dict,
+                 t_analysis: float | None = None, first_is_hopf: bool = True) -> ContinuationResult:
     """The cycle branch record from per-cycle data (both engines): x(0), the parameter vector, the
     period, the Floquet multipliers and the amplitude extremes of every cycle (the first one is the
     Hopf point, a degenerate cycle); stability (every non-trivial multiplier inside the unit circle)
@@ -217,7 +217,8 @@ def cycle_result(name: str, problem, settings: ContinuationSettings, chart: _Cha
 
     ``auto_labels``: AUTO's (type, index) list to compare with (PyCont engine), or None (compiled
     engine: ``confirmed_by_pycont`` stays None). ``timings["analysis_s"]`` is measured from
-    ``t_analysis`` when given."""
+    ``t_analysis`` when given. ``side``: the branch's end, or its ends (a branch continued both ways
+    from a given orbit, ``first_is_hopf=False``)."""
     sysm = chart.system
     n = sysm.dimension
     cols = {c: [] for c in ("period", "a1_min", "a1_max", "a2_min", "a2_max")}
@@ -238,7 +239,7 @@ def cycle_result(name: str, problem, settings: ContinuationSettings, chart: _Cha
     used = set()
     for i in range(len(X) - 1):
         c0, c1 = counts[i], counts[i + 1]
-        if -1 in c0 or -1 in c1 or i == 0:
+        if -1 in c0 or -1 in c1 or (i == 0 and first_is_hopf):
             continue  # the first point is the Hopf point itself (a degenerate cycle)
         for slot, kind in enumerate(("LPC", "PD", "NS")):
             if c0[slot] == c1[slot]:
@@ -281,7 +282,8 @@ def cycle_result(name: str, problem, settings: ContinuationSettings, chart: _Cha
     X = np.array(X, float).reshape(len(X), n)
     P = np.array(P, float).reshape(len(X), len(sysm.parameters))
     ev = np.array(mults, dtype=complex).reshape(len(X), n) if mults else np.zeros((0, n), complex)
-    branch = _build_branch(name, "cycle", chart, X, P, np.array(stable, bool), ev, tuple(specials), (side,),
+    branch = _build_branch(name, "cycle", chart, X, P, np.array(stable, bool), ev, tuple(specials),
+                           side if isinstance(side, tuple) else (side,),
                            info, extra_columns=cols)
     # For cycles the a1, a2 columns hold the maxima over the cycle (the plotted upper envelope).
     table = dict(branch.table)
