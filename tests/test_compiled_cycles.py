@@ -15,6 +15,8 @@ PyCont's LC-C (AUTO).
   ~560 samples of a cycle: their sampling error, which the compiled engine's refined extremes do
   not have, is that size), the same stability at every cycle (the Hopf point itself, a degenerate
   cycle with a multiplier pair on the unit circle, excepted), the same end.
+* A Neimark-Sacker point of cycles (a complex pair of multipliers leaving the unit circle) at
+  its closed-form parameter value (1e-10), with the stability change it causes.
 * The collocation monodromy equals autocable's definition (`cycles._monodromy`, the variational
   equations integrated over one period) to 1e-7, and one period integrated from a compiled cycle
   closes to 1e-7 of its size.
@@ -177,6 +179,36 @@ def test_period_blowup_and_range_ends(ratio, reason):
         assert c["period"][k] == pytest.approx(T, rel=1e-8)
         assert c["a1_max"][k] == pytest.approx(math.sqrt(m), rel=1e-7)
         assert np.min(np.abs(c.eigenvalues[k])) == pytest.approx(math.exp(-2 * m * T), rel=1e-7, abs=1e-12)
+
+
+def test_neimark_sacker_point_is_put_on_the_branch():
+    """A Hopf normal form in (x, y) beside a linear rotation in (u, v) whose growth rate is mu - 0.1:
+    the cycles r = sqrt(mu) of (x, y) have the multipliers 1, exp(-4 pi mu) and the complex pair
+    exp(2 pi (mu - 0.1 +- 0.3 i)), which leaves the unit circle at mu = 0.1 exactly: a
+    Neimark-Sacker point (NS), stable cycles before it, unstable after."""
+    u, v = sp.symbols("u v")
+    r2 = x * x + y * y
+    system = System("ns_test", ("x", "y", "u", "v"),
+                    (mu * x - y - x * r2, x + mu * y - y * r2, (mu - 0.1) * u - 0.3 * v, 0.3 * u + (mu - 0.1) * v),
+                    {"mu": -0.2}, (("a1", ("x", "y")), ("a2", ("u", "v"))))
+    problem = EquilibriumProblem(system, "mu", {"mu": -0.2}, (-0.2, 0.3))
+    settings = ContinuationSettings(cycle_step=1e-2, cycle_max_step=5e-2, cycle_max_points=200, ntst=20)
+    eq = continue_equilibria(problem, settings, name="EQ", engine="compiled")
+    assert [h.value for h in eq.branch.of_type("H")] == pytest.approx([0.0, 0.1], abs=1e-10)
+    c = continue_cycles(eq, "H1", settings, engine="compiled").branch
+    assert [e.reason for e in c.ends] == ["range"]
+    ns, = c.special_points
+    assert ns.type == "NS" and ns.confirmed_by_pycont is None
+    assert ns.value == pytest.approx(0.1, abs=1e-10)
+    assert ns.a1 == pytest.approx(math.sqrt(0.1), rel=1e-8)
+    i = ns.index
+    assert c.stable[1:i + 1].all() and not c.stable[i + 2:].any()
+    for k in range(1, len(c)):
+        m = c["mu"][k]
+        pair = np.exp(2 * math.pi * (m - 0.1 + 0.3j))
+        got = c.eigenvalues[k]
+        assert np.min(np.abs(got - pair)) < 1e-8 and np.min(np.abs(got - np.conj(pair))) < 1e-8, k
+        assert np.min(np.abs(got - math.exp(-4 * math.pi * m))) < 1e-8, k
 
 
 def test_period_doubling_of_the_rossler_cycle():
