@@ -265,7 +265,8 @@ def _start(value, path, where) -> StartSpec:
     if isinstance(value, str):
         if not _LABEL.match(value):
             raise SpecError(path, where, f'expected "trivial", "RUN:LABEL" (e.g. "I:H1"), '
-                                         f'{{integrate = [a1, a2]}} or {{state = [...]}}, got {value!r}')
+                                         f'{{integrate = [a1, a2]}}, {{state = [...]}} or {{orbit = [a1, a2]}}, '
+                                         f'got {value!r}')
         return StartSpec("label", label=value)
     if isinstance(value, dict):
         _check_keys(value, ("integrate", "state", "orbit"), path, where)
@@ -279,8 +280,8 @@ def _start(value, path, where) -> StartSpec:
         if kind in ("integrate", "orbit") and any(v < 0 for v in nums):
             raise SpecError(path, f"{where}.{kind}", "amplitudes must be >= 0")
         return StartSpec(kind, nums)
-    raise SpecError(path, where, f'expected "trivial", "RUN:LABEL", {{integrate = [...]}} or '
-                                 f'{{state = [...]}}, got {value!r}')
+    raise SpecError(path, where, f'expected "trivial", "RUN:LABEL", {{integrate = [...]}}, '
+                                 f'{{state = [...]}} or {{orbit = [...]}}, got {value!r}')
 
 
 def _steps(table, path, where) -> dict[str, float]:
@@ -378,6 +379,9 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
                                                     '{ orbit = [a1, a2] }')
         if start.kind == "orbit" and kind != "cycles":
             raise SpecError(path, f"{where}.start", '{ orbit = [...] } starts a "cycles" run: set kind = "cycles"')
+        if start.kind == "orbit" and engine != "compiled":
+            raise SpecError(path, f"{where}.start", 'a cycles run from { orbit = [...] } needs engine = '
+                                                    '"compiled" (PyCont\'s LC-C starts only at Hopf points here)')
         if kind == "switch" and not (start.kind == "label" and ":BP" in start.label):
             raise SpecError(path, f"{where}.start", 'a "switch" run starts from a branch point, e.g. "I:BP1"')
         parameter2, range2 = "", None
@@ -786,9 +790,6 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
                 raise SpecError(path, f"{where}.start", str(exc)) from None
             add(result)
         elif run.kind == "cycles" and run.start.kind == "orbit":
-            if scene.engine != "compiled":
-                raise SpecError(path, f"{where}.start", 'a cycles run from { orbit = [...] } needs engine = '
-                                                        '"compiled" (PyCont\'s LC-C starts only at Hopf points here)')
             amps = list(run.start.values)
             n_modes = system.dimension // 2
             amps += [0.0] * max(0, n_modes - len(amps))

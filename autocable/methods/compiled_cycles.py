@@ -21,6 +21,10 @@ ch. 10), in autocable's chart (x~ = x / xscale, lam = (p_k - p0_k) / pscale):
   halved, and below ``min_step`` the branch ends);
 * the start: the Hopf point as a degenerate cycle of period 2 pi / omega, the first direction the
   critical eigenfunction Re(q exp(2 pi i t)) of J (J q = i omega q) scaled to unit norm, lam' = 0;
+  or (`continue_cycles_from_orbit`) a given periodic orbit, e.g. one found by integration
+  (`autocable.methods.orbits`), refined by Newton at its parameter value with lam fixed (AUTO's
+  start from a user-supplied solution, IPS = 2 with a given orbit), the first direction the
+  branch's tangent there, continued both ways;
 * special points of cycles on the branch, as AUTO puts them there: when lam' (the tangent's lam
   component, from the last Newton factorisation) changes sign inside a step (LPC), or the count
   of multipliers beyond -1 (PD) or of complex ones outside the unit circle (NS) changes, the step
