@@ -324,6 +324,11 @@ def overlay_comparison(data: SceneData) -> list[dict]:
             # the integrator's advice, which is in overlay.csv
             why = (row["message"] or "diverged").split(" (")[0].split(":")[0]
             row["note"] = "no steady response of eq. (21): " + why
+            if math.isfinite(a1) and not cands:
+                # Bounded but still changing, and the AME has no stable equilibrium here either: both
+                # predict a non-stationary amplitude (a modulated motion, or a slow approach at a
+                # critical point), which is agreement of a kind the error bound cannot measure.
+                row["note"] += "; no stable AME equilibrium on the scene's branches either: both non-stationary"
         elif not periodic:
             row["note"] = "eq. (21) not period-1 (amplitude-modulated): no AME equilibrium to compare"
         elif not cands:
@@ -377,6 +382,7 @@ def overlay_summary(data: SceneData) -> dict:
             "not_steady": sum(1 for r in rows if not r["steady"] or not math.isfinite(r["a1"])),
             "no_ame": sum(1 for r in rows if r["note"].startswith("no stable AME")),
             "at_rest": sum(1 for r in rows if r["note"].startswith("both at rest")),
+            "moving_both": sum(1 for r in rows if r["note"].endswith("both non-stationary")),
             "max_error": max((r["rel_error"] for r in compared), default=_NAN)}
 
 
@@ -584,6 +590,8 @@ def _integrations_agree(d: SceneData) -> Feature:
             f"(largest error {_e(s['max_error'], 2)}); {s['not_periodic']} not period-1, {s['not_steady']} without "
             f"a steady response, {s['no_ame']} without a stable AME equilibrium near it"
             + (f", {s['at_rest']} at rest in both" if s["at_rest"] else "")
+            + (f"; of those without a steady response, {s['moving_both']} bounded where the AME has no stable "
+               f"equilibrium on the scene's branches either (both non-stationary)" if s["moving_both"] else "")
             + ("; " + "; ".join(why) if why else ""))
 
 

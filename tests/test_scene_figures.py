@@ -260,6 +260,9 @@ def test_fig09_overlay_small_response_above_resonance_is_on_branch_i(scene_resul
         assert r["ame_branch"] == "I-above" and r["within"] is True
         assert r["a1"] == pytest.approx(6.94e-4, rel=1e-2) and r["rel_error"] == pytest.approx(5.43e-3, rel=2e-2)
         assert not got[(0.01, d)]["steady"] and got[(0.01, d)]["a1"] > 5e-3
+        # and the AME has no stable equilibrium there: both non-stationary (an AME integration from
+        # a1 = 7e-3 or 5e-3 does not repeat either: autocable.methods.orbits finds no periodic orbit)
+        assert not got[(0.01, d)]["ame_branch"] and got[(0.01, d)]["note"].endswith("both non-stationary")
     assert got[(-0.02, "up")]["ame_branch"] == "III"
     assert all(r["within"] is True for k, r in got.items() if k[0] != 0.01)
 
