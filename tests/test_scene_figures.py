@@ -326,6 +326,50 @@ CYCLES = {
 }
 
 
+def test_fig10_periodic_branch_through_fig11s_solution(scene_results):
+    """Fig. 10's P: the periodic solution of Fig. 11 (sigma = -0.042) continued in sigma by
+    collocation. Its start cycle is the motion Fig. 11's time integration shows (a different method:
+    DOP853 from rest, period from mean crossings of a1, extremes over t in [40000, 60000]): period
+    to 1e-4, a1 and a2 extremes to 1e-3. Coarse: 20 cycles forward, the backward arm to the range
+    end; stable on both. At full resolution (`autocable run runs/fig10.toml`) P is stable from
+    sigma = -0.0495 to a period doubling at 0.015782, turns at a fold of cycles at 0.045723 and comes
+    back unstable; its largest a2 (3.610e-3) exceeds I's (1.617e-3), which the report states."""
+    res, _ = scene_results("fig10")
+    _, out11 = scene_results("fig11")
+    ame = json.loads((out11 / "run.json").read_text())["summary"]["ame"]
+    b = res.branch("P")
+    assert b.kind == "cycle" and b.info["from"] == "orbit"
+    assert [(e.side, e.reason) for e in b.ends] == [("backward", "range"), ("forward", "max_points")]
+    i = b.info["start_index"]
+    assert b["sigma"][i] == -0.042 and b.stable.all()
+    assert b["period"][i] == pytest.approx(ame["modulation_period"], rel=1e-4)
+    for k in ("a1_min", "a1_max", "a2_min", "a2_max"):
+        assert b[k][i] == pytest.approx(ame[k], rel=1e-3), k
+
+
+def test_main_result_states_the_ratio_with_the_stable_cycles_too(scene_results):
+    """report.md's main result: beside the paper's comparison (equilibria), the largest a2 over the
+    stable equilibria and stable AME cycles (a2_max over a cycle) of Fig. 10 against Fig. 6, read
+    off the branches here."""
+    import re
+
+    from autocable.report import _main_result, load_scene_data
+    (r6, out6), (r10, out10) = scene_results("fig06"), scene_results("fig10")
+
+    def stable_max(res):
+        vals = [float(v) for b in res.branches if b.kind in ("equilibrium", "cycle")
+                for v, st in zip(b["a2_max"] if b.kind == "cycle" else b["a2"], b.stable) if st]
+        return max(vals)
+    lines = _main_result({"fig06": load_scene_data(out6), "fig10": load_scene_data(out10)})
+    line = next(ln for ln in lines if "stable periodic solutions" in ln)
+    m = re.search(r": ([0-9.e+-]+) / ([0-9.e+-]+) = ([0-9.]+)\.$", line)
+    assert m, line
+    assert float(m.group(1)) == pytest.approx(stable_max(r10), rel=1e-3)
+    assert float(m.group(2)) == pytest.approx(stable_max(r6), rel=1e-3)
+    assert float(m.group(3)) == pytest.approx(stable_max(r10) / stable_max(r6), rel=2e-3)
+    assert stable_max(r10) > max(float(v) for b in r10.branches if b.kind == "equilibrium" for v in b["a2"])
+
+
 @pytest.mark.parametrize("name", ["fig04a", "fig04b", "fig04c"])
 def test_fig04_backbone_is_a_stable_periodic_orbit_of_the_ame(scene_results, name):
     """Fig. 4's backbone B (Sect. 5: "a stable periodic solution in a1 [...] acts as a backbone for
