@@ -211,6 +211,28 @@ def test_neimark_sacker_point_is_put_on_the_branch():
         assert np.min(np.abs(got - math.exp(-4 * math.pi * m))) < 1e-8, k
 
 
+def test_multiplier_collisions_are_not_bifurcations_of_cycles():
+    """Fig. 10's branch P near its fold of cycles (measured multipliers): a real multiplier below -1
+    that comes back inside while meeting another negative one (the count of reals below -1 drops by
+    one: a PD, if coarsely resolved), the double multiplier +1 of the fold split by round-off into
+    1 +- 9e-7 i (not an NS), two reals below -1 meeting into a complex pair outside (not a PD, not an
+    NS), and a genuine complex pair leaving the circle (NS)."""
+    from autocable.methods.cycles import _genuine_crossing
+    one = [1.0 + 0j]
+    before_pd2 = one + [-1.05, -0.30, 0.05]
+    after_pd2 = one + [-0.4956 + 0.1783j, -0.4956 - 0.1783j, 0.0456]
+    assert _genuine_crossing("PD", before_pd2, after_pd2)
+    near_fold = one + [0.9990, -0.0605 + 0.0857j, -0.0605 - 0.0857j]
+    at_fold = [1.000000002 + 9.4e-7j, 1.000000002 - 9.4e-7j, -0.0605 + 0.0857j, -0.0605 - 0.0857j]
+    assert not _genuine_crossing("NS", near_fold, at_fold)
+    two_reals = one + [-1.3, -1.2, 0.1]
+    merged = one + [-1.25 + 0.05j, -1.25 - 0.05j, 0.1]
+    assert not _genuine_crossing("PD", two_reals, merged) and not _genuine_crossing("NS", two_reals, merged)
+    inside = one + [0.2, 0.99 * np.exp(0.6j * math.pi), 0.99 * np.exp(-0.6j * math.pi)]
+    outside = one + [0.2, 1.01 * np.exp(0.6j * math.pi), 1.01 * np.exp(-0.6j * math.pi)]
+    assert _genuine_crossing("NS", inside, outside) and _genuine_crossing("NS", outside, inside)
+
+
 def test_period_doubling_of_the_rossler_cycle():
     """Rossler's system (a = b = 0.2) in c: the cycle from the Hopf point at c = 0.4 doubles its
     period at c = 2.8324450 (PyCont's LC-C on the same settings, measured: 2.832445027549823, the

@@ -60,6 +60,32 @@ def _crossing_distance(mults: np.ndarray, kind: str) -> float:
     return float(d[np.argmin(np.abs(d))]) if d.size else 1.0
 
 
+def _genuine_crossing(kind: str, m0: np.ndarray, m1: np.ndarray) -> bool:
+    """Whether a change of `_cycle_counts` between two cycles is a multiplier crossing the unit
+    circle as ``kind`` says, rather than two multipliers meeting on the real axis and leaving it as
+    a complex pair (or back). A PD changes the number of real multipliers below -1 by an odd number
+    (a collision of two changes it by two). An NS moves a complex pair from inside the circle to
+    outside (or back), with an argument above 1e-3 rad: at a fold of cycles the double multiplier
+    +1 splits into 1 +- 1e-6 i, a 1:1 resonance, not a torus bifurcation. An LPC is taken as counted."""
+    def parts(m):
+        m = np.asarray(m, complex)
+        r = np.delete(m, int(np.argmin(np.abs(m - 1.0))))
+        real = np.abs(r.imag) <= 1e-7 * np.maximum(np.abs(r), 1.0)
+        cplx = r[~real]
+        return (int(np.sum(real & (r.real < -1))), int(np.sum(np.abs(cplx) > 1)), int(np.sum(np.abs(cplx) < 1)),
+                cplx)
+
+    n0, out0, in0, c0 = parts(m0)
+    n1, out1, in1, c1 = parts(m1)
+    if kind == "PD":
+        return (n1 - n0) % 2 == 1
+    if kind == "NS":
+        moved = out1 - out0
+        return (moved != 0 and moved % 2 == 0 and in1 - in0 == -moved and c0.size and c1.size
+                and min(np.min(np.abs(np.angle(c0))), np.min(np.abs(np.angle(c1)))) > 1e-3)
+    return True
+
+
 def _cycle_counts(mults: np.ndarray) -> tuple[int, int, int]:
     """(real > 1, real < -1, complex outside) counts of the non-trivial multipliers."""
     if mults.size == 0 or not np.all(np.isfinite(mults)):
@@ -242,7 +268,7 @@ def cycle_result(name: str, problem, settings: ContinuationSettings, chart: _Cha
         if -1 in c0 or -1 in c1 or (i == 0 and first_is_hopf):
             continue  # the first point is the Hopf point itself (a degenerate cycle)
         for slot, kind in enumerate(("LPC", "PD", "NS")):
-            if c0[slot] == c1[slot]:
+            if c0[slot] == c1[slot] or not _genuine_crossing(kind, mults[i], mults[i + 1]):
                 continue
             match = next((m for m, (t, j) in enumerate(auto_list)
                           if m not in used and t == kind and abs(j - (i + 0.5)) <= 2), None)
