@@ -332,7 +332,7 @@ def test_fig10_periodic_branch_through_fig11s_solution(scene_results):
     DOP853 from rest, period from mean crossings of a1, extremes over t in [40000, 60000]): period
     to 1e-4, a1 and a2 extremes to 1e-3. Coarse: 20 cycles forward, the backward arm to the range
     end; stable on both. At full resolution (`autocable run runs/fig10.toml`) P is stable from
-    sigma = -0.0495 to a period doubling at 0.015782, turns at a fold of cycles at 0.045723 and comes
+    sigma = -0.0495 to a period doubling at 0.015782, turns at a fold of cycles at 0.045707 and comes
     back unstable; its largest a2 (3.610e-3) exceeds I's (1.617e-3), which the report states."""
     res, _ = scene_results("fig10")
     _, out11 = scene_results("fig11")
