@@ -219,3 +219,15 @@ def test_the_runner_starts_the_expensive_scenes_first(figures, tmp_path, monkeyp
                  "--quiet"]) == 0
     times = recorded_wall_times()
     assert times["figt2"] == 9.5 and 0 < times["figt1"] != 0.5 and "figt9" not in times
+
+
+def test_blas_threads_are_shared_out_among_the_scene_processes():
+    """Two scene processes on two cores get one BLAS thread each; the user's own setting is kept;
+    nothing is set once numpy is loaded (too late) or when one process has every core."""
+    from autocable.figures import BLAS_THREAD_VARS, blas_thread_env
+    assert blas_thread_env(2, 2, {}, False) == {v: "1" for v in BLAS_THREAD_VARS}
+    assert blas_thread_env(2, 8, {}, False) == {v: "4" for v in BLAS_THREAD_VARS}
+    assert blas_thread_env(3, 2, {}, False) == {v: "1" for v in BLAS_THREAD_VARS}
+    kept = blas_thread_env(2, 2, {"OMP_NUM_THREADS": "2"}, False)
+    assert "OMP_NUM_THREADS" not in kept and kept["OPENBLAS_NUM_THREADS"] == "1"
+    assert blas_thread_env(2, 2, {}, True) == {} and blas_thread_env(1, 2, {}, False) == {}
