@@ -155,6 +155,12 @@ def test_periodic_orbit_says_what_it_found_instead():
                   (("a1", ("x", "y")),))
     with pytest.raises(StartError, match="diverges"):
         periodic_orbit(grow, {"mu": 0.2}, [0.05, 0.0], scale=0.5)
+    # A weakly damped focus about (1, 0) (swing decaying by exp(-2 pi 1e-4) per turn, return times
+    # exactly 2 pi): an equilibrium, not a periodic orbit.
+    focus = System("weak_focus", ("x", "y"), (-mu * (x - 1) - y, (x - 1) - mu * y), {"mu": 1e-4},
+                   (("a1", ("x", "y")),))
+    with pytest.raises(StartError, match="equilibrium"):
+        periodic_orbit(focus, {"mu": 1e-4}, [1.01, 0.0], scale=1.0)
 
 
 @pytest.mark.parametrize("ratio, reason", [(3.0, "period_blowup"), (20.0, "range")])

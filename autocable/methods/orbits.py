@@ -42,11 +42,13 @@ def periodic_orbit(system: System, values: Mapping[str, float], x0, *, scale: fl
     section (the component with the largest swing, upwards through its mid level) at least four
     times, four more periods are integrated with ``samples_per_period`` samples each. The orbit is
     periodic when their return times agree to ``period_tol`` and the last two returns to the
-    section are within ``period_tol`` x (|x| + ``scale``); otherwise the next chunk goes on.
+    section are within ``period_tol`` x the orbit's swing (the norm of its max - min over a period);
+    otherwise the next chunk goes on.
 
     Raises `StartError` with what happened instead: the orbit diverges or the integration fails,
-    it settles on an equilibrium (use an equilibria run with ``start = { integrate }``), or it is
-    not periodic after ``chunks`` chunks (a quasi-periodic or chaotic amplitude motion)."""
+    it settles on an equilibrium or dies down towards one (swing below 1e-6 of |x| + ``scale``;
+    use an equilibria run with ``start = { integrate }``), or it is not periodic after ``chunks``
+    chunks (a quasi-periodic or chaotic amplitude motion)."""
     from autocable.codegen.cintegrate import compiled_integrator, sample_grid
 
     ci = compiled_integrator(f"{system.name}_flow", system.variables, system.parameter_names, system.rhs, None)
@@ -86,8 +88,17 @@ def periodic_orbit(system: System, values: Mapping[str, float], x0, *, scale: fl
             continue
         periods = np.diff(cross)[-3:]
         T = float(periods[-1])
+        # The returns are compared with the orbit's own swing, not with |x|: a slowly decaying
+        # spiral into an equilibrium also returns with a steady period, but each return is a fixed
+        # fraction of its (shrinking) swing away from the last.
+        last = (ts >= cross[-2]) & (ts <= cross[-1])
+        swing = float(np.linalg.norm(xs[last].max(axis=0) - xs[last].min(axis=0)))
+        if swing < 1e-6 * size:
+            raise StartError(f"integrating from {start}: the motion dies down to an equilibrium (its swing "
+                             f"{swing:.3g} against |x| {size:.3g}): no periodic orbit here; continue it as an "
+                             f"equilibrium (start = {{ integrate = [...] }})")
         if (np.max(np.abs(periods / T - 1.0)) <= period_tol
-                and float(np.linalg.norm(states[-1] - states[-2])) <= period_tol * size):
+                and float(np.linalg.norm(states[-1] - states[-2])) <= period_tol * swing):
             keep = (ts >= cross[-2]) & (ts < cross[-2] + T)
             return ts[keep].copy(), xs[keep].copy(), T
     a = system.amplitude_values(y)
