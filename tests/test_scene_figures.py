@@ -379,8 +379,6 @@ def test_fig04_backbone_is_a_stable_periodic_orbit_of_the_ame(scene_results, nam
     x(0), and its a1 extremes are the collocation's. At full resolution (`autocable run`) B runs
     from U = 1.5 down to a period blow-up (a homoclinic orbit) at U = 1.0218 (4a), 1.0223 (4b),
     1.0233 (4c), a1 narrowing onto the island (about 6e-3 to 8e-3 there), and up to 4.0e-2 at U = 1.5."""
-    from scipy.integrate import solve_ivp
-
     res, out = scene_results(name)
     b = res.branch("B")
     assert b.kind == "cycle" and b.info["from"] == "orbit"
@@ -389,21 +387,50 @@ def test_fig04_backbone_is_a_stable_periodic_orbit_of_the_ame(scene_results, nam
     assert b.stable.all() and np.all(np.diff(b["U"]) > 0) and np.all(np.diff(b["a1_max"]) > 0)
     i = b.info["start_index"]
     assert b["U"][i] == 1.2 and 2.1e-2 < b["a1_min"][i] < b["a1_max"][i] < 2.4e-2
+    _start_cycle_closes_under_scipy(b, name, "1dof", {"U": 1.2})
+
+
+def _start_cycle_closes_under_scipy(b, name: str, dof: str, at: dict) -> None:
+    """The start cycle of an orbit-started branch, checked by an independent integrator: one
+    period of scipy's DOP853 on the scene's AME from its x(0) comes back to x(0) (1e-7) and its
+    amplitude extremes are the collocation's (1e-6)."""
+    from scipy.integrate import solve_ivp
+
     from autocable.methods.system import ame_system
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
     from autocable.spec import load_model
-    sysm = ame_system(derive_ame(derive(load_model(REPO / "models" / "luongo_zulli_2012.toml"))).ame, "1dof")
-    fixed = load_scene(RUNS / f"{name}.toml").fixed
-    p = sysm.parameter_vector({**fixed, "U": 1.2})
-    x0 = np.array([b["r1"][i], b["s1"][i]])
+    sysm = ame_system(derive_ame(derive(load_model(REPO / "models" / "luongo_zulli_2012.toml"))).ame, dof)
+    i = b.info["start_index"]
+    p = sysm.parameter_vector({**load_scene(RUNS / f"{name}.toml").fixed, **at})
+    x0 = np.array([b[v][i] for v in sysm.variables])
     T = float(b["period"][i])
     sol = solve_ivp(lambda _t, z: sysm.f(z, p), (0.0, T), x0, method="DOP853", rtol=1e-12, atol=1e-15,
                     dense_output=True)
     assert np.linalg.norm(sol.y[:, -1] - x0) < 1e-7 * np.linalg.norm(x0)
-    a1 = np.hypot(*sol.sol(np.linspace(0.0, T, 4001)))
-    assert a1.min() == pytest.approx(b["a1_min"][i], rel=1e-6)
-    assert a1.max() == pytest.approx(b["a1_max"][i], rel=1e-6)
+    amps = sysm.amplitude_values(sol.sol(np.linspace(0.0, T, 4001)).T)
+    for k, a in enumerate(amps[:2]):
+        a = np.asarray(a) * np.ones(4001)
+        if np.max(a) > 0:
+            assert a.min() == pytest.approx(b[f"a{k + 1}_min"][i], rel=1e-6)
+            assert a.max() == pytest.approx(b[f"a{k + 1}_max"][i], rel=1e-6)
+
+
+def test_fig08_stable_periodic_solution_where_every_equilibrium_is_unstable(scene_results):
+    """Fig. 8 (U = 1.3, eta = 4.1e-4): every point of I is unstable; the AME from rest settle on a
+    stable periodic solution of both modes (P, from { orbit } at sigma = 0), stable over the whole
+    range, a1 in [3.6e-3, 3.9e-3] and a2 in [3.4e-3, 3.6e-3] (full resolution: 51 cycles, period
+    26.02 at sigma = 0). eq. (21) diverges at every sigma here: a bounded motion only the AME have."""
+    res, _ = scene_results("fig08")
+    assert not res.branch("I").stable.any()
+    b = res.branch("P")
+    assert b.kind == "cycle" and b.info["from"] == "orbit" and b.stable.all()
+    assert [e.side for e in b.ends] == ["backward", "forward"]
+    i = b.info["start_index"]
+    assert b["sigma"][i] == 0.0 and b["period"][i] == pytest.approx(26.02, rel=1e-3)
+    assert 3.6e-3 < np.min(b["a1_min"]) and np.max(b["a1_max"]) < 3.9e-3
+    assert 3.4e-3 < np.min(b["a2_min"]) and np.max(b["a2_max"]) < 3.6e-3
+    _start_cycle_closes_under_scipy(b, "fig08", "2dof", {"sigma": 0.0})
 
 
 @pytest.mark.parametrize("name", sorted(CYCLES))
