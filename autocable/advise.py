@@ -62,7 +62,11 @@ def choose_ame(scene_path_or_scene, tol: float = 0.02, *, tools: R.Tools | None 
         raise ValueError(f"--tol must be a relative tolerance in (0, 1), got {tol!r}")
     path = getattr(scene_path_or_scene, "path", scene_path_or_scene)
     setting = R.setting_from_scene(Path(path))
-    tools = tools or R.Tools(setting.model)
+    ordering = getattr(scene_path_or_scene, "ordering", None)
+    if ordering is None:
+        from autocable.scene import load_scene
+        ordering = load_scene(Path(path)).ordering
+    tools = tools or R.Tools(setting.model, ordering=ordering)
     lo, hi = setting.sigma_range
     two, engine2 = _continuation(tools, "2dof", setting, max_step)
     one, engine1 = _continuation(tools, "1dof", setting, max_step)

@@ -121,6 +121,7 @@ def ame_json(cached) -> dict:
         "rows": [{"equation": ame.cartesian_state_names[r.equation], "state": list(r.state),
                   "params": list(r.params), "coefficient": float(r.coefficient), "aero": bool(r.aero)}
                  for r in ame.cartesian_rows],
+        "ordering_name": ame.provenance.get("ordering", "paper"),
         "ordering": ame.ordering.as_dict(),
         "checks": ame.checks,
         "cache_key": cached.key,
@@ -134,7 +135,9 @@ def _monomial(names, exps) -> str:
 def ame_report(cached, latex: bool = False) -> str:
     """Eq. (22) in readable form: dA_k/dt as a sum of complex coefficient * monomial rows."""
     ame = cached.ame
-    lines = ["", "Amplitude equations (22) by Multiple Scales (Sect. 4; ordering R1-R3 of "
+    name = ame.provenance.get("ordering", "paper")
+    rules = "R1-R3" if name == "paper" else "R2-R3 for every term, aerodynamic ones too"
+    lines = ["", f"Amplitude equations (22) by Multiple Scales (Sect. 4; {name!r} ordering, {rules} of "
              "autocable.model.multiscale, Omega exact):",
              f"  convention: {AME_CONVENTION}",
              "  detunings: sigma_1 = -sigma, sigma_2 = rho - sigma, Omega = omega1 + sigma; "
@@ -162,7 +165,7 @@ def ame_report(cached, latex: bool = False) -> str:
 def cmd_derive(args) -> int:
     from autocable.model.ame_cache import derive_ame
     d = _derivation(args.model)
-    cached = derive_ame(d)
+    cached = derive_ame(d, ordering=args.ordering)
     if args.json:
         out = derive_json(d)
         out["ame"] = ame_json(cached)
@@ -381,6 +384,9 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--json", action="store_true", help="one JSON object instead of the report "
                    "(key 'ame': the Cartesian amplitude equations (24) as a coefficient table)")
     d.add_argument("--latex", action="store_true", help="print the amplitude equations (22) in LaTeX")
+    d.add_argument("--ordering", choices=("paper", "natural"), default="paper",
+                   help="Multiple Scales ordering of the AME: 'paper' (Sect. 4, every aerodynamic term at "
+                        "third order; default) or 'natural' (aerodynamic terms at their natural order)")
     d.set_defaults(func=cmd_derive)
 
     s = sub.add_parser("simulate", help="integrate eq. (21) (or its amplitude equations) to a steady state")

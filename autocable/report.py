@@ -598,15 +598,19 @@ def _fig09(d, all_):
     return out
 
 
+def _diverges_above_critical(d: SceneData) -> bool:
+    """Whether the scene's eq. (21) overlay diverges somewhere above U* = 1."""
+    return any(r.get("parameter") == "U" and _num(r.get("value")) > 1 and not math.isfinite(_num(r.get("a1")))
+               for r in d.overlay)
+
+
 def _integrations_agree(d: SceneData) -> Feature:
     s = overlay_summary(d)
     if not s["points"]:
         return ("direct integrations of (21) (empty boxes) agree", "no", "no overlay in this scene")
     fixed = d.fixed()
     why = []
-    above = fixed.get("U", 0) > 1 or any(
-        r.get("parameter") == "U" and _num(r.get("value")) > 1 and not math.isfinite(_num(r.get("a1")))
-        for r in d.overlay)
+    above = fixed.get("U", 0) > 1 or _diverges_above_critical(d)
     if s["not_steady"] and above:
         why.append(_reason("divergence"))
     if (s["compared"] > s["within"] or s["no_ame"]) and math.isclose(fixed.get("eta", 0), 1.4e-3, rel_tol=1e-6):
@@ -645,6 +649,12 @@ def _fig10(d, all_):
     return out
 
 
+def _stable_cycle(r: dict) -> bool:
+    """A stable cycle row; a Hopf point heads its cycle branch as a cycle of zero size
+    (a1_min = a1_max) with the equilibrium's verdict, which is not a cycle's."""
+    return _stable(r) and _num(r.get("a1_max")) > _num(r.get("a1_min"))
+
+
 def _fig04(d: SceneData, all_: dict) -> list[Feature]:
     out: list[Feature] = []
     eq = [b for b in d.branches() if b.get("kind") == "equilibrium"]
@@ -658,7 +668,7 @@ def _fig04(d: SceneData, all_: dict) -> list[Feature]:
     h = d.points("H")
     out.append(("Hopf points", "yes" if h else "no", _sp_list(h, "U") + ("" if h else f"; {_reason('inputs')}")))
     cyc = [b for b in d.branches() if b.get("kind") == "cycle"]
-    stable_cyc = [r for b in cyc for r in d.branch_rows(b["name"]) if _stable(r)]
+    stable_cyc = [r for b in cyc for r in d.branch_rows(b["name"]) if _stable_cycle(r)]
     if cyc:
         lo = min((_num(r["a1_min"]) for r in stable_cyc), default=_NAN)
         hi = max((_num(r["a1_max"]) for r in stable_cyc), default=_NAN)
@@ -667,12 +677,18 @@ def _fig04(d: SceneData, all_: dict) -> list[Feature]:
             rows = d.branch_rows(b["name"])
             us = [_num(r["U"]) for r in rows]
             per.append(f"{b['name']}: U in [{_g(min(us), 4)}, {_g(max(us), 4)}], "
-                       f"{sum(1 for r in rows if _stable(r))} of {len(rows)} stable, a1 in "
+                       f"{sum(1 for r in rows if _stable_cycle(r))} of {len(rows)} stable, a1 in "
                        f"[{_e(min(_num(r['a1_min']) for r in rows))}, {_e(max(_num(r['a1_max']) for r in rows))}], "
                        f"ends {_ends(b)}")
-        out.append(("a stable periodic solution (max/min of a1) as backbone", "yes" if stable_cyc else "partly",
-                    f"{len(cyc)} cycle branch(es), {len(stable_cyc)} stable cycles; a1 over them in "
-                    f"[{_e(lo)}, {_e(hi)}] ({'; '.join(per)})"))
+        why = ""
+        if not stable_cyc:
+            # Only unstable cycles (from subcritical Hopf points): nothing bounded for a backbone.
+            why = "; no stable cycle: " + (_reason("divergence") if _diverges_above_critical(d)
+                                           else _reason("inputs"))
+        out.append(("a stable periodic solution (max/min of a1) as backbone", "yes" if stable_cyc else "no",
+                    f"{len(cyc)} cycle branch(es), {len(stable_cyc)} stable cycles"
+                    + (f"; a1 over them in [{_e(lo)}, {_e(hi)}]" if stable_cyc else "")
+                    + f" ({'; '.join(per)}){why}"))
     else:
         out.append(("a stable periodic solution (max/min of a1) as backbone", "no",
                     "no cycle branch" + (f"; {_reason('inputs')}" if not h else "")))

@@ -17,6 +17,9 @@ start that does not converge raise `autocable.spec.SpecError` with one line nami
                                       # the lightest AME within ame_tol (autocable.advise), chosen by
                                       # cheap probes before the runs and recorded in run.json
     ame_tol = 0.02                    # only with ame = "auto"
+    ordering = "paper"                # Multiple Scales ordering (Sect. 4): "paper" (every aerodynamic
+                                      # term at third order) or "natural" (aerodynamic terms at their
+                                      # natural order, quadratic ones second; multiscale.ordering_named)
     engine = "pycont"                 # equilibria, switching and cycles: "pycont" (PyCont EP-C and
                                       # LC-C, default) or "compiled" (autocable's C kernel and its own
                                       # collocation: the same branches, tested to agree, 25-100x
@@ -107,8 +110,11 @@ PARAMETERS = ("sigma", "U", "eta")
 ENGINES = ("pycont", "compiled")
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_\-]*$")
 _LABEL = re.compile(r"^([A-Za-z0-9_\-]+):([A-Z]+[0-9]+)$")
-_TOP_KEYS = ("title", "description", "model", "ame", "ame_tol", "engine", "state_scale", "fixed", "run", "plot", "compare",
-             "overlay", "time")
+_TOP_KEYS = ("title", "description", "model", "ame", "ame_tol", "ordering", "engine", "state_scale", "fixed", "run",
+             "plot", "compare", "overlay", "time")
+#: The Multiple Scales orderings of `autocable.model.multiscale.ORDERINGS` (not imported here:
+#: parsing a scene must not load sympy).
+ORDERINGS = ("paper", "natural")
 _RUN_KEYS = ("name", "kind", "parameter", "range", "start", "at", "directions", "cycles", "switch",
              "fixed", "steps", "parameter2", "range2")
 _STEP_KEYS = ("step", "min_step", "max_step", "max_points", "chunk", "max_corrector_iters", "tol",
@@ -209,6 +215,7 @@ class Scene:
     time: "TimeSpec | None" = None
     engine: str = "pycont"             # equilibria, branch switching and cycles: "pycont" | "compiled"
     ame_tol: float = 0.02              # with ame = "auto": the tolerance the advice uses
+    ordering: str = "paper"            # the Multiple Scales ordering of the AME (ORDERINGS)
 
 
 @dataclass(frozen=True)
@@ -320,6 +327,10 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
         raise SpecError(path, "ame_tol", 'only with ame = "auto" (the tolerance `autocable advise` chooses by)')
     if isinstance(ame_tol, bool) or not isinstance(ame_tol, (int, float)) or not 0 < ame_tol < 1:
         raise SpecError(path, "ame_tol", f"expected a relative tolerance in (0, 1), got {ame_tol!r}")
+    ordering = data.get("ordering", "paper")
+    if ordering not in ORDERINGS:
+        raise SpecError(path, "ordering", f'expected "paper" (Sect. 4: every aerodynamic term at third order) or '
+                                          f'"natural" (aerodynamic terms at their natural order), got {ordering!r}')
     engine = data.get("engine", "pycont")
     if engine not in ENGINES:
         raise SpecError(path, "engine", f'expected "pycont" (PyCont EP-C) or "compiled" (autocable\'s C '
@@ -336,7 +347,7 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
             raise SpecError(path, key, "expected a string")
     fixed = _params(data.get("fixed", {}), path, "fixed")
     if "time" in data:
-        return _time_scene(data, path, text, model, ame, scale)
+        return replace(_time_scene(data, path, text, model, ame, scale), ordering=ordering)
     raw_runs = data.get("run")
     if not isinstance(raw_runs, list) or not raw_runs:
         raise SpecError(path, "run", "missing; add at least one [[run]] table")
@@ -471,7 +482,7 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
     return Scene(path=path, name=path.stem, title=title, description=data.get("description", ""),
                  model=model, ame=ame, state_scale=scale, fixed=fixed, runs=tuple(runs),
                  plot=PlotSpec(x, tuple(y), ptitle, labels, plane), compare=compare, text=text,
-                 overlay=overlay, engine=engine, ame_tol=float(ame_tol))
+                 overlay=overlay, engine=engine, ame_tol=float(ame_tol), ordering=ordering)
 
 
 def _overlay(table, path, x: str, runs) -> OverlaySpec:
@@ -700,8 +711,8 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
     deriv = derive(spec)
     stages["derive_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    say("amplitude equations (24)")
-    cached = derive_ame(deriv)
+    say(f"amplitude equations (24), {scene.ordering} ordering")
+    cached = derive_ame(deriv, ordering=scene.ordering)
     ame = cached.ame
     stages["ame_s"] = time.perf_counter() - t0
     omega1 = float(ame.omegas[0])
@@ -865,7 +876,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         "scene": str(scene.path), "scene_name": scene.name, "title": scene.title,
         "scene_text": scene.text, "model": str(scene.model), "model_name": spec.name,
         "model_hash": spec.content_hash(), "ode_hash": deriv.ode.content_hash(), "ame_key": cached.key,
-        "ame": scene.ame, "engine": scene.engine, "ode21_engine": _ode21_engine(),
+        "ame": scene.ame, "ordering": scene.ordering, "engine": scene.engine, "ode21_engine": _ode21_engine(),
         "ame_advice": None if advice is None else {"requested": "auto", "tol": advice.tol, "chosen": advice.ame,
                                                    "lightest_rung": advice.rung, "reasons": list(advice.reasons)},
         "omega1": omega1, "omega2": float(ame.omegas[1]) if len(ame.omegas) > 1 else None,
@@ -1057,7 +1068,7 @@ def _run_time_scene(scene: Scene, out_dir, say, plot: bool, resolution: str):
     deriv = derive(model)
     stages["derive_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    cached = derive_ame(deriv)
+    cached = derive_ame(deriv, ordering=scene.ordering)
     ame = cached.ame
     stages["ame_s"] = time.perf_counter() - t0
     omega1 = float(ame.omegas[0])
@@ -1121,7 +1132,8 @@ def _run_time_scene(scene: Scene, out_dir, say, plot: bool, resolution: str):
     provenance = {
         "scene": str(scene.path), "scene_name": scene.name, "title": scene.title, "scene_text": scene.text,
         "model": str(scene.model), "model_name": model.name, "model_hash": model.content_hash(),
-        "ode_hash": deriv.ode.content_hash(), "ame_key": cached.key, "ame": scene.ame, "omega1": omega1,
+        "ode_hash": deriv.ode.content_hash(), "ame_key": cached.key, "ame": scene.ame, "ordering": scene.ordering,
+        "omega1": omega1,
         "omega2": float(ame.omegas[1]), "Omega": Omega, "kind": "time", "ode21_engine": _ode21_engine(),
         "parameters": {"U": spec.U, "eta": spec.eta, "sigma": spec.sigma, "t_end": spec.t_end,
                        "start": "rest" if spec.start is None else list(spec.start)},

@@ -217,13 +217,14 @@ class Tools:
     """What the methods share for one model: derivation, AME, one compiled eq. (21) integrator,
     continuation systems; records how long each one-off build took."""
 
-    def __init__(self, model_path: str | Path):
+    def __init__(self, model_path: str | Path, ordering: str = "paper"):
         from autocable.model.ame_cache import derive_ame
         from autocable.model.derive import derive
         from autocable.spec import load_model
         t0 = time.perf_counter()
         self.derivation = derive(load_model(model_path))
-        self.ame = derive_ame(self.derivation).ame
+        self.ordering = ordering            # the Multiple Scales ordering of the AME rungs
+        self.ame = derive_ame(self.derivation, ordering=ordering).ame
         self.builds: dict[str, float] = {"derive": time.perf_counter() - t0}
         self._ode21 = None
         self._systems: dict = {}

@@ -30,17 +30,23 @@ class CachedAME:
     timings: dict = field(default_factory=dict, compare=False)
 
 
-def ame_key(ode: TwoModeODE, omega: str = "exact") -> str:
-    """The cache key of the AME of ``ode``: its content hash, the Omega treatment, `AME_VERSION`."""
-    return content_hash({"ode": ode.content_hash(), "omega": omega, "version": AME_VERSION})
+def ame_key(ode: TwoModeODE, omega: str = "exact", ordering: str = "paper") -> str:
+    """The cache key of the AME of ``ode``: its content hash, the Omega treatment, the named
+    ordering and `AME_VERSION`."""
+    return content_hash({"ode": ode.content_hash(), "omega": omega, "ordering": ordering,
+                         "version": AME_VERSION})
 
 
-def derive_ame(source, *, omega: str = "exact", use_cache: bool = True) -> CachedAME:
-    """The AME of eq. (21) for ``source`` (a `Derivation` or a `TwoModeODE`), default ordering R1-R3.
+def derive_ame(source, *, omega: str = "exact", ordering: str = "paper", use_cache: bool = True) -> CachedAME:
+    """The AME of eq. (21) for ``source`` (a `Derivation` or a `TwoModeODE`) with the named Multiple
+    Scales ordering (`multiscale.ORDERINGS`: "paper", rules R1-R3 of Sect. 4, or "natural").
 
     Cached in ``cache_dir("ame")``; ``use_cache=False`` derives afresh (and refreshes the cache)."""
+    from autocable.model.multiscale import ORDERINGS
+    if ordering not in ORDERINGS:
+        raise ValueError(f"ordering must be one of {ORDERINGS}, got {ordering!r}")
     ode = source if isinstance(source, TwoModeODE) else source.ode
-    key = ame_key(ode, omega)
+    key = ame_key(ode, omega, ordering)
     path = cache_dir("ame") / f"ame-{key}.json"
     t0 = time.perf_counter()
     data = read_json(path) if use_cache else None
@@ -54,7 +60,7 @@ def derive_ame(source, *, omega: str = "exact", use_cache: bool = True) -> Cache
             return CachedAME(ame, True, time.perf_counter() - t0, key,
                              {"cache_read_s": time.perf_counter() - t0})
     from autocable.model import multiscale
-    ame = multiscale.derive(ode, omega=omega)
+    ame = multiscale.derive(ode, ordering, omega=omega)
     seconds = time.perf_counter() - t0
     atomic_write_json(path, ame.to_dict())
     return CachedAME(ame, False, seconds, key, {"multiscale_s": seconds})
