@@ -276,14 +276,14 @@ def scene_hopf(scene_file: str):
 
     scene = load_scene(ROOT / "runs" / scene_file)
     run = scene.runs[0]
-    ame = derive_ame(derive(load_model(scene.model))).ame
+    ame = derive_ame(derive(load_model(scene.model)), ordering=scene.ordering).ame
     values = {"sigma": 0.0, "U": 0.0, "eta": 0.0, **scene.fixed, **run.fixed}
     values[run.parameter] = run.range[0]
     system = ame_system(ame, scene.ame, wind=True)
     scale = scene.state_scale or auto_state_scale(system, values)
     problem = EquilibriumProblem(system, run.parameter, values, run.range, state_scale=scale)
     settings = _settings(run, "full")
-    settings = replace(settings, cycle_max_points=30)   # the test's budget; the scene's are 60, 120
+    settings = replace(settings, cycle_max_points=30)   # the test's budget; the scene's are 60, 40
     eq = continue_equilibria(problem, settings, name=run.name, engine="compiled")
     return eq, settings
 
