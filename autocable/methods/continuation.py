@@ -15,8 +15,8 @@ parameter values, the continued parameter and its range, the state scale) and im
   failure are detected as they happen; a failure keeps the points computed before it.
 * `continue_cycles(result, "H1", settings)`: PyCont's LC-C (AUTO collocation) from a Hopf point.
 * `periodic_orbit(system, values, x0)` then `continue_cycles_from_orbit(problem, settings, t, X, T)`:
-  a stable periodic orbit found by integration (no Hopf point on its family in range, e.g. Fig. 4's
-  backbone) and its branch, by autocable's compiled collocation.
+  a stable periodic orbit found by integration (no Hopf point on its family in range, e.g. Fig. 8's
+  P) and its branch, by autocable's compiled collocation.
 * `switch_branch(result, "BP1", settings)`: the other branch through a branch point, both sides.
 * `continue_folds(result, "LP1", "eta", (lo, hi))` / `continue_hopf(result, "H1", ...)`: the curve
   of folds (PyCont's LP-C) or of Hopf points (H-C2) through a labelled point, in the plane of the

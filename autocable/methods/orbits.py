@@ -1,11 +1,13 @@
 """A stable periodic orbit of the amplitude equations found by integration: the start of a cycle
 branch that no Hopf point reaches.
 
-Why. In Fig. 4 of Luongo & Zulli a stable periodic solution of the AME (periodic in a1: a
-quasi-periodic motion of the cable) "acts as a backbone for the islands" above the galloping
-threshold U = 1. Its family does not pass through a Hopf point of the continued equilibria within
-the figure's range, so `continue_cycles` cannot start it; integrating the AME at one wind speed
-lands on it, and `compiled_cycles.continue_cycles_from_orbit` continues it from there.
+Why. Periodic solutions of the AME (periodic in a1, a2: quasi-periodic motions of the cable) whose
+family passes through no Hopf point of the continued equilibria within a figure's range cannot be
+started by `continue_cycles`: Fig. 8's P (U = 1.3, where every equilibrium of I is unstable), Fig.
+10's P through Fig. 11's solution, and Fig. 4's backbone "for the islands" above U = 1 in the A2 = 0
+AME (the 2-dof AME the Fig. 4 scenes use diverges there, docs/ordering.md). Integrating the AME at
+one parameter value lands on such an orbit, and `compiled_cycles.continue_cycles_from_orbit`
+continues it from there.
 """
 from __future__ import annotations
 
