@@ -51,9 +51,9 @@ REASONS = {
               "one-parameter family (models/luongo_zulli_2012.toml), so the aerodynamic coefficients, "
               "and with them Hopf points and islands under wind, need not be the paper's",
     "missing": "the scene did not run, failed or has no results (see its error)",
-    "reduction": "modelling choice: the scene uses the A2 = 0 (1-dof) AME, as the paper does for this "
-                 "figure; the study's bound is the 2-dof AME's, and on large responses the reduction "
-                 "adds its own error (runs/fig04c.toml measures both)",
+    "reduction": "modelling choice: the scene uses the A2 = 0 (1-dof) AME; the study's bound is the 2-dof "
+                 "AME's, and on large responses the reduction adds its own error (on Fig. 4c's island "
+                 "up to 11.6 % against the 2-dof AME's 0.4 %: docs/ordering.md)",
 }
 
 _NAN = float("nan")
@@ -997,8 +997,12 @@ def build_report(out_dir: str | Path) -> str:
             lines += [f"Not shown: {d.error or REASONS['missing']}."]
             continue
         fixed = d.fixed()
+        prov = d.provenance()
+        # Which AME drew the figure is a modelling choice the reader must see (docs/ordering.md).
+        ame = (f" AME: {prov['ame']}, {prov.get('ordering', 'paper')} ordering."
+               if prov.get("ame") else "")
         lines.append("Fixed: " + (", ".join(f"{k} = {_g(v)}" for k, v in fixed.items()) or "none")
-                     + f". Stages: {_stage_line(d)}.")
+                     + f".{ame} Stages: {_stage_line(d)}.")
         feats = _features(d, scenes)
         if feats:
             lines += ["", "| Sect. 5 states | shown | where, numbers, why |", "|---|---|---|"]
