@@ -94,6 +94,12 @@ def run_bench(what: str, model_path: str, repeats: int = 3, log=None, out=None) 
         return bench_auto(model_path, repeats=repeats, log=log)
     if what == "figures":
         return bench_figures(log=log, out=out)
+    if what == "ordering":
+        from autocable.bench_ordering import bench_ordering, write
+        result = bench_ordering(model_path, log=log)
+        if out:
+            result["files"] = [str(f) for f in write(result, out)]
+        return result
     if what == "continuation":
         from autocable.methods.continuation import bench_continuation
         return bench_continuation(model_path, repeats=repeats, cold=True, progress=log)

@@ -409,13 +409,16 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=cmd_simulate)
 
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
-    b.add_argument("what", nargs="?", default=None, choices=["derive", "ame-vs-ode", "continuation", "auto", "figures"],
+    b.add_argument("what", nargs="?", default=None,
+                   choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "ordering"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
                         "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
                         "auto: EP-C cost per point against AUTO-07p (bifpy; set AUTOCABLE_AUTO_PYTHON "
                         "or install autocable[auto]); figures: wall time of `autocable figures` (all scenes), "
-                        "cold and warm cache, with the share of each stage. Without a subcommand "
+                        "cold and warm cache, with the share of each stage; ordering: the paper's and the "
+                        "natural Multiple Scales ordering (2-dof and A2 = 0) against eq. (21) at Figs. 4c, 7, 9 "
+                        "(with --out, also ordering.md/.png). Without a subcommand "
                         "(--out DIR): the work-precision bench of the method ladder (bench.json, "
                         "work_precision.png, work_precision.md)")
     b.add_argument("--model", default=str(Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"))

@@ -56,7 +56,10 @@ def periodic_orbit(rhs, x0, T):
         return solve_ivp(rhs, (0.0, T), x, method="DOP853", rtol=1e-12, atol=1e-14).y[:, -1]
 
     res = root(lambda x: period_map(x) - x, x0, method="hybr", tol=1e-13)
-    assert res.success, res.message
+    # hybr may stop with "not making good progress" when the residual is already at the
+    # integrator's round-off; what matters is that the orbit closes, so that is what is asserted.
+    closure = np.linalg.norm(period_map(res.x) - res.x) / np.linalg.norm(res.x)
+    assert res.success or closure < 1e-10, (res.message, closure)
     sol = solve_ivp(rhs, (0.0, T), res.x, method="DOP853", rtol=1e-12, atol=1e-14, dense_output=True)
     return res.x, sol.sol
 

@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sp
-from scipy.optimize import fsolve
 
+from autocable.methods.equilibria_at import nearest_stable_equilibrium
 from autocable.model.ame_cache import ame_key, derive_ame
 from autocable.model.multiscale import (ORDERINGS, OscillatorSystem, OscillatorTerm, default_ordering, derive,
                                         ordering_named)
@@ -128,25 +128,9 @@ def island_responses(derivation):
 
 
 def _nearest_stable(ame, dof, U, a1, a2):
-    """The stable AME equilibrium nearest (a1, a2) at (U, eta* = 4.1e-4, sigma = 0.01), by Newton
-    from a ring of phases; None if none converges."""
-    A = ame.one_dof() if dof == 1 else ame
-    rhs = A.cartesian_rhs()
-    p = A.control(eta=4.1e-4, U=U, sigma=0.01)
-    best = None
-    for ph in np.linspace(0, 2 * np.pi, 12, endpoint=False):
-        for ph2 in (np.linspace(0, 2 * np.pi, 4, endpoint=False) if dof == 2 else (0.0,)):
-            y0 = [a1 * np.cos(ph), a1 * np.sin(ph)] + ([a2 * np.cos(ph + ph2), a2 * np.sin(ph + ph2)] if dof == 2 else [])
-            y, _, ier, _ = fsolve(lambda z: rhs.f(z, p), y0, fprime=lambda z: rhs.jacobian(z, p),
-                                  full_output=True, xtol=1e-13)
-            if ier != 1 or np.max(np.linalg.eigvals(rhs.jacobian(y, p)).real) >= 0:
-                continue
-            am = A.amplitudes(y)
-            got = (am[0], am[1] if dof == 2 else 0.0)
-            d = np.hypot(got[0] - a1, got[1] - a2)
-            if best is None or d < best[0]:
-                best = (d, got)
-    return None if best is None else best[1]
+    """The stable AME equilibrium nearest (a1, a2) at (U, eta* = 4.1e-4, sigma = 0.01), or None."""
+    got = nearest_stable_equilibrium(ame, {"U": U, "eta": 4.1e-4, "sigma": 0.01}, a1, a2, dof=f"{dof}dof")
+    return None if got is None else got[:2]
 
 
 def test_fig4c_island_agrees_with_eq21_only_with_the_natural_two_dof_ame(derivation, island_responses):
@@ -185,3 +169,25 @@ def test_the_scene_key_and_the_cli_flag(tmp_path, capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["ame"]["ordering_name"] == "natural"
     assert out["ame"]["ordering"]["zeta62"] == 2 and out["ame"]["ordering"]["zeta8"] == 3
+
+
+def test_bench_ordering_tables_are_its_measurements(tmp_path):
+    """`autocable bench ordering` on a two-value case on Fig. 4c's island (eq. (21) swept in U over
+    0.9, 1.0 at sigma = 0.01, eta* = 4.1e-4): the natural 2-dof AME within 0.5 % at every compared
+    point, the A2 = 0 reduction over 10 %; the markdown table and the summary give the JSON's
+    numbers; the figure is written."""
+    from autocable.bench_ordering import _summary, bench_ordering, write
+    case = ("island", "U", (0.9, 1.0), {"sigma": 0.01, "eta": 4.1e-4})
+    result = bench_ordering(str(SAMPLE), cases=(case,))
+    rows = [r for r in result["cases"][0]["rows"] if r["errors"]]
+    assert len(rows) >= 2 and all(r["a1"] > 4e-3 for r in rows)
+    for r in rows:
+        assert r["errors"]["natural, 2-dof"] < 5e-3 and r["errors"]["paper, A2 = 0"] > 0.1
+    s = _summary(result["cases"][0])
+    assert s["natural, 2-dof"]["within_bound"] == s["natural, 2-dof"]["compared"] == len(rows)
+    assert s["natural, 2-dof"]["closest"] == len(rows) and s["paper, A2 = 0"]["within_bound"] == 0
+    files = write(result, tmp_path)
+    assert all(f.stat().st_size > 0 for f in files)
+    text = (tmp_path / "ordering.md").read_text()
+    worst = max(r["errors"]["natural, 2-dof"] for r in rows)
+    assert f"| island | natural, 2-dof | {len(rows)} | 0 | {100 * worst:.2f} % |" in text

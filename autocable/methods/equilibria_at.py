@@ -19,7 +19,7 @@ import numpy as np
 from autocable.methods.continuation_problem import ContinuationResult
 from autocable.methods.equilibria import equilibrium_near
 
-__all__ = ["equilibria_at", "COLUMNS"]
+__all__ = ["equilibria_at", "nearest_stable_equilibrium", "COLUMNS"]
 
 #: Columns of the rows `equilibria_at` returns (and of a scene's ``overlay_ame.csv``).
 COLUMNS = ("parameter", "value", "branch", "a1", "a2", "stable", "max_real_eigenvalue", "residual")
@@ -68,3 +68,38 @@ def equilibria_at(results: Mapping[str, ContinuationResult], parameter: str,
                              "residual": float(residual)})
     rows.sort(key=lambda r: (r["value"], r["branch"]))
     return rows
+
+
+def nearest_stable_equilibrium(ame, values: Mapping[str, float], a1: float, a2: float = 0.0, *,
+                               dof: str = "2dof", phases: int = 12, tol: float = 1e-13):
+    """The stable equilibrium of the Cartesian AME (24) nearest the amplitudes (a1, a2) in the
+    (a1, a2) plane at ``values`` (U, eta, sigma), or None.
+
+    Why. A response of eq. (21) gives amplitudes but no phases, and the figure's branches need not
+    hold the AME variant being compared (docs/ordering.md compares four). So Newton starts from a
+    ring of phases (``phases`` for mode 1, a quarter of them for mode 2 relative to it) at those
+    amplitudes; a converged point with every eigenvalue in the left half-plane is a candidate.
+    ``dof = "1dof"`` is the A2 = 0 reduction (its a2 is 0). Returns ``(a1, a2, state)``."""
+    from scipy.optimize import fsolve
+    if dof not in ("2dof", "1dof"):
+        raise ValueError(f"dof must be '2dof' or '1dof', got {dof!r}")
+    src = ame.one_dof() if dof == "1dof" else ame
+    rhs = src.cartesian_rhs()
+    p = src.control(eta=values.get("eta", 0.0), U=values.get("U", 0.0), sigma=values.get("sigma", 0.0))
+    best = None
+    second = np.linspace(0.0, 2 * np.pi, max(phases // 4, 1), endpoint=False) if dof == "2dof" else (0.0,)
+    for ph in np.linspace(0.0, 2 * np.pi, phases, endpoint=False):
+        for dph in second:
+            y0 = [a1 * math.cos(ph), a1 * math.sin(ph)]
+            if dof == "2dof":
+                y0 += [a2 * math.cos(ph + dph), a2 * math.sin(ph + dph)]
+            y, _, ier, _ = fsolve(lambda z: rhs.f(z, p), y0, fprime=lambda z: rhs.jacobian(z, p),
+                                  full_output=True, xtol=tol)
+            if ier != 1 or not np.all(np.isfinite(y)) or np.max(np.linalg.eigvals(rhs.jacobian(y, p)).real) >= 0:
+                continue
+            amps = src.amplitudes(y)
+            got = (float(amps[0]), float(amps[1]) if dof == "2dof" else 0.0)
+            dist = math.hypot(got[0] - a1, got[1] - a2)
+            if best is None or dist < best[0]:
+                best = (dist, got, tuple(float(v) for v in y))
+    return None if best is None else (best[1][0], best[1][1], best[2])
