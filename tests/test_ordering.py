@@ -178,7 +178,11 @@ def test_bench_ordering_tables_are_its_measurements(tmp_path):
     numbers; the figure is written."""
     from autocable.bench_ordering import _summary, bench_ordering, write
     case = ("island", "U", (0.9, 1.0), {"sigma": 0.01, "eta": 4.1e-4})
-    result = bench_ordering(str(SAMPLE), cases=(case,))
+    above = ("above", "sigma", (0.0,), {"U": 1.3, "eta": 4.1e-4})        # Fig. 8 at sigma = 0
+    result = bench_ordering(str(SAMPLE), cases=(case,), bound_cases=(above,))
+    # eq. (21) diverges there; so does the natural AME, the paper's stays bounded (Fig. 8's P)
+    assert result["bounded"][0]["rows"] == [{"value": 0.0, "eq21": False, "paper, 2-dof": True,
+                                             "natural, 2-dof": False}]
     rows = [r for r in result["cases"][0]["rows"] if r["errors"]]
     assert len(rows) >= 2 and all(r["a1"] > 4e-3 for r in rows)
     for r in rows:
@@ -191,3 +195,4 @@ def test_bench_ordering_tables_are_its_measurements(tmp_path):
     text = (tmp_path / "ordering.md").read_text()
     worst = max(r["errors"]["natural, 2-dof"] for r in rows)
     assert f"| island | natural, 2-dof | {len(rows)} | 0 | {100 * worst:.2f} % |" in text
+    assert "| +0.000 | diverges | bounded | diverges |" in text
