@@ -45,7 +45,9 @@ REASONS = {
            "there and, near resonance, no AME equilibrium close to eq. (21)'s response",
     "divergence": "eq. (21) diverges above U_c with this calibration: the slaved twist makes the "
                   "out-of-plane cubic stiffness large and softening, and integrations above U* = 1 "
-                  "blow up in finite time (README, 'Known limit'; docs/ame_vs_ode21.md)",
+                  "blow up in finite time (README, 'Known limit'; docs/ame_vs_ode21.md); the AME with the "
+                  "natural ordering diverges there too (Fig. 8: at every sigma), the paper-ordering AME "
+                  "does not (docs/ordering.md)",
     "inputs": "unknown paper inputs: the yaw beta, the rivulet angle Theta0 and the air density are "
               "not printed; the sample model calibrates Theta0 to U_c = 36 m/s on one member of a "
               "one-parameter family (models/luongo_zulli_2012.toml), so the aerodynamic coefficients, "
