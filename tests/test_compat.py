@@ -138,3 +138,40 @@ def test_bad_algparam_is_caught_also_when_the_library_is_already_loaded():
     pydstool.make_ode_generator(vf, "Dopri")
     with pytest.raises(PyDSToolError, match=r"failed: .*Invalid keys"):
         pydstool.make_ode_generator(vf, "Dopri", algparams={"no_such_option": 1})
+
+
+def test_memoized_name_map_maps_like_pydstools_own():
+    """`memoize_name_map`: the generator's map returns what PyDSTool's symbolMapClass returns for
+    names, dotted names, expressions, dicts (numbers, strings, a renamed key), lists and tuples,
+    before and after the table changes; it is applied once; pickling gives PyDSTool's class back;
+    and the Rhs of the generator is unchanged."""
+    import pickle
+
+    import numpy as np
+    compat.import_pydstool()
+    from PyDSTool.parseUtils import symbolMapClass
+    x, y = sympy.Symbol("x"), sympy.Symbol("y")
+    vf = pydstool.VectorField("compat_memo", ("x", "y"), [-x + y, -y], {"k": 2.0})
+    gen = pydstool.make_ode_generator(vf, "Vode").pydstool
+    memo = gen._FScompatibleNames
+    assert type(memo) is not symbolMapClass and isinstance(memo, symbolMapClass)
+    table = dict(memo.lookupDict, **{"a.b": "a_b", "c.d": "c_d"})
+    memo.update({"a.b": "a_b", "c.d": "c_d"})
+    plain = symbolMapClass(table)
+    probes = ["x", "k", "a.b", "a.b+c.d*2", "sin(a.b)", "unknown",
+              {"x": 1.5, "a.b": np.float64(2.0), "c.d": "a.b", "y": 3}, ["a.b", "x", "c.d"], ("c.d", "y")]
+    for _ in range(2):                       # the second pass answers from the memo
+        for arg in probes:
+            got, want = memo(arg), plain(arg)
+            assert got == want and type(got) is type(want), (arg, got, want)
+    assert list(memo({"a.b": 1.0, "x": 2.0})) == list(plain({"a.b": 1.0, "x": 2.0}))   # key order too
+    memo["x"] = "x_renamed"                  # a changed table is not answered from the memo
+    plain["x"] = "x_renamed"
+    assert memo("x") == plain("x") == "x_renamed" and memo({"x": 1.0}) == {"x_renamed": 1.0}
+    del memo["x"]
+    assert memo("x") == "x"
+    compat.memoize_name_map(gen)
+    assert gen._FScompatibleNames is memo    # not wrapped twice
+    back = pickle.loads(pickle.dumps(memo))
+    assert type(back) is symbolMapClass and back.lookupDict == memo.lookupDict
+    assert np.allclose(gen.Rhs(0.0, {"x": 1.0, "y": 2.0}), [1.0, -2.0])

@@ -13,7 +13,9 @@ PyDSTool's last release predates Python 3.10 and misbehaves in five ways this mo
 * it talks: compiler banners, SWIG, ``print()`` from PyCont ("Test function going crazy"):
   `quiet` silences it at the file-descriptor level and keeps the text for error messages;
 * it fails with raw tracebacks from deep inside its numerics: `pydstool_errors` turns them into one
-  `PyDSToolError` with a one-line message.
+  `PyDSToolError` with a one-line message;
+* it re-parses every state and parameter name on every right-hand side and Jacobian call that
+  PyCont makes: `memoize_name_map` gives a generator a name map that parses each name once.
 
 Nothing here patches site-packages. fd-level redirection and ``os.chdir`` are process-wide, so
 these helpers are not thread-safe; PyDSTool itself is not either.
@@ -21,7 +23,9 @@ these helpers are not thread-safe; PyDSTool itself is not either.
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
+import numbers
 import ctypes
 import os
 import sys
@@ -40,6 +44,7 @@ __all__ = [
     "pydstool_errors",
     "pydstool_session",
     "build_generator_library",
+    "memoize_name_map",
 ]
 
 #: Environment variable that lets PyDSTool's chatter through `quiet` (for developers).
@@ -312,6 +317,72 @@ def build_generator_library(generator) -> None:
     builder = generator._builder  # PyDSTool's build helper; created on first access
     builder.tempdir = os.path.relpath(builder.tempdir)
     generator.makeLib()
+
+
+def memoize_name_map(generator) -> None:
+    """Give ``generator`` a copy of its name map (``_FScompatibleNames``) that remembers each name.
+
+    Why. A PyDSTool generator maps every state and parameter name through a ``symbolMapClass`` on
+    each ``Rhs`` and ``Jacobian`` call, and the map *parses* each name string with PyDSTool's
+    tokenizer: in one Fig. 5a EP-C run PyCont's calls made 58,384 parses, most of its time. What a
+    string maps to depends only on the string and the lookup table, so a memo of the string case
+    returns the same values (the table's own mutators clear it; tests/test_compat.py compares it
+    with PyDSTool's map on strings, expressions, dicts and lists). Pickling or copying the map
+    gives PyDSTool's plain class back."""
+    current = generator._FScompatibleNames
+    if getattr(type(current), "memoizes_names", False):
+        return
+    generator._FScompatibleNames = _memo_map_class(type(current))(current)
+
+
+@functools.lru_cache(maxsize=None)
+def _memo_map_class(base: type) -> type:
+    """The memoising subclass of PyDSTool's ``symbolMapClass`` (made once per process: PyDSTool is
+    imported lazily, so the class cannot be written at module level)."""
+
+    class MemoNameMap(base):
+        memoizes_names = True
+
+        def __init__(self, symbolMap=None):
+            super().__init__(symbolMap)
+            self._memo = {}
+
+        def __call__(self, arg):
+            if isinstance(arg, str):
+                try:
+                    return self._memo[arg]
+                except KeyError:
+                    out = self._memo[arg] = base.__call__(self, arg)
+                    return out
+            if type(arg) is dict:
+                # PyDSTool's own dict case, less its per-number copy and exception: keys and
+                # values through self(...), a changed key moved (numbers map to themselves).
+                res = dict(arg)
+                for k, v in arg.items():
+                    new_k = self(k)
+                    res[new_k] = v if isinstance(v, numbers.Number) else self(v)
+                    if k != new_k:
+                        del res[k]
+                return res
+            # Other containers map their items through self(...): the string case again.
+            return base.__call__(self, arg)
+
+        def __setitem__(self, symbol, mappedsymbol):
+            self._memo.clear()
+            base.__setitem__(self, symbol, mappedsymbol)
+
+        def __delitem__(self, symbol):
+            self._memo.clear()
+            base.__delitem__(self, symbol)
+
+        def update(self, amap):
+            self._memo.clear()
+            base.update(self, amap)
+
+        def __reduce__(self):
+            return (base, (dict(self.lookupDict),))
+
+    return MemoNameMap
 
 
 # --------------------------------------------------------------------------------------------

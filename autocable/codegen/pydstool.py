@@ -43,6 +43,7 @@ from autocable.codegen.compat import (
     PyDSToolError,
     build_generator_library,
     import_pydstool,
+    memoize_name_map,
     pydstool_errors,
     pydstool_session,
     quiet,
@@ -558,7 +559,9 @@ def make_ode_generator(vf: VectorField, kind: str = "Dopri", *,
 
     if libname is None:
         with quiet() as chatter, pydstool_errors(what, chatter):
-            return handle(gen_class(dst.args(**args)), False)
+            gen = gen_class(dst.args(**args))
+            memoize_name_map(gen)
+            return handle(gen, False)
 
     modname = f"{libname}_{name}_vf"
     if modname in _LIVE:
@@ -621,6 +624,7 @@ def make_ode_generator(vf: VectorField, kind: str = "Dopri", *,
         if unknown:
             raise ValueError(f"Invalid keys present in algparams argument: {unknown}")
         gen.set(ics=args["ics"], pars=args["pars"], tdata=args["tdata"], algparams=settings)
+    memoize_name_map(gen)           # after pickling: the pickle keeps PyDSTool's own map
     _LIVE[modname] = gen
     return handle(gen, reusable)
 
