@@ -198,7 +198,8 @@ def markdown(result: dict, png: str = "ordering.png") -> str:
               "point of I is subcritical (its periodic branch unstable, as Sect. 5 says of the Hopf points); "
               "and there is no stable periodic backbone: above the island this AME diverges, as eq. (21) does "
               "above U_c with this calibration (README, \"Known limit\"). The backbone of the A2 = 0 reduction "
-              "(a1 up to 4e-2 at U* = 1.5) is a motion of that reduction only. The widths, Hopf points and "
+              "(a1 up to 4e-2 at U* = 1.5) is a motion of that reduction only (runs/island_1dof.toml "
+              "draws it). The widths, Hopf points and "
               "overlay errors are in report.md and asserted in tests/test_scene_figures.py.",
               "- Above U_c (Figs. 8, 10: the boundedness tables) the natural 2-dof AME diverges where eq. (21) "
               "diverges more often than the paper's, which stays bounded everywhere there: the bounded periodic "

@@ -411,6 +411,36 @@ def test_fig04_looped_island_and_unstable_hopf_cycles(scene_results, name, width
     assert backbone[1] == "no" and "0 stable cycles" in backbone[2]
 
 
+def test_island_1dof_keeps_the_paper_like_backbone_and_misses_eq21_on_the_island(scene_results):
+    """runs/island_1dof.toml: Fig. 4c's setting with the A2 = 0 AME (paper's ordering), the
+    reduction Sect. 5 allows. Its backbone B: the periodic orbit the AME settles on from a1 = 1e-2
+    at U = 1.2, continued both ways (coarse: 20 cycles per arm, all stable, a1 growing with U),
+    the start cycle checked by scipy's DOP853 (it closes; its a1 extremes are the collocation's).
+    At full resolution B runs from U = 1.5 (a1 up to 4.0e-2) down to a period blow-up at the
+    island, U = 1.0233. Its supercritical Hopf point on I (U = 1.00027125) and island II (fold at
+    0.4362396, Hopf point at 1.0207334) are the former fig04c's. Against eq. (21) on the island
+    it is 5.69 % and 11.63 % off at U = 0.7 and 1.0 (the study's bound 2.62e-2): why the figures
+    use the 2-dof natural-ordering AME (docs/ordering.md)."""
+    res, out = scene_results("island_1dof")
+    got = _by_type(res.branch("I"))
+    assert got["H"] == [pytest.approx(1.00027125, rel=SPECIAL_RTOL)]
+    got = _by_type(res.branch("II"))
+    assert got["H"] == [pytest.approx(1.020733436, rel=SPECIAL_RTOL)]
+    assert got["LP"] == [pytest.approx(0.4362395968, rel=SPECIAL_RTOL)]
+    b = res.branch("B")
+    assert b.kind == "cycle" and b.info["from"] == "orbit"
+    assert [(e.side, e.reason, e.points) for e in b.ends] == [("backward", "max_points", 20),
+                                                              ("forward", "max_points", 20)]
+    assert b.stable.all() and np.all(np.diff(b["U"]) > 0) and np.all(np.diff(b["a1_max"]) > 0)
+    i = b.info["start_index"]
+    assert b["U"][i] == 1.2 and 2.1e-2 < b["a1_min"][i] < b["a1_max"][i] < 2.4e-2
+    _start_cycle_closes_under_scipy(b, "island_1dof", "1dof", {"U": 1.2})
+    rows = {(round(r["value"], 6), r["direction"]): r for r in _comparison(out)}
+    for U, err in ((0.7, 5.69e-2), (1.0, 1.163e-1)):
+        r = rows[(U, "down")]
+        assert r["ame_branch"] == "II" and r["within"] is False and r["rel_error"] == pytest.approx(err, rel=1e-2)
+
+
 def _start_cycle_closes_under_scipy(b, name: str, dof: str, at: dict) -> None:
     """The start cycle of an orbit-started branch, checked by an independent integrator: one
     period of scipy's DOP853 on the scene's AME from its x(0) comes back to x(0) (1e-7) and its
@@ -421,9 +451,10 @@ def _start_cycle_closes_under_scipy(b, name: str, dof: str, at: dict) -> None:
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
     from autocable.spec import load_model
-    sysm = ame_system(derive_ame(derive(load_model(REPO / "models" / "luongo_zulli_2012.toml"))).ame, dof)
+    scene = load_scene(RUNS / f"{name}.toml")
+    sysm = ame_system(derive_ame(derive(load_model(scene.model)), ordering=scene.ordering).ame, dof)
     i = b.info["start_index"]
-    p = sysm.parameter_vector({**load_scene(RUNS / f"{name}.toml").fixed, **at})
+    p = sysm.parameter_vector({**scene.fixed, **at})
     x0 = np.array([b[v][i] for v in sysm.variables])
     T = float(b["period"][i])
     sol = solve_ivp(lambda _t, z: sysm.f(z, p), (0.0, T), x0, method="DOP853", rtol=1e-12, atol=1e-15,

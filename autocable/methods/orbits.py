@@ -5,7 +5,7 @@ Why. Periodic solutions of the AME (periodic in a1, a2: quasi-periodic motions o
 family passes through no Hopf point of the continued equilibria within a figure's range cannot be
 started by `continue_cycles`: Fig. 8's P (U = 1.3, where every equilibrium of I is unstable), Fig.
 10's P through Fig. 11's solution, and Fig. 4's backbone "for the islands" above U = 1 in the A2 = 0
-AME (the 2-dof AME the Fig. 4 scenes use diverges there, docs/ordering.md). Integrating the AME at
+AME (runs/island_1dof.toml; the 2-dof AME the Fig. 4 scenes use diverges there, docs/ordering.md). Integrating the AME at
 one parameter value lands on such an orbit, and `compiled_cycles.continue_cycles_from_orbit`
 continues it from there.
 """
