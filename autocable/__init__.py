@@ -1,2 +1,108 @@
-"""autocable: nonlinear dynamics of stay cables under wind and support motion."""
-__version__ = "0.1.0"
+"""autocable: nonlinear dynamics of stay cables under wind and support motion (Luongo & Zulli).
+
+The public API, for scripted runs in the spirit of AUTO-07p's and BifurcationKit's scripting. Every
+name loads lazily (``import autocable`` costs nothing), so a script pays only for what it uses:
+
+    import autocable as ac
+
+    model = ac.load_model("models/luongo_zulli_2012.toml")      # the spec (SI units)
+    eq21 = ac.derive(model)                                      # eq. (21): coefficients, modes
+    ame = ac.derive_ame(eq21).ame                                # the AME (22)-(24)
+    system = ac.ame_system(ame, "2dof", wind=False)              # Cartesian AME (24) at U = 0
+    problem = ac.EquilibriumProblem(system, "sigma", {"U": 0.0, "eta": 1.4e-3, "sigma": -0.05},
+                                    (-0.05, 0.05), state_scale=ac.auto_state_scale(system, ...))
+    I = ac.continue_equilibria(problem, ac.ContinuationSettings(), start="trivial")
+    III = ac.switch_branch(I, "BP1")                             # at a labelled point of I
+    cycles = ac.continue_cycles(I, "H1")                         # from a Hopf point of I
+    folds = ac.continue_folds(I, "LP1", "eta", (0.0, 3e-3))      # a two-parameter curve
+    ac.plot_branches([I.branch, III.branch], "fig06", x="sigma", y=("a1", "a2"))
+
+Scenes (``runs/*.toml``) run the same chain from a file: ``ac.run_scene(ac.load_scene(path), out)``;
+``ac.read_results(out)`` reads what a run wrote. Eq. (21) itself is integrated by
+``ac.Ode21Integrator(eq21.ode)`` and the AME by ``ac.AmeIntegrator``. `examples/` holds whole
+scripts (each run by the tests).
+"""
+from __future__ import annotations
+
+import importlib
+
+from autocable._version import __version__
+
+#: public name -> the module that holds it (imported on first use)
+_API = {
+    # the model: spec -> eq. (21) -> AME (22)-(24)
+    "load_model": "autocable.spec",
+    "ModelSpec": "autocable.spec",
+    "SpecError": "autocable.spec",
+    "derive": "autocable.model.derive",
+    "Derivation": "autocable.model.derive",
+    "derive_ame": "autocable.model.ame_cache",
+    # continuation (PyCont or the compiled kernel behind one front)
+    "System": "autocable.methods.continuation",
+    "ame_system": "autocable.methods.continuation",
+    "auto_state_scale": "autocable.methods.continuation",
+    "EquilibriumProblem": "autocable.methods.continuation",
+    "ContinuationSettings": "autocable.methods.continuation",
+    "ContinuationResult": "autocable.methods.continuation",
+    "StartError": "autocable.methods.continuation",
+    "ENGINES": "autocable.methods.continuation",
+    "continue_equilibria": "autocable.methods.continuation",
+    "switch_branch": "autocable.methods.continuation",
+    "continue_cycles": "autocable.methods.continuation",
+    "continue_cycles_from_orbit": "autocable.methods.continuation",
+    "periodic_orbit": "autocable.methods.continuation",
+    "continue_folds": "autocable.methods.continuation",
+    "continue_hopf": "autocable.methods.continuation",
+    "equilibrium_near": "autocable.methods.continuation",
+    "settle": "autocable.methods.continuation",
+    # time integration
+    "Ode21Integrator": "autocable.methods.integration.ode21",
+    "AmeIntegrator": "autocable.methods.integration.ame",
+    "sweep": "autocable.methods.integration.sweeps",
+    # results
+    "Branch": "autocable.results",
+    "SpecialPoint": "autocable.results",
+    "EndPoint": "autocable.results",
+    "RunResults": "autocable.results",
+    "read_results": "autocable.results",
+    "write_results": "autocable.results",
+    # scenes
+    "load_scene": "autocable.scene.schema",
+    # plots (matplotlib loads only here)
+    "plot_scene": "autocable.plotting.diagrams",
+}
+
+__all__ = sorted([*_API, "run_scene", "plot_branches", "__version__"])
+
+
+def __getattr__(name: str):
+    if name not in _API:
+        raise AttributeError(f"module 'autocable' has no attribute {name!r}")
+    value = getattr(importlib.import_module(_API[name]), name)
+    globals()[name] = value     # later look-ups skip this hook
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_API))
+
+
+def run_scene(scene, out_dir, *, progress=None, plot: bool = True, resolution: str = "full",
+              engine: str | None = None):
+    """Run a scene (`autocable.scene.runner.run_scene`) as ``autocable run`` does: an ``ame =
+    "auto"`` scene gets its AME from the probes of `autocable.studies.advise`; ``engine``
+    ("pycont" | "compiled") overrides the scene's continuation engine. Returns the `RunResults`."""
+    from autocable.scene.runner import run_scene as run
+    from autocable.studies.advise import choose_ame
+    return run(scene, out_dir, progress=progress, plot=plot, resolution=resolution, engine=engine,
+               choose_ame=choose_ame)
+
+
+def plot_branches(branches, stem, *, x: str, y=("a1",), title: str = "", labels: bool = True):
+    """Draw ``branches`` (`Branch` objects, or `ContinuationResult` objects) paper-style, stable
+    continuous and unstable dashed, special points labelled, into ``stem.png`` and ``stem.pdf``;
+    returns the files written (`autocable.plotting.diagrams.plot_scene`)."""
+    from autocable.plotting.diagrams import plot_scene
+    from autocable.results import RunResults
+    plain = tuple(getattr(b, "branch", b) for b in branches)
+    return plot_scene(RunResults("plot", plain, {}), stem, x=x, y=tuple(y), title=title, labels=labels)

@@ -12,9 +12,10 @@ import os
 import sys
 from pathlib import Path
 
-from autocable import __version__
-from autocable.figures import add_figures_parser
-from autocable.scene import add_run_parser
+from autocable._paths import SAMPLE_MODEL
+from autocable._version import __version__
+from autocable.paper.figures import add_figures_parser
+from autocable.scene.schema import ENGINES, RESOLUTIONS, load_scene
 from autocable.spec import SpecError, load_model
 
 
@@ -177,7 +178,7 @@ def cmd_derive(args) -> int:
 
 
 def cmd_simulate(args) -> int:
-    from autocable.methods.integration import DEFAULT_Q0, Ode21Integrator
+    from autocable.methods.integration.ode21 import DEFAULT_Q0, Ode21Integrator
     d = _derivation(args.model)
     if args.eta < 0:
         raise SpecError("--eta", "", f"the support amplitude eta* must be >= 0, got {args.eta}")
@@ -213,7 +214,7 @@ def cmd_simulate(args) -> int:
 
 def _simulate_ame(args, d, q0, show, progress) -> int:
     """`autocable simulate --method ame`: the Cartesian AME (24) from the same start as eq. (21)."""
-    from autocable.methods.ame_integration import AmeIntegrator
+    from autocable.methods.integration.ame import AmeIntegrator
     from autocable.model.ame_cache import derive_ame
     r = AmeIntegrator(derive_ame(d).ame).simulate(args.U, args.eta, args.sigma, q0,
                                                   max_time=args.max_time, keep_history=bool(args.csv),
@@ -221,7 +222,7 @@ def _simulate_ame(args, d, q0, show, progress) -> int:
     if show:
         print(file=sys.stderr)
     if args.csv:
-        from autocable.codegen.cache import atomic_write_text
+        from autocable._store import atomic_write_text
         t, r1, s1, r2, s2 = r.history
         rows = ["t,r1,s1,r2,s2"] + [f"{a:.10g},{b:.10e},{c:.10e},{e:.10e},{f:.10e}"
                                     for a, b, c, e, f in zip(t, r1, s1, r2, s2)]
@@ -253,7 +254,7 @@ def _simulate_ame(args, d, q0, show, progress) -> int:
 
 def _simulate_nmode(args, d, q0, show, progress) -> int:
     """`autocable simulate --modes N`: eq. (21) with N in-plane and N out-of-plane modes (issue 6)."""
-    from autocable.methods.nmode_integration import NModeIntegrator
+    from autocable.methods.integration.nmode import NModeIntegrator
     if args.method != "ode21":
         raise SpecError("--modes", "", "--modes integrates the N-mode equations directly; drop --method ame")
     if args.modes < 1:
@@ -270,7 +271,7 @@ def _simulate_nmode(args, d, q0, show, progress) -> int:
     if show:
         print(file=sys.stderr)
     if args.csv and r.history:
-        from autocable.codegen.cache import atomic_write_text
+        from autocable._store import atomic_write_text
         t, ys = r.history
         rows = [",".join(("t",) + integ.ode.state_names)]
         rows += [f"{a:.10g}," + ",".join(f"{v:.10e}" for v in y) for a, y in zip(t, ys)]
@@ -315,7 +316,7 @@ def _print_simulation(args, r, out) -> None:
 
 
 def _write_history(path: Path, r) -> None:
-    from autocable.codegen.cache import atomic_write_text
+    from autocable._store import atomic_write_text
     rows = ["t,q1,q2,q1dot,q2dot"]
     t, q1, q2, v1, v2 = r.history
     rows += [f"{a:.10g},{b:.10e},{c:.10e},{d:.10e},{e:.10e}" for a, b, c, d, e in zip(t, q1, q2, v1, v2)]
@@ -324,7 +325,7 @@ def _write_history(path: Path, r) -> None:
 
 def cmd_work_precision(args) -> int:
     """`autocable bench --out DIR` without a subcommand: the method ladder's work-precision bench."""
-    from autocable.bench_methods import run_bench as run_work_precision
+    from autocable.studies.work_precision import run_bench as run_work_precision
     if not args.out:
         raise SpecError("bench", "--out", "the work-precision bench writes files: give --out DIR "
                         "(or name a subcommand: derive, ame-vs-ode, continuation, auto, ...)")
@@ -339,19 +340,19 @@ def cmd_work_precision(args) -> int:
 
 
 def _cmd_advise(args) -> int:
-    from autocable.advise import cmd_advise
+    from autocable.studies.advise import cmd_advise
     return cmd_advise(args)
 
 
 def cmd_bench(args) -> int:
     if args.what is None:
         return cmd_work_precision(args)
-    from autocable.bench import run_bench
+    from autocable.bench.commands import run_bench
     result = run_bench(args.what, args.model, repeats=args.repeats,
                        log=None if args.quiet else (lambda s: print(s, file=sys.stderr)),
                        out=args.out)
     if args.out:
-        from autocable.codegen.cache import atomic_write_json
+        from autocable._store import atomic_write_json
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         atomic_write_json(out / f"bench_{args.what}.json", result)
@@ -362,8 +363,8 @@ def cmd_bench(args) -> int:
 def cmd_failure_map(args) -> int:
     """`autocable failure-map`: where the AME and the integrators fail (issue 6, item 3)."""
     import time
-    from autocable.failure_map import run_failure_map
-    from autocable.failure_map_report import write_failure_map
+    from autocable.studies.failure_map import run_failure_map
+    from autocable.studies.failure_map_report import write_failure_map
     say = None if args.quiet else (lambda s: print(s, file=sys.stderr))
     t0 = time.perf_counter()
     result = run_failure_map(args.model, quick=args.quick, log=say)
@@ -371,6 +372,73 @@ def cmd_failure_map(args) -> int:
     files = write_failure_map(result, args.out, command)
     print("\n".join(result["statement"]))
     print(f"wrote {', '.join(str(f) for f in files)} in {time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+# ------------------------------------------------------------------------------------------------
+# autocable run
+# ------------------------------------------------------------------------------------------------
+def add_run_parser(subparsers) -> None:
+    """Add ``autocable run SCENE.toml --out DIR [--quiet] [--no-plot]`` to an argparse subparsers."""
+    r = subparsers.add_parser("run", help="run a scene file (runs/*.toml): continuation, results, plot")
+    r.add_argument("scene", help="scene file (runs/*.toml)")
+    r.add_argument("--out", help="output folder (default: out/<scene name>)")
+    r.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    r.add_argument("--no-plot", action="store_true", help="write the tables only")
+    r.add_argument("--resolution", choices=RESOLUTIONS, default="full",
+                   help="coarse: longer steps, capped cycle runs, every third overlay value (what the tests run)")
+    r.add_argument("--engine", choices=ENGINES,
+                   help="override the scene's engine of equilibria, switching and cycles from Hopf points")
+    r.set_defaults(func=cmd_run)
+
+
+def cmd_run(args) -> int:
+    """Run a scene; print a summary (branches, special points, files) on stdout."""
+    scene = load_scene(args.scene)
+    out = Path(args.out) if getattr(args, "out", None) else Path("out") / scene.name
+    # Before the computation, not after it: a folder that cannot be made would lose the results.
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SpecError("--out", "", f"cannot make the output folder {out}: {exc.strerror or exc}; "
+                                     "give a folder that can be created") from None
+    quiet = bool(getattr(args, "quiet", False))
+    progress = None if quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    from autocable.scene.runner import run_scene
+    from autocable.studies.advise import choose_ame
+    res = run_scene(scene, out, progress=progress, plot=not getattr(args, "no_plot", False),
+                    resolution=getattr(args, "resolution", "full") or "full",
+                    engine=getattr(args, "engine", None), choose_ame=choose_ame)
+    if not quiet and scene.time is not None:
+        print(f"{scene.title}")
+        summary = res.provenance["summary"]
+        for src in ("ame", "ode21"):
+            if src in summary:
+                s = summary[src]
+                period = s.get("modulation_period")
+                print(f"  {src:<6} a1 in [{s.get('a1_min', math.nan):.6e}, {s.get('a1_max', math.nan):.6e}]  "
+                      f"a2 in [{s.get('a2_min', math.nan):.6e}, {s.get('a2_max', math.nan):.6e}]  modulation period "
+                      + (f"{period:.6g}" if period else "none (steady amplitude)") + f"  ({s['message']})")
+        print(f"  results in {out}/ (time_series.csv, run.json"
+              + (f", {scene.name}.png, {scene.name}.pdf" if not getattr(args, "no_plot", False) else "") + ")")
+    elif not quiet:
+        print(f"{scene.title}")
+        for b in res.branches:
+            ends = "; ".join(f"{e.side}: {e.reason}" + (f" ({e.message})" if e.reason not in ("range",) and e.message else "")
+                             for e in b.ends)
+            print(f"  {b.name:<12} {b.kind:<11} {len(b):>5} points   {ends}")
+            for s in b.special_points:
+                conf = {True: "PyCont agrees", False: "PyCont missed it", None: ""}[s.confirmed_by_pycont] \
+                    if s.origin == "autocable" else "PyCont only, not confirmed"
+                extra = f" l1 = {s.extra['l1']:.4g}" if "l1" in s.extra else ""
+                second = f", {s.extra['parameter2']} = {s.extra['value2']: .8g}" if "value2" in s.extra else ""
+                print(f"    {s.label:<5} {s.parameter} = {s.value: .8g}{second}  a1 = {s.a1:.6e}  a2 = {s.a2:.6e}"
+                      f"{extra}  {conf}")
+        plane = scene.plot.plane and any(b.kind in ("fold", "hopf") for b in res.branches)
+        print(f"  results in {out}/ (branches.csv, special_points.csv, run.json"
+              + (f", {scene.name}.png, {scene.name}.pdf" if not getattr(args, "no_plot", False) else "")
+              + (f", {scene.name}_plane.png, {scene.name}_plane.pdf" if plane and not getattr(args, "no_plot", False)
+                 else "") + ")")
     return 0
 
 
@@ -421,7 +489,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "(with --out, also ordering.md/.png). Without a subcommand "
                         "(--out DIR): the work-precision bench of the method ladder (bench.json, "
                         "work_precision.png, work_precision.md)")
-    b.add_argument("--model", default=str(Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"))
+    b.add_argument("--model", default=str(SAMPLE_MODEL))
     b.add_argument("--repeats", type=int, default=3)
     b.add_argument("--out", help="folder to write bench_<what>.json")
     b.add_argument("--quiet", action="store_true")
@@ -443,7 +511,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "and the integrators fail; writes failure_map.md and failure_map_<k>.png")
     fm.add_argument("--out", required=True, help="folder for failure_map.md and the figures")
     fm.add_argument("--quick", action="store_true", help="a tiny grid (seconds, for tests)")
-    fm.add_argument("--model", default=str(Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"))
+    fm.add_argument("--model", default=str(SAMPLE_MODEL))
     fm.add_argument("--quiet", action="store_true", help="no progress")
     fm.set_defaults(func=cmd_failure_map)
 

@@ -41,7 +41,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from autocable.codegen.cache import atomic_write_json, atomic_write_text, read_json
+from autocable._store import atomic_write_json, atomic_write_text, read_json
 
 __all__ = [
     "KINDS",

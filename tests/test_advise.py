@@ -15,9 +15,9 @@ from pathlib import Path
 
 import pytest
 
-from autocable.advise import advice_report, choose_ame
+from autocable.studies.advise import advice_report, choose_ame
 from autocable.cli import main
-from autocable.methods import registry as R
+from autocable.studies import ladder as R
 
 ROOT = Path(__file__).resolve().parents[1]
 RUNS = ROOT / "runs"

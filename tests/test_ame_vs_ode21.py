@@ -29,8 +29,8 @@ import pytest
 from scipy.optimize import brentq, root
 
 from autocable.cli import main
-from autocable.methods.ame_integration import (AmeIntegrator, compare_with_ode21, initial_amplitudes)
-from autocable.methods.integration import DEFAULT_Q0, Ode21Integrator
+from autocable.methods.integration.ame import (AmeIntegrator, compare_with_ode21, initial_amplitudes)
+from autocable.methods.integration.ode21 import DEFAULT_Q0, Ode21Integrator
 from autocable.model.ame_cache import ame_key, derive_ame
 from autocable.model.derive import derive
 from autocable.model.equations import TwoModeODE

@@ -1,4 +1,4 @@
-"""autocable.bench_auto without AUTO-07p: the generated equation file evaluated numerically, the
+"""autocable.bench.auto without AUTO-07p: the generated equation file evaluated numerically, the
 constants file, the fort.7 reader, and a missing AUTO environment (a one-line "skipped").
 
 The equation file is checked twice: by a small interpreter of its assignments here (always), and,
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from autocable.bench_auto import (AUTO_PYTHON_ENV, PAR_LAM, PAR_SPAN, PAR_XSCALE, auto_constants,
+from autocable.bench.auto import (AUTO_PYTHON_ENV, PAR_LAM, PAR_SPAN, PAR_XSCALE, auto_constants,
                                   auto_problem, auto_python_path, auto_settings, bench_auto,
                                   parse_fort7, parse_total_time, run_auto)
 from autocable.methods.continuation import System
@@ -169,7 +169,7 @@ def test_fort7_and_total_time():
 
 
 def test_missing_auto_environment_is_one_clear_line(monkeypatch, tmp_path):
-    import autocable.bench_auto as ba
+    import autocable.bench.auto as ba
     monkeypatch.delenv(AUTO_PYTHON_ENV, raising=False)
     monkeypatch.setattr(ba, "_bifpy_here", lambda: False)
     r = bench_auto("models/luongo_zulli_2012.toml")

@@ -15,7 +15,8 @@ import pytest
 import sympy
 from scipy.integrate import solve_ivp
 
-from autocable.codegen import cache, compat, pydstool
+from autocable.codegen import compat, pydstool
+from autocable import _store as cache
 from autocable.codegen.pydstool import TIME, VectorField
 
 REPO = Path(__file__).resolve().parents[1]

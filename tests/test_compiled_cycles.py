@@ -35,7 +35,7 @@ from scipy.interpolate import CubicSpline
 
 from autocable.methods.continuation import (ContinuationSettings, EquilibriumProblem, System, ame_system,
                                             auto_state_scale, continue_cycles, continue_equilibria)
-from autocable.methods.cycles import _monodromy
+from autocable.methods.continuation.cycles import _monodromy
 
 ROOT = Path(__file__).resolve().parents[1]
 x, y, mu = sp.symbols("x y mu")
@@ -223,7 +223,7 @@ def test_multiplier_collisions_are_not_bifurcations_of_cycles():
     one: a PD, if coarsely resolved), the double multiplier +1 of the fold split by round-off into
     1 +- 9e-7 i (not an NS), two reals below -1 meeting into a complex pair outside (not a PD, not an
     NS), and a genuine complex pair leaving the circle (NS)."""
-    from autocable.methods.cycles import _genuine_crossing
+    from autocable.methods.continuation.events import _genuine_crossing
     one = [1.0 + 0j]
     before_pd2 = one + [-1.05, -0.30, 0.05]
     after_pd2 = one + [-0.4956 + 0.1783j, -0.4956 - 0.1783j, 0.0456]
@@ -271,7 +271,7 @@ def scene_hopf(scene_file: str):
     """The first run of a scene (equilibria, compiled) and its settings, built as `run_scene` does."""
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
-    from autocable.scene import _settings, load_scene
+    from autocable.scene.runner import _settings, load_scene
     from autocable.spec import load_model
 
     scene = load_scene(ROOT / "runs" / scene_file)

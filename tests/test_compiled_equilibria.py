@@ -28,7 +28,7 @@ from autocable.codegen.ckernel import KernelBuildError, compiled_kernel
 from autocable.methods.continuation import (ContinuationSettings, EquilibriumProblem, System, ame_system,
                                             auto_state_scale, bialternate, continue_equilibria,
                                             switch_branch)
-from autocable.methods.continuation_chart import _Chart
+from autocable.methods.continuation.chart import _Chart
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -37,7 +37,7 @@ def first_run_problem(scene_file: str):
     """The problem and settings of a scene's first run, built as `run_scene` builds them."""
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
-    from autocable.scene import load_scene
+    from autocable.scene.runner import load_scene
     from autocable.spec import load_model
 
     scene = load_scene(ROOT / "runs" / scene_file)
@@ -189,7 +189,7 @@ def test_duffing_folds_with_the_compiled_engine():
 def test_settle_with_the_compiled_engine_lands_on_the_closed_form_response():
     """Integrating the Duffing slow flow from rest below resonance settles on the one response
     there: |z|^2 = A solves A (mu^2 + (sigma - kappa A)^2) = f^2; both engines agree."""
-    from autocable.methods.equilibria import settle
+    from autocable.methods.continuation.equilibria import settle
     system = duffing()
     x = {e: settle(system, {"sigma": -1.0}, [0.0, 0.0], engine=e) for e in ("pycont", "compiled")}
     A = float(x["compiled"] @ x["compiled"])

@@ -30,7 +30,7 @@ def forced_undamped(t, w):
 
 @pytest.fixture(scope="module")
 def eq21():
-    from autocable.methods.integration import Ode21Integrator
+    from autocable.methods.integration.ode21 import Ode21Integrator
     from autocable.model.derive import derive
     from autocable.spec import load_model
     from pathlib import Path
@@ -51,7 +51,7 @@ def test_closed_form_forced_oscillator_at_every_sample(oscillator):
 def test_closed_form_damped_steady_amplitude(oscillator):
     """Damped: after the transient (z w t >> 1) the amplitude is 1 / sqrt((w^2-1)^2 + (2 z w)^2)
     to 1e-8 relative, measured as the half peak-to-peak of dense samples (parabolic peaks)."""
-    from autocable.methods.integration import _half_range
+    from autocable.methods.integration.ode21 import _half_range
     w, z = 1.3, 0.05
     g = sample_grid(0.0, 600.0, 2 * math.pi / 512)
     r = oscillator.run([0.0, 0.0], g, [w, z], rtol=1e-11, atol=1e-14)
@@ -148,7 +148,7 @@ def test_run_samples_equal_dopri(eq21):
 def test_envelope_equals_per_period_loop(eq21):
     """`Ode21Integrator.envelope` (vectorised) equals the per-period half ranges of `run`'s samples,
     and the dopri and compiled envelopes agree to 1e-8 relative."""
-    from autocable.methods.integration import _half_range
+    from autocable.methods.integration.ode21 import _half_range
     from autocable.model.symbolic import parameter_values
     _, dopri, compiled = eq21
     U, eta, sigma = 1.3, 1.4e-3, -0.042
@@ -176,10 +176,10 @@ def test_fig11_ame_series_statistics(eq21):
     """The AME (24) at eta = 1.4e-3, sigma = -0.042, U = 1.3 from rest (q2 = 1e-6) over 60000 time
     units, 6 samples per forcing period: the statistics over t >= 40000 are those of
     tests/test_scene_figures.py::test_fig11_time_evolution (PyDSTool's Dopri, agreeing to 2e-10)."""
-    from autocable.methods.ame_integration import ame_time_series
+    from autocable.methods.integration.ame import ame_time_series
     from autocable.methods.continuation import ame_system
     from autocable.model.ame_cache import derive_ame
-    from autocable.scene import _summary
+    from autocable.scene.time_scene import _summary
     d, _, _ = eq21
     ame = derive_ame(d).ame
     system = ame_system(ame, "2dof", wind=True)
@@ -206,7 +206,7 @@ def ame(eq21):
 def test_compiled_cartesian_equals_numpy_rows(ame, U):
     """f and J of the Cartesian AME (24) in C equal the numpy rows to 1e-14 relative, with and
     without wind (at U = 0 the aerodynamic rows and their 1/U powers are absent in both)."""
-    from autocable.methods.ame_integration import compiled_cartesian
+    from autocable.methods.integration.ame import compiled_cartesian
     rhs = ame.cartesian_rhs()
     ci, extend = compiled_cartesian(rhs)
     p = ame.control(eta=1.4e-3, U=U, sigma=-0.03)
@@ -221,7 +221,7 @@ def test_compiled_cartesian_equals_numpy_rows(ame, U):
 def test_ame_integrator_compiled_same_equilibrium(ame):
     """Fig. 6 point (U = 0, eta = 1.4e-3, sigma = 0): the compiled and numpy right-hand sides reach
     the same stable equilibrium at the same time, a1 equal to 1e-12 relative."""
-    from autocable.methods.ame_integration import AmeIntegrator
+    from autocable.methods.integration.ame import AmeIntegrator
     a = AmeIntegrator(ame, compiled=False).simulate(0.0, 1.4e-3, 0.0)
     b = AmeIntegrator(ame).simulate(0.0, 1.4e-3, 0.0)
     assert a.periodic and b.periodic and a.t_end == b.t_end
@@ -231,7 +231,7 @@ def test_ame_integrator_compiled_same_equilibrium(ame):
 def test_ame_integrator_compiled_dop853_equals_scipy_dop853(ame):
     """method="DOP853": each chunk in one call of the compiled DOP853 instead of scipy's Python
     DOP853 (the same method): the same stable equilibrium at the Fig. 6 point, a1 to 1e-12."""
-    from autocable.methods.ame_integration import AmeIntegrator
+    from autocable.methods.integration.ame import AmeIntegrator
     a = AmeIntegrator(ame, method="DOP853", compiled=False).simulate(0.0, 1.4e-3, 0.0)
     b = AmeIntegrator(ame, method="DOP853").simulate(0.0, 1.4e-3, 0.0)
     assert a.periodic and b.periodic and a.t_end == b.t_end
@@ -241,7 +241,7 @@ def test_ame_integrator_compiled_dop853_equals_scipy_dop853(ame):
 def test_ame_integrator_compiled_dop853_reports_divergence(ame):
     """A blow-up of the AME (eta = 1e-2, U = 1.3: far outside the validity) stops at the bound
     max |y| > blowup, a divergence as with scipy's terminal event."""
-    from autocable.methods.ame_integration import AmeIntegrator
+    from autocable.methods.integration.ame import AmeIntegrator
     r = AmeIntegrator(ame, method="DOP853").simulate(1.3, 1e-2, 0.03, max_time=5000.0, blowup=0.05)
     assert math.isinf(r.a1) and "diverged" in r.message and r.t_end < 5000.0
 
@@ -251,7 +251,7 @@ def test_max_time_off_the_sample_grid_is_not_steady(eq21, engine):
     """A max_time that is not on the sample grid leaves less than one sample interval after the
     last chunk: that remainder must end the run ("not steady"), not pass for a chunk whose
     amplitudes did not change (which reported a still-growing response as steady)."""
-    from autocable.methods.integration import Ode21Integrator
+    from autocable.methods.integration.ode21 import Ode21Integrator
     r = Ode21Integrator(eq21[0].ode, engine).simulate(0.7, 1.4e-3, 0.01, max_time=1000.0)
     dt = 2 * math.pi / r.Omega / 64
     assert not r.steady and r.message.startswith("not steady") and 1000.0 - dt < r.t_end <= 1000.0

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from autocable.cli import main
-from autocable.failure_map import Tools, map_point, point_class, region_statement
+from autocable.studies.failure_map import Tools, map_point, point_class, region_statement
 
 SAMPLE = Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"
 

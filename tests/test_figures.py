@@ -1,4 +1,4 @@
-"""`autocable figures` and its report (autocable/figures.py, autocable/report.py): two tiny scenes of
+"""`autocable figures` and its report (autocable/paper/figures.py, autocable/paper/report.py): two tiny scenes of
 the sample model run in parallel processes next to a broken one; the report's numbers are the
 output folders' numbers; the broken scene is reported and makes the exit status non-zero."""
 from __future__ import annotations
@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 
 from autocable.cli import main
-from autocable.figures import discover
-from autocable.report import STUDY_MAX_ERROR, interpolate_stable, load_scene_data, overlay_comparison
+from autocable.paper.figures import discover
+from autocable.paper.report import STUDY_MAX_ERROR, interpolate_stable, load_scene_data, overlay_comparison
 from autocable.spec import SpecError
 
 MODEL = (Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml").as_posix()
@@ -152,7 +152,7 @@ def test_periodicity_of_a_sampled_amplitude_history():
     """Fig. 11's test of a periodic AME solution on coarse samples (3.27 per the forcing period, as
     the scene writes them): the period of a1 = 1 + 0.5 sin(2 pi t / T) + 0.2 sin(4 pi t / T) comes
     back to 1e-4; a constant a1 is not periodic; two incommensurate tones are not periodic either."""
-    from autocable.report import _periodicity
+    from autocable.paper.report import _periodicity
     T, dt = 35.968, 3.2657
     ts = [k * dt for k in range(6000)]
     periodic = [(t, 1 + 0.5 * math.sin(2 * math.pi * t / T) + 0.2 * math.sin(4 * math.pi * t / T), 0.1) for t in ts]
@@ -169,7 +169,7 @@ def test_periodicity_of_a_sampled_amplitude_history():
 def test_stage_groups_add_up_to_the_scene_total(figures):
     """The benchmark's stage shares: derive + build + continue + integrate + plot + write + other is
     the scene's total, build is the runs' setup time, and a time scene's integration is 'integrate'."""
-    from autocable.report import FIGURE_STAGES, stage_seconds
+    from autocable.paper.report import FIGURE_STAGES, stage_seconds
     _, out, _ = figures
     stages = json.loads((out / "figt1" / "run.json").read_text())["provenance"]["stages"]
     st = stage_seconds(stages)
@@ -181,9 +181,9 @@ def test_stage_groups_add_up_to_the_scene_total(figures):
 
 
 def test_report_lists_the_distance_to_digitised_points(figures):
-    """compare.json (autocable/compare.py: per curve label, n_points and max/RMS distance) becomes a
+    """compare.json (autocable/scene/compare.py: per curve label, n_points and max/RMS distance) becomes a
     table in the figure's section, the numbers as written."""
-    from autocable.report import build_report
+    from autocable.paper.report import build_report
     _, out, _ = figures
     path = out / "figt2" / "compare.json"
     path.write_text(json.dumps({"panel": "a1", "x": "sigma", "curves": {
@@ -199,7 +199,7 @@ def test_report_lists_the_distance_to_digitised_points(figures):
 def test_the_runner_starts_the_expensive_scenes_first(figures, tmp_path, monkeypatch):
     """Longest first keeps the set's wall time near total / cores: by the wall times recorded in
     the cache when known, else by a weight; the summary keeps name order."""
-    from autocable.figures import default_runs_dir, expected_cost, recorded_wall_times
+    from autocable.paper.figures import default_runs_dir, expected_cost, recorded_wall_times
     _, out, runs = figures
     summary = json.loads((out / "figures.json").read_text())
     assert [s["name"] for s in summary["scenes"]] == ["figt1", "figt2", "figt9"]
@@ -224,7 +224,7 @@ def test_the_runner_starts_the_expensive_scenes_first(figures, tmp_path, monkeyp
 def test_blas_threads_are_shared_out_among_the_scene_processes():
     """Two scene processes on two cores get one BLAS thread each; the user's own setting is kept;
     nothing is set once numpy is loaded (too late) or when one process has every core."""
-    from autocable.figures import BLAS_THREAD_VARS, blas_thread_env
+    from autocable.paper.figures import BLAS_THREAD_VARS, blas_thread_env
     assert blas_thread_env(2, 2, {}, False) == {v: "1" for v in BLAS_THREAD_VARS}
     assert blas_thread_env(2, 8, {}, False) == {v: "4" for v in BLAS_THREAD_VARS}
     assert blas_thread_env(3, 2, {}, False) == {v: "1" for v in BLAS_THREAD_VARS}

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from autocable.cli import main
-from autocable.methods.integration import Ode21Integrator
+from autocable.methods.integration.ode21 import Ode21Integrator
 from autocable.model.derive import derive
 from autocable.model.symbolic import parameter_values
 from autocable.spec import load_model

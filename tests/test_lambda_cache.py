@@ -55,7 +55,7 @@ def test_unknown_kind_is_refused():
 
 
 # --------------------------------------------------------------------------------------------
-# The Cartesian AME (24) as a System, kept as srepr text (autocable.methods.system.ame_system).
+# The Cartesian AME (24) as a System, kept as srepr text (autocable.methods.continuation.system.ame_system).
 def _ame():
     from pathlib import Path
 
@@ -68,7 +68,7 @@ def _ame():
 
 @pytest.mark.parametrize("dof, wind", [("2dof", True), ("2dof", False), ("1dof", True)])
 def test_ame_system_read_back_from_the_cache_is_the_system_sympy_builds(dof, wind, tmp_path, monkeypatch):
-    from autocable.methods import system as S
+    from autocable.methods.continuation import system as S
     from autocable.model.ame import AmplitudeEquations
 
     ame = _ame()       # derived with the usual cache; the systems go to an empty one
@@ -95,7 +95,7 @@ def test_ame_system_read_back_from_the_cache_is_the_system_sympy_builds(dof, win
 
 
 def test_ame_system_cache_is_per_reduction_and_a_damaged_file_is_rebuilt(tmp_path, monkeypatch):
-    from autocable.methods import system as S
+    from autocable.methods.continuation import system as S
 
     ame = _ame()
     monkeypatch.setenv("AUTOCABLE_CACHE", str(tmp_path))

@@ -9,8 +9,8 @@ import pytest
 import sympy as sp
 
 from autocable.cli import main
-from autocable.methods.integration import Ode21Integrator
-from autocable.methods.nmode_integration import METHOD_INFO, NModeIntegrator
+from autocable.methods.integration.ode21 import Ode21Integrator
+from autocable.methods.integration.nmode import METHOD_INFO, NModeIntegrator
 from autocable.model.derive import derive
 from autocable.model.derive_n import derive_nmode
 from autocable.model.modes_n import ANTISYMMETRIC, IN_PLANE, SYMMETRIC, irvine_roots, mode_set

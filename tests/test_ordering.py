@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from autocable.methods.equilibria_at import nearest_stable_equilibrium
+from autocable.methods.continuation.equilibria_at import nearest_stable_equilibrium
 from autocable.model.ame_cache import ame_key, derive_ame
 from autocable.model.multiscale import (ORDERINGS, OscillatorSystem, OscillatorTerm, default_ordering, derive,
                                         ordering_named)
@@ -99,7 +99,7 @@ def derivation():
 
 
 def test_named_orderings_are_cached_apart(derivation):
-    from autocable.scene import ORDERINGS as SCENE_ORDERINGS     # kept apart so scenes parse without sympy
+    from autocable.scene.schema import ORDERINGS as SCENE_ORDERINGS     # kept apart so scenes parse without sympy
     assert ORDERINGS == SCENE_ORDERINGS == ("paper", "natural")
     assert ame_key(derivation.ode, ordering="paper") != ame_key(derivation.ode, ordering="natural")
     paper, natural = (derive_ame(derivation, ordering=o).ame for o in ORDERINGS)
@@ -117,7 +117,7 @@ ISLAND_U = (0.8, 0.9)
 
 @pytest.fixture(scope="module")
 def island_responses(derivation):
-    from autocable.methods.integration import Ode21Integrator
+    from autocable.methods.integration.ode21 import Ode21Integrator
     integ = Ode21Integrator(derivation.ode)
     out = {}
     for U in ISLAND_U:
@@ -155,7 +155,7 @@ def test_fig4c_island_agrees_with_eq21_only_with_the_natural_two_dof_ame(derivat
 
 def test_the_scene_key_and_the_cli_flag(tmp_path, capsys):
     from autocable.cli import main
-    from autocable.scene import load_scene
+    from autocable.scene.runner import load_scene
     from autocable.spec import SpecError
     assert load_scene(REPO / "runs" / "fig04c.toml").ordering == "natural"
     assert load_scene(REPO / "runs" / "fig05a.toml").ordering == "paper"
@@ -176,7 +176,7 @@ def test_bench_ordering_tables_are_its_measurements(tmp_path):
     0.9, 1.0 at sigma = 0.01, eta* = 4.1e-4): the natural 2-dof AME within 0.5 % at every compared
     point, the A2 = 0 reduction over 10 %; the markdown table and the summary give the JSON's
     numbers; the figure is written."""
-    from autocable.bench_ordering import _summary, bench_ordering, write
+    from autocable.studies.ordering import _summary, bench_ordering, write
     case = ("island", "U", (0.9, 1.0), {"sigma": 0.01, "eta": 4.1e-4})
     above = ("above", "sigma", (0.0,), {"U": 1.3, "eta": 4.1e-4})        # Fig. 8 at sigma = 0
     result = bench_ordering(str(SAMPLE), cases=(case,), bound_cases=(above,))

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from autocable.methods.floquet21 import (Variational21, floquet_multipliers, multipliers_of,
+from autocable.methods.integration.floquet21 import (Variational21, floquet_multipliers, multipliers_of,
                                          shoot_period1)
-from autocable.methods.integration import Ode21Integrator
+from autocable.methods.integration.ode21 import Ode21Integrator
 from autocable.model.derive import derive
 from autocable.model.equations import Term, TwoModeODE
 from autocable.spec import load_model
@@ -105,8 +105,8 @@ def test_sample_model_period1_response_is_stable_and_damped(sample, variational)
 
 # -- periodic21: continuation of the period-1 orbits ---------------------------------------------
 
-from autocable.methods.ame_integration import AmeIntegrator            # noqa: E402
-from autocable.methods.periodic21 import METHOD_INFO, continue_periodic21, polynomial_extremes  # noqa: E402
+from autocable.methods.integration.ame import AmeIntegrator            # noqa: E402
+from autocable.methods.integration.periodic21 import METHOD_INFO, continue_periodic21, polynomial_extremes  # noqa: E402
 from autocable.model.ame_cache import derive_ame                         # noqa: E402
 
 

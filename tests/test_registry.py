@@ -1,4 +1,4 @@
-"""The method ladder (autocable.methods.registry): records, one interface, and each rung's error
+"""The method ladder (autocable.studies.ladder): records, one interface, and each rung's error
 against a closed form at its declared order; the quick work-precision bench.
 
 Closed forms used (U = 0, the linear limit eta -> 0 of eq. 21 and of the AME):
@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from autocable.bench_methods import compare, crossings
+from autocable.studies.work_precision import compare, crossings
 from autocable.cli import main
-from autocable.methods import registry as R
+from autocable.studies import ladder as R
 from autocable.model.symbolic import parameter_values
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -15,7 +15,9 @@ from scipy.integrate import solve_ivp
 from autocable.methods.continuation import (ContinuationSettings, EquilibriumProblem, System,
                                             continue_equilibria)
 from autocable.results import RunResults, read_results, write_results
-from autocable.scene import add_run_parser, load_scene, run_scene
+from autocable import run_scene
+from autocable.cli import add_run_parser
+from autocable.scene.schema import load_scene
 from autocable.spec import SpecError
 
 REPO = Path(__file__).resolve().parents[1]
@@ -174,7 +176,7 @@ def test_run_command_with_an_integrated_start_and_a_comparison(tmp_path, capsys,
 
 def test_run_command_refuses_an_output_folder_it_cannot_make_before_computing(tmp_path, monkeypatch):
     """--out under a file: one line naming --out, and no computation spent first."""
-    import autocable.scene as S
+    import autocable.scene.runner as S
     (tmp_path / "a_file").write_text("")
     scene = _scene(tmp_path, '[fixed]\neta = 8.2e-5\n[[run]]\nname = "I"\nparameter = "sigma"\n'
                              'range = [-0.05, -0.045]\nstart = "trivial"\n')
@@ -192,8 +194,8 @@ def test_scene_engines_agree_and_are_named_in_the_provenance(tmp_path, fig05a):
     """`engine = "compiled"` runs Fig. 5a's equilibria in autocable's C kernel: the same branch as
     the PyCont run of the shipped scene (every point within the continuation tolerance of the
     PyCont branch, same end values), the engine recorded in run.json, no PyCont confirmation."""
-    from autocable.methods.equilibria import ENGINES as METHOD_ENGINES
-    from autocable.scene import ENGINES
+    from autocable.methods.continuation.equilibria import ENGINES as METHOD_ENGINES
+    from autocable.scene.schema import ENGINES
 
     assert ENGINES == METHOD_ENGINES
     text = FIG05A.read_text().replace('model = "../models/', f'model = "{REPO}/models/')
@@ -372,7 +374,7 @@ def test_overlay_schema_errors(tmp_path, body, field):
 
 
 # --------------------------------------------------------------------------------------------
-# [compare]: distances of digitised points (autocable/compare.py), end to end
+# [compare]: distances of digitised points (autocable/scene/compare.py), end to end
 def _write_points(path, rows):
     path.write_text("x,y,curve,stable\n" + "".join(f"{x!r},{y!r},{c},{int(s)}\n" for x, y, c, s in rows))
 
@@ -383,7 +385,7 @@ def test_compare_distances_of_points_on_and_off_a_computed_branch(tmp_path, fig0
     exactly that distance. End to end: the scene's [compare] writes compare.json and the plot."""
     import json
 
-    from autocable.compare import compare_summary
+    from autocable.scene.compare import compare_summary
 
     res, _ = fig05a
     b = res.branch("I")
@@ -439,7 +441,7 @@ def test_time_scene_schema_errors(tmp_path):
 def test_modulation_period_of_a_sampled_signal():
     """Fig. 11's period: mean spacing of the upward mid-level crossings, to the sampling's linear
     interpolation error; none for a flat signal or too few crossings."""
-    from autocable.scene import modulation_period
+    from autocable.scene.time_scene import modulation_period
 
     t = np.linspace(0.0, 1000.0, 20001)
     a = 3e-3 + 1e-3 * np.sin(2 * np.pi * t / 36.0) + 2e-4 * np.sin(4 * np.pi * t / 36.0 + 0.3)

@@ -1,7 +1,7 @@
 """Every figure scene (runs/fig*.toml) at coarse resolution, with its key numbers.
 
 `run_scene(..., resolution="coarse")` runs a scene with longer continuation steps, capped cycle and
-curve runs and every third overlay value (`autocable.scene.coarse_settings`). Special points are
+curve runs and every third overlay value (`autocable.scene.runner.coarse_settings`). Special points are
 located and refined by autocable's own test functions whatever the step, so their parameter values
 are asserted against the values measured at full resolution (``autocable run runs/figNN.toml``) to
 1e-4 relative; peak amplitudes (the largest sampled point of a branch, which depends on the
@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from autocable.scene import load_scene, run_scene
+from autocable.scene.runner import load_scene, run_scene
 
 REPO = Path(__file__).resolve().parents[1]
 RUNS = REPO / "runs"
@@ -205,7 +205,7 @@ def test_fig11_time_evolution(scene_results):
 # sigma = -0.05, -0.02, 0.01, 0.04 (U: every third overlay value)
 # ------------------------------------------------------------------------------------------------
 def _comparison(out):
-    from autocable.report import load_scene_data, overlay_comparison
+    from autocable.paper.report import load_scene_data, overlay_comparison
     return overlay_comparison(load_scene_data(out))
 
 
@@ -271,7 +271,7 @@ def test_fig09_overlay_small_response_above_resonance_is_on_branch_i(scene_resul
         assert r["a1"] == pytest.approx(6.94e-4, rel=1e-2) and r["rel_error"] == pytest.approx(5.43e-3, rel=2e-2)
         assert not got[(0.01, d)]["steady"] and got[(0.01, d)]["a1"] > 5e-3
         # and the AME has no stable equilibrium there: both non-stationary (an AME integration from
-        # a1 = 7e-3 or 5e-3 does not repeat either: autocable.methods.orbits finds no periodic orbit)
+        # a1 = 7e-3 or 5e-3 does not repeat either: autocable.methods.continuation.orbits finds no periodic orbit)
         assert not got[(0.01, d)]["ame_branch"] and got[(0.01, d)]["note"].endswith("both non-stationary")
     assert got[(-0.02, "up")]["ame_branch"] == "III"
     assert all(r["within"] is True for k, r in got.items() if k[0] != 0.01)
@@ -281,7 +281,7 @@ def test_fig04a_overlay_within_the_interpolated_bound(scene_results):
     """eta* = 1.6e-4 lies between the studied 8.2e-5 and 4.1e-4: bound 4.06e-3 by log-log
     interpolation; below U* = 1 every point is period-1 on branch I and within it (largest error
     8.74e-4 at U = 0.7 with the 2-dof natural-ordering AME; the A2 = 0 reduction was 1.51e-3)."""
-    from autocable.report import study_bound
+    from autocable.paper.report import study_bound
     assert study_bound(1.6e-4) == pytest.approx(4.06e-3, rel=1e-3)
     _, out = scene_results("fig04a")
     rows = [r for r in _comparison(out) if r["value"] < 0.95]
@@ -297,7 +297,7 @@ def test_fig04c_island_ii_within_the_bound_with_the_natural_ordering(scene_resul
     ordering is 0.25 % to 0.40 % off eq. (21) at full resolution (the A2 = 0 reduction, the
     scene's former AME, was 5.7 % and 11.6 % off at U = 0.7 and 1.0: tests/test_ordering.py), and
     eq. (21)'s small out-of-plane part there (a2/a1 ~ 2.7 %) is the AME's within 2 %."""
-    from autocable.report import load_scene_data, _integrations_agree
+    from autocable.paper.report import load_scene_data, _integrations_agree
     _, out = scene_results("fig04c")
     got = {(round(r["value"], 6), r["direction"]): r for r in _comparison(out)}
     assert all(r["within"] is not False for r in got.values())
@@ -370,7 +370,7 @@ def test_main_result_states_the_ratio_with_the_stable_cycles_too(scene_results):
     off the branches here."""
     import re
 
-    from autocable.report import _main_result, load_scene_data
+    from autocable.paper.report import _main_result, load_scene_data
     (r6, out6), (r10, out10) = scene_results("fig06"), scene_results("fig10")
 
     def stable_max(res):
@@ -396,7 +396,7 @@ def test_fig04_looped_island_and_unstable_hopf_cycles(scene_results, name, width
     eta: 0.231, 0.451, 0.648 at full resolution), stable on a stretch; the Hopf point of I is
     subcritical (l1 > 0) and its periodic branch unstable. No stable cycle: there is no backbone
     with this AME (runs/fig04c.toml), and the report says so."""
-    from autocable.report import load_scene_data, _fig04
+    from autocable.paper.report import load_scene_data, _fig04
     res, out = scene_results(name)
     ii = res.branch("II")
     assert [e.reason for e in ii.ends] == ["closed", "closed"]
@@ -447,7 +447,7 @@ def _start_cycle_closes_under_scipy(b, name: str, dof: str, at: dict) -> None:
     amplitude extremes are the collocation's (1e-6)."""
     from scipy.integrate import solve_ivp
 
-    from autocable.methods.system import ame_system
+    from autocable.methods.continuation.system import ame_system
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
     from autocable.spec import load_model

@@ -4,9 +4,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from autocable.methods.ame_integration import AmeIntegrator
-from autocable.methods.integration import Ode21Integrator
-from autocable.methods.sweeps import sweep
+from autocable.methods.integration.ame import AmeIntegrator
+from autocable.methods.integration.ode21 import Ode21Integrator
+from autocable.methods.integration.sweeps import sweep
 from autocable.model.ame_cache import derive_ame
 from autocable.model.derive import derive
 from autocable.spec import load_model

@@ -26,7 +26,7 @@ import sympy as sp
 from autocable.methods.continuation import (ContinuationSettings, EquilibriumProblem, StartError, System,
                                             continue_equilibria, continue_folds, continue_hopf)
 from autocable.results import read_results
-from autocable.scene import load_scene, run_scene
+from autocable.scene.runner import load_scene, run_scene
 from autocable.spec import SpecError
 
 REPO = Path(__file__).resolve().parents[1]

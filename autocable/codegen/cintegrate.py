@@ -43,7 +43,7 @@ from typing import Sequence
 import numpy as np
 import sympy as sp
 
-from autocable.codegen import cache
+from autocable import _store as cache
 from autocable.codegen.ckernel import CFLAGS, KernelBuildError, _block, _compile, _lock, _Printer
 
 __all__ = ["INTEGRATOR_VERSION", "STATUS", "CIntegrator", "CRun", "compiled_integrator",

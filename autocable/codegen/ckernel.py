@@ -1,11 +1,11 @@
 """sympy -> C: a compiled equilibrium-continuation kernel for one autonomous system (issue 4).
 
 What it holds. From the same sympy right-hand side that PyCont continues (the Cartesian AME (24) of
-Luongo & Zulli, or any `autocable.methods.system.System`) it writes one C file with
+Luongo & Zulli, or any `autocable.methods.continuation.system.System`) it writes one C file with
 
 * F(x; p), J_x = dF/dx and J_p = dF/dp, from ``sympy.cse`` and a C printer that writes integer
   powers as products (``pow`` with a constant exponent is not inlined without -ffast-math);
-* the scaled chart of `autocable.methods.continuation_chart` (x~ = x / xscale,
+* the scaled chart of `autocable.methods.continuation.chart` (x~ = x / xscale,
   lam = (p_k - base_k) / pscale): F~ and DF~ = [J_x, J_p[:, k] pscale / xscale];
 * a Keller pseudo-arclength continuation loop: Euler predictor along the unit tangent, Newton
   corrector on (F~ = 0, t . (Y - Y_pred) = 0), the new tangent from [DF~; t_old] t = e_{n+1}, and
@@ -14,10 +14,10 @@ Luongo & Zulli, or any `autocable.methods.system.System`) it writes one C file w
   step), every point polished by Newton at fixed parameter (as autocable does after PyCont), the
   range end put exactly on the boundary, a closed curve detected as the PyCont driver does;
 * F~ and DF~ at many points in one call (``ac_chart_batch``: the collocation points of a periodic
-  orbit, `autocable.methods.compiled_cycles`);
-* per point, the test functions autocable uses (`autocable.methods.equilibria`): the tangent's
+  orbit, `autocable.methods.continuation.compiled_cycles`);
+* per point, the test functions autocable uses (`autocable.methods.continuation.equilibria`): the tangent's
   parameter component (LP), det [DF~; t] (BP), det(2J (.) I) (Hopf and neutral saddles, the
-  bialternate product of `autocable.methods.bifurcation_functions`), and the number of
+  bialternate product of `autocable.methods.continuation.events`), and the number of
   eigenvalues of J with positive real part from the Routh array of the characteristic polynomial;
 * inside a step where a test function changes sign, an extra point on its zero (Illinois regula
   falsi in the arclength of the step, each trial point by Keller's corrector), as AUTO puts its
@@ -56,7 +56,7 @@ import sympy as sp
 from sympy.core.function import AppliedUndef
 from sympy.printing.c import C99CodePrinter
 
-from autocable.codegen import cache
+from autocable import _store as cache
 
 __all__ = ["KERNEL_VERSION", "KernelBuildError", "CKernel", "kernel_source", "compiled_kernel",
            "build_timing", "REASONS"]
@@ -735,7 +735,7 @@ def build_timing(system, cc: str | None = None) -> dict[str, float]:
 
 
 def compiled_kernel(system, cc: str | None = None) -> CKernel:
-    """The loaded C kernel of ``system`` (a `autocable.methods.system.System`), built if needed.
+    """The loaded C kernel of ``system`` (a `autocable.methods.continuation.system.System`), built if needed.
 
     ``cc``: the C compiler (default ``$CC`` or ``gcc``). Raises `KernelBuildError` (one line)."""
     cc = cc or os.environ.get("CC", "").strip() or "gcc"

@@ -38,7 +38,7 @@ import numpy as np
 import sympy
 from sympy.core.function import AppliedUndef
 
-from autocable.codegen import cache
+from autocable import _store as cache
 from autocable.codegen.compat import (
     PyDSToolError,
     build_generator_library,

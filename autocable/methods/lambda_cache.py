@@ -16,7 +16,7 @@ from typing import Callable, Sequence
 
 import sympy as sp
 
-from autocable.codegen.cache import atomic_write_text, cache_dir, content_hash
+from autocable._store import atomic_write_text, cache_dir, content_hash
 
 #: What `numeric_function` can build from a right-hand side F(x; p).
 KINDS = ("f", "jac", "jac_p", "d2", "d3")

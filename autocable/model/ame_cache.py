@@ -11,7 +11,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-from autocable.codegen.cache import atomic_write_json, cache_dir, content_hash, read_json
+from autocable._store import atomic_write_json, cache_dir, content_hash, read_json
 from autocable.model.ame import AmplitudeEquations
 from autocable.model.equations import TwoModeODE
 

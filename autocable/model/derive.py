@@ -10,7 +10,7 @@ import math
 import time
 from dataclasses import dataclass, field
 
-from autocable.codegen.cache import atomic_write_json, cache_dir, content_hash, read_json
+from autocable._store import atomic_write_json, cache_dir, content_hash, read_json
 from autocable.model.aero import expand_load
 from autocable.model.calibration import calibrate
 from autocable.model.equations import TwoModeODE

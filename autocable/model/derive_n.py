@@ -6,7 +6,7 @@ only the trial functions change (`modes_n.mode_set`).
 """
 from __future__ import annotations
 
-from autocable.codegen.cache import atomic_write_json, cache_dir, content_hash, read_json
+from autocable._store import atomic_write_json, cache_dir, content_hash, read_json
 from autocable.model.aero import expand_load
 from autocable.model.derive import DERIVATION_VERSION, Derivation, derive
 from autocable.model.galerkin_n import ExactZeroIntegrator, project_n

@@ -198,7 +198,7 @@ RULES = MappingProxyType({
 #: every aerodynamic term at third order); "natural" drops R1, so aerodynamic terms follow R2-R3
 #: like every other term (the quadratic ones at their natural second order, where they feed the
 #: third-order solvability through q_k2).
-ORDERINGS = ("paper", "natural")
+from autocable.model.orderings import ORDERINGS  # noqa: E402  (the light home of the names)
 
 
 def ordering_named(system, name: str = "paper") -> Ordering:

@@ -1,0 +1,1 @@
+"""Benchmarks (`autocable bench ...`): speed targets live here, never in timed tests."""

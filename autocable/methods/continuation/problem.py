@@ -1,0 +1,79 @@
+"""What to continue: `EquilibriumProblem`, the `ContinuationResult` it produces with its
+`ContinuationSettings` (how, in `settings`), and `StartError` (a start point that is not an equilibrium).
+
+Immutable values only (see `autocable.methods.continuation` for the design)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from types import MappingProxyType
+from typing import Callable, Mapping
+
+from autocable.methods.continuation.settings import ContinuationSettings
+from autocable.methods.continuation.system import System
+from autocable.results import Branch, SpecialPoint
+
+
+Progress = Callable[[str], None]
+
+
+class StartError(ValueError):
+    """The start point of a continuation is not an equilibrium (Newton or integration failed)."""
+
+
+@dataclass(frozen=True)
+class EquilibriumProblem:
+    """What to continue: ``system`` with ``values`` (every parameter; the continued one at its start
+    value), ``parameter`` over ``bounds``, states measured on ``state_scale``."""
+
+    system: System
+    parameter: str
+    values: Mapping[str, float]
+    bounds: tuple[float, float]
+    state_scale: float = 1.0
+
+    def __post_init__(self):
+        if self.parameter not in self.system.parameter_names:
+            raise ValueError(f"{self.parameter!r} is not a parameter of {self.system.name!r} "
+                             f"(it has {list(self.system.parameter_names)})")
+        values = dict(zip(self.system.parameter_names, self.system.parameter_vector(self.values)))
+        lo, hi = (float(b) for b in self.bounds)
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise ValueError(f"range of {self.parameter} must be two finite numbers lo < hi, got {self.bounds}")
+        if not lo <= values[self.parameter] <= hi:
+            raise ValueError(f"start value {self.parameter} = {values[self.parameter]:g} is outside "
+                             f"the range [{lo:g}, {hi:g}]")
+        if not (self.state_scale > 0 and math.isfinite(self.state_scale)):
+            raise ValueError(f"state_scale must be positive, got {self.state_scale}")
+        object.__setattr__(self, "values", MappingProxyType(values))
+        object.__setattr__(self, "bounds", (lo, hi))
+
+    @property
+    def span(self) -> float:
+        return self.bounds[1] - self.bounds[0]
+
+    def at(self, **values) -> "EquilibriumProblem":
+        """The same problem with some parameter values changed."""
+        return replace(self, values={**self.values, **values})
+
+
+@dataclass(frozen=True, eq=False)
+class ContinuationResult:
+    """A branch together with the problem and settings that produced it (so branch switching and
+    cycle continuation start from its labelled points, not from PyCont strings)."""
+
+    branch: Branch
+    problem: EquilibriumProblem
+    settings: ContinuationSettings
+    timings: Mapping[str, float] = field(default_factory=dict)
+
+    def special(self, label: str) -> SpecialPoint:
+        return self.branch.special(label)
+
+
+def _resolve(source, label: str | SpecialPoint) -> tuple[SpecialPoint, EquilibriumProblem, ContinuationSettings]:
+    if isinstance(label, SpecialPoint):
+        sp_ = label
+    else:
+        sp_ = source.special(label)
+    return sp_, source.problem, source.settings

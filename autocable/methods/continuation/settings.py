@@ -1,0 +1,78 @@
+"""How to continue: `ContinuationSettings` (immutable) and the names of the engines.
+
+Light on purpose (no numpy, sympy or PyDSTool): the scene schema reads its step keys and engine
+names from here, so that parsing a scene file loads nothing heavy and cannot disagree with the
+engines (see `autocable.methods.continuation` for the design).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+__all__ = ["ContinuationSettings", "ENGINES", "CYCLE_ENGINES", "STEP_KEYS", "INTEGER_STEP_KEYS"]
+
+#: Engines of equilibrium continuation and branch switching: PyCont's EP-C (the AUTO-style workflow)
+#: or autocable's compiled C kernel (`compiled_equilibria`).
+ENGINES = ("pycont", "compiled")
+#: Engines of cycle continuation: PyCont's LC-C or autocable's collocation (`compiled_cycles`).
+CYCLE_ENGINES = ("pycont", "compiled")
+
+
+@dataclass(frozen=True)
+class ContinuationSettings:
+    """How to continue (steps in the scaled coordinates of the module docstring: lam spans 1 over
+    the range, x~ is the state over ``state_scale``)."""
+
+    step: float = 5e-3               # initial pseudo-arclength step
+    min_step: float = 1e-7
+    max_step: float = 2e-2
+    max_points: int = 2000           # per direction (equilibria) or per cycle branch
+    chunk: int = 25                  # PyCont points per call (range/closure checks in between; a
+                                     # call overshoots the range by up to a chunk, so keep it small)
+    max_corrector_iters: int = 6
+    tol: float = 1e-10               # PyCont's FuncTol and VarTol (scaled units)
+    test_tol: float = 1e-8           # PyCont's TestTol
+    newton_tol: float = 1e-12        # autocable's polish/refinement: relative Newton step
+    locate: tuple[str, ...] = ("LP", "H", "BP")
+    # cycles (LC-C)
+    ntst: int = 40
+    ncol: int = 4
+    cycle_step: float = 1e-3
+    cycle_max_step: float = 2e-2
+    cycle_max_points: int = 150
+    max_period_ratio: float = 20.0   # period blow-up: T > ratio * T_Hopf ends the branch
+    floquet_rtol: float = 1e-10
+    # branch switching
+    switch_step: float = 1e-2
+    # two-parameter curves (LP-C, H-C2): steps in the scaled coordinates (both ranges span 1)
+    curve_step: float = 5e-3
+    curve_max_step: float = 2e-2
+    curve_max_points: int = 400      # per direction
+    curve_check_tol: float = 1e-8    # independent check at every point: sigma_min(J)/sigma_max(J)
+                                     # (folds), |Re lambda|/||J||_F of the critical pair (Hopf)
+
+    def __post_init__(self):
+        for name in ("step", "min_step", "max_step", "tol", "test_tol", "newton_tol", "cycle_step",
+                     "cycle_max_step", "switch_step", "curve_step", "curve_max_step", "curve_check_tol"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and v > 0 and math.isfinite(v)):
+                raise ValueError(f"{name} must be a positive number, got {v!r}")
+        if not self.min_step <= self.step <= self.max_step:
+            raise ValueError(f"need min_step <= step <= max_step, got {self.min_step}, {self.step}, {self.max_step}")
+        if not self.min_step <= self.curve_step <= self.curve_max_step:
+            raise ValueError(f"need min_step <= curve_step <= curve_max_step, got {self.min_step}, "
+                             f"{self.curve_step}, {self.curve_max_step}")
+        for name in ("max_points", "chunk", "cycle_max_points", "ntst", "ncol", "max_corrector_iters",
+                     "curve_max_points"):
+            if int(getattr(self, name)) < 1:
+                raise ValueError(f"{name} must be a positive integer")
+        bad = set(self.locate) - {"LP", "H", "BP"}
+        if bad:
+            raise ValueError(f"locate: unknown special points {sorted(bad)}; use LP, H, BP")
+
+
+
+#: The settings a scene may set in ``steps`` (all but the internal ``locate`` and ``floquet_rtol``).
+STEP_KEYS = tuple(f.name for f in fields(ContinuationSettings) if f.name not in ("locate", "floquet_rtol"))
+#: Those of `STEP_KEYS` that are counts.
+INTEGER_STEP_KEYS = tuple(f.name for f in fields(ContinuationSettings) if f.type == "int")

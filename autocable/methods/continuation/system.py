@@ -1,0 +1,299 @@
+"""The continued vector field as sympy data: `System` (exact numeric derivatives, the scaled fields
+PyCont continues) and `ame_system`, the Cartesian AME (24) of Luongo & Zulli as a `System`.
+
+Part of the continuation of `autocable.methods.continuation` (its docstring gives the design and the
+scaling of the fields built here)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any, Mapping
+
+import numpy as np
+import sympy as sp
+
+from autocable._store import atomic_write_json, cache_dir, content_hash, read_json
+from autocable.codegen.pydstool import VectorField
+from autocable.methods.lambda_cache import numeric_function, rhs_key, rhs_key_of_srepr
+
+
+#: Names the scaled PyCont vector field reserves for itself.
+_RESERVED = ("xscale", "lam", "lam2", "tscale")
+#: Version of what `ame_system` builds from an AME: bump it when that construction changes, so the
+#: right-hand sides cached by earlier code are not used.
+AME_SYSTEM_VERSION = 1
+
+
+def _plain(expr):
+    """sympy expression with every symbol replaced by a plain ``Symbol(name)`` (no assumptions)."""
+    expr = sp.sympify(expr)
+    swap = {s: sp.Symbol(s.name) for s in expr.free_symbols if s != sp.Symbol(s.name)}
+    # Already plain (e.g. read back from the cache): xreplace would walk the whole tree for nothing.
+    return expr.xreplace(swap) if swap else expr
+
+
+@dataclass(frozen=True, eq=False)
+class System:
+    """An autonomous vector field x' = f(x; p) as sympy data, with exact numeric derivatives.
+
+    ``amplitudes`` names the measured amplitudes: ``("a1", ("r1", "s1"))`` means
+    a1 = sqrt(r1^2 + s1^2) (the peak modal amplitude of the AME, see `autocable.model.ame`); an
+    empty tuple of variables gives an identically zero amplitude (a2 of the 1-dof reduction, A2 = 0).
+    Numeric functions take ``x`` in ``variables`` order and ``p`` in ``parameter_names`` order.
+    """
+
+    name: str
+    variables: tuple[str, ...]
+    rhs: tuple[Any, ...]
+    parameters: tuple[tuple[str, float], ...]
+    amplitudes: tuple[tuple[str, tuple[str, ...]], ...] = ()
+    description: str = ""
+
+    def __post_init__(self):
+        variables = tuple(str(v) for v in self.variables)
+        params = self.parameters.items() if isinstance(self.parameters, Mapping) else self.parameters
+        params = tuple((str(k), float(v)) for k, v in params)
+        rhs = tuple(_plain(e) for e in self.rhs)
+        if len(rhs) != len(variables):
+            raise ValueError(f"system {self.name!r}: {len(variables)} variables, {len(rhs)} right-hand sides")
+        names = set(variables) | {p for p, _ in params}
+        for r in _RESERVED:
+            if r in names or any(n == f"d_{r}" for n in names):
+                raise ValueError(f"system {self.name!r}: the name {r!r} is reserved for continuation")
+        for e in rhs:
+            extra = {s.name for s in e.free_symbols} - names
+            if extra:
+                raise ValueError(f"system {self.name!r}: undeclared symbols {sorted(extra)}")
+        amps = tuple((str(a), tuple(str(v) for v in vs)) for a, vs in self.amplitudes)
+        for a, vs in amps:
+            if set(vs) - set(variables):
+                raise ValueError(f"amplitude {a!r} uses unknown variables {sorted(set(vs) - set(variables))}")
+        object.__setattr__(self, "variables", variables)
+        object.__setattr__(self, "parameters", params)
+        object.__setattr__(self, "rhs", rhs)
+        object.__setattr__(self, "amplitudes", amps)
+
+    # -- names -------------------------------------------------------------------------------
+    @property
+    def dimension(self) -> int:
+        return len(self.variables)
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(p for p, _ in self.parameters)
+
+    @property
+    def amplitude_names(self) -> tuple[str, ...]:
+        return tuple(a for a, _ in self.amplitudes)
+
+    def parameter_vector(self, values: Mapping[str, float] | None = None) -> np.ndarray:
+        """p in `parameter_names` order: the defaults overridden by ``values``."""
+        out = dict(self.parameters)
+        for k, v in (values or {}).items():
+            if k not in out:
+                raise KeyError(f"system {self.name!r} has no parameter {k!r} (it has {list(out)})")
+            out[k] = float(v)
+        return np.array([out[p] for p in self.parameter_names], dtype=float)
+
+    def parameter_dict(self, p) -> dict[str, float]:
+        return {k: float(v) for k, v in zip(self.parameter_names, p)}
+
+    def amplitude_values(self, x) -> tuple[float, ...]:
+        """The named amplitudes of state(s) ``x`` (last axis = variables)."""
+        x = np.asarray(x, dtype=float)
+        idx = {v: i for i, v in enumerate(self.variables)}
+        out = []
+        for _, vs in self.amplitudes:
+            if vs:
+                out.append(np.sqrt(sum(x[..., idx[v]] ** 2 for v in vs)))
+            else:
+                out.append(np.zeros(x.shape[:-1]) if x.ndim > 1 else 0.0)
+        return tuple(out)
+
+    # -- numerics ----------------------------------------------------------------------------
+    @cached_property
+    def _symbols(self):
+        return ([sp.Symbol(v) for v in self.variables], [sp.Symbol(p) for p in self.parameter_names])
+
+    @cached_property
+    def _rhs_key(self) -> str:
+        return rhs_key(self.rhs)
+
+    @cached_property
+    def _numeric(self):
+        # The generated text is cached across processes (`lambda_cache`): the Jacobians of the wind
+        # AME cost seconds of sympy per process otherwise.
+        args = (self.variables, self.parameter_names, self.rhs)
+        return tuple(numeric_function(kind, *args, key=self._rhs_key) for kind in ("f", "jac", "jac_p"))
+
+    @cached_property
+    def _higher(self):
+        """Second and third derivative tensors (for the first Lyapunov coefficient)."""
+        args = (self.variables, self.parameter_names, self.rhs)
+        f2 = numeric_function("d2", *args, key=self._rhs_key)                    # [k][j][i]
+        f3 = numeric_function("d3", *args, key=self._rhs_key)                    # [l][k][j][i]
+        n = self.dimension
+        # derive_by_array puts the derivative index first: reorder to [i, j, k(, l)].
+        return (lambda x, p: np.broadcast_to(np.array(f2(x, p), dtype=float), (n,) * 3).transpose(2, 1, 0),
+                lambda x, p: np.broadcast_to(np.array(f3(x, p), dtype=float), (n,) * 4).transpose(3, 2, 1, 0))
+
+    def f(self, x, p) -> np.ndarray:
+        return np.asarray(self._numeric[0](np.asarray(x, float), np.asarray(p, float)), dtype=float).reshape(-1)
+
+    def jac(self, x, p) -> np.ndarray:
+        n = self.dimension
+        return np.broadcast_to(np.asarray(self._numeric[1](np.asarray(x, float), np.asarray(p, float)),
+                                          dtype=float), (n, n)).copy()
+
+    def jac_p(self, x, p) -> np.ndarray:
+        n, m = self.dimension, len(self.parameters)
+        return np.broadcast_to(np.asarray(self._numeric[2](np.asarray(x, float), np.asarray(p, float)),
+                                          dtype=float), (n, m)).copy()
+
+    def hessian(self, x, p) -> np.ndarray:
+        """d2 f_i / dx_j dx_k as an (n, n, n) array."""
+        return self._higher[0](np.asarray(x, float), np.asarray(p, float))
+
+    def third(self, x, p) -> np.ndarray:
+        """d3 f_i / dx_j dx_k dx_l as an (n, n, n, n) array."""
+        return self._higher[1](np.asarray(x, float), np.asarray(p, float))
+
+    # -- the PyCont field --------------------------------------------------------------------
+    @cached_property
+    def _scaled_field(self) -> VectorField:
+        return self._make_scaled_field()
+
+    def scaled_field(self) -> VectorField:
+        """The field PyCont continues (built once per system; see `_make_scaled_field`)."""
+        return self._scaled_field
+
+    def _make_scaled_field(self) -> VectorField:
+        """The field PyCont continues: x~ = x/xscale, p_k = p_k + d_<p_k> * lam (module docstring).
+
+        Every parameter stays a PyDSTool parameter, so one compiled library serves every fixed value,
+        every continued parameter and every scale."""
+        xs, ps = self._symbols
+        xscale, lam = sp.Symbol("xscale"), sp.Symbol("lam")
+        sub = {x: xscale * x for x in xs}
+        sub.update({p: p + sp.Symbol(f"d_{p.name}") * lam for p in ps})
+        rhs = [sp.expand(e.xreplace(sub) / xscale) for e in self.rhs]
+        params = list(self.parameters) + [("xscale", 1.0)] + [(f"d_{p}", 0.0) for p in self.parameter_names] \
+            + [("lam", 0.0)]
+        return VectorField(self.name, self.variables, rhs, params)
+
+    @cached_property
+    def _scaled_field_2p(self) -> VectorField:
+        """The field of the two-parameter curves (LP-C, H-C2): x~ = x/xscale, time scaled by tscale,
+        p_k = p_k + d_<p_k> * lam + d2_<p_k> * lam2 (a second library; the one-parameter field is
+        left as it is)."""
+        xs, ps = self._symbols
+        xscale, tscale = sp.Symbol("xscale"), sp.Symbol("tscale")
+        lam, lam2 = sp.Symbol("lam"), sp.Symbol("lam2")
+        clash = [p for p in self.parameter_names if p.startswith(("d_", "d2_"))]
+        if clash:
+            raise ValueError(f"system {self.name!r}: parameter names {clash} clash with the scaled field's")
+        sub = {x: xscale * x for x in xs}
+        sub.update({p: p + sp.Symbol(f"d_{p.name}") * lam + sp.Symbol(f"d2_{p.name}") * lam2 for p in ps})
+        rhs = [sp.expand(tscale * e.xreplace(sub) / xscale) for e in self.rhs]
+        params = list(self.parameters) + [("xscale", 1.0), ("tscale", 1.0)] \
+            + [(f"d_{p}", 0.0) for p in self.parameter_names] \
+            + [(f"d2_{p}", 0.0) for p in self.parameter_names] + [("lam", 0.0), ("lam2", 0.0)]
+        return VectorField(f"{self.name}_2p", self.variables, rhs, params)
+
+
+def ame_system(ame, dof: str = "2dof", *, wind: bool = True, name: str | None = None,
+               use_cache: bool = True) -> System:
+    """The Cartesian AME (24) as a `System` in the scene parameters (sigma, U, eta).
+
+    ``dof="1dof"`` is the reduction A2 = 0 of Sect. 5 (a2 is then identically zero). The detunings
+    follow Sect. 4 and the ERRATA: Omega = omega1 + sigma, sigma_k = omega_k - Omega (so
+    sigma_1 = -sigma and rho = omega2 - omega1 stays fixed), so one parameter sigma moves the
+    detunings and the exact Omega of the coefficients consistently. ``wind=False`` drops the
+    aerodynamic rows (their 1/U powers: no wind, no term), as needed at U = 0; with wind the field
+    is singular at U = 0.
+
+    The right-hand sides are kept in the cache folder (``systems/``) as ``sympy.srepr`` text under a
+    hash of the AME's content, ``dof``, ``wind``, the sympy version and `AME_SYSTEM_VERSION`:
+    building the wind AME from its rows costs about half a second of sympy in every scene that
+    uses it, reading it back a twentieth of that (``use_cache=False`` always rebuilds).
+    """
+    if dof not in ("2dof", "1dof"):
+        raise ValueError(f"dof must be '2dof' or '1dof', got {dof!r}")
+    src = ame.one_dof() if dof == "1dof" else ame
+    if src.user_names:
+        raise ValueError(f"the AME has unbound user symbols {src.user_names}")
+    variables = tuple(v for k in range(1, src.n_modes + 1) for v in (f"r{k}", f"s{k}"))
+    amps = [(f"a{k}", (f"r{k}", f"s{k}")) for k in range(1, src.n_modes + 1)]
+    if dof == "1dof":
+        amps.append(("a2", ()))
+    tag = name or f"ame{src.n_modes}{'w' if wind else 'n'}"
+    params = (("sigma", 0.0), ("U", 0.0), ("eta", 0.0))
+    description = f"Cartesian AME (24), {dof}, {'with' if wind else 'without'} wind terms"
+    path = None
+    if use_cache:
+        data = {k: v for k, v in ame.to_dict().items() if k != "provenance"}
+        key = content_hash({"ame": data, "dof": dof, "wind": wind, "sympy": sp.__version__,
+                            "version": AME_SYSTEM_VERSION})
+        path = cache_dir("systems") / f"ame-system-{key}.json"
+        rhs = _cached_rhs(path, len(variables))
+        if rhs is not None:
+            system = System(tag, variables, rhs[1], params, tuple(amps), description=description)
+            # The stored text is srepr of these very expressions: its hash is `rhs_key`.
+            system.__dict__["_rhs_key"] = rhs_key_of_srepr(rhs[0])
+            return system
+    syms = src.symbols()
+    exprs = src.cartesian_expressions(include_aero=wind)
+    sigma = sp.Symbol("sigma")
+    omegas = [sp.Float(float(w), 17) for w in src.omegas]
+    Omega = omegas[0] + sigma
+    rel = {syms["Omega"]: Omega}
+    for k in range(src.n_modes):
+        rel[syms[f"sigma_{k + 1}"]] = omegas[k] - Omega
+    ren = {}
+    for k in range(1, src.n_modes + 1):
+        ren[syms[f"r_{k}"]] = sp.Symbol(f"r{k}")
+        ren[syms[f"s_{k}"]] = sp.Symbol(f"s{k}")
+    ren[syms["eta"]] = sp.Symbol("eta")
+    ren[syms["U"]] = sp.Symbol("U")
+    rhs = [_plain(sp.expand(e.xreplace(rel)).xreplace(ren)) for e in exprs]
+    system = System(tag, variables, rhs, params, tuple(amps), description=description)
+    if path is not None:
+        atomic_write_json(path, {"format": AME_SYSTEM_VERSION, "rhs": [sp.srepr(e) for e in system.rhs]})
+    return system
+
+
+def _cached_rhs(path, n: int) -> tuple[list[str], list[sp.Expr]] | None:
+    """The srepr texts `ame_system` stored at ``path`` and their expressions, or None (missing,
+    corrupt or foreign: the caller builds them again)."""
+    data = read_json(path)
+    if not (isinstance(data, dict) and data.get("format") == AME_SYSTEM_VERSION):
+        return None
+    texts = data.get("rhs")
+    if not (isinstance(texts, list) and len(texts) == n and all(isinstance(t, str) for t in texts)):
+        return None
+    try:
+        return texts, [_from_srepr(t) for t in texts]
+    except Exception:   # noqa: BLE001 - a damaged file is rebuilt, never trusted
+        return None
+
+
+def _from_srepr(text: str) -> sp.Expr:
+    """The expression ``sympy.srepr`` printed as ``text`` (our own cache file: evaluated with
+    sympy's names only). About ten times faster than rebuilding the wind AME from its rows."""
+    namespace = {k: getattr(sp, k) for k in ("Add", "Mul", "Pow", "Symbol", "Float", "Integer", "Rational")}
+    return eval(text, {"__builtins__": {}}, namespace)  # noqa: S307 - text autocable wrote itself
+
+
+def _auto_scale(system: System, values: Mapping[str, float]) -> float:
+    """A state scale for the AME: the linear resonance amplitude |forcing| / (mean damping rate) at
+    the given parameters (the size of the forced response), else 1e-2."""
+    p = system.parameter_vector(values)
+    x0 = np.zeros(system.dimension)
+    forcing = float(np.linalg.norm(system.f(x0, p)))
+    rate = abs(np.trace(system.jac(x0, p))) / max(system.dimension, 1)
+    if forcing > 0 and rate > 0:
+        return forcing / rate
+    return 1e-2
+
+
+auto_state_scale = _auto_scale

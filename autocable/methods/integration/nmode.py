@@ -1,0 +1,359 @@
+"""Direct integration of the N-mode equations (`multimode.NModeODE`): the check that two modes suffice.
+
+The rung of the method ladder (issue 6) that tests the Galerkin truncation of Sect. 3 itself: the
+same spec, the same nondimensionalisation and forcing f = sin(Omega t), Omega = omega1 + sigma, but
+n_in in-plane and n_out out-of-plane modes. The steady response is found as in
+`integration.Ode21Integrator` (chunks of forcing periods until the amplitudes stop changing), with
+the same amplitude convention: a_k is half the peak-to-peak of the modal coordinate over the last
+forcing periods. ``a1`` is the first in-plane (symmetric) mode and ``a2`` the first out-of-plane
+mode, as in eq. (21); ``amplitudes`` holds every mode's.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from autocable.codegen.compat import PyDSToolError
+from autocable.methods.integration.ode21 import DIVERGED, refined_peak
+from autocable.model.derive_n import derive_nmode
+from autocable.model.modes_n import IN_PLANE, OUT_OF_PLANE, SYMMETRIC
+from autocable.model.multimode import NModeODE, first_order_rhs_n
+from autocable.model.symbolic import PARAMETERS, T, parameter_values
+
+#: What this rung solves, its declared accuracy and what its cost grows with (the method registry
+#: of issue 6 reads this).
+METHOD_INFO = {
+    "name": "nmode-integration",
+    "solves": "steady response of the N-mode Galerkin model (n_in in-plane, n_out out-of-plane modes "
+              "from the same spec) at one (U, eta, sigma), by direct time integration; a1, a2 are the "
+              "first in-plane and out-of-plane modal amplitudes as in eq. (21)",
+    "accuracy": "integration error of DOP853 at rtol 1e-10 plus the steady-state test (1e-8 relative "
+                "between chunks); reproduces eq. (21) exactly with n_in = n_out = 1; the truncation "
+                "error of eq. (21) is what it measures",
+    "cost_drivers": "number of terms (89 for 1+1 modes, 360 for 2+2, 1209 for 3+3 on the sample "
+                    "cable), the settling time ~ 1/(xi_s omega) per point, one C build per model",
+    "knobs": {"n_in": "in-plane modes", "n_out": "out-of-plane modes", "rtol": "integration tolerance"},
+}
+
+
+@dataclass(frozen=True)
+class NModeResponse:
+    """The steady response of the N-mode model at one parameter point (fields as `Response`)."""
+
+    a1: float
+    a2: float
+    amplitudes: dict           # mode name -> half peak-to-peak over the last window
+    steady: bool
+    periodic: bool
+    diverged: bool
+    t_end: float
+    U: float
+    eta: float
+    sigma: float
+    Omega: float
+    message: str
+    wall_seconds: float
+    final_state: tuple         # (x, x') at t_end in `NModeODE.state_names` order
+    a1_min: float = math.nan   # envelope of the half peak-to-peak over single forcing periods of
+    a1_max: float = math.nan   # the last window (as `Response`): min = max for a period-1 response
+    a2_min: float = math.nan
+    a2_max: float = math.nan
+    history: tuple = field(default=(), repr=False)   # (t, states) if asked for
+
+
+def _half_range(x: np.ndarray) -> float:
+    return 0.5 * (refined_peak(x, 1) - refined_peak(x, -1))
+
+
+def default_start(ode: NModeODE, seed: float = 1e-6) -> tuple:
+    """Rest, with every out-of-plane mode seeded at ``seed`` (as eq. (21)'s q2 = 1e-6), so that an
+    unstable planar motion is never reported as the response."""
+    x = [seed if m.plane == OUT_OF_PLANE else 0.0 for m in ode.modes]
+    return tuple(x + [0.0] * ode.n)
+
+
+class NModeIntegrator:
+    """Integrates the N-mode model of a spec (or of its `Derivation`); built once, reused."""
+
+    def __init__(self, derivation_or_spec, n_in: int = 2, n_out: int = 2, engine: str = "dopri",
+                 rtol: float = 1e-10, atol: float = 1e-13, ode: NModeODE | None = None):
+        if engine not in ("dopri", "scipy"):
+            raise ValueError(f"unknown engine {engine!r}: use 'dopri' or 'scipy'")
+        self.ode = ode if ode is not None else derive_nmode(derivation_or_spec, n_in, n_out)
+        self.engine, self.rtol, self.atol = engine, rtol, atol
+        self._rhs = None
+        self._generator = None
+        self._numeric = None
+        self.build_seconds = 0.0
+        names = self.ode.names
+        # a1 is the first symmetric in-plane mode, as in eq. (21); it is the lowest one unless
+        # lambda^2 > 4 pi^2 (see statics.regime_warnings), when an antisymmetric mode comes first.
+        first_sym = [m.name for m in self.ode.modes if m.plane == IN_PLANE and m.symmetry == SYMMETRIC]
+        if not first_sym:
+            n_plane = sum(m.plane == IN_PLANE for m in self.ode.modes)
+            raise ValueError(f"the {n_plane} lowest in-plane modes hold no symmetric mode (Irvine's lambda^2 "
+                             "exceeds 4 pi^2): take more in-plane modes")
+        self._i1 = names.index(first_sym[0])
+        self._i2 = names.index(next(m.name for m in self.ode.modes if m.plane == OUT_OF_PLANE))
+
+    def _sym(self):
+        if self._rhs is None:
+            self._rhs = first_order_rhs_n(self.ode)
+        return self._rhs
+
+    def _compiled(self):
+        if self._generator is None:
+            from autocable.codegen.pydstool import VectorField, make_ode_generator
+            vf = VectorField(name=f"nmode_{self.ode.content_hash()}", variables=self.ode.state_names,
+                             rhs=self._sym(), parameters=tuple((p.name, 0.0) for p in PARAMETERS))
+            t0 = time.perf_counter()
+            # No Jacobian: DOP853 is explicit, and the sympy Jacobian of ~1000 terms costs more than it saves.
+            self._generator = make_ode_generator(vf, "Dopri", jacobian=False, algparams={
+                "rtol": self.rtol, "atol": self.atol, "max_step": 1.0})
+            self.build_seconds = time.perf_counter() - t0
+        return self._generator
+
+    def run(self, y0, t0: float, t1: float, dt: float, pars: dict):
+        """Samples (t, states) on t0, t0 + dt, ..., states in `NModeODE.state_names` order."""
+        if self.engine == "dopri":
+            from autocable.codegen.pydstool import integrate
+            return integrate(self._compiled(), list(y0), pars, t0, t1, dt,
+                             algparams={"rtol": self.rtol, "atol": self.atol})
+        import sympy as sp
+        from scipy.integrate import solve_ivp
+        from autocable.model.multimode import state_symbols
+        if self._numeric is None:
+            self._numeric = sp.lambdify((T, state_symbols(self.ode), PARAMETERS), self._sym(), "numpy")
+        p = tuple(pars[s.name] for s in PARAMETERS)
+        n = int(math.floor((t1 - t0) / dt * (1 + 1e-12))) + 1
+        grid = t0 + dt * np.arange(n)
+        f = self._numeric
+        sol = solve_ivp(lambda t, y: f(t, y, p), (t0, grid[-1]), list(y0), method="DOP853",
+                        t_eval=grid, rtol=self.rtol, atol=self.atol)
+        if not sol.success:
+            raise RuntimeError(f"scipy DOP853 failed: {sol.message}")
+        return sol.t, sol.y.T
+
+    def simulate(self, U: float, eta: float, sigma: float, x0=None, *, periods_per_chunk: int = 100,
+                 window_periods: int = 20, max_time: float = 60000.0, steady_tol: float = 1e-8,
+                 samples_per_period: int = 64, keep_history: bool = False, progress=None) -> NModeResponse:
+        """Integrate from ``x0`` (state order of `NModeODE.state_names`; default `default_start`)
+        until every modal amplitude changes by less than ``steady_tol`` (relative) between chunks."""
+        start = time.perf_counter()
+        ode = self.ode
+        Omega = ode.modes[self._i1].omega + sigma
+        if not Omega > 0:
+            raise ValueError(f"sigma = {sigma} gives a non-positive forcing frequency Omega = {Omega}")
+        y = tuple(float(v) for v in (default_start(ode) if x0 is None else x0))
+        if len(y) != 2 * ode.n:
+            raise ValueError(f"the start state needs {2 * ode.n} values {ode.state_names}, got {len(y)}")
+        period = 2 * math.pi / Omega
+        dt = period / samples_per_period
+        pars = parameter_values(U, eta, Omega)
+        t, chunk = 0.0, periods_per_chunk * period
+        keep = window_periods * samples_per_period + 1
+        window = np.array([y])
+        previous, steady, history, amps = None, False, [], None
+        n = ode.n
+
+        def result(amps, steady, periodic, diverged, msg):
+            env = [(math.inf, math.inf)] * 2
+            if amps is not None:
+                m = samples_per_period
+                env = [(amps[i], amps[i]) for i in (self._i1, self._i2)]
+                if len(window) > m:
+                    per = [[_half_range(window[j:j + m + 1, i]) for j in range(0, len(window) - m, m)]
+                           for i in (self._i1, self._i2)]
+                    env = [(min(p), max(p)) for p in per]
+            hist = ()
+            if history:
+                hist = (np.concatenate([h[0] for h in history]), np.concatenate([h[1] for h in history]))
+            inf = math.inf
+            amp = dict(zip(ode.names, amps)) if amps is not None else {k: inf for k in ode.names}
+            return NModeResponse(a1=float(amp[ode.names[self._i1]]), a2=float(amp[ode.names[self._i2]]),
+                                 amplitudes=amp, steady=steady, periodic=periodic, diverged=diverged,
+                                 t_end=t, U=U, eta=eta, sigma=sigma, Omega=Omega, message=msg,
+                                 wall_seconds=time.perf_counter() - start,
+                                 final_state=tuple(float(v) for v in y), history=hist,
+                                 a1_min=env[0][0], a1_max=env[0][1], a2_min=env[1][0], a2_max=env[1][1])
+
+        while t < max_time - 1e-9:
+            t1 = min(t + chunk, max_time)
+            try:
+                tt, ys = self.run(y, t, t1, dt, pars)
+            except PyDSToolError as exc:
+                return result(None, False, False, True, f"the response diverged between t = {t:g} and "
+                              f"{t1:g} (no bounded steady state): {str(exc).splitlines()[0]}")
+            if keep_history:
+                history.append((tt[:-1], ys[:-1]))
+            y, t = tuple(ys[-1]), float(tt[-1])
+            if not np.all(np.isfinite(ys)) or np.max(np.abs(ys[:, :n])) > DIVERGED:
+                return result(None, False, False, True, "the response diverged (no bounded steady state)")
+            window = np.concatenate([window, ys[1:]])[-keep:]
+            amps = tuple(_half_range(window[:, i]) for i in range(n))
+            if progress:
+                progress(t, (amps[self._i1], amps[self._i2]))
+            if previous is not None:
+                # Modes that stay at round-off (an unexcited antisymmetric mode) must not block the test.
+                floor = 1e3 * self.atol
+                change = max((abs(a - b) / max(abs(a), floor) for a, b in zip(amps, previous)
+                              if max(abs(a), abs(b)) > floor), default=0.0)
+                if change < steady_tol:
+                    steady = True
+                    break
+            previous = amps
+        periodic = self._is_periodic(window, samples_per_period, n, 1e3 * self.atol)
+        msg = "steady" if steady else f"not steady after t = {t:g} (amplitudes still changing)"
+        return result(amps, steady, periodic, False, msg)
+
+    @staticmethod
+    def _is_periodic(window: np.ndarray, m: int, n: int, floor: float, tol: float = 1e-6) -> bool:
+        """Period-1 in the forcing over the window (as `Ode21Integrator._is_periodic`)."""
+        if len(window) <= m:
+            return False
+        scale = np.max(np.abs(window[:, :n]))
+        return bool(np.max(np.abs(window[m:, :n] - window[:-m, :n])) < max(tol * scale, floor))
+
+
+#: The settings of the "two modes suffice?" table (docs/modes_suffice.md): (label, U*, eta*).
+SUFFICE_SETTINGS = (("Fig. 5a", 0.0, 8.2e-5), ("Fig. 6", 0.0, 1.4e-3), ("Fig. 9", 0.7, 1.4e-3))
+SUFFICE_SIGMAS = (-0.04, -0.02, 0.0, 0.02, 0.04)
+
+
+def modes_suffice_rows(derivation, ns=(2, 3), settings=SUFFICE_SETTINGS, sigmas=SUFFICE_SIGMAS,
+                       max_time: float = 60000.0) -> list[dict]:
+    """a1, a2 of eq. (21) against the N-mode models (n_in = n_out = N) at each (U, eta, sigma).
+
+    Each N-mode model is run twice: from rest (the seeded start of `default_start`, as eq. (21)
+    from its own default start), and from eq. (21)'s final state (first modes set, the others at
+    rest), which follows the same branch where several coexist.
+    """
+    from autocable.methods.integration.ode21 import Ode21Integrator
+    eq21 = Ode21Integrator(derivation.ode)
+    models = {n: NModeIntegrator(derivation, n, n) for n in ns}
+    rows = []
+    for label, U, eta in settings:
+        for sigma in sigmas:
+            r = eq21.simulate(U, eta, sigma, max_time=max_time)
+            row = {"setting": label, "U": U, "eta": eta, "sigma": sigma, "eq21": r}
+            q1, q2, q1d, q2d = r.final_state
+            for n, integ in models.items():
+                ode = integ.ode
+                x = [0.0] * (2 * ode.n)
+                if math.isfinite(r.a1):   # a diverged eq. (21) leaves no branch to follow
+                    x[integ._i1], x[integ._i2] = q1, q2
+                    x[ode.n + integ._i1], x[ode.n + integ._i2] = q1d, q2d
+                row[f"N{n}_rest"] = integ.simulate(U, eta, sigma, max_time=max_time)
+                row[f"N{n}_same"] = integ.simulate(U, eta, sigma, tuple(x), max_time=max_time)
+            rows.append(row)
+    return rows
+
+
+def _rel(a: float, b: float) -> float:
+    return abs(a - b) / abs(b) if b else (0.0 if a == b else math.inf)
+
+
+def modes_suffice_markdown(rows: list[dict], ns=(2, 3)) -> str:
+    """The table of `modes_suffice_rows` in Markdown: amplitudes, relative differences, added modes.
+
+    N-mode entries are from eq. (21)'s final state (same branch); "qp" marks a response that is not
+    period-1 in the forcing (amplitude-modulated: a_k is then the largest half peak-to-peak over the
+    last 20 periods); a second table lists the runs from rest that ended elsewhere (> 1 %).
+    """
+    head = ["setting", "sigma", "eq21 a1", "eq21 a2"]
+    for n in ns:
+        head += [f"N={n} a1", f"N={n} a2", f"d a1 (N={n})", f"d a2 (N={n})", f"added modes (N={n})"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+
+    def amp(r, x):
+        if not math.isfinite(x):
+            return "div."
+        return f"{x:.4e}" + ("" if r.periodic else " qp") + ("" if r.steady else " (not steady)")
+
+    def rel(a, b):
+        if not (math.isfinite(a) and math.isfinite(b)):
+            return "-"
+        if b < 1e-9 and a < 1e-9:
+            return "both < 1e-9"
+        return f"{100 * (a - b) / b:+.2f} %"
+
+    moved = []
+    for row in rows:
+        r = row["eq21"]
+        cells = [row["setting"], f"{row['sigma']:+.2f}", amp(r, r.a1), amp(r, r.a2)]
+        for n in ns:
+            s = row[f"N{n}_same"]
+            extra = ", ".join(f"{k} {v:.1e}" for k, v in s.amplitudes.items()
+                              if k not in ("v1", "w1") and v > 1e-12) or "all < 1e-12"
+            cells += [amp(s, s.a1), amp(s, s.a2), rel(s.a1, r.a1), rel(s.a2, r.a2), extra]
+            z = row[f"N{n}_rest"]
+            if any(_rel(x, y) > 0.01 for x, y in ((z.a1, s.a1), (z.a2, s.a2)) if max(x, y) > 1e-9):
+                moved.append(f"| {row['setting']} | {row['sigma']:+.2f} | {n} | {amp(z, z.a1)} | "
+                             f"{amp(z, z.a2)} | {amp(s, s.a1)} | {amp(s, s.a2)} |")
+        lines.append("| " + " | ".join(cells) + " |")
+    if moved:
+        lines += ["", "Runs from rest that ended on another response than the same-branch run:", "",
+                  "| setting | sigma | N | from rest a1 | from rest a2 | same branch a1 | same branch a2 |",
+                  "|---|---|---|---|---|---|---|"] + moved
+    return "\n".join(lines)
+
+
+def per_period_envelope(integrator, x0, indices, U: float, eta: float, sigma: float, *,
+                        transient: float = 40000.0, periods: int = 400, samples_per_period: int = 64):
+    """For an amplitude-modulated response: after ``transient``, the smallest and largest half
+    peak-to-peak of the coordinates ``indices`` over single forcing periods, in ``periods`` periods.
+    Works with `NModeIntegrator` and `integration.Ode21Integrator` (both have ``run``)."""
+    omega1 = integrator.ode.omega1 if hasattr(integrator.ode, "omega1") else integrator.ode.omegas[0]
+    Omega = omega1 + sigma
+    period = 2 * math.pi / Omega
+    pars = parameter_values(U, eta, Omega)
+    tt, ys = integrator.run(tuple(x0), 0.0, transient, period, pars)
+    tt, ys = integrator.run(tuple(ys[-1]), float(tt[-1]), float(tt[-1]) + periods * period,
+                            period / samples_per_period, pars)
+    m = samples_per_period
+    out = []
+    for k in indices:
+        per = [_half_range(ys[i:i + m + 1, k]) for i in range(0, len(ys) - m, m)]
+        out.append((min(per), max(per)))
+    return out
+
+
+#: Where the table's responses are amplitude-modulated (Fig. 9 settings): their envelopes compared.
+MODULATED = (("Fig. 9", 0.7, 1.4e-3, -0.02), ("Fig. 9", 0.7, 1.4e-3, 0.0))
+
+
+def modulated_rows(derivation, ns=(2, 3), cases=MODULATED) -> list[str]:
+    """Markdown rows: per-period envelope of a1, a2 for eq. (21) and the N-mode models from rest."""
+    from autocable.methods.integration.ode21 import DEFAULT_Q0, Ode21Integrator
+    q1, q1d, q2, q2d = DEFAULT_Q0
+    models = [("eq21", Ode21Integrator(derivation.ode), (q1, q2, q1d, q2d), (0, 1))]
+    for n in ns:
+        it = NModeIntegrator(derivation, n, n)
+        models.append((f"N={n}", it, default_start(it.ode), (it._i1, it._i2)))
+    rows = ["| setting | sigma | model | a1 per period: min | max | a2 per period: min | max |",
+            "|---|---|---|---|---|---|---|"]
+    for label, U, eta, sigma in cases:
+        for name, it, x0, idx in models:
+            (l1, h1), (l2, h2) = per_period_envelope(it, x0, idx, U, eta, sigma)
+            rows.append(f"| {label} | {sigma:+.2f} | {name} | {l1:.3e} | {h1:.3e} | {l2:.3e} | {h2:.3e} |")
+    return rows
+
+
+if __name__ == "__main__":   # python -m autocable.methods.integration.nmode MODEL.toml
+    import sys
+    from autocable.model.derive import derive
+    from autocable.spec import load_model
+    derivation = derive(load_model(sys.argv[1]))
+    table_rows = modes_suffice_rows(derivation)
+    print(modes_suffice_markdown(table_rows))
+    print()
+    print("\n".join(modulated_rows(derivation)))
+    for row in table_rows:
+        for key in sorted(k for k in row if k.startswith("N")):
+            s = row[key]
+            print(f"{row['setting']:8s} sigma={row['sigma']:+.2f} {key:8s} a1={s.a1:.6e} a2={s.a2:.6e} "
+                  f"eq21 a1={row['eq21'].a1:.6e} a2={row['eq21'].a2:.6e} steady={s.steady} "
+                  f"periodic={s.periodic} {s.message}")

@@ -1,0 +1,343 @@
+"""`autocable figures`: every figure scene of the paper (``runs/fig*.toml``, Figs. 3-11 of Luongo &
+Zulli 2012) in parallel processes, the figures collected as ``DIR/figNN.png``/``.pdf`` and the
+comparison with Sect. 5 written to ``DIR/report.md`` (`autocable.paper.report`).
+
+Each scene runs in its own process through the public `autocable.scene.runner.load_scene` / `run_scene`
+into ``DIR/<scene>/``. A scene that fails (a bad file, a start that does not converge, a crash of
+the process) never stops the others: its one-line error goes to ``DIR/<scene>/error.txt`` (with
+the traceback below it), to ``DIR/figures.json`` and to the report, and the command exits non-zero.
+"""
+from __future__ import annotations
+
+import multiprocessing
+import os
+import shutil
+import sys
+import time
+import traceback
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Callable, Sequence
+
+from autocable._paths import RUNS_DIR
+from autocable.spec import SpecError
+
+__all__ = ["QUICK", "SceneOutcome", "default_runs_dir", "discover", "expected_cost", "run_figures",
+           "add_figures_parser",
+           "cmd_figures", "SUMMARY_JSON", "ERROR_TXT"]
+
+#: The ``--quick`` subset: the closed-form galloping branch (Fig. 3) and the two mono-modal no-wind
+#: responses (Figs. 5a-b), each a few seconds with a warm cache.
+QUICK = ("fig03", "fig05a", "fig05b")
+SUMMARY_JSON = "figures.json"
+WALL_JSON = "wall_s.json"            # in cache_dir("figures"): the last wall time of each scene
+ERROR_TXT = "error.txt"
+
+Say = Callable[[str], None]
+
+
+@dataclass
+class SceneOutcome:
+    """How one scene ended: ``status`` is "ok" or "failed" (``error`` holds the one-line reason)."""
+
+    name: str
+    scene: str
+    status: str
+    wall_s: float
+    error: str = ""
+    files: list[str] = field(default_factory=list)
+
+
+def default_runs_dir() -> Path:
+    """The repository's ``runs/`` folder next to the package."""
+    return RUNS_DIR
+
+
+def discover(runs_dir: str | Path, only: Sequence[str] = (), quick: bool = False) -> list[Path]:
+    """The scene files ``fig*.toml`` of ``runs_dir``, sorted, restricted to ``only`` (scene names)
+    or to `QUICK`. Unknown names raise `SpecError` listing the scenes there are."""
+    folder = Path(runs_dir)
+    if not folder.is_dir():
+        raise SpecError("--runs", "", f"no such folder: {folder}")
+    scenes = sorted(folder.glob("fig*.toml"))
+    by_name = {p.stem: p for p in scenes}
+    if not scenes:
+        raise SpecError("--runs", "", f"no scene files fig*.toml in {folder}")
+    wanted = list(only) if only else (list(QUICK) if quick else list(by_name))
+    if quick and not only:
+        wanted = [n for n in wanted if n in by_name]
+        if not wanted:
+            raise SpecError("--quick", "", f"none of the quick scenes {', '.join(QUICK)} is in {folder}; "
+                                           f"use --only with some of {', '.join(by_name)}")
+    missing = [n for n in wanted if n not in by_name]
+    if missing:
+        raise SpecError("--only", "", f"no scene {', '.join(missing)} in {folder}; "
+                                      f"there are {', '.join(by_name)}")
+    return [by_name[n] for n in dict.fromkeys(wanted)]
+
+
+def _one_line(exc: BaseException) -> str:
+    if isinstance(exc, SpecError):
+        return str(exc)
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
+
+
+def _collect(name: str, scene_out: Path, out: Path) -> list[str]:
+    """Copy ``<scene>.png/.pdf`` (and the parameter-plane figure) up to ``out``."""
+    files = []
+    for stem in (name, f"{name}_plane"):
+        for ext in (".png", ".pdf"):
+            src = scene_out / f"{stem}{ext}"
+            if src.is_file():
+                shutil.copyfile(src, out / src.name)
+                files.append(src.name)
+    return files
+
+
+def _worker(scene_path: str, scene_out: str, conn, engine: str | None = None) -> None:
+    """Child process: run one scene; send (status, one-line error, traceback) back."""
+    try:
+        from autocable.scene.runner import load_scene, run_scene
+        from autocable.studies.advise import choose_ame
+        run_scene(load_scene(scene_path), scene_out, progress=None, engine=engine, choose_ame=choose_ame)
+        conn.send(("ok", "", ""))
+    except BaseException as exc:   # everything: the parent must learn why, and go on
+        conn.send(("failed", _one_line(exc), traceback.format_exc()))
+    finally:
+        conn.close()
+
+
+def _preload() -> None:
+    """Import in the parent what every scene imports (numpy, scipy, sympy, matplotlib's Agg
+    canvas, PyDSTool with PyCont, autocable's layers): a forked child then starts with them, and
+    thirteen scenes do not pay about a second of imports each. A failed import is left for the
+    child to report with its scene's name."""
+    try:
+        import matplotlib.backends.backend_agg  # noqa: F401
+        import matplotlib.figure  # noqa: F401
+        import scipy.integrate  # noqa: F401
+        import scipy.optimize  # noqa: F401
+        import sympy  # noqa: F401
+
+        import autocable.methods.continuation  # noqa: F401
+        import autocable.methods.integration.ode21  # noqa: F401
+        import autocable.model.ame_cache  # noqa: F401
+        import autocable.model.derive  # noqa: F401
+        import autocable.plotting.diagrams  # noqa: F401
+        import autocable.scene.runner  # noqa: F401
+        from autocable.codegen.compat import import_pydstool
+        import_pydstool()
+        # The first figure of a process loads fonts and mathtext for both formats (0.1-0.2 s):
+        # drawing one tiny figure here leaves them loaded for every child.
+        import io
+
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+        fig = Figure(figsize=(1, 1))
+        FigureCanvasAgg(fig)
+        ax = fig.add_subplot()
+        ax.plot([0, 1], [0, 1], "--s", mfc="none")
+        ax.set_xlabel(r"$\sigma$")
+        for fmt in ("png", "pdf"):
+            fig.savefig(io.BytesIO(), format=fmt)
+    except Exception:   # noqa: BLE001 - the child imports again and says what failed
+        pass
+
+
+def _timings_file() -> Path:
+    from autocable._store import cache_dir
+    return cache_dir("figures") / WALL_JSON
+
+
+def recorded_wall_times() -> dict[str, float]:
+    """Wall seconds per scene name of the last `run_figures` that ran it (the cache folder)."""
+    from autocable._store import read_json
+    data = read_json(_timings_file())
+    return {str(k): float(v) for k, v in data.items()
+            if isinstance(v, (int, float))} if isinstance(data, dict) else {}
+
+
+def expected_cost(path: Path, recorded: dict[str, float] | None = None) -> float:
+    """The expected cost of a scene, to start the long ones first (the wall time of the whole set
+    is then close to the total over the cores rather than the longest scene started last): its
+    wall time in ``recorded`` (`recorded_wall_times`) when known, else a rough weight in which
+    periodic-orbit runs, the eq. (21) overlay and a time history weigh most (an unreadable scene
+    costs nothing: it fails at once in its process)."""
+    from autocable.scene.runner import load_scene
+    if recorded and Path(path).stem in recorded:
+        return recorded[Path(path).stem]
+    try:
+        scene = load_scene(path)
+    except Exception:   # noqa: BLE001 - reported by the scene's own process
+        return 0.0
+    return (1.0 + len(scene.runs) + 3.0 * sum(r.cycles for r in scene.runs)
+            + 3.0 * (scene.overlay is not None) + 8.0 * (scene.time is not None))
+
+
+def _error_file(folder: Path, error: str, detail: str) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / ERROR_TXT).write_text(error + "\n\n" + detail, encoding="utf-8")
+
+
+def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None = None,
+                timeout: float | None = None, say: Say | None = None,
+                engine: str | None = None) -> list[SceneOutcome]:
+    """Run ``scenes`` in at most ``jobs`` processes at a time (default: every core), each into
+    ``out_dir/<scene>/``, the most expensive first (`expected_cost`); copy the figures to
+    ``out_dir``; write ``figures.json`` (in the order of ``scenes``). A scene still
+    running after ``timeout`` seconds is stopped and reported failed. ``engine`` overrides every
+    scene's continuation engine ("pycont" | "compiled", `autocable.scene.runner.run_scene`)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    jobs = max(1, int(jobs or os.cpu_count() or 1))
+    tell = say or (lambda msg: None)
+    # One process per scene: PyDSTool's working folder is process-wide. With fork the children
+    # inherit the parent's imports; the longest scenes start first.
+    fork = "fork" in multiprocessing.get_all_start_methods()
+    ctx = multiprocessing.get_context("fork" if fork else "spawn")
+    if fork and len(scenes) > 1:
+        _preload()
+    recorded = recorded_wall_times()
+    pending = sorted(scenes, key=lambda p: expected_cost(p, recorded), reverse=True)
+    running: dict[str, tuple] = {}
+    outcomes: dict[str, SceneOutcome] = {}
+    total = len(pending)
+
+    def finish(name, path, status, error, detail, t0):
+        wall = time.perf_counter() - t0
+        folder = out / name
+        if status != "ok":
+            _error_file(folder, error, detail)
+            files = []
+        else:
+            stale = folder / ERROR_TXT
+            if stale.exists():
+                stale.unlink()
+            files = _collect(name, folder, out)
+        outcomes[name] = SceneOutcome(name, str(path), status, wall, error, files)
+        done = len(outcomes)
+        tell(f"[{done}/{total}] {name}: {'done' if status == 'ok' else 'FAILED'} in {wall:.1f} s"
+             + (f": {error}" if error else ""))
+
+    while pending or running:
+        while pending and len(running) < jobs:
+            path = pending.pop(0)
+            name = path.stem
+            folder = out / name
+            # stale results of an earlier run must not pass for this one's
+            for stale in ("run.json", "branches.csv", "special_points.csv", "overlay.csv", "overlay_ame.csv",
+                          "time_series.csv", "compare.json"):
+                if (folder / stale).exists():
+                    (folder / stale).unlink()
+            recv, send = ctx.Pipe(duplex=False)
+            proc = ctx.Process(target=_worker, args=(str(path), str(folder), send, engine), daemon=True)
+            t0 = time.perf_counter()
+            proc.start()
+            send.close()
+            running[name] = (proc, recv, path, t0)
+            tell(f"{name}: started ({path.name})")
+        time.sleep(0.05)
+        for name, (proc, recv, path, t0) in list(running.items()):
+            message = None
+            if recv.poll():
+                try:
+                    message = recv.recv()
+                except EOFError:
+                    message = None
+            if message is None and proc.is_alive():
+                if timeout and time.perf_counter() - t0 > timeout:
+                    proc.terminate()
+                    proc.join(5)
+                    recv.close()
+                    del running[name]
+                    finish(name, path, "failed", f"{path}: stopped after the time limit of {timeout:g} s",
+                           "", t0)
+                continue
+            proc.join()
+            recv.close()
+            del running[name]
+            if message is None:
+                code = proc.exitcode
+                why = f"killed by signal {-code}" if code and code < 0 else f"exit status {code}"
+                finish(name, path, "failed", f"{path}: the scene's process died ({why}) without a result", "", t0)
+            else:
+                finish(name, path, *message, t0)
+    ordered = [outcomes[p.stem] for p in scenes]
+    from autocable._store import atomic_write_json
+    recorded = recorded_wall_times()
+    recorded.update({o.name: round(o.wall_s, 3) for o in ordered if o.status == "ok"})
+    atomic_write_json(_timings_file(), recorded)
+    atomic_write_json(out / SUMMARY_JSON, {"format": "autocable.paper.figures/1", "jobs": jobs,
+                                           "scenes": [asdict(o) for o in ordered]})
+    return ordered
+
+
+# ================================================================================================
+# command line
+# ================================================================================================
+def add_figures_parser(subparsers) -> None:
+    """``autocable figures --out DIR [--runs DIR] [--only a,b] [--quick] [--jobs N] [--quiet]``."""
+    f = subparsers.add_parser("figures", help="run every figure scene (runs/fig*.toml) in parallel, "
+                                              "collect figNN.png/.pdf and write report.md")
+    f.add_argument("--out", required=True, help="output folder: figNN.png/.pdf, <scene>/ data, report.md")
+    f.add_argument("--runs", help="folder of the scene files fig*.toml (default: the repository's runs/)")
+    f.add_argument("--only", help="comma-separated scene names, e.g. fig05a,fig06")
+    f.add_argument("--quick", action="store_true", help=f"the quick subset: {', '.join(QUICK)}")
+    f.add_argument("--jobs", type=int, help="processes at a time (default: the number of cores)")
+    f.add_argument("--timeout", type=float, help="stop a scene after this many seconds (default: none)")
+    f.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    f.add_argument("--engine", choices=("pycont", "compiled"),
+                   help="override every scene's engine of equilibria, switching and cycles from Hopf points")
+    f.set_defaults(func=cmd_figures)
+
+
+#: The thread-count variables of the BLAS/OpenMP libraries numpy and scipy load.
+BLAS_THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def blas_thread_env(jobs: int, cores: int, environ, numpy_loaded: bool) -> dict[str, str]:
+    """The BLAS thread counts to set before ``jobs`` scene processes share ``cores``: cores // jobs
+    threads each, for every variable the user has not set; nothing when numpy is already loaded
+    (OpenBLAS reads its count when it loads) or when each process has every core anyway.
+
+    Why: every scene process's OpenBLAS otherwise starts a thread per core, and two processes on
+    two cores then fight over them in the many small eigenvalue and solve calls of the
+    continuation (measured: warm `autocable figures` 14.4-14.7 s with the default, 12.2-12.4 s
+    with one thread per process)."""
+    per = max(1, cores // max(1, jobs))
+    if numpy_loaded or per >= cores:
+        return {}
+    return {v: str(per) for v in BLAS_THREAD_VARS if v not in environ}
+
+
+def cmd_figures(args) -> int:
+    """Run the scenes, write report.md, print the summary; exit status 1 if any scene failed."""
+    if args.jobs is not None and args.jobs < 1:
+        raise SpecError("--jobs", "", f"expected a whole number >= 1, got {args.jobs}")
+    # Before anything imports numpy: this process forks the scene processes after loading it.
+    os.environ.update(blas_thread_env(int(args.jobs or os.cpu_count() or 1), os.cpu_count() or 1, os.environ,
+                                      "numpy" in sys.modules))
+    from autocable.paper.report import write_report
+    if args.timeout is not None and args.timeout <= 0:
+        raise SpecError("--timeout", "", f"expected a positive number of seconds, got {args.timeout}")
+    only = [s.strip() for s in args.only.split(",") if s.strip()] if args.only else []
+    scenes = discover(Path(args.runs) if args.runs else default_runs_dir(), only, args.quick)
+    out = Path(args.out)
+    say = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    t0 = time.perf_counter()
+    outcomes = run_figures(scenes, out, jobs=args.jobs, timeout=args.timeout, say=say,
+                           engine=getattr(args, "engine", None))
+    wall = time.perf_counter() - t0
+    report = write_report(out)
+    failed = [o for o in outcomes if o.status != "ok"]
+    if not args.quiet:
+        print(f"{len(outcomes) - len(failed)} of {len(outcomes)} scenes done in {wall:.1f} s "
+              f"({min(len(outcomes), max(1, int(args.jobs or os.cpu_count() or 1)))} at a time); report: {report}")
+        for o in outcomes:
+            print(f"  {o.name:<8} {o.status:<6} {o.wall_s:7.1f} s  "
+                  + (", ".join(o.files) if o.status == "ok" else o.error))
+    else:
+        for o in failed:
+            print(f"autocable: {o.name} failed: {o.error}", file=sys.stderr)
+    return 1 if failed else 0

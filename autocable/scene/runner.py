@@ -1,0 +1,421 @@
+"""Running a scene (`autocable run`): its continuation runs in order, later ones from labelled points
+of earlier ones (like AUTO-07p's scripts), the overlays of eq. (21), and the files it writes
+(`autocable.scene.schema` describes the scene file; `time_scene` runs ``[time]`` scenes, Fig. 11).
+
+`run_scene(load_scene(path), out_dir)` writes ``branches.csv``, ``special_points.csv``, ``run.json``
+(`autocable.results`) and ``<scene>.png``/``.pdf`` (`autocable.plotting.diagrams`), with curve runs
+also ``<scene>_plane.png``/``.pdf``. ``ame = "auto"`` scenes need a chooser of the AME (the probes of
+`autocable.studies.advise`), passed in as ``choose_ame``: the command line and `autocable.run_scene`
+pass it, so the core never imports the studies built on it.
+"""
+from __future__ import annotations
+
+import platform
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+from autocable.spec import SpecError, load_model
+
+from autocable.scene.provenance import ode21_engine, versions
+from autocable.scene.time_scene import run_time_scene
+from autocable.scene.schema import (ENGINES, PARAMETERS, RESOLUTIONS, Progress, RunSpec, Scene, load_scene,
+                                    read_compare)
+
+__all__ = ["run_scene", "coarse_settings", "write_compare", "load_scene"]
+
+# ================================================================================================
+# running
+# ================================================================================================
+
+def _system_for(scene: Scene, ame, values: Mapping[str, float], parameter: str, rng, path, where,
+                memo: dict | None = None):
+    """The AME system for a run: aerodynamic rows only when the wind blows (1/U powers).
+
+    ``memo`` (one per scene run) hands every run the same `System` object: building the wind AME
+    as sympy data costs about a second, and its numeric functions and C kernel load once."""
+    from autocable.methods.continuation import ame_system
+    if scene.ame == "1dof-amplitude":
+        from autocable.methods.amplitude_system import galloping_amplitude_system
+        if parameter == "eta" or values.get("eta", 0.0) != 0.0:
+            raise SpecError(path, f"{where}.fixed.eta", 'ame = "1dof-amplitude" (Fig. 3) holds at '
+                                                       "eta = 0 only; fix eta = 0 and do not continue it")
+        if parameter == "U" and rng[0] <= 0:
+            raise SpecError(path, f"{where}.range", "continuing U needs U > 0 over the whole range "
+                                                    "(the aerodynamic terms carry 1/U); start just above 0")
+        return galloping_amplitude_system(ame)
+    if parameter == "U":
+        if rng[0] <= 0:
+            raise SpecError(path, f"{where}.range", "continuing U needs U > 0 over the whole range "
+                                                    "(the aerodynamic terms carry 1/U); start just above 0")
+        wind = True
+    else:
+        wind = values.get("U", 0.0) != 0.0
+    memo = {} if memo is None else memo
+    if (scene.ame, wind) not in memo:
+        memo[(scene.ame, wind)] = ame_system(ame, scene.ame, wind=wind)
+    return memo[(scene.ame, wind)]
+
+
+def coarse_settings(steps: Mapping[str, Any]) -> dict[str, Any]:
+    """The ``resolution = "coarse"`` step controls for a run's ``steps`` (what the tests run):
+    longer largest steps (x2, at most 0.1 of the range; x3 made Fig. 6's II step over a branch point),
+    at most 20 points per cycle branch and 150 per curve direction. Special points are still
+    located and refined by autocable's test functions, so their locations do not depend on the
+    step; only the density of the drawn branches does."""
+    from autocable.methods.continuation import ContinuationSettings
+    base = ContinuationSettings(**steps)
+    out = dict(steps)
+    out["max_step"] = max(base.max_step, min(2 * base.max_step, 0.1))
+    out["cycle_max_step"] = max(base.cycle_max_step, min(2 * base.cycle_max_step, 0.1))
+    out["curve_max_step"] = max(base.curve_max_step, min(2 * base.curve_max_step, 0.1))
+    out["cycle_max_points"] = min(base.cycle_max_points, 20)
+    out["curve_max_points"] = min(base.curve_max_points, 150)
+    return out
+
+
+def _settings(run: RunSpec, resolution: str = "full"):
+    from autocable.methods.continuation import ContinuationSettings
+    return ContinuationSettings(**(coarse_settings(run.steps) if resolution == "coarse" else run.steps))
+
+
+def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = None,
+              plot: bool = True, resolution: str = "full", engine: str | None = None,
+              choose_ame: Callable | None = None):
+    """Run every run of ``scene`` in order, write the results into ``out_dir`` and plot them.
+
+    ``engine`` ("pycont" or "compiled") overrides the scene's ``engine`` for equilibria, branch
+    switching and cycles from Hopf points (cycles from an integrated orbit always use the compiled
+    collocation: PyCont's LC-C starts only at Hopf points). ``choose_ame(scene, tol=...)`` picks the
+    AME of an ``ame = "auto"`` scene (`autocable.studies.advise.choose_ame`, which the command line
+    and `autocable.run_scene` pass); such a scene without it is refused.
+
+    ``resolution = "coarse"`` (the tests) runs the same scene with longer steps and capped cycle
+    and curve runs (`coarse_settings`) and every third overlay value; a ``[time]`` scene is the
+    same at both resolutions.
+
+    Returns the `RunResults`. A branch that fails part-way is kept with its points and an end
+    reason; a start that does not converge, or a start value outside the range, stops the scene
+    with a `SpecError` naming the run.
+    """
+    import numpy as np
+
+    from autocable.methods import continuation as C
+    from autocable.model.ame_cache import derive_ame
+    from autocable.model.derive import derive
+    from autocable.results import RunResults, write_results
+
+    def say(msg: str) -> None:
+        if progress:
+            progress(f"[{scene.name}] {msg}")
+
+    if resolution not in RESOLUTIONS:
+        raise ValueError(f"resolution must be one of {RESOLUTIONS}, got {resolution!r}")
+    if engine is not None:
+        if engine not in ENGINES:
+            raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
+        scene = replace(scene, engine=engine)
+    if scene.time is not None:
+        return run_time_scene(scene, out_dir, say, plot, resolution)
+
+    t_all = time.perf_counter()
+    stages: dict[str, Any] = {}
+    advice = None
+    if scene.ame == "auto":
+        # The lightest AME that reproduces this scene within ame_tol (issue 6, `autocable advise`):
+        # cheap probes first, then the whole scene with the chosen rung.
+        if choose_ame is None:
+            raise SpecError(scene.path, "ame", 'ame = "auto" needs the chooser of the AME: run the scene with '
+                                              '`autocable run` or `autocable.run_scene`, or pass '
+                                              'choose_ame=autocable.studies.advise.choose_ame')
+        t0 = time.perf_counter()
+        say(f'ame = "auto": probing which amplitude equations this scene needs (tol {scene.ame_tol:g})')
+        advice = choose_ame(scene, tol=scene.ame_tol)
+        for line in advice.report().splitlines():
+            say(f"  {line}")
+        scene = replace(scene, ame=advice.ame)
+        stages["advise_s"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    say(f"model {scene.model.name}: eq. (21)")
+    spec = load_model(scene.model)
+    deriv = derive(spec)
+    stages["derive_s"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    say(f"amplitude equations (24), {scene.ordering} ordering")
+    cached = derive_ame(deriv, ordering=scene.ordering)
+    ame = cached.ame
+    stages["ame_s"] = time.perf_counter() - t0
+    omega1 = float(ame.omegas[0])
+    results: dict[str, C.ContinuationResult] = {}
+    systems: dict = {}
+    branches = []
+    run_times: dict[str, Any] = {}
+    path = scene.path
+
+    def check_values(values, where):
+        if values["sigma"] <= -omega1:
+            raise SpecError(path, where, f"sigma = {values['sigma']:g} gives a non-positive forcing "
+                                         f"frequency Omega = omega1 + sigma")
+
+    def add(result: C.ContinuationResult):
+        results[result.branch.name] = result
+        branches.append(result.branch)
+        b = result.branch
+        ends = "; ".join(f"{e.side}: {e.reason}" for e in b.ends)
+        say(f"  {b.name}: {len(b)} points" + (f" ({b.kind} curve in {b.parameter}, {b.parameter2})"
+                                              if b.parameter2 else "") + ", special points "
+            f"{', '.join(s.label for s in b.special_points) or 'none'} ({ends})")
+
+    for run in scene.runs:
+        where = f"run[{run.index}]"
+        t_run = time.perf_counter()
+        lo, hi = run.range
+        values = {p: 0.0 for p in PARAMETERS}
+        values.update(scene.fixed)
+        values.update(run.fixed)
+        start_state = None
+        source = None
+        if run.start.kind == "label":
+            src_name, label = run.start.label.split(":")
+            if src_name not in results:
+                raise SpecError(path, f"{where}.start", f"no branch {src_name!r} has been computed")
+            try:
+                sp_ = results[src_name].special(label)
+            except KeyError as exc:
+                raise SpecError(path, f"{where}.start", str(exc).strip("'\"")) from None
+            source = results[src_name]
+            values.update(sp_.parameters)
+            values.update(run.fixed)
+            start_state = np.array(sp_.state)
+        at = run.at if run.at is not None else (values[run.parameter] if run.start.kind == "label" else lo)
+        if not lo <= at <= hi:
+            raise SpecError(path, f"{where}.range", f"the start value {run.parameter} = {at:g} is outside "
+                                                    f"the range [{lo:g}, {hi:g}]")
+        values[run.parameter] = at
+        check_values(values, where)
+        check_values({**values, "sigma": lo if run.parameter == "sigma" else values["sigma"]}, f"{where}.range")
+        if run.kind == "curve":
+            lo2, hi2 = run.range2
+            v2 = values[run.parameter2]
+            if not lo2 <= v2 <= hi2:
+                raise SpecError(path, f"{where}.range2", f"the start point {run.start.label} has {run.parameter2} = "
+                                                         f"{v2:g}, outside the range [{lo2:g}, {hi2:g}]")
+            if run.parameter2 == "U" and lo2 <= 0:
+                raise SpecError(path, f"{where}.range2", "continuing U needs U > 0 over the whole range "
+                                                         "(the aerodynamic terms carry 1/U); start just above 0")
+            if run.parameter2 == "sigma":
+                check_values({**values, "sigma": lo2}, f"{where}.range2")
+        if run.kind == "curve" and run.parameter2 == "U":
+            system = _system_for(scene, ame, values, "U", run.range2, path, where, systems)
+        else:
+            system = _system_for(scene, ame, values, run.parameter, run.range, path, where, systems)
+        scale = scene.state_scale or C.auto_state_scale(system, values)
+        problem = C.EquilibriumProblem(system, run.parameter, values, run.range, state_scale=scale)
+        settings = _settings(run, resolution)
+        if run.kind == "curve":
+            say(f"run {run.name}: curve of {'folds' if ':LP' in run.start.label else 'Hopf points'} in "
+                f"({run.parameter}, {run.parameter2}) over [{lo:g}, {hi:g}] x [{run.range2[0]:g}, "
+                f"{run.range2[1]:g}] from {run.start.label}")
+        else:
+            say(f"run {run.name}: {run.kind} in {run.parameter} over [{lo:g}, {hi:g}] from "
+                f"{run.start.label or run.start.kind} at {run.parameter} = {at:g}")
+        if run.kind == "curve":
+            # The labelled point in this run's problem: its parameter and range are the first ones.
+            src = C.ContinuationResult(source.branch, problem, settings)
+            label = run.start.label.split(":")[1]
+            fn = C.continue_folds if label.startswith("LP") else C.continue_hopf
+            try:
+                result = fn(src, label, run.parameter2, run.range2, settings, name=run.name,
+                            directions=run.directions, progress=say)
+            except C.StartError as exc:
+                raise SpecError(path, f"{where}.start", str(exc)) from None
+            add(result)
+        elif run.kind == "cycles" and run.start.kind == "orbit":
+            amps = list(run.start.values)
+            n_modes = system.dimension // 2
+            amps += [0.0] * max(0, n_modes - len(amps))
+            y0 = np.zeros(system.dimension)
+            y0[0::2] = amps[:n_modes]
+            say(f"  integrating the AME from a = {amps[:n_modes]} to a periodic orbit")
+            try:
+                t_orb, x_orb, period = C.periodic_orbit(system, values, y0, scale=scale)
+                result = C.continue_cycles_from_orbit(problem, settings, t_orb, x_orb, period, name=run.name,
+                                                      directions=run.directions, progress=say)
+            except C.StartError as exc:
+                raise SpecError(path, f"{where}.start", str(exc)) from None
+            add(result)
+        elif run.kind in ("cycles", "switch"):
+            # The labelled point in this run's problem (its parameter and range).
+            src = C.ContinuationResult(source.branch, problem, settings)
+            label = run.start.label.split(":")[1]
+            if run.kind == "cycles":
+                result = C.continue_cycles(src, label, settings, name=run.name, progress=say,
+                                           engine=scene.engine)
+            else:
+                result = C.switch_branch(src, label, settings, name=run.name, progress=say,
+                                         engine=scene.engine)
+            add(result)
+        else:
+            try:
+                if run.start.kind == "trivial":
+                    x0 = np.zeros(system.dimension)
+                elif run.start.kind == "state":
+                    if len(run.start.values) != system.dimension:
+                        raise SpecError(path, f"{where}.start.state", f"expected {system.dimension} numbers "
+                                                                      f"{list(system.variables)}")
+                    x0 = np.array(run.start.values)
+                elif run.start.kind == "integrate":
+                    amps = list(run.start.values)
+                    n_modes = system.dimension // 2
+                    if len(amps) < n_modes:
+                        amps += [0.0] * (n_modes - len(amps))
+                    y0 = np.zeros(system.dimension)
+                    y0[0::2] = amps[:n_modes]
+                    say(f"  integrating the AME from a = {amps[:n_modes]} to a steady state")
+                    x0 = C.settle(system, values, y0, scale=scale, engine=scene.engine)
+                else:
+                    x0 = start_state
+                result = C.continue_equilibria(problem, settings, x0, name=run.name,
+                                               directions=run.directions, progress=say,
+                                               engine=scene.engine)
+            except C.StartError as exc:
+                raise SpecError(path, f"{where}.start", str(exc)) from None
+            add(result)
+        follow = {"cycles": 0, "switch": 0}
+        if run.kind != "cycles" and run.cycles:
+            for h in results[run.name].branch.of_type("H"):
+                if h.origin != "autocable":
+                    continue
+                say(f"  cycles from {h.name}")
+                add(C.continue_cycles(results[run.name], h.label, settings, name=f"{run.name}-{h.label}",
+                                      progress=say, engine=scene.engine))
+                follow["cycles"] += 1
+        if run.kind != "cycles" and run.switch:
+            for bp in results[run.name].branch.of_type("BP"):
+                if bp.origin != "autocable" or bp.label == "BP0":
+                    continue
+                say(f"  switching branches at {bp.name}")
+                add(C.switch_branch(results[run.name], bp.label, settings, name=f"{run.name}-{bp.label}",
+                                    progress=say, engine=scene.engine))
+                follow["switch"] += 1
+        run_times[run.name] = {"wall_s": time.perf_counter() - t_run,
+                               **{k: v for k, v in results[run.name].timings.items()},
+                               "follow_ups": follow, "state_scale": scale}
+    stages["runs"] = run_times
+    provenance = {
+        "scene": str(scene.path), "scene_name": scene.name, "title": scene.title,
+        "scene_text": scene.text, "model": str(scene.model), "model_name": spec.name,
+        "model_hash": spec.content_hash(), "ode_hash": deriv.ode.content_hash(), "ame_key": cached.key,
+        "ame": scene.ame, "ordering": scene.ordering, "engine": scene.engine, "ode21_engine": ode21_engine(),
+        "ame_advice": None if advice is None else {"requested": "auto", "tol": advice.tol, "chosen": advice.ame,
+                                                   "lightest_rung": advice.rung, "reasons": list(advice.reasons)},
+        "omega1": omega1, "omega2": float(ame.omegas[1]) if len(ame.omegas) > 1 else None,
+        "amplitude_convention": "a_k = sqrt(r_k^2 + s_k^2): peak modal amplitude (peak displacement / l, "
+                                "modes normalised to a unit maximum); Omega = omega1 + sigma",
+        "stability": "autocable's eigenvalues (equilibria) and Floquet multipliers (cycles), not PyCont's flags",
+        "cycle_engine": scene.engine,
+        "versions": versions(), "platform": platform.platform(), "argv": list(sys.argv),
+        "resolution": resolution,
+    }
+    res = RunResults(scene.name, tuple(branches), {**provenance, "stages": stages})
+    out = Path(out_dir)
+    overlay_rows = None
+    if scene.overlay is not None:
+        t0 = time.perf_counter()
+        overlay_rows = _run_overlay(scene, deriv, ame, say, resolution)
+        _write_overlay(overlay_rows, out / "overlay.csv")
+        # The AME side of the comparison, solved at the overlay's values rather than read off a chord.
+        from autocable.methods.continuation.equilibria_at import COLUMNS, equilibria_at
+        exact = equilibria_at(results, scene.overlay.parameter, [r["value"] for r in overlay_rows])
+        _write_overlay(exact, out / "overlay_ame.csv", COLUMNS)
+        stages["overlay_s"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    write_results(res, out)
+    stages["write_s"] = time.perf_counter() - t0
+    compare = read_compare(scene.compare) if scene.compare else None
+    if compare and branches:
+        write_compare(scene, compare, branches, out)
+    if plot and branches:
+        t0 = time.perf_counter()
+        from autocable.plotting.diagrams import plot_scene
+        files = plot_scene(res, out / scene.name, x=scene.plot.x, y=scene.plot.y, title=scene.plot.title,
+                           labels=scene.plot.labels, compare=compare,
+                           compare_panel=scene.compare.panel if scene.compare else None,
+                           compare_label=scene.compare.label if scene.compare else "",
+                           overlay=overlay_rows)
+        stages["plot_s"] = time.perf_counter() - t0
+        if scene.plot.plane and any(b.kind in ("fold", "hopf") for b in branches):
+            from autocable.plotting.diagrams import plot_plane
+            files += plot_plane(res, out / f"{scene.name}_plane", x=scene.plot.plane[0], y=scene.plot.plane[1],
+                                title=scene.plot.title, labels=scene.plot.labels)
+            stages["plot_s"] = time.perf_counter() - t0
+        say(f"plot: {', '.join(str(f) for f in files)}")
+    stages["total_s"] = time.perf_counter() - t_all
+    res = RunResults(scene.name, tuple(branches), {**provenance, "stages": stages})
+    write_results(res, out)   # again, now with the complete timings
+    return res
+
+
+def write_compare(scene: Scene, rows: list[dict], branches, out: Path) -> Path:
+    """``compare.json``: per curve label of the digitised points, their distance to the computed
+    branches in the compared panel (`autocable.scene.compare`)."""
+    from autocable._store import atomic_write_json
+    from autocable.scene.compare import compare_summary
+    try:
+        summary = compare_summary(rows, branches, scene.plot.x, scene.compare.panel)
+    except ValueError as exc:
+        raise SpecError(scene.path, "compare.panel", str(exc)) from None
+    return atomic_write_json(out / "compare.json", {"csv": str(scene.compare.csv), "label": scene.compare.label,
+                                                    **summary})
+
+
+
+def _run_overlay(scene: Scene, deriv, ame, say, resolution: str = "full") -> list[dict]:
+    """Sweep the overlay's method up and down over its parameter values (methods/sweeps.py)."""
+    import numpy as np
+
+    from autocable.methods.integration.sweeps import sweep, to_rows
+    ov = scene.overlay
+    values = np.linspace(ov.range[0], ov.range[1], ov.points)
+    if resolution == "coarse":
+        values = values[::3]        # a subset of the same values, from the first
+    fixed = {k: v for k, v in scene.fixed.items() if k != ov.parameter}
+    if ov.method == "ode21":
+        from autocable.methods.integration.ode21 import SCENE_ENGINE, Ode21Integrator
+        integrator = Ode21Integrator(deriv.ode, engine=SCENE_ENGINE)
+    else:
+        from autocable.methods.integration.ame import AmeIntegrator
+        integrator = AmeIntegrator(ame)
+    say(f"overlay: {ov.method} swept in {ov.parameter} over [{ov.range[0]:g}, {ov.range[1]:g}], "
+        f"{ov.points} points, {'/'.join(ov.directions)}")
+
+    def tell(p):
+        state = "periodic" if p.periodic else ("steady" if p.steady else p.message.split(":")[0])
+        say(f"  {p.direction:>4} {ov.parameter} = {p.value:+.5f}: a1 = {p.a1:.4e}, a2 = {p.a2:.4e} ({state})")
+
+    return to_rows(sweep(integrator, ov.parameter, values, fixed, directions=ov.directions,
+                         progress=tell, max_time=ov.max_time))
+
+
+def _write_overlay(rows: list[dict], path: Path, columns=("parameter",)) -> None:
+    import csv
+    import io
+
+    from autocable._store import atomic_write_text
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=list(rows[0]) if rows else list(columns))
+    writer.writeheader()
+    writer.writerows(rows)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(path, buf.getvalue())
+
+
+# ================================================================================================
+# time evolutions (Fig. 11)
+# ================================================================================================
+#: Columns of ``time_series.csv`` (one row per sample; source "ame" or "ode21").
+
+
+

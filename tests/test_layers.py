@@ -1,0 +1,36 @@
+"""The layering of the package (setup.cfg ``[importlinter]``): spec -> model -> codegen -> methods ->
+scene -> studies -> paper -> bench -> cli, each importing only from below. The contract passes on
+the repository, and a deliberately wrong import (the physics importing the scene runner, a loop
+the layering exists to prevent) makes it fail, naming the import."""
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+LINT = ("import sys; from importlinter.cli import lint_imports; "
+        "sys.exit(lint_imports(config_filename='setup.cfg', no_cache=True, no_logo=True))")
+
+
+def _lint(root: Path) -> subprocess.CompletedProcess:
+    # cwd first on sys.path: the copy under test is the package that is analysed
+    return subprocess.run([sys.executable, "-c", LINT], cwd=root, capture_output=True, text=True,
+                          env={"PYTHONPATH": str(root), "PATH": "/usr/bin:/bin"}, timeout=300)
+
+
+def test_the_layering_contract_holds():
+    res = _lint(REPO)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "4 kept, 0 broken" in res.stdout
+
+
+def test_the_contract_fails_on_a_wrong_import(tmp_path):
+    shutil.copytree(REPO / "autocable", tmp_path / "autocable", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(REPO / "setup.cfg", tmp_path / "setup.cfg")
+    statics = tmp_path / "autocable" / "model" / "statics.py"
+    statics.write_text(statics.read_text() + "\n\ndef _upward():\n    from autocable.scene.runner import run_scene\n"
+                       "    return run_scene\n")
+    res = _lint(tmp_path)
+    assert res.returncode != 0
+    assert "BROKEN" in res.stdout
+    assert "autocable.model.statics -> autocable.scene.runner" in res.stdout
