@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import importlib
 
-from autocable._version import __version__
+from autocable._version import __version__  # noqa: F401  (in __all__)
 
 #: public name -> the module that holds it (imported on first use)
 _API = {

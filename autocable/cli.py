@@ -16,12 +16,12 @@ from autocable._paths import SAMPLE_MODEL
 from autocable._version import __version__
 from autocable.paper.figures import add_figures_parser
 from autocable.scene.schema import ENGINES, RESOLUTIONS, load_scene
-from autocable.spec import SpecError, load_model
+from autocable.spec import SpecError
 
 
 def _derivation(path):
     from autocable.model.derive import derive
-    return derive(load_model(path))
+    return derive(path)
 
 
 def _fmt(x: float) -> str:

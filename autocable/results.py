@@ -99,7 +99,7 @@ def _frozen_array(values, dtype=float) -> np.ndarray:
     return arr
 
 
-def _finite_or_none(x):
+def finite_or_none(x):
     if x is None:
         return None
     if isinstance(x, (bool, np.bool_)):
@@ -109,11 +109,11 @@ def _finite_or_none(x):
     if isinstance(x, (float, np.floating)):
         return float(x) if math.isfinite(x) else None
     if isinstance(x, complex):
-        return [_finite_or_none(x.real), _finite_or_none(x.imag)]
+        return [finite_or_none(x.real), finite_or_none(x.imag)]
     if isinstance(x, Mapping):
-        return {str(k): _finite_or_none(v) for k, v in x.items()}
+        return {str(k): finite_or_none(v) for k, v in x.items()}
     if isinstance(x, (list, tuple, np.ndarray)):
-        return [_finite_or_none(v) for v in x]
+        return [finite_or_none(v) for v in x]
     return x
 
 
@@ -161,7 +161,7 @@ class SpecialPoint:
                 "state": list(self.state), "parameters": dict(self.parameters),
                 "index": self.index, "converged": self.converged,
                 "confirmed_by_pycont": self.confirmed_by_pycont, "origin": self.origin,
-                "message": self.message, "extra": _finite_or_none(dict(self.extra))}
+                "message": self.message, "extra": finite_or_none(dict(self.extra))}
 
     @classmethod
     def from_dict(cls, d: Mapping) -> "SpecialPoint":
@@ -196,7 +196,7 @@ class EndPoint:
         return END_REASONS[self.reason]
 
     def to_dict(self) -> dict:
-        return {"side": self.side, "reason": self.reason, "value": _finite_or_none(self.value),
+        return {"side": self.side, "reason": self.reason, "value": finite_or_none(self.value),
                 "points": self.points, "message": self.message, "hint": self.hint}
 
     @classmethod
@@ -306,7 +306,7 @@ class Branch:
                 **({"parameter2": self.parameter2} if self.parameter2 else {}),
                 "parameter_names": list(self.parameter_names), "variables": list(self.variables),
                 "amplitude_names": list(self.amplitude_names), "points": len(self),
-                "ends": [e.to_dict() for e in self.ends], "info": _finite_or_none(dict(self.info)),
+                "ends": [e.to_dict() for e in self.ends], "info": finite_or_none(dict(self.info)),
                 "special_points": [sp.label for sp in self.special_points]}
 
 
@@ -440,7 +440,7 @@ def write_results(results: RunResults, out_dir: str | Path) -> dict[str, Path]:
                                             special_points_csv(results.special_points, branches)),
     }
     meta = {"format": "autocable.run/1", "name": results.name,
-            "provenance": _finite_or_none(dict(results.provenance)),
+            "provenance": finite_or_none(dict(results.provenance)),
             "branches": [b.metadata() for b in branches],
             "special_points": [sp.to_dict() for sp in results.special_points]}
     paths["run"] = atomic_write_json(out / RUN_JSON, meta)

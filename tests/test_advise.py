@@ -11,15 +11,15 @@ the 2-dof AME finds unstable: the 1-dof AME is refused.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 
 from autocable.studies.advise import advice_report, choose_ame
 from autocable.cli import main
 from autocable.studies import ladder as R
+from conftest import REPO
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO
 RUNS = ROOT / "runs"
 
 

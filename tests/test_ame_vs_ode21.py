@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -32,21 +31,14 @@ from autocable.cli import main
 from autocable.methods.integration.ame import (AmeIntegrator, compare_with_ode21, initial_amplitudes)
 from autocable.methods.integration.ode21 import DEFAULT_Q0, Ode21Integrator
 from autocable.model.ame_cache import ame_key, derive_ame
-from autocable.model.derive import derive
 from autocable.model.equations import TwoModeODE
 from autocable.model.multiscale import OscillatorSystem, OscillatorTerm
 from autocable.model.multiscale import derive as multiscale_derive
 from autocable.model.symbolic import parameter_values
-from autocable.spec import load_model
+from conftest import SAMPLE
 
-SAMPLE = Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"
 ETA_5A = 8.2e-5                     # Fig. 5a
 SIGMAS = np.linspace(-0.05, 0.05, 21)
-
-
-@pytest.fixture(scope="module")
-def derivation():
-    return derive(load_model(SAMPLE))
 
 
 @pytest.fixture(scope="module")

@@ -1,6 +1,5 @@
 """Statics, quasi-static shape (eqs. 15-16), modes (eqs. 19-20) and slaved twist."""
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -8,8 +7,8 @@ import pytest
 from autocable.model.modes import irvine_root, linear_modes, ritz_omega1
 from autocable.model.statics import cable_statics, quasi_static_coefficients_si
 from autocable.spec import load_model
+from conftest import SAMPLE
 
-SAMPLE = Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"
 
 
 @pytest.fixture(scope="module")

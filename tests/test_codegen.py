@@ -18,8 +18,8 @@ from scipy.integrate import solve_ivp
 from autocable.codegen import compat, pydstool
 from autocable import _store as cache
 from autocable.codegen.pydstool import TIME, VectorField
+from conftest import REPO
 
-REPO = Path(__file__).resolve().parents[1]
 x, y, z, v = sympy.symbols("x y z v")
 
 

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -36,8 +35,9 @@ from scipy.interpolate import CubicSpline
 from autocable.methods.continuation import (ContinuationSettings, EquilibriumProblem, System, ame_system,
                                             auto_state_scale, continue_cycles, continue_equilibria)
 from autocable.methods.continuation.cycles import _monodromy
+from conftest import REPO
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO
 x, y, mu = sp.symbols("x y mu")
 
 
@@ -272,11 +272,10 @@ def scene_hopf(scene_file: str):
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
     from autocable.scene.runner import _settings, load_scene
-    from autocable.spec import load_model
 
     scene = load_scene(ROOT / "runs" / scene_file)
     run = scene.runs[0]
-    ame = derive_ame(derive(load_model(scene.model)), ordering=scene.ordering).ame
+    ame = derive_ame(derive(scene.model), ordering=scene.ordering).ame
     values = {"sigma": 0.0, "U": 0.0, "eta": 0.0, **scene.fixed, **run.fixed}
     values[run.parameter] = run.range[0]
     system = ame_system(ame, scene.ame, wind=True)

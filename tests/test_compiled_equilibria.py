@@ -18,7 +18,6 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -29,8 +28,9 @@ from autocable.methods.continuation import (ContinuationSettings, EquilibriumPro
                                             auto_state_scale, bialternate, continue_equilibria,
                                             switch_branch)
 from autocable.methods.continuation.chart import _Chart
+from conftest import REPO
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO
 
 
 def first_run_problem(scene_file: str):
@@ -38,12 +38,11 @@ def first_run_problem(scene_file: str):
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
     from autocable.scene.runner import load_scene
-    from autocable.spec import load_model
 
     scene = load_scene(ROOT / "runs" / scene_file)
     run = scene.runs[0]
     assert run.start.kind == "trivial" and run.parameter == "sigma"
-    ame = derive_ame(derive(load_model(scene.model))).ame
+    ame = derive_ame(derive(scene.model)).ame
     values = {"sigma": 0.0, "U": 0.0, "eta": 0.0, **scene.fixed, **run.fixed}
     values[run.parameter] = run.range[0]
     system = ame_system(ame, scene.ame, wind=values["U"] != 0.0)

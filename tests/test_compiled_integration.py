@@ -32,9 +32,8 @@ def forced_undamped(t, w):
 def eq21():
     from autocable.methods.integration.ode21 import Ode21Integrator
     from autocable.model.derive import derive
-    from autocable.spec import load_model
     from pathlib import Path
-    d = derive(load_model(Path(__file__).parent.parent / "models" / "luongo_zulli_2012.toml"))
+    d = derive(Path(__file__).parent.parent / "models" / "luongo_zulli_2012.toml")
     return d, Ode21Integrator(d.ode, "dopri"), Ode21Integrator(d.ode, "compiled")
 
 
@@ -51,13 +50,13 @@ def test_closed_form_forced_oscillator_at_every_sample(oscillator):
 def test_closed_form_damped_steady_amplitude(oscillator):
     """Damped: after the transient (z w t >> 1) the amplitude is 1 / sqrt((w^2-1)^2 + (2 z w)^2)
     to 1e-8 relative, measured as the half peak-to-peak of dense samples (parabolic peaks)."""
-    from autocable.methods.integration.ode21 import _half_range
+    from autocable.methods.integration.ode21 import half_range
     w, z = 1.3, 0.05
     g = sample_grid(0.0, 600.0, 2 * math.pi / 512)
     r = oscillator.run([0.0, 0.0], g, [w, z], rtol=1e-11, atol=1e-14)
     last = r.y[-513:, 0]                                  # the last forcing period (2 pi)
     exact = 1.0 / math.hypot(w**2 - 1, 2 * z * w)
-    assert _half_range(last) == pytest.approx(exact, rel=1e-8)
+    assert half_range(last) == pytest.approx(exact, rel=1e-8)
 
 
 def test_observed_order_is_eight(oscillator):
@@ -148,7 +147,7 @@ def test_run_samples_equal_dopri(eq21):
 def test_envelope_equals_per_period_loop(eq21):
     """`Ode21Integrator.envelope` (vectorised) equals the per-period half ranges of `run`'s samples,
     and the dopri and compiled envelopes agree to 1e-8 relative."""
-    from autocable.methods.integration.ode21 import _half_range
+    from autocable.methods.integration.ode21 import half_range
     from autocable.model.symbolic import parameter_values
     _, dopri, compiled = eq21
     U, eta, sigma = 1.3, 1.4e-3, -0.042
@@ -160,7 +159,7 @@ def test_envelope_equals_per_period_loop(eq21):
     period = 2 * math.pi / Om
     tt, ys = compiled.run((0.0, 1e-6, 0.0, 0.0), 0.0, len(te) * period, period / 64,
                           parameter_values(U, eta, Om))
-    loop = [_half_range(ys[k * 64:(k + 1) * 64 + 1, 0]) for k in range(len(te))]
+    loop = [half_range(ys[k * 64:(k + 1) * 64 + 1, 0]) for k in range(len(te))]
     assert np.allclose(e1, loop, rtol=1e-9, atol=0)
 
 

@@ -13,14 +13,13 @@ from __future__ import annotations
 import copy
 import math
 import re
-from pathlib import Path
 
 import pytest
 
 from autocable.cli import main
 from autocable.studies.failure_map import Tools, map_point, point_class, region_statement
+from conftest import SAMPLE
 
-SAMPLE = Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"
 
 
 @pytest.fixture(scope="module")

@@ -1,6 +1,5 @@
 """Eq. (21): the Galerkin table, computed two independent ways, and its physics checks."""
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -9,8 +8,8 @@ import sympy as sp
 from autocable.model import aero as aero_mod
 from autocable.model.derive import derive
 from autocable.spec import load_model
+from conftest import SAMPLE
 
-SAMPLE = Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"
 
 
 @pytest.fixture(scope="module")

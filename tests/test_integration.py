@@ -1,23 +1,20 @@
 """Direct integration of eq. (21): closed form, tolerance convergence, scipy cross-check, CLI."""
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from autocable.cli import main
 from autocable.methods.integration.ode21 import Ode21Integrator
-from autocable.model.derive import derive
 from autocable.model.symbolic import parameter_values
-from autocable.spec import load_model
+from conftest import SAMPLE
 
-SAMPLE = Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"
 
 
 @pytest.fixture(scope="module")
-def ode():
-    return derive(load_model(SAMPLE)).ode
+def ode(derivation):
+    return derivation.ode
 
 
 @pytest.fixture(scope="module")

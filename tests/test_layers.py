@@ -6,8 +6,8 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
+from conftest import REPO
 
-REPO = Path(__file__).resolve().parents[1]
 LINT = ("import sys; from importlinter.cli import lint_imports; "
         "sys.exit(lint_imports(config_filename='setup.cfg', no_cache=True, no_logo=True))")
 
@@ -34,3 +34,24 @@ def test_the_contract_fails_on_a_wrong_import(tmp_path):
     assert res.returncode != 0
     assert "BROKEN" in res.stdout
     assert "autocable.model.statics -> autocable.scene.runner" in res.stdout
+
+
+def test_no_private_name_crosses_a_package_border():
+    """A name with a leading underscore is imported only inside its own package (the root package's
+    own modules _store, _paths, _version are internal to autocable and used throughout it)."""
+    import ast
+
+    crossings = []
+    for path in sorted((REPO / "autocable").rglob("*.py")):
+        parts = path.relative_to(REPO).with_suffix("").parts
+        here = ".".join(parts[:-1]) if parts[-1] != "__init__" else ".".join(parts[:-1])
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not (isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("autocable")):
+                continue
+            source = REPO.joinpath(*node.module.split("."))
+            owner = node.module.rsplit(".", 1)[0] if source.with_suffix(".py").is_file() else node.module
+            for alias in node.names:
+                private = alias.name.startswith("_") and not alias.name.startswith("__")
+                if private and owner != here and not (owner == "autocable" and alias.name in ("_store", "_paths", "_version")):
+                    crossings.append(f"{path.relative_to(REPO)}:{node.lineno} {alias.name} from {node.module}")
+    assert crossings == []

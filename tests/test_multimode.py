@@ -2,7 +2,6 @@
 integration, and the truncation check at the settings of Figs. 5a, 6 and 9."""
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,20 +10,18 @@ import sympy as sp
 from autocable.cli import main
 from autocable.methods.integration.ode21 import Ode21Integrator
 from autocable.methods.integration.nmode import METHOD_INFO, NModeIntegrator
-from autocable.model.derive import derive
 from autocable.model.derive_n import derive_nmode
 from autocable.model.modes_n import ANTISYMMETRIC, IN_PLANE, SYMMETRIC, irvine_roots, mode_set
 from autocable.model.multimode import first_order_rhs_n, state_symbols
 from autocable.model.shapes import ClosedFormIntegrator, QuadratureIntegrator
 from autocable.model.symbolic import PARAMETERS, T, parameter_values
-from autocable.spec import load_model
+from conftest import SAMPLE
 
-SAMPLE = Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"
 
 
 @pytest.fixture(scope="module")
-def d():
-    return derive(load_model(SAMPLE))
+def d(derivation):
+    return derivation
 
 
 @pytest.fixture(scope="module")

@@ -11,9 +11,7 @@ reduction up to 11.6 % off.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
-import numpy as np
 import pytest
 import sympy as sp
 
@@ -21,9 +19,8 @@ from autocable.methods.continuation.equilibria_at import nearest_stable_equilibr
 from autocable.model.ame_cache import ame_key, derive_ame
 from autocable.model.multiscale import (ORDERINGS, OscillatorSystem, OscillatorTerm, default_ordering, derive,
                                         ordering_named)
+from conftest import REPO, SAMPLE
 
-REPO = Path(__file__).resolve().parents[1]
-SAMPLE = REPO / "models" / "luongo_zulli_2012.toml"
 w0 = sp.Symbol("w0", real=True)
 a2, a3 = sp.symbols("a2 a3", real=True)
 

@@ -1,6 +1,5 @@
 """Periodic orbits of eq. (21): Floquet multipliers (floquet21) and their continuation (periodic21)."""
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,9 +10,8 @@ from autocable.methods.integration.floquet21 import (Variational21, floquet_mult
 from autocable.methods.integration.ode21 import Ode21Integrator
 from autocable.model.derive import derive
 from autocable.model.equations import Term, TwoModeODE
-from autocable.spec import load_model
+from conftest import SAMPLE
 
-SAMPLE = Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"
 
 
 def linear_ode(w1=1.02, w2=0.97, xi1=0.03, xi2=0.011, m=0.7) -> TwoModeODE:
@@ -28,7 +26,7 @@ def linear_ode(w1=1.02, w2=0.97, xi1=0.03, xi2=0.011, m=0.7) -> TwoModeODE:
 
 @pytest.fixture(scope="module")
 def sample():
-    return derive(load_model(SAMPLE))
+    return derive(SAMPLE)
 
 
 @pytest.fixture(scope="module")

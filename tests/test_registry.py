@@ -15,7 +15,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,9 +23,9 @@ from autocable.studies.work_precision import compare, crossings
 from autocable.cli import main
 from autocable.studies import ladder as R
 from autocable.model.symbolic import parameter_values
+from conftest import REPO, SAMPLE
 
-ROOT = Path(__file__).resolve().parents[1]
-SAMPLE = ROOT / "models" / "luongo_zulli_2012.toml"
+ROOT = REPO
 RUNS = ROOT / "runs"
 
 

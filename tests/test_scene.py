@@ -19,10 +19,10 @@ from autocable import run_scene
 from autocable.cli import add_run_parser
 from autocable.scene.schema import load_scene
 from autocable.spec import SpecError
+from conftest import REPO, SAMPLE
 
-REPO = Path(__file__).resolve().parents[1]
 FIG05A = REPO / "runs" / "fig05a.toml"
-MODEL = REPO / "models" / "luongo_zulli_2012.toml"
+MODEL = SAMPLE
 
 
 @pytest.fixture(scope="module")
@@ -60,11 +60,10 @@ def test_fig05a_stable_branch_agrees_with_direct_integration_of_the_ame(fig05a):
     not the continuation's sympy system) from a perturbed start to its steady state."""
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
-    from autocable.spec import load_model
 
     res, _ = fig05a
     b = res.branch("I")
-    ame = derive_ame(derive(load_model(MODEL))).ame
+    ame = derive_ame(derive(MODEL)).ame
     rhs = ame.cartesian_rhs()
     picks = np.unique(np.linspace(0, len(b) - 1, 12).round().astype(int))
     assert len(picks) >= 10
@@ -220,10 +219,9 @@ def test_the_one_dof_reduction_has_the_two_dof_branch_when_a2_vanishes(fig05a):
     from autocable.methods.continuation import ame_system, equilibrium_near
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
-    from autocable.spec import load_model
 
     b = fig05a[0].branch("I")
-    one = ame_system(derive_ame(derive(load_model(MODEL))).ame, "1dof", wind=False)
+    one = ame_system(derive_ame(derive(MODEL)).ame, "1dof", wind=False)
     for i in range(0, len(b), max(1, len(b) // 10)):
         p = one.parameter_vector({"sigma": b["sigma"][i], "U": 0.0, "eta": 8.2e-5})
         x, ok, _ = equilibrium_near(one, b.states[i][:2], p, scale=1e-4)
@@ -264,9 +262,8 @@ def test_galloping_branch_at_eta_zero_against_the_closed_form():
                                                 continue_equilibria)
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
-    from autocable.spec import load_model
 
-    d = derive(load_model(MODEL))
+    d = derive(MODEL)
     ame1 = derive_ame(d).ame.one_dof()
     syms = ame1.symbols()
     w = d.ode.omega1
@@ -302,11 +299,10 @@ def test_fig03_scene_gives_the_supercritical_galloping_branch(tmp_path):
     import numpy as np
 
     from autocable.model.derive import derive
-    from autocable.spec import load_model
 
     run_scene(load_scene(REPO / "runs" / "fig03.toml"), tmp_path, plot=False)
     back = read_results(tmp_path)
-    ode = derive(load_model(MODEL)).ode
+    ode = derive(MODEL).ode
     c = ode.coefficients()
     w, xi = ode.omega1, ode.xi_s
     gal = back.branch("galloping")

@@ -13,14 +13,13 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from autocable.scene.runner import load_scene, run_scene
+from conftest import REPO
 
-REPO = Path(__file__).resolve().parents[1]
 RUNS = REPO / "runs"
 SPECIAL_RTOL = 1e-4
 PEAK_RTOL = 2e-3
@@ -117,10 +116,9 @@ def test_special_points_and_peaks_at_coarse_resolution(scene_results, name):
 def test_fig03_equals_the_closed_form(scene_results):
     """Eq. (25) in ERRATA item 5's form: a1 = 2 sqrt(-(2 xi_s omega1 + zeta11 U) U) / sqrt(3 zeta8 omega1^2)."""
     from autocable.model.derive import derive
-    from autocable.spec import load_model
 
     res, _ = scene_results("fig03")
-    ode = derive(load_model(REPO / "models" / "luongo_zulli_2012.toml")).ode
+    ode = derive(REPO / "models" / "luongo_zulli_2012.toml").ode
     c = ode.coefficients()
     gal = res.branch("galloping")
     U, a1 = np.asarray(gal["U"]), np.asarray(gal["a1"])
@@ -450,9 +448,8 @@ def _start_cycle_closes_under_scipy(b, name: str, dof: str, at: dict) -> None:
     from autocable.methods.continuation.system import ame_system
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
-    from autocable.spec import load_model
     scene = load_scene(RUNS / f"{name}.toml")
-    sysm = ame_system(derive_ame(derive(load_model(scene.model)), ordering=scene.ordering).ame, dof)
+    sysm = ame_system(derive_ame(derive(scene.model), ordering=scene.ordering).ame, dof)
     i = b.info["start_index"]
     p = sysm.parameter_vector({**scene.fixed, **at})
     x0 = np.array([b[v][i] for v in sysm.variables])

@@ -1,15 +1,14 @@
 """Spec loading: the sample model loads; each class of bad input gives one line naming the field."""
 import math
 import re
-from pathlib import Path
 
 import pytest
 
 from autocable.model.statics import cable_statics, regime_warnings
 from autocable.spec import SpecError, load_model
+from conftest import REPO, SAMPLE
 
-ROOT = Path(__file__).resolve().parents[1]
-SAMPLE = ROOT / "models" / "luongo_zulli_2012.toml"
+ROOT = REPO
 
 
 def test_sample_model_loads_in_si_units():

@@ -1,5 +1,4 @@
 """Brute-force sweeps of eq. (21) and of the AME (the 'empty boxes' of Figs. 9-10)."""
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -8,15 +7,9 @@ from autocable.methods.integration.ame import AmeIntegrator
 from autocable.methods.integration.ode21 import Ode21Integrator
 from autocable.methods.integration.sweeps import sweep
 from autocable.model.ame_cache import derive_ame
-from autocable.model.derive import derive
-from autocable.spec import load_model
+from conftest import SAMPLE
 
-MODEL = Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"
-
-
-@pytest.fixture(scope="module")
-def derivation():
-    return derive(load_model(MODEL))
+MODEL = SAMPLE
 
 
 def test_sweeps_show_the_hysteresis_of_fig7_settings_in_both_methods(derivation):

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import csv
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -28,9 +27,9 @@ from autocable.methods.continuation import (ContinuationSettings, EquilibriumPro
 from autocable.results import read_results
 from autocable.scene.runner import load_scene, run_scene
 from autocable.spec import SpecError
+from conftest import REPO, SAMPLE
 
-REPO = Path(__file__).resolve().parents[1]
-MODEL = REPO / "models" / "luongo_zulli_2012.toml"
+MODEL = SAMPLE
 FOLDS_SCENE = REPO / "runs" / "folds_sigma_eta.toml"
 
 
@@ -291,8 +290,7 @@ def test_fold_curve_scene_runs_end_to_end(folds_scene):
     from autocable.methods.continuation import ame_system
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
-    from autocable.spec import load_model
-    system = ame_system(derive_ame(derive(load_model(MODEL))).ame, "1dof", wind=False)
+    system = ame_system(derive_ame(derive(MODEL)).ame, "1dof", wind=False)
     assert_folds_checked(F, system)
 
 

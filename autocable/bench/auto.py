@@ -573,10 +573,9 @@ def bench_auto(model_path: str, auto_python: str | None = None, repeats: int = 3
     from autocable.bench.continuation import time_compiled
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
-    from autocable.spec import load_model
 
     repeats = max(1, int(repeats))
-    system = ame_system(derive_ame(derive(load_model(model_path))).ame, "2dof", wind=False)
+    system = ame_system(derive_ame(derive(model_path)).ame, "2dof", wind=False)
     settings = ContinuationSettings()
     t = time.perf_counter()
     problem = auto_problem(system, "sigma")

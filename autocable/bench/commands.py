@@ -168,11 +168,10 @@ def bench_ame_vs_ode(model_path: str, repeats: int = 3, log=None, out=None, n_si
     from autocable.methods.integration.ode21 import Ode21Integrator
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
-    from autocable.spec import load_model
 
     say = log or (lambda s: None)
     t_start = time.perf_counter()
-    d = derive(load_model(model_path))
+    d = derive(model_path)
     say("AME derivation, cold and cached ...")
     timings = _ame_timings(d, repeats)
     say(f"  cold {timings['ame_derivation_cold_s']:.3f} s, "

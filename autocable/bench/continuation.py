@@ -8,7 +8,7 @@ import time
 
 from autocable.methods.continuation.problem import ContinuationSettings, EquilibriumProblem, Progress
 from autocable.methods.continuation.equilibria import continue_equilibria, switch_branch
-from autocable.methods.continuation.system import _auto_scale, ame_system
+from autocable.methods.continuation.system import auto_state_scale as _auto_scale, ame_system
 
 
 def bench_continuation(model: str = "models/luongo_zulli_2012.toml", *, repeats: int = 3,
@@ -25,14 +25,13 @@ def bench_continuation(model: str = "models/luongo_zulli_2012.toml", *, repeats:
 
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
-    from autocable.spec import load_model
 
     def say(msg):
         if progress:
             progress(msg)
 
     t0 = time.perf_counter()
-    ame = derive_ame(derive(load_model(model))).ame
+    ame = derive_ame(derive(model)).ame
     system = ame_system(ame, "2dof", wind=False)
     t_model = time.perf_counter() - t0
     problem = EquilibriumProblem(system, "sigma", {"sigma": -0.05, "U": 0.0, "eta": 1.4e-3},
@@ -86,9 +85,8 @@ def bench_continuation(model: str = "models/luongo_zulli_2012.toml", *, repeats:
 def _bench_scene(model: str) -> None:
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
-    from autocable.spec import load_model
 
-    ame = derive_ame(derive(load_model(model))).ame
+    ame = derive_ame(derive(model)).ame
     system = ame_system(ame, "2dof", wind=False)
     vals = {"sigma": -0.05, "U": 0.0, "eta": 1.4e-3}
     problem = EquilibriumProblem(system, "sigma", vals, (-0.05, 0.05),

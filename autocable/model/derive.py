@@ -1,12 +1,13 @@
 """From a model spec to eq. (21): statics -> modes -> calibration -> aerodynamics -> Galerkin.
 
-`derive(spec)` runs the whole chain and returns a `Derivation` (plain frozen data). The result is
+`derive(spec)` (a spec or a model file) runs the whole chain and returns a `Derivation` (plain frozen data). The result is
 cached in the autocable cache folder under a hash of the spec's physical content and of
 `DERIVATION_VERSION`, so a second call with the same spec costs only a JSON read.
 """
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import dataclass, field
 
@@ -18,7 +19,7 @@ from autocable.model.galerkin import aero_scales, project
 from autocable.model.modes import linear_modes
 from autocable.model.shapes import ClosedFormIntegrator, QuadratureIntegrator
 from autocable.model.statics import CableStatics, cable_statics, regime_warnings
-from autocable.spec import ModelSpec
+from autocable.spec import ModelSpec, load_model
 
 #: Bump when a change in the physics changes the numbers, so stale cached derivations are not used.
 DERIVATION_VERSION = "eq21-v2"
@@ -91,8 +92,11 @@ def _compute(spec: ModelSpec, integrator: str) -> dict:
             "calibration_roots": roots}
 
 
-def derive(spec: ModelSpec, integrator: str = "closed-form", use_cache: bool = True) -> Derivation:
-    """Eq. (21) for ``spec``; cached by content (see module docstring)."""
+def derive(spec: ModelSpec | str | os.PathLike, integrator: str = "closed-form", use_cache: bool = True) -> Derivation:
+    """Eq. (21) for ``spec`` (a `ModelSpec`, or the path of a model file, read by `load_model`);
+    cached by content (see module docstring)."""
+    if not isinstance(spec, ModelSpec):
+        spec = load_model(spec)
     key = content_hash({"spec": spec.content_hash(), "version": DERIVATION_VERSION,
                         "integrator": integrator})
     path = cache_dir("derivations") / f"{spec.name}-{key}.json"

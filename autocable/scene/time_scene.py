@@ -168,10 +168,10 @@ def run_time_scene(scene: Scene, out_dir, say, plot: bool, resolution: str):
         "versions": versions(), "platform": platform.platform(), "argv": list(sys.argv), "stages": stages,
     }
     res = RunResults(scene.name, (), {**provenance, "summary": summary})
-    from autocable.results import _finite_or_none
+    from autocable.results import finite_or_none
     atomic_write_json(out / "run.json", {"format": "autocable.run/1", "name": scene.name,
-                                         "provenance": _finite_or_none(provenance), "branches": [],
-                                         "special_points": [], "summary": _finite_or_none(summary)})
+                                         "provenance": finite_or_none(provenance), "branches": [],
+                                         "special_points": [], "summary": finite_or_none(summary)})
     return res
 
 

@@ -95,9 +95,8 @@ class Tools:
         from autocable.methods.integration.ode21 import Ode21Integrator
         from autocable.model.ame_cache import derive_ame
         from autocable.model.derive import derive
-        from autocable.spec import load_model
 
-        d = derive(load_model(model_path))
+        d = derive(model_path)
         ame = derive_ame(d).ame
         tools = cls(d, ame, AmeIntegrator(ame), Ode21Integrator(d.ode), Variational21(d.ode))
         # Load the compiled generator now, so that no grid point's wall time includes it.

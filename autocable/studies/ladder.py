@@ -220,9 +220,8 @@ class Tools:
     def __init__(self, model_path: str | Path, ordering: str = "paper"):
         from autocable.model.ame_cache import derive_ame
         from autocable.model.derive import derive
-        from autocable.spec import load_model
         t0 = time.perf_counter()
-        self.derivation = derive(load_model(model_path))
+        self.derivation = derive(model_path)
         self.ordering = ordering            # the Multiple Scales ordering of the AME rungs
         self.ame = derive_ame(self.derivation, ordering=ordering).ame
         self.builds: dict[str, float] = {"derive": time.perf_counter() - t0}

@@ -50,10 +50,9 @@ def bench_ordering(model_path: str, *, cases=CASES, bound_cases=BOUND_CASES, log
     from autocable.methods.integration.sweeps import sweep
     from autocable.model.ame_cache import derive_ame
     from autocable.model.derive import derive
-    from autocable.spec import load_model
     say = log or (lambda s: None)
     t_all = time.perf_counter()
-    derivation = derive(load_model(model_path))
+    derivation = derive(model_path)
     ames = {o: derive_ame(derivation, ordering=o).ame for o in ("paper", "natural")}
     integrator = Ode21Integrator(derivation.ode)
     out_cases = []

@@ -92,7 +92,7 @@ def _stopped(r, t0: float, t1: float) -> str:
 
 
 def half_ranges(w: np.ndarray) -> np.ndarray:
-    """`_half_range` of every row of ``w`` (m x k samples), vectorised: the same parabolic peaks."""
+    """`half_range` of every row of ``w`` (m x k samples), vectorised: the same parabolic peaks."""
     w = np.asarray(w, dtype=float)
     if w.shape[0] == 0:
         return np.empty(0)
@@ -113,7 +113,9 @@ def half_ranges(w: np.ndarray) -> np.ndarray:
     return 0.5 * (peak(w) + peak(-w))
 
 
-def _half_range(x: np.ndarray) -> float:
+def half_range(x: np.ndarray) -> float:
+    """Half the peak-to-peak of the samples ``x``, each extreme refined by a parabola (`refined_peak`):
+    the amplitude a_k of Sect. 5 over a window of the response."""
     return 0.5 * (refined_peak(x, 1) - refined_peak(x, -1))
 
 
@@ -276,7 +278,7 @@ class Ode21Integrator:
                                       start, y, history)
             # A rolling window across chunks: the last chunk may be shorter than the window.
             window = np.concatenate([window, ys[1:]])[-keep:]
-            amps = (_half_range(window[:, 0]), _half_range(window[:, 1]))
+            amps = (half_range(window[:, 0]), half_range(window[:, 1]))
             if progress:
                 progress(t, amps)
             if previous is not None:
@@ -359,7 +361,7 @@ class Ode21Integrator:
                   history, n=64):
         env = [(a, a) for a in amps]
         if window is not None and len(window) > n:
-            per = [[_half_range(window[i:i + n + 1, k]) for i in range(0, len(window) - n, n)]
+            per = [[half_range(window[i:i + n + 1, k]) for i in range(0, len(window) - n, n)]
                    for k in (0, 1)]
             env = [(min(p), max(p)) for p in per]
         hist = ()

@@ -1,0 +1,37 @@
+"""Shared test fixtures: the repository's paths and the sample cable's derivations, computed once
+per test session (each is content-cached on disk as well, so a warm cache makes them cheap).
+
+Test modules import the paths (``from conftest import REPO, SAMPLE``) and request the fixtures by
+name; a module that needs a variant (another integrator, no cache) builds its own.
+"""
+from pathlib import Path
+
+import pytest
+
+#: The repository's top folder.
+REPO = Path(__file__).resolve().parents[1]
+#: The sample cable of Sect. 5.
+SAMPLE = REPO / "models" / "luongo_zulli_2012.toml"
+#: The figure scenes.
+RUNS = REPO / "runs"
+
+
+@pytest.fixture(scope="session")
+def sample_spec():
+    """The sample cable's `ModelSpec`."""
+    from autocable.spec import load_model
+    return load_model(SAMPLE)
+
+
+@pytest.fixture(scope="session")
+def derivation(sample_spec):
+    """Eq. (21) of the sample cable (`autocable.derive`)."""
+    from autocable.model.derive import derive
+    return derive(sample_spec)
+
+
+@pytest.fixture(scope="session")
+def sample_ame(derivation):
+    """The AME (22)-(24) of the sample cable, the paper's ordering (Sect. 4)."""
+    from autocable.model.ame_cache import derive_ame
+    return derive_ame(derivation).ame
