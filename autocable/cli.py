@@ -478,7 +478,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
     b.add_argument("what", nargs="?", default=None,
-                   choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "ordering"],
+                   choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "ordering", "engines"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
                         "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
@@ -486,7 +486,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "or install autocable[auto]); figures: wall time of `autocable figures` (all scenes), "
                         "cold and warm cache, with the share of each stage; ordering: the paper's and the "
                         "natural Multiple Scales ordering (2-dof and A2 = 0) against eq. (21) at Figs. 4c, 7, 9 "
-                        "(with --out, also ordering.md/.png). Without a subcommand "
+                        "(with --out, also ordering.md/.png); engines: every figure scene on PyCont and on the compiled "
+                        "kernel (coarse), their special points compared. Without a subcommand "
                         "(--out DIR): the work-precision bench of the method ladder (bench.json, "
                         "work_precision.png, work_precision.md)")
     b.add_argument("--model", default=str(SAMPLE_MODEL))

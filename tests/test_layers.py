@@ -55,3 +55,4 @@ def test_no_private_name_crosses_a_package_border():
                 if private and owner != here and not (owner == "autocable" and alias.name in ("_store", "_paths", "_version")):
                     crossings.append(f"{path.relative_to(REPO)}:{node.lineno} {alias.name} from {node.module}")
     assert crossings == []
+

@@ -100,6 +100,9 @@ def run_bench(what: str, model_path: str, repeats: int = 3, log=None, out=None) 
         if out:
             result["files"] = [str(f) for f in write(result, out)]
         return result
+    if what == "engines":
+        from autocable.bench.engines import bench_engines
+        return bench_engines(log=log)
     if what == "continuation":
         from autocable.bench.continuation import bench_continuation
         return bench_continuation(model_path, repeats=repeats, cold=True, progress=log)
