@@ -73,7 +73,7 @@ class AeroExpansion:
     alpha: float
     beta: float
     theta0: float
-    static_angle: float          # phi0 = gamma - Theta0 of ERRATA.md [rad]
+    static_angle: float          # phi0 = +-gamma - Theta0 (sign: angle_convention) [rad]
 
     def polynomial(self, component: int):
         """The expanded load of eq. (14) as a sympy polynomial in theta, vdot, wdot with U symbolic."""
