@@ -45,8 +45,9 @@ REASONS = {
                   "does not (docs/ordering.md)",
     "inputs": "unknown paper inputs: the yaw beta, the rivulet angle Theta0 and the air density are "
               "not printed; the sample model calibrates Theta0 to U_c = 36 m/s on one member of a "
-              "one-parameter family (models/luongo_zulli_2012.toml), so the aerodynamic coefficients, "
-              "and with them Hopf points and islands under wind, need not be the paper's",
+              "one-parameter family (models/luongo_zulli_2012.toml; docs/model.md, U1-U4), so the "
+              "aerodynamic coefficients, and with them Hopf points and islands under wind, need not "
+              "be the paper's",
     "missing": "the scene did not run, failed or has no results (see its error)",
     "reduction": "modelling choice: the scene uses the A2 = 0 (1-dof) AME; the study's bound is the 2-dof "
                  "AME's, and on large responses the reduction adds its own error (on Fig. 4c's island "
