@@ -4,10 +4,10 @@ A spec describes one cable (Sect. 5 of Luongo & Zulli) and its aerodynamics (eqs
 is checked: a missing, unknown, non-numeric or non-physical value raises `SpecError`, whose message is
 one line naming the file, the field and what is expected. Nothing else in autocable reads TOML.
 
-Inputs the paper does not give (the yaw angle beta, the rivulet angle Theta0, the air density) are
-explicit fields. Exactly one of (yaw, rivulet angle) may be the string ``"calibrate"``: it is then
-found so that the trivial solution loses stability at ``critical_wind_speed_m_s`` (see
-`autocable.model.aero.calibrate`).
+Inputs the paper does not give (the yaw angle beta, the rivulet angle Theta0, the air density, the
+load length and angle convention of eqs. 11-12: docs/model.md, U1-U4) are explicit fields. Exactly one
+of (yaw, rivulet angle) may be the string ``"calibrate"``: it is then found so that the trivial
+solution loses stability at ``critical_wind_speed_m_s`` (see `autocable.model.calibration.calibrate`).
 """
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """The amplitude equations (22)-(24) of the sample cable against closed forms and against eq. (21).
 
-Amplitudes are peak modal amplitudes (ERRATA, "Amplitudes"): a_k = sqrt(r_k^2 + s_k^2) for the AME,
+Amplitudes are peak modal amplitudes (docs/model.md, C1): a_k = sqrt(r_k^2 + s_k^2) for the AME,
 half the peak-to-peak of q_k over the last 20 forcing periods for eq. (21). Omega = omega1 + sigma.
 
 Expected error of the AME against eq. (21) at fixed sigma as eta -> 0 (used in
@@ -84,8 +84,8 @@ def galloping_data(ode):
 
 
 def closed_form(xi, w, z11, z8, U, Omega):
-    """ERRATA item 5 form of eq. (25): a1 = 2 sqrt(-(2 xi w + z11 U) U) / sqrt(3 z8 Omega^2); when
-    z8 < 0 both radicands are negative and the ratio is real."""
+    """Eq. (25) in the form of docs/model.md, M5: a1 = 2 sqrt(-(2 xi w + z11 U) U) / sqrt(3 z8 Omega^2);
+    when z8 < 0 both radicands are negative and the ratio is real."""
     x = -(2 * xi * w + z11 * U) * U / (3 * z8 * Omega**2)
     return 2 * math.sqrt(x) if x > 0 else math.nan
 
@@ -110,19 +110,19 @@ def test_ame_cache_round_trip(derivation, tmp_path, monkeypatch):
     assert ame_key(changed) != ame_key(ode) and ame_key(ode, "expanded") != ame_key(ode)
 
 
-# -- eta = 0: galloping (Sect. 5, Fig. 3, eq. 25, ERRATA item 5) -------------------------------------
+# -- eta = 0: galloping (Sect. 5, Fig. 3, eq. 25, docs/model.md, M5) ----------------------------------
 def test_galloping_one_dof_closed_form(derivation, ame):
     """At eta = 0 the AME are invariant under A_k -> A_k e^{i theta} (no forcing fixes a phase), so a
     galloping motion is a circle a1 = const in (r1, s1) travelled at the frequency shift, not an
     equilibrium: its amplitude is the zero of the polar a1 equation (23)_1, which does not depend on
-    Phi1. For the 1-dof reduction (A2 = 0, Sect. 5) that zero is the ERRATA item 5 form of eq. (25),
+    Phi1. For the 1-dof reduction (A2 = 0, Sect. 5) that zero is eq. (25) in the form of docs/model.md, M5,
     2 sqrt(-(2 xi_s omega1 + zeta11 U) U) / sqrt(3 zeta8 Omega^2), with Omega = omega1 at sigma = 0;
     the printed form (-xi_s U Omega - zeta11 U^2) is not. The branch exists where the radicand ratio is
     positive: for zeta8 < 0 (the sample table) only below the threshold U = -2 xi_s omega1 / zeta11 = 1,
     and it is unstable (subcritical galloping); for zeta8 > 0 above it, stable (supercritical)."""
     xi, w, z11, z8 = galloping_data(derivation.ode)
     U_c = -2 * xi * w / z11
-    assert U_c == pytest.approx(1.0, rel=1e-5)              # the U_c calibration (ERRATA, Sect. 5)
+    assert U_c == pytest.approx(1.0, rel=1e-5)              # the U_c calibration (docs/model.md, U1)
     subcritical = z8 < 0
     speeds = (0.55, 0.7, 0.85, 0.95) if subcritical else (1.05, 1.3, 2.0)
     one = ame.one_dof()

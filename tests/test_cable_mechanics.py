@@ -37,7 +37,7 @@ def test_omega1_matches_paper_and_irvine(modes, st):
 
 
 def test_printed_EA_gives_omega1_near_one(spec):
-    """ERRATA item 1: with EA = 29.7e6 N the in-plane frequency is 1.00006, not 1.004."""
+    """docs/model.md, M1: with EA = 29.7e6 N the in-plane frequency is 1.00006, not 1.004."""
     from dataclasses import replace
     st = cable_statics(replace(spec.cable, axial_stiffness_N=29.7e6))
     assert linear_modes(st).omega1 == pytest.approx(1.00006, abs=2e-5)
@@ -65,7 +65,7 @@ def test_quasi_static_shape_solves_eq15(spec, st):
 
 
 def test_printed_C2_violates_boundary_condition(spec):
-    """ERRATA item 2: as printed, v-hat(l) is ~1 instead of cos(alpha).
+    """docs/model.md, M2: as printed, v-hat(l) is ~1 instead of cos(alpha).
 
     Exactly, v-hat(l) = (EA m^2 g^2 l^2 c^6 + 12 H^3) / (EA m^2 g^2 l^2 c^5 + 12 H^3), c = cos(alpha),
     which is 1 up to the (small) first terms: 0.9985 for the sample cable, against cos(alpha) = 0.817.
@@ -107,7 +107,7 @@ def test_out_of_plane_mode_and_twist(modes, st):
     sh = modes.shapes
     w, th = sh["phi2"].evaluate, sh["theta2"].evaluate
     s = np.linspace(0.02, 0.98, 25)
-    # twist equation chi th'' - delta^2 th + (1 + chi) delta w'' = 0 (ERRATA item 4: 1 + chi)
+    # twist equation chi th'' - delta^2 th + (1 + chi) delta w'' = 0 (docs/model.md, M4: 1 + chi)
     B, C, k = modes.twist_B, modes.twist_C, modes.twist_k
     th_dd = -B * math.pi**2 * np.sin(math.pi * s) + C * k * k * np.cosh(k * (s - 0.5))
     assert np.allclose(_dd(th, s), th_dd, rtol=1e-4, atol=1e-4)

@@ -1,6 +1,6 @@
 """The Multiple Scales engine (Sect. 4, eqs. 22-24) against closed forms and direct integration.
 
-Closed forms use the peak amplitude a (ERRATA, "Amplitudes"): q = a cos(Omega t + Phi) + ...
+Closed forms use the peak amplitude a (docs/model.md, C1): q = a cos(Omega t + Phi) + ...
 """
 from __future__ import annotations
 
@@ -299,8 +299,8 @@ def test_rayleigh_limit_cycle(w):
     assert abs(r - 2.0 / w) < 1e-12 * (2.0 / w)
 
 
-def test_galloping_closed_form_errata_item5():
-    """q'' + (2 xi w + z11 U) q' + w^2 q + (z8/U) q'^3 = 0 (Sect. 5, ERRATA item 5):
+def test_galloping_closed_form_model_m5():
+    """q'' + (2 xi w + z11 U) q' + w^2 q + (z8/U) q'^3 = 0 (Sect. 5, docs/model.md, M5):
     a = 2 sqrt(-(2 xi w + z11 U) U) / sqrt(3 z8 w^2) at sigma = 0 (Omega = w)."""
     xi, w, z11, z8 = sp.symbols("xi w z11 z8", real=True)
     U = sp.Symbol("U", real=True)

@@ -249,7 +249,7 @@ def test_a_branch_that_fails_part_way_keeps_its_points_in_the_outputs(tmp_path):
 
 def test_galloping_branch_at_eta_zero_against_the_closed_form():
     """Fig. 3 (eta = 0): EP-C of the 1-dof polar amplitude equation (23) in U gives the galloping
-    branch a1 = 2 sqrt(-(2 xi_s omega1 + zeta11 U) U) / sqrt(3 zeta8 Omega^2) (ERRATA item 5's form,
+    branch a1 = 2 sqrt(-(2 xi_s omega1 + zeta11 U) U) / sqrt(3 zeta8 Omega^2) (docs/model.md, M5,
     Omega = omega1) to 1e-9, stable (supercritical for the sample model, zeta8 > 0). The polar form
     is used because at eta = 0 the Cartesian AME has a rotational symmetry: galloping is a circle in
     (r1, s1), an equilibrium only of the amplitude equation."""
@@ -292,7 +292,7 @@ def test_galloping_branch_at_eta_zero_against_the_closed_form():
 
 def test_fig03_scene_gives_the_supercritical_galloping_branch(tmp_path):
     """runs/fig03.toml (ame = "1dof-amplitude", eta = 0): the galloping branch read back from
-    branches.csv equals the closed form of eq. (25) (ERRATA item 5's form) to 1e-9 and is stable;
+    branches.csv equals the closed form of eq. (25) (in the form of docs/model.md, M5) to 1e-9 and is stable;
     the trivial solution is stable below U = 1 and unstable above."""
     import math
 

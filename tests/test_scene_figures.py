@@ -114,7 +114,8 @@ def test_special_points_and_peaks_at_coarse_resolution(scene_results, name):
 
 
 def test_fig03_equals_the_closed_form(scene_results):
-    """Eq. (25) in ERRATA item 5's form: a1 = 2 sqrt(-(2 xi_s omega1 + zeta11 U) U) / sqrt(3 zeta8 omega1^2)."""
+    """Eq. (25) in the form of docs/model.md, M5:
+    a1 = 2 sqrt(-(2 xi_s omega1 + zeta11 U) U) / sqrt(3 zeta8 omega1^2)."""
     from autocable.model.derive import derive
 
     res, _ = scene_results("fig03")

@@ -82,7 +82,7 @@ def test_far_from_nearly_taut_is_warned_not_refused(tmp_path):
 def test_sample_cable_is_nearly_taut_but_breaks_tau_ordering():
     st = cable_statics(load_model(SAMPLE).cable)
     assert regime_warnings(st) == []
-    # The numbers: tau ~ 1.8e-3 against delta^3 ~ 2.3e-6; the model runs regardless.
+    # docs/model.md, M1: tau ~ 1.8e-3 against delta^3 ~ 2.3e-6; the model runs regardless.
     assert st.tau == pytest.approx(1.8e-3, rel=0.03)
     assert st.delta**3 == pytest.approx(2.3e-6, rel=0.03)
     assert st.omega_ref == pytest.approx(7.02, abs=0.01)

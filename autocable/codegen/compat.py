@@ -1,7 +1,7 @@
 """Everything autocable needs to run PyDSTool 0.91 on Python 3.11: the only compatibility code.
 
 PyDSTool's last release predates Python 3.10 and misbehaves in five ways this module contains
-(see the shared PyDSTool notes and docs/pydstool_notes.md for the measurements):
+(docs/pydstool_notes.md has the details and the measurements):
 
 * it imports the ``parser`` and ``symbol`` modules, removed in Python 3.10: `import_pydstool`
   registers stand-ins;

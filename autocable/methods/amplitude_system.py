@@ -4,7 +4,7 @@ At eta = 0 the amplitude equations have a rotational symmetry: galloping oscilla
 frequency, so in the Cartesian form (24), written in the frame of the (absent) forcing, it is a
 circle in (r1, s1), not an equilibrium. The polar form (23) of the A2 = 0 reduction separates:
 da1/dt = p1(a1; U) does not involve the phase, and its equilibria are the galloping amplitudes of
-eq. (25) (ERRATA item 5's form). This module gives that one equation as a `System` in the scene
+eq. (25) (in the form of docs/model.md, M5). This module gives that one equation as a `System` in the scene
 parameters (sigma, U, eta), for `ame = "1dof-amplitude"` scenes; it is only defined at eta = 0.
 With sigma = 0 the coefficients are evaluated at Omega = omega1.
 """

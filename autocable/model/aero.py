@@ -10,7 +10,7 @@ in the section basis (a2: in-plane normal, a3: out of plane) is
 
 and eq. (12) gives phi = arcsin(-V2/|V|) - Theta0 - theta. The sense in which phi follows the
 relative-wind angle is a convention shared with the source of the A_k, B_k fits ([36]); the paper's
-text does not pin it down against its data. ``angle_convention = "reversed"`` takes
+text does not pin it down against its data (docs/model.md, U4). ``angle_convention = "reversed"`` takes
 phi = -arcsin(-V2/|V|) - Theta0 - theta instead (ANGLE_SIGNS); the choice decides, for instance,
 whether galloping is super- or subcritical (see the sample model spec). Lift and drag are the cubic fits of
 eq. (13), a global polynomial in phi (not a Taylor series about the operating point). Projected on
@@ -73,7 +73,7 @@ class AeroExpansion:
     alpha: float
     beta: float
     theta0: float
-    static_angle: float          # phi0 = gamma - Theta0 of ERRATA.md [rad]
+    static_angle: float          # phi0 = +-gamma - Theta0 (sign: angle_convention) [rad]
 
     def polynomial(self, component: int):
         """The expanded load of eq. (14) as a sympy polynomial in theta, vdot, wdot with U symbolic."""

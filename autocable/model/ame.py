@@ -5,7 +5,7 @@ pipeline reads: coefficient tables (tuples of rows, numbers only), from which it
 expressions, a numeric Cartesian right-hand side with its Jacobian, and the reconstruction of q_k(t).
 It holds no derivation machinery, so a cached AME loads from JSON without running the engine.
 
-Amplitude convention (ERRATA, "Amplitudes"; used everywhere in autocable)
+Amplitude convention (docs/model.md, C1; used everywhere in autocable)
     q_k = A_k e^{i Omega t} + c.c. + (second-order terms),   A_k = (a_k / 2) e^{i Phi_k},
     r_k + i s_k = a_k e^{i Phi_k} = 2 A_k,                    a_k = sqrt(r_k^2 + s_k^2),
 so a_k is the *peak* modal amplitude and, to first order, q_k = a_k cos(Omega t + Phi_k)
@@ -505,9 +505,9 @@ class AmplitudeEquations:
 
     def control(self, eta: float = 0.0, U: float = 0.0, sigma: float = 0.0, *, rho: float | None = None,
                 values: Mapping[str, float] | None = None) -> np.ndarray:
-        """The parameter vector (eta, U, sigma_1..N, Omega) for the paper's controls (Sect. 4, ERRATA):
-        Omega = omega_1 + sigma, sigma_k = omega_k - Omega; `rho` (N = 2 only) overrides the internal
-        detuning sigma_2 - sigma_1 given by the frequencies."""
+        """The parameter vector (eta, U, sigma_1..N, Omega) for the paper's controls (Sect. 4;
+        docs/model.md, C2): Omega = omega_1 + sigma, sigma_k = omega_k - Omega; `rho` (N = 2 only)
+        overrides the internal detuning sigma_2 - sigma_1 given by the frequencies."""
         om = [self._omega_value(k, values) for k in range(self.n_modes)]
         Omega = om[0] + sigma
         sig = [w - Omega for w in om]

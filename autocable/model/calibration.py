@@ -1,7 +1,7 @@
 """Calibration of the unknown wind angles so that galloping starts at U_c (eq. 18, Sect. 5).
 
 The paper states U_c = 36 m/s as a result but gives neither the yaw beta nor the rivulet angle
-Theta0 (ERRATA.md, "What the paper does not give"). Given one of them, the other is found so that
+Theta0 (docs/model.md, U1). Given one of them, the other is found so that
 the trivial solution of eq. (21) at eta = 0 loses stability at U* = 1 (U = U_c) through the in-plane
 mode (Fig. 3 is in-plane galloping), while the out-of-plane mode stays stable up to U* = 1.3, the
 largest wind of Sect. 5. Stability is judged on the eigenvalues of the linear part of eq. (21),
@@ -117,7 +117,7 @@ def decoupled_angles(aero_spec, st, modes, integrator, K: float, nu: float, xi_s
     """(beta, Theta0) in degrees at which the in-plane galloping onset is exactly mono-modal.
 
     Two conditions: the in-plane aerodynamic damping cancels the structural one at U_c
-    (zeta11 = -2 xi_s omega1, ERRATA item 5 and "What the paper does not give"), and the linear
+    (zeta11 = -2 xi_s omega1: docs/model.md, M5 and U1), and the linear
     load of the in-plane velocity on the out-of-plane equation vanishes (xi12 = 0), so that the
     linearised eq. (21) at eta = 0 is block-triangular and its in-plane pair crosses the imaginary
     axis at U* = 1 with no out-of-plane component (Fig. 3: mono-modal galloping). This is how the

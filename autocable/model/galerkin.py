@@ -1,7 +1,7 @@
 """Galerkin projection of eqs. (19)-(20) onto one in-plane and one out-of-plane mode: eq. (21).
 
 The nondimensional equations (eq. 17 units, primes d/ds, dots d/dt*), with the corrections of
-ERRATA items 3 and 4, and v_t = vhat eta f + v the total in-plane displacement (Sect. 2.4):
+docs/model.md, M3 and M4, and v_t = vhat eta f + v the total in-plane displacement (Sect. 2.4):
 
   R1 = -delta^2 int v + (delta/2) int (v_t'^2 + w'^2) + v_t'' B + tau v'' + b2 - m* v_t_tt = 0
   R2 = w'' B + tau w'' + b3 - m* w_tt = 0

@@ -1,6 +1,6 @@
 """Galerkin projection of eqs. (19)-(20) onto N modes: the N-mode eq. (21) (`multimode.NModeODE`).
 
-The residuals are those of `galerkin.py` (ERRATA items 3 and 4 included), with
+The residuals are those of `galerkin.py` (docs/model.md, M3 and M4, included), with
 v = sum_i phi_i x_i over the in-plane modes, w = sum_j psi_j x_j and the slaved twist
 theta = sum_j theta_j x_j over the out-of-plane ones (`modes_n.mode_set`), v_t = vhat eta f + v:
 

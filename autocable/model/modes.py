@@ -1,12 +1,12 @@
 """Linear modes of eqs. (19)-(20): the Galerkin trial functions of Sect. 3.
 
-In-plane (eq. 19_1 linearised, with the Irvine term of ERRATA item 3):
+In-plane (eq. 19_1 linearised, with the Irvine term of docs/model.md, M3):
     tau v'' - delta^2 int_0^1 v ds = m* v_tt,   v(0) = v(1) = 0,   m* = pi^2 tau.
 Its first symmetric mode is phi1(s) = (cos(b (s - 1/2)) - cos(b/2)) / (1 - cos(b/2)), b = pi omega1,
 with b the first root above pi of Irvine's equation tan(b/2) = b/2 - (4/lambda^2)(b/2)^3.
 
 Out-of-plane (eq. 19_2 linearised): tau w'' = m* w_tt, so phi2(s) = sin(pi s) and omega2 = 1 exactly.
-Its twist is slaved through the quasi-static eq. (19)_3 as corrected (ERRATA item 4, (1 + chi)):
+Its twist is slaved through the quasi-static eq. (19)_3 as corrected (docs/model.md, M4: (1 + chi)):
     chi theta'' - delta^2 theta + (1 + chi) delta w'' = 0,   chi (theta' + delta w') = 0 at s = 0, 1,
 solved in closed form: theta = B sin(pi s) + C cosh(k (s - 1/2)), k = delta / sqrt(chi).
 Both modes are normalised to a unit maximum displacement (Sect. 5); the twist follows phi2.

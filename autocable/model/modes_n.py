@@ -3,14 +3,14 @@
 `modes.linear_modes` gives the two trial functions of Sect. 3 (the first symmetric in-plane mode and
 the first out-of-plane mode). Here the same linear problems give as many modes as asked for:
 
-In-plane (eq. 19_1 linearised, with the Irvine term of ERRATA item 3),
+In-plane (eq. 19_1 linearised, with the Irvine term of docs/model.md, M3),
     tau v'' - delta^2 int_0^1 v ds = m* v_tt,   v(0) = v(1) = 0,   m* = pi^2 tau:
   * symmetric modes (cos(b (s - 1/2)) - cos(b/2)) / N, omega = b / pi, with b the k-th root of
     Irvine's equation tan(b/2) = b/2 - (4/lambda^2)(b/2)^3, b/2 in ((2k-1) pi/2, (2k+1) pi/2);
   * antisymmetric modes sin(2 k pi s), omega = 2k exactly: int v = 0, so the sag term leaves them
     taut-string modes.
 Out-of-plane (eq. 19_2 linearised, tau w'' = m* w_tt): sin(k pi s), omega = k, each with the twist
-slaved through the quasi-static eq. (19)_3 as corrected (ERRATA item 4, (1 + chi)):
+slaved through the quasi-static eq. (19)_3 as corrected (docs/model.md, M4: (1 + chi)):
     chi theta'' - delta^2 theta + (1 + chi) delta w'' = 0,   theta' + delta w' = 0 at s = 0, 1.
 With w = sin(k pi s) and kappa = delta / sqrt(chi) the solution is
     theta = B sin(k pi s) + C cosh(kappa (s - 1/2)) + D sinh(kappa (s - 1/2)),

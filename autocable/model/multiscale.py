@@ -35,7 +35,8 @@ of eta, since q = O(eps) and eta = O(eps); a term put at order m > natural gets 
       eta; the resonant external forcing eta f, eta f', eta f'' with no state; constants): third order
       (damping O(eps^2); "resonant external ... excitation terms appear at the highest order").
   R3  every other term at its natural order (2 or 3); natural order > 3: dropped (also aerodynamic).
-Override with `Ordering.override({label_or_index: 2 | 3 | None})`. Named orderings (`ordering_named`):
+Override with `Ordering.override({label_or_index: 2 | 3 | None})`. Named orderings (`ordering_named`;
+docs/model.md, U6):
   "paper"    R1-R3 above (the default);
   "natural"  without R1: aerodynamic terms follow R2-R3 like the others (linear ones third order,
              quadratic ones their natural second order, cubic ones third). A modelling choice a scene

@@ -38,7 +38,7 @@ class CableStatics:
 def quasi_static_coefficients_si(cable: CableSpec, printed: bool = False) -> tuple[float, float]:
     """C1 [1/m^2], C2 [1/m] of eq. (16), dimensional, for v-hat(s) = C1 s^2 + C2 s with s in metres.
 
-    With ``printed=True`` the numerator of C2 carries the paper's 12 H^3 (ERRATA item 2), which makes
+    With ``printed=True`` the numerator of C2 carries the paper's 12 H^3 (docs/model.md, M2), which makes
     v-hat(l) = 1 instead of cos(alpha); the default is the corrected 12 H^3 cos(alpha).
     """
     EA, m, g, l, H = (cable.axial_stiffness_N, cable.mass_per_length_kg_m, cable.gravity_m_s2,

@@ -25,7 +25,7 @@ __all__ = ["SceneData", "load_scene_data", "overlay_comparison", "exact_stable",
            "stage_seconds", "FIGURE_STAGES", "PAPER_FIGURES", "STUDY_MAX_ERROR", "REASONS", "REPORT_MD"]
 
 REPORT_MD = "report.md"
-#: The published figures (ERRATA.md's table of Sect. 5), by scene name.
+#: The published figures (docs/model.md, F: what Sect. 5 says of each), by scene name.
 PAPER_FIGURES = ("fig03", "fig04a", "fig04b", "fig04c", "fig05a", "fig05b", "fig06", "fig07", "fig08", "fig09",
                  "fig10", "fig11")
 
@@ -45,8 +45,9 @@ REASONS = {
                   "does not (docs/ordering.md)",
     "inputs": "unknown paper inputs: the yaw beta, the rivulet angle Theta0 and the air density are "
               "not printed; the sample model calibrates Theta0 to U_c = 36 m/s on one member of a "
-              "one-parameter family (models/luongo_zulli_2012.toml), so the aerodynamic coefficients, "
-              "and with them Hopf points and islands under wind, need not be the paper's",
+              "one-parameter family (models/luongo_zulli_2012.toml; docs/model.md, U1-U4), so the "
+              "aerodynamic coefficients, and with them Hopf points and islands under wind, need not "
+              "be the paper's",
     "missing": "the scene did not run, failed or has no results (see its error)",
     "reduction": "modelling choice: the scene uses the A2 = 0 (1-dof) AME; the study's bound is the 2-dof "
                  "AME's, and on large responses the reduction adds its own error (on Fig. 4c's island "
@@ -404,7 +405,7 @@ def _fig03(d: SceneData, all_: dict) -> list[Feature]:
     rows = [r for r in d.branch_rows(b["name"]) if _num(r["U"]) > 0 and _num(r["a1"]) > 0]
     us = [_num(r["U"]) for r in rows]
     ys = [_num(r["a1"]) ** 2 / _num(r["U"]) for r in rows]
-    # eq. (25) (ERRATA item 5): a1^2 / U is linear in U and vanishes at the threshold
+    # eq. (25) (docs/model.md, M5): a1^2 / U is linear in U and vanishes at the threshold
     n = len(us)
     mu, my = sum(us) / n, sum(ys) / n
     sxx = sum((u - mu) ** 2 for u in us)
@@ -987,7 +988,7 @@ def build_report(out_dir: str | Path) -> str:
     lines += ["", "## The main result: wind cuts the out-of-plane amplitude (Fig. 10 against Fig. 6)", ""]
     lines += _main_result(scenes)
     lines += ["", "## Figures", "",
-              "For each figure: what Sect. 5 states (ERRATA.md's table), whether autocable shows it "
+              "For each figure: what Sect. 5 states (docs/model.md, F), whether autocable shows it "
               "(yes / partly / no), where and with what numbers; where not, why."]
     for n, d in scenes.items():
         lines += ["", f"### {d.title if d.ok else n}", ""]

@@ -1,6 +1,6 @@
 """Where methods fail: maps over (sigma, eta) and (sigma, U) of the 2-dof AME against eq. (21).
 
-Issue "speed against accuracy", item 3. At every grid point (Omega = omega1 + sigma, ERRATA.md):
+Issue "speed against accuracy", item 3. At every grid point (Omega = omega1 + sigma, docs/model.md, C2):
 
 (a) the AME's error: `compare_with_ode21` integrates the Cartesian AME (24) and eq. (21) from the
     same start (rest, q2 = 1e-6) and classifies the pair (same branch, different branch, no AME

@@ -206,7 +206,7 @@ def ame_system(ame, dof: str = "2dof", *, wind: bool = True, name: str | None = 
     """The Cartesian AME (24) as a `System` in the scene parameters (sigma, U, eta).
 
     ``dof="1dof"`` is the reduction A2 = 0 of Sect. 5 (a2 is then identically zero). The detunings
-    follow Sect. 4 and the ERRATA: Omega = omega1 + sigma, sigma_k = omega_k - Omega (so
+    follow Sect. 4 (docs/model.md, C2): Omega = omega1 + sigma, sigma_k = omega_k - Omega (so
     sigma_1 = -sigma and rho = omega2 - omega1 stays fixed), so one parameter sigma moves the
     detunings and the exact Omega of the coefficients consistently. ``wind=False`` drops the
     aerodynamic rows (their 1/U powers: no wind, no term), as needed at U = 0; with wind the field

@@ -1,7 +1,7 @@
 """Time integration of the Cartesian amplitude equations (24) to a steady state; equilibria; stability.
 
 The AME (22)-(24) of Sect. 4 are a 4-D autonomous slow flow y' = g(y; p), y = (r1, s1, r2, s2),
-p = (eta, U, sigma_1, sigma_2, Omega), with Omega = omega1 + sigma (ERRATA conventions). Amplitude
+p = (eta, U, sigma_1, sigma_2, Omega), with Omega = omega1 + sigma (docs/model.md, C2). Amplitude
 convention (autocable.model.ame): a_k = sqrt(r_k^2 + s_k^2) is the peak modal amplitude and, to first
 order, q_k = r_k cos(Omega t) - s_k sin(Omega t). An equilibrium of (24) is a period-1 motion of q
 (the "equilibrium branches" of Sect. 5); a periodic orbit of (24) is a quasi-periodic motion of q.
@@ -163,7 +163,7 @@ class AmeIntegrator:
 
     # -- parameters and equilibria -------------------------------------------------------------
     def parameters(self, U: float, eta: float, sigma: float, rho: float | None = None) -> np.ndarray:
-        """p = (eta, U, sigma_1, sigma_2, Omega) with Omega = omega1 + sigma (Sect. 4, ERRATA)."""
+        """p = (eta, U, sigma_1, sigma_2, Omega) with Omega = omega1 + sigma (Sect. 4, docs/model.md, C2)."""
         return self.ame.control(eta=eta, U=U, sigma=sigma, rho=rho)
 
     def stability(self, y, p) -> tuple:

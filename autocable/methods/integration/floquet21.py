@@ -1,6 +1,6 @@
 """Floquet multipliers of a period-1 response of eq. (21): stability of (21) itself, not of the AME.
 
-Eq. (21) is forced by f = sin(Omega t) (Sect. 4, ERRATA.md), so a response repeating with the forcing
+Eq. (21) is forced by f = sin(Omega t) (Sect. 4, docs/model.md, C2), so a response repeating with the forcing
 period T = 2 pi / Omega is a fixed point of the stroboscopic map over one period. Its stability is
 that of the monodromy matrix M = Phi(T), the fundamental matrix of the variational equations
 

@@ -1,10 +1,10 @@
 """Direct time integration of eq. (21): the brute-force reference of the method ladder.
 
-f(t) = sin(Omega t) with Omega = omega1 + sigma (ERRATA.md conventions). The right-hand side is
+f(t) = sin(Omega t) with Omega = omega1 + sigma (docs/model.md, C2). The right-hand side is
 compiled (PyDSTool's Dopri generator, DOP853 in C) and integrated in chunks of forcing periods until
 the response amplitudes stop changing. Amplitudes follow the convention used throughout autocable:
 a_k is the peak modal amplitude, half the peak-to-peak of q_k over the last forcing periods
-(ERRATA.md, "Amplitudes"), i.e. the peak displacement divided by the cable length for modes of unit
+(docs/model.md, C1), i.e. the peak displacement divided by the cable length for modes of unit
 maximum. A response is called periodic when it repeats with the forcing period (period-1); an
 amplitude-modulated (quasi-periodic in q_k) response is steady only in its envelope.
 

@@ -1,7 +1,7 @@
 """Periodic orbits of the forced eq. (21) continued in the detuning sigma (issue 6, third rung).
 
 What it solves. The period-1 responses of eq. (21) itself, q(t + T) = q(t) with T = 2 pi / Omega,
-Omega = omega1 + sigma (Sect. 4, ERRATA.md), as a branch in sigma at fixed U*, eta*: the reference
+Omega = omega1 + sigma (Sect. 4, docs/model.md, C2), as a branch in sigma at fixed U*, eta*: the reference
 the amplitude equations (24) approximate (Figs. 5-6).
 
 How. Eq. (21) is made autonomous by appending a forcing oscillator, as AUTO and MatCont users do:
