@@ -335,7 +335,7 @@ def overlay_comparison(data: SceneData) -> list[dict]:
         elif max(abs(a1), abs(a2), abs(row["ame_a1"]), abs(row["ame_a2"])) < AT_REST:
             row["note"] = "both at rest: no relative error to take"
         elif math.hypot(row["ame_a1"] - a1, row["ame_a2"] - a2) > NEAR * math.hypot(a1, a2):
-            # The study's rule (methods/ame_integration.compare_with_ode21): an AME equilibrium
+            # The study's rule (methods/integration/ame.compare_with_ode21): an AME equilibrium
             # that far is another branch, not an error of the one eq. (21) sits on.
             row["rel_error"] = abs(row["ame_a1"] - a1) / a1 if a1 > 0 else _NAN
             row["note"] = (f"no stable AME equilibrium near eq. (21)'s response (nearest {NEAR:.0%} or more "

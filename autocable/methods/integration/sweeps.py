@@ -12,7 +12,7 @@ under q2 -> -q2 and rest is a solution at eta = 0, so a carried state with a2 ~ 
 the invariant mono-modal (or rest) subspace even where it is unstable and be reported as a steady
 attractor: the offset lets an unstable a2 = 0 response leave, and decays where it is stable.
 
-Works with `integration.Ode21Integrator` (eq. 21) and `ame_integration.AmeIntegrator` (the AME):
+Works with `ode21.Ode21Integrator` (eq. 21) and `ame.AmeIntegrator` (the AME):
 both have ``simulate(U, eta, sigma, q0=..., **options)``; the state is carried as the eq. (21)
 start q0 = (q1, q1', q2, q2') for the former and as the AME state y0 = (r1, s1, r2, s2) for the
 latter. Eq. (21) runs end on a whole number of forcing periods, so the carried state starts the next
