@@ -253,7 +253,7 @@ def _simulate_ame(args, d, q0, show, progress) -> int:
 
 
 def _simulate_nmode(args, d, q0, show, progress) -> int:
-    """`autocable simulate --modes N`: eq. (21) with N in-plane and N out-of-plane modes (issue 6)."""
+    """`autocable simulate --modes N`: eq. (21) with N in-plane and N out-of-plane modes."""
     from autocable.methods.integration.nmode import NModeIntegrator
     if args.method != "ode21":
         raise SpecError("--modes", "", "--modes integrates the N-mode equations directly; drop --method ame")
@@ -361,7 +361,7 @@ def cmd_bench(args) -> int:
 
 
 def cmd_failure_map(args) -> int:
-    """`autocable failure-map`: where the AME and the integrators fail (issue 6, item 3)."""
+    """`autocable failure-map`: where the AME and the integrators fail."""
     import time
     from autocable.studies.failure_map import run_failure_map
     from autocable.studies.failure_map_report import write_failure_map
@@ -473,7 +473,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "equations (24) to their steady state (default ode21)")
     s.add_argument("--modes", type=int, metavar="N",
                    help="integrate eq. (21) with N in-plane and N out-of-plane modes (the check that "
-                        "two modes suffice, issue 6); a1, a2 are the first modes' amplitudes")
+                        "two modes suffice); a1, a2 are the first modes' amplitudes")
     s.set_defaults(func=cmd_simulate)
 
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")

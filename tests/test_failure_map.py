@@ -1,4 +1,4 @@
-"""The failure map (issue 6, item 3): the quick map runs end to end through the command, the AME is
+"""The failure map: the quick map runs end to end through the command, the AME is
 exact in the linear limit, a known blow-up of eq. (21) is classified as such, and the 2 % statement
 is computed from the grid.
 

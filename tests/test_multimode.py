@@ -1,4 +1,4 @@
-"""The N-mode eq. (21) (issue 6, "two modes suffice?"): reduction to eq. (21), modes, forced response,
+"""The N-mode eq. (21): reduction to eq. (21), modes, forced response,
 integration, and the truncation check at the settings of Figs. 5a, 6 and 9."""
 import json
 import math

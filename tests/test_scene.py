@@ -447,7 +447,7 @@ def test_modulation_period_of_a_sampled_signal():
 
 
 def test_ame_auto_picks_the_one_dof_reduction_for_fig05a(tmp_path):
-    """`ame = "auto"` (issue 6): the scene runs `autocable advise`'s probes first; Fig. 5a's settings
+    """`ame = "auto"`: the scene runs `autocable advise`'s probes first; Fig. 5a's settings
     are mono-modal (a2 = 0), so the 1-dof AME is chosen, run and recorded with its reasons. A
     tolerance without "auto", or outside (0, 1), is a one-line error."""
     text = FIG05A.read_text().replace('model = "../models/', f'model = "{REPO}/models/')

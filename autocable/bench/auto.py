@@ -1,4 +1,4 @@
-"""AUTO-07p as the reference for the per-point cost of equilibrium continuation (issue 4).
+"""AUTO-07p as the reference for the per-point cost of equilibrium continuation.
 
 What it measures. The 2-dof Cartesian AME of the sample model at U = 0 is continued in sigma over
 [-0.05, 0.05] at eta = 1.4e-3 (the Fig. 6 setting) and eta = 8.2e-5 (Fig. 5a), once by autocable

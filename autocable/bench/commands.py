@@ -422,7 +422,7 @@ def _plot_ame_vs_ode(result: dict, path) -> None:
 
 
 # -- figures: wall time of `autocable figures`, cold and warm cache --------------------------------------
-#: Targets of issue 5 for all figure scenes on the 2-core machine.
+#: The speed targets for all figure scenes on the 2-core machine.
 FIGURES_TARGETS = {"cold_s": 60.0, "warm_s": 15.0}
 
 

@@ -1,6 +1,6 @@
 """`autocable bench engines`: every figure scene run on both continuation engines, PyCont (the
 AUTO-style workflow the paper used) and autocable's compiled kernel, and their special points
-compared branch by branch (issue "A house a newcomer reads in ten minutes": PyCont stays first-class).
+compared branch by branch (PyCont, the engine the paper's AUTO workflow maps to, stays first-class).
 
 Both engines hand their points to the same analysis (autocable's test functions refine every LP,
 BP, H of equilibria and every LPC, PD, NS of cycles on the same AME), so the special points must

@@ -1,4 +1,4 @@
-"""sympy -> C: a compiled equilibrium-continuation kernel for one autonomous system (issue 4).
+"""sympy -> C: a compiled equilibrium-continuation kernel for one autonomous system.
 
 What it holds. From the same sympy right-hand side that PyCont continues (the Cartesian AME (24) of
 Luongo & Zulli, or any `autocable.methods.continuation.system.System`) it writes one C file with

@@ -1,4 +1,4 @@
-"""Distance of digitised published points to computed branches (issue 5, item 5).
+"""Distance of digitised published points to computed branches.
 
 A scene's ``[compare]`` table names a CSV of points read off a published figure (columns x, y,
 curve, stable; see runs/README.md for how to digitise one). Each point is compared with the

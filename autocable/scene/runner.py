@@ -124,7 +124,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
     stages: dict[str, Any] = {}
     advice = None
     if scene.ame == "auto":
-        # The lightest AME that reproduces this scene within ame_tol (issue 6, `autocable advise`):
+        # The lightest AME that reproduces this scene within ame_tol (`autocable advise`):
         # cheap probes first, then the whole scene with the chosen rung.
         if choose_ame is None:
             raise SpecError(scene.path, "ame", 'ame = "auto" needs the chooser of the AME: run the scene with '

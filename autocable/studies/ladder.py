@@ -1,4 +1,4 @@
-"""The method ladder (issue "speed against accuracy"): every way autocable computes the frequency
+"""The method ladder: every way autocable computes the frequency
 response diagrams of Sect. 5 (a1, a2 against sigma, Figs. 5-10), behind one interface.
 
 A `Method` is a frozen record of one rung: what it solves, its declared accuracy (and the order of

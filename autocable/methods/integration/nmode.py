@@ -1,6 +1,6 @@
 """Direct integration of the N-mode equations (`multimode.NModeODE`): the check that two modes suffice.
 
-The rung of the method ladder (issue 6) that tests the Galerkin truncation of Sect. 3 itself: the
+The rung of the method ladder that tests the Galerkin truncation of Sect. 3 itself: the
 same spec, the same nondimensionalisation and forcing f = sin(Omega t), Omega = omega1 + sigma, but
 n_in in-plane and n_out out-of-plane modes. The steady response is found as in
 `integration.Ode21Integrator` (chunks of forcing periods until the amplitudes stop changing), with
@@ -23,8 +23,8 @@ from autocable.model.modes_n import IN_PLANE, OUT_OF_PLANE, SYMMETRIC
 from autocable.model.multimode import NModeODE, first_order_rhs_n
 from autocable.model.symbolic import PARAMETERS, T, parameter_values
 
-#: What this rung solves, its declared accuracy and what its cost grows with (the method registry
-#: of issue 6 reads this).
+#: What this rung solves, its declared accuracy and what its cost grows with (the method ladder,
+#: `autocable.studies.ladder`, reads this).
 METHOD_INFO = {
     "name": "nmode-integration",
     "solves": "steady response of the N-mode Galerkin model (n_in in-plane, n_out out-of-plane modes "

@@ -1,4 +1,4 @@
-"""Periodic orbits of the forced eq. (21) continued in the detuning sigma (issue 6, third rung).
+"""Periodic orbits of the forced eq. (21) continued in the detuning sigma (a rung of the method ladder).
 
 What it solves. The period-1 responses of eq. (21) itself, q(t + T) = q(t) with T = 2 pi / Omega,
 Omega = omega1 + sigma (Sect. 4, docs/model.md, C2), as a branch in sigma at fixed U*, eta*: the reference
