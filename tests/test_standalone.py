@@ -30,6 +30,7 @@ OUTSIDE = [
     (re.compile("DES" + r"IGN\.md|PYD" + r"STOOL\.md"), "a design or notes file outside the repository"),
     (re.compile(r"(?<![\w.~])/(?:" + "work" + "|" + "tmp" + r")/"), "an absolute machine path"),
     (re.compile(r"\bthe " + "shared" + r" (?:PyDSTool )?notes\b"), "notes outside the repository"),
+    (re.compile(r"\b[Ii]" + r"ssue [0-9]+\b|\([Ii]" + r"ssue \""), "a tracker issue a clone cannot read"),
 ]
 
 #: A citation of docs/model.md: optional anchor, then item ids such as "M3", "C1 and U2", "M3, M4".
