@@ -29,9 +29,11 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
+
+from autocable.studies.ladder import Tools
 
 #: Statuses of `compare_with_ode21` under which eq. (21) has no bounded response: the AME is not
 #: checked there.
@@ -74,41 +76,6 @@ def default_planes(quick: bool = False) -> tuple:
     return (Plane("sigma-eta, U = 0", "eta", {"U": 0.0}, sig, (8.2e-5, 2e-4, 4.1e-4, 8e-4, 1.4e-3)),
             Plane("sigma-U, eta = 4.1e-4", "U", {"eta": 4.1e-4}, sig, (0.0, 0.35, 0.7, 1.0, 1.3)),
             Plane("sigma-U, eta = 1.4e-3", "U", {"eta": 1.4e-3}, sig, (0.0, 0.7, 1.3)))
-
-
-@dataclass
-class Tools:
-    """What every grid point needs, built once: the derivation, both integrators, eq. (21)'s
-    variational system and the AME continuation systems (with and without wind terms)."""
-
-    derivation: object
-    ame: object
-    ame_int: object
-    ode_int: object
-    variational: object
-    systems: dict = field(default_factory=dict)
-
-    @classmethod
-    def build(cls, model_path) -> "Tools":
-        from autocable.methods.integration.ame import AmeIntegrator
-        from autocable.methods.integration.floquet21 import Variational21
-        from autocable.methods.integration.ode21 import Ode21Integrator
-        from autocable.model.ame_cache import derive_ame
-        from autocable.model.derive import derive
-
-        d = derive(model_path)
-        ame = derive_ame(d).ame
-        tools = cls(d, ame, AmeIntegrator(ame), Ode21Integrator(d.ode), Variational21(d.ode))
-        # Load the compiled generator now, so that no grid point's wall time includes it.
-        from autocable.model.symbolic import parameter_values
-        tools.ode_int.run((0.0, 0.0, 0.0, 0.0), 0.0, 1.0, 0.5, parameter_values(0.0, 0.0, d.ode.omega1))
-        return tools
-
-    def system(self, wind: bool):
-        if wind not in self.systems:
-            from autocable.methods.continuation import ame_system
-            self.systems[wind] = ame_system(self.ame, "2dof", wind=wind)
-        return self.systems[wind]
 
 
 # -- (b) stability: Floquet multipliers of eq. (21) against the AME eigenvalues -------------------------
@@ -292,7 +259,7 @@ def continuation_row(tools: Tools, U: float, eta: float, bounds, *, max_points: 
 
     t0 = time.perf_counter()
     lo, hi = (float(b) for b in bounds)
-    system = tools.system(U != 0.0)
+    system = tools.system("2dof", U != 0.0)
     values = {"sigma": lo, "U": U, "eta": eta}
     scale = auto_state_scale(system, values)
     problem = EquilibriumProblem(system, "sigma", values, (lo, hi), state_scale=scale)

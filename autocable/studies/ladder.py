@@ -214,8 +214,19 @@ def setting_from_scene(path: str | Path) -> Setting:
 
 
 class Tools:
-    """What the methods share for one model: derivation, AME, one compiled eq. (21) integrator,
-    continuation systems; records how long each one-off build took."""
+    """What the methods and studies share for one model, each built once: derivation, AME, one
+    compiled eq. (21) integrator (and its variational system, for Floquet multipliers), AME
+    integrators, continuation systems; records how long each one-off build took. The one bundle of
+    the studies (the ladder, `advise`, the work-precision bench and the failure map use it)."""
+
+    @classmethod
+    def build(cls, model_path: str | Path, ordering: str = "paper") -> "Tools":
+        """`Tools` with the compiled eq. (21) generator loaded now, so that no later timing
+        includes it (the failure map's per-point wall times)."""
+        tools = cls(model_path, ordering)
+        from autocable.model.symbolic import parameter_values
+        tools.ode_int.run((0.0, 0.0, 0.0, 0.0), 0.0, 1.0, 0.5, parameter_values(0.0, 0.0, tools.derivation.ode.omega1))
+        return tools
 
     def __init__(self, model_path: str | Path, ordering: str = "paper"):
         from autocable.model.ame_cache import derive_ame
@@ -247,6 +258,30 @@ class Tools:
             self._extra[key] = AmeIntegrator(self.ame, rtol=rtol)
             self.builds.setdefault("ame-integrator", time.perf_counter() - t0)
         return self._extra[key]
+
+    @property
+    def ode_int(self):
+        """Eq. (21)'s integrator at its default tolerances."""
+        if "ode_int" not in self._extra:
+            from autocable.methods.integration.ode21 import Ode21Integrator
+            self._extra["ode_int"] = Ode21Integrator(self.derivation.ode)
+        return self._extra["ode_int"]
+
+    @property
+    def ame_int(self):
+        """The AME integrator at its default tolerances."""
+        if "ame_int" not in self._extra:
+            from autocable.methods.integration.ame import AmeIntegrator
+            self._extra["ame_int"] = AmeIntegrator(self.ame)
+        return self._extra["ame_int"]
+
+    @property
+    def variational(self):
+        """Eq. (21) with its variational equations (`floquet21.Variational21`)."""
+        if "variational" not in self._extra:
+            from autocable.methods.integration.floquet21 import Variational21
+            self._extra["variational"] = Variational21(self.derivation.ode)
+        return self._extra["variational"]
 
     def system(self, dof: str, wind: bool):
         from autocable.methods.continuation import ame_system
