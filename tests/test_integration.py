@@ -101,11 +101,11 @@ def test_cli_csv_history(tmp_path, capsys):
 def test_divergence_is_a_result_not_a_crash(ode, compiled):
     """Above U_c the sample table's galloping drives the out-of-plane mode into a finite-time
     blow-up of the cubic model (a finding recorded in the notes): `simulate` reports it as a
-    diverged response, quickly and with bounded memory, instead of raising or hanging."""
+    diverged response instead of raising or hanging (its speed is measured by `autocable bench
+    derive`, target 60 s, not here)."""
     r = compiled.simulate(1.1, 0.0, 0.0, (0.01, 0.0, 1e-6, 0.0), max_time=5000.0)
     assert not r.steady and math.isinf(r.a1)
     assert "diverged" in r.message
-    assert r.wall_seconds < 60
 
 
 @pytest.mark.parametrize("engine", ["compiled", "dopri"])
