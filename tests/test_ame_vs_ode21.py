@@ -36,7 +36,6 @@ from autocable.model.derive import derive
 from autocable.model.equations import TwoModeODE
 from autocable.model.multiscale import OscillatorSystem, OscillatorTerm
 from autocable.model.multiscale import derive as multiscale_derive
-from autocable.model.symbolic import parameter_values
 from autocable.spec import load_model
 
 SAMPLE = Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"
