@@ -136,14 +136,13 @@ def test_points_lie_on_the_pycont_branch(both_engines):
         assert eb.value == pytest.approx(ea.value, abs=1e-12)
 
 
+@pytest.mark.parametrize("both_engines", ["fig06.toml"], indirect=True)   # Fig. 5a's branch I has no BP
 def test_switching_at_the_first_branch_point_agrees(both_engines):
     """The bi-modal branch through Fig. 6's BP1, a closed curve back to BP1 that crosses a2 = 0 at
     a second branch point (where the island II of the scene starts): the same special points,
     points and ends with both engines. (The second BP falls close to a computed point of the
     compiled branch: `_sharpen_branch_point` is what finds it there.)"""
     scene, problem, settings, pyc, comp = both_engines
-    if scene != "fig06.toml":
-        pytest.skip("no branch point on Fig. 5a's branch I")
     a = switch_branch(pyc, "BP1")
     b = switch_branch(comp, "BP1", engine="compiled")
     assert [s.label for s in a.branch.special_points] == [s.label for s in b.branch.special_points] \
