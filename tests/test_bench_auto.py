@@ -1,26 +1,34 @@
-"""autocable.bench.auto without AUTO-07p: the generated equation file evaluated numerically, the
-constants file, the fort.7 reader, and a missing AUTO environment (a one-line "skipped").
+"""autocable.bench.auto: the generated equation file evaluated numerically, the constants file,
+the fort.7 reader, a missing AUTO environment (a one-line "skipped"), and the cross-check itself:
+the special points and branch values of the 2-dof AME (Figs. 5a and 6) against AUTO-07p.
 
 The equation file is checked twice: by a small interpreter of its assignments here (always), and,
 when gfortran is on PATH, by compiling FUNC into a tiny program and reading what it prints.
+
+The cross-check needs AUTO-07p: a Python with bifpy (``python -m venv .venv-auto &&
+.venv-auto/bin/pip install bifpy==0.3.0``, gfortran and make on PATH) named by the environment
+variable AUTOCABLE_AUTO_PYTHON (`autocable.bench.auto.AUTO_PYTHON_ENV`). .ci/run sets it up, and
+in CI (CI=true) a missing AUTO fails these tests instead of skipping them.
 """
 from __future__ import annotations
 
 import importlib.util
 import math
+import os
 import re
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 import sympy as sp
 
-from autocable.bench.auto import (AUTO_PYTHON_ENV, PAR_LAM, PAR_SPAN, PAR_XSCALE, auto_constants,
-                                  auto_problem, auto_python_path, auto_settings, bench_auto,
-                                  parse_fort7, parse_total_time, run_auto)
-from autocable.methods.continuation import System
+from autocable.bench.auto import (AUTO_PYTHON_ENV, PAR_LAM, PAR_SPAN, PAR_XSCALE, SIGMA_RANGE,
+                                  auto_constants, auto_problem, auto_python_path, auto_settings,
+                                  bench_auto, parse_fort7, parse_total_time, run_auto)
+from autocable.methods.continuation import ContinuationSettings, System
 
 x, y, U, eta, sigma = sp.symbols("x y U eta sigma")
 # "U" as a parameter name (as in the AME) collides with AUTO's array U in case-insensitive Fortran;
@@ -187,3 +195,78 @@ def test_missing_auto_environment_is_one_clear_line(monkeypatch, tmp_path):
 def test_python_without_bifpy_is_reported():
     r = run_auto(sys.executable, "", [])
     assert set(r) == {"error"} and "bifpy is not importable" in r["error"] and "\n" not in r["error"]
+
+
+# ------------------------------------------------------------------------------------------------
+# the cross-check against AUTO-07p itself (runs in CI: .ci/run builds AUTO-07p in its own venv)
+SAMPLE = Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"
+
+
+def _in_ci() -> bool:
+    return os.environ.get("CI", "").strip().lower() not in ("", "0", "false", "no")
+
+
+def _auto_python_or_skip() -> str:
+    """The AUTO Python (`auto_python_path`); outside CI its absence skips with the reason, in CI
+    (CI=true) it fails, so the comparison can never be skipped silently there."""
+    python, why = auto_python_path()
+    if python is None:
+        if _in_ci():
+            pytest.fail(f"CI must run the AUTO-07p cross-check: {why}")
+        pytest.skip(why)
+    return python
+
+
+@pytest.fixture(scope="module")
+def against_auto():
+    python = _auto_python_or_skip()
+    r = bench_auto(str(SAMPLE), auto_python=python, repeats=1, interpreted=False)
+    if "skipped" in r:
+        if _in_ci():
+            pytest.fail(f"CI must run the AUTO-07p cross-check: {r['skipped']}")
+        pytest.skip(r["skipped"])
+    return {c["case"]: c for c in r["cases"]}
+
+
+# AUTO locates a special point to EPSS = test_tol in lam = (sigma - sigma0) / span (the same chart
+# autocable uses), so the two sigma values of one point agree to test_tol * span.
+SPECIAL_TOL = ContinuationSettings().test_tol * (SIGMA_RANGE[1] - SIGMA_RANGE[0])
+# Both solve the same equations by Newton to tol = 1e-10 in the scaled coordinates (a1 is of the
+# order of the scale): a1 at a fixed sigma agrees to 10 tol.
+BRANCH_RTOL = 10 * ContinuationSettings().tol
+
+
+@pytest.mark.parametrize("engine", ["autocable", "compiled"])
+def test_fig6_special_points_match_auto_07p(against_auto, engine):
+    """Fig. 6 (U = 0, eta = 1.4e-3): the 2-dof AME branch from sigma = -0.05 has two branch points
+    (the pitchforks where the out-of-plane motion sets in and dies). AUTO-07p, PyCont (with
+    autocable's analysis) and the compiled engine find the same ones: same types, sigma within
+    AUTO's location tolerance, a1 within what that sigma error allows (|da1/dsigma| ~ a1 / 0.01
+    near them: 1e-9 in sigma is ~1e-7 of a1)."""
+    case = against_auto["fig6"]
+    pairs = case["special_points"] if engine == "autocable" else case["compiled"]["special_points_vs_auto"]
+    assert [p["type"] for p in pairs] == ["BP", "BP"], pairs          # none missing on either side
+    for p in pairs:
+        assert p["auto"] is not None and p["autocable"] is not None, p
+        assert abs(p["difference"]) <= SPECIAL_TOL, p
+        assert p["a1_relative_difference"] <= 1e-7, p
+    assert pairs[0]["auto"] == pytest.approx(-0.02614, abs=1e-5)      # the branch's two pitchforks,
+    assert pairs[1]["auto"] == pytest.approx(0.02294, abs=1e-5)       # AUTO's numbers (regression pin)
+
+
+@pytest.mark.parametrize("label", ["fig6", "fig5a"])
+def test_branch_values_match_auto_07p(against_auto, label):
+    """a1 on the branch at sigma = -0.04, -0.02, 0, 0.02, 0.04 (AUTO's UZ points; autocable's by
+    Newton at the same sigma from its branch): the same equilibria to the Newton tolerance, for
+    PyCont and the compiled engine. Fig. 5a (eta = 8.2e-5) has no special point: its branch values
+    are the comparison there."""
+    case = against_auto[label]
+    for checks in (case["a1_check"], case["compiled"]["a1_check"]):
+        assert [round(c["sigma"], 6) for c in checks] == [-0.04, -0.02, 0.0, 0.02, 0.04]
+        for c in checks:
+            assert c["relative_difference"] is not None and c["relative_difference"] <= BRANCH_RTOL, c
+    if label == "fig5a":
+        assert case["special_points"] == [] and case["compiled"]["special_points_vs_auto"] == []
+    # Both reach the end of the range.
+    assert case["auto"]["end_sigma"] >= SIGMA_RANGE[1] - 1e-9
+    assert case["autocable"]["end_sigma"] == pytest.approx(SIGMA_RANGE[1], abs=1e-12)

@@ -262,17 +262,15 @@ def test_continuation_rejects_time_dependent_fields():
 # (d) builds keyed by content
 
 _DECAY_SCRIPT = textwrap.dedent("""
-    import json, sys, time
+    import json, sys
     import sympy
     from autocable.codegen import compat, pydstool
     compat.import_pydstool()
     x, k = sympy.symbols("x k")
     vf = pydstool.VectorField("decay", ("x",), [-float(sys.argv[1]) * k * x], {"k": 1.0})
-    start = time.perf_counter()
     gen = pydstool.make_ode_generator(vf, "Dopri", algparams={"rtol": 1e-10, "atol": 1e-12})
-    seconds = time.perf_counter() - start
     t, states = pydstool.integrate(gen, [1.0], None, 0.0, 1.0, 0.5)
-    print(json.dumps({"name": gen.name, "reused": gen.reused, "seconds": seconds,
+    print(json.dumps({"name": gen.name, "reused": gen.reused,
                       "x1": float(states[-1, 0])}))
 """)
 
@@ -317,8 +315,7 @@ def test_changed_equations_get_a_fresh_build_and_identical_ones_reuse_it(tmp_pat
         assert done.stderr == ""
         report = json.loads(done.stdout)
         assert report["name"] == expected_name
-        assert report["reused"] is True
-        assert report["seconds"] < 1.0  # loading, not compiling (a build takes seconds)
+        assert report["reused"] is True  # loading, not compiling (load time: `autocable bench derive`)
         assert report["x1"] == pytest.approx(expected_x, rel=1e-8)
     # The constructed generators were kept for later processes (those above unpickled them); a
     # damaged file only costs the FuncSpec parsing again, and is replaced.

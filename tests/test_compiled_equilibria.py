@@ -4,8 +4,9 @@
   `bialternate`'s determinant; its Routh count of unstable eigenvalues equals numpy's on random
   matrices (n = 2, 4) whenever it decides, and it declines (-1) on a matrix with a pair on the
   imaginary axis.
-* The first runs of the Fig. 5a and Fig. 6 scenes (runs/fig05a.toml, runs/fig06.toml): the same
-  special points as PyCont's engine (parameter to 1e-8, a1 to 1e-8 relative), stability at every
+* The first runs of the Fig. 6, 7 and 10 scenes (runs/fig06.toml, ...): the same special points
+  (BP, LP, H) as PyCont's engine (parameter to 1e-8, a1 to 1e-8 relative). The first runs of the
+  Fig. 5a and Fig. 6 scenes (runs/fig05a.toml, runs/fig06.toml): stability at every
   returned point equal to numpy's eigenvalues of the exact Jacobian and to the kernel's count,
   every point on the PyCont branch within the step tolerance (max_step^2 in chart units), both
   branches ending exactly on the range.
@@ -59,12 +60,28 @@ def both_engines(request):
     return request.param, problem, settings, pyc, comp
 
 
-def test_same_special_points_as_pycont(both_engines):
-    scene, problem, settings, pyc, comp = both_engines
+#: The special points of each scene's first branch (types in order along it): Fig. 6's two
+#: pitchforks of branch I, Fig. 7's two folds of the resonance curve with wind, Fig. 10's Hopf
+#: point and fold. Fig. 5a's first branch has none (the shared fixture's other case).
+SPECIAL_TYPES = {"fig06.toml": ["BP", "BP"], "fig07.toml": ["LP", "LP"], "fig10.toml": ["H", "LP"]}
+
+
+@pytest.fixture(scope="module", params=sorted(SPECIAL_TYPES))
+def engines_with_special_points(request):
+    problem, settings, name, directions = first_run_problem(request.param)
+    pyc = continue_equilibria(problem, settings, name=name, directions=directions)
+    comp = continue_equilibria(problem, settings, name=name, directions=directions, engine="compiled")
+    return request.param, problem, settings, pyc, comp
+
+
+def test_same_special_points_as_pycont(engines_with_special_points):
+    """Every special point of the PyCont engine is found by the compiled engine and vice versa,
+    at the same parameter (1e-8, the test-function tolerance) and a1 (1e-8 relative)."""
+    scene, problem, settings, pyc, comp = engines_with_special_points
     a, b = pyc.branch.special_points, comp.branch.special_points
+    assert [s.type for s in a] == SPECIAL_TYPES[scene]            # never an empty comparison
+    assert [s.type for s in b] == SPECIAL_TYPES[scene]
     assert [s.label for s in a] == [s.label for s in b]
-    if scene == "fig06.toml":
-        assert [s.type for s in b] == ["BP", "BP"]     # the pitchforks of branch I (Fig. 6)
     for sa, sb in zip(a, b):
         assert sb.value == pytest.approx(sa.value, abs=1e-8)
         assert sb.a1 == pytest.approx(sa.a1, rel=1e-8)
@@ -118,14 +135,13 @@ def test_points_lie_on_the_pycont_branch(both_engines):
         assert eb.value == pytest.approx(ea.value, abs=1e-12)
 
 
+@pytest.mark.parametrize("both_engines", ["fig06.toml"], indirect=True)   # Fig. 5a's branch I has no BP
 def test_switching_at_the_first_branch_point_agrees(both_engines):
     """The bi-modal branch through Fig. 6's BP1, a closed curve back to BP1 that crosses a2 = 0 at
     a second branch point (where the island II of the scene starts): the same special points,
     points and ends with both engines. (The second BP falls close to a computed point of the
     compiled branch: `_sharpen_branch_point` is what finds it there.)"""
     scene, problem, settings, pyc, comp = both_engines
-    if scene != "fig06.toml":
-        pytest.skip("no branch point on Fig. 5a's branch I")
     a = switch_branch(pyc, "BP1")
     b = switch_branch(comp, "BP1", engine="compiled")
     assert [s.label for s in a.branch.special_points] == [s.label for s in b.branch.special_points] \

@@ -4,9 +4,11 @@ is computed from the grid.
 
 Linear limit. At eta -> 0 and U = 0 the forced response is linear, a1 = O(eta), and the exact-Omega
 AME reproduces the linear forced response of eq. (21) exactly; the first terms it misses are relative
-O(eta^2) (tests/test_ame_vs_ode21.py derives the order). At eta = 1e-6 that is ~1e-7 of the
-~1e-2 seen at eta = 4.1e-4 (docs/ame_vs_ode21.md), far below the 1e-3 asserted; what is left is the
-integrators' and the amplitude extraction's accuracy (~1e-7).
+O(eta^2) (tests/test_ame_vs_ode21.py derives the order): the parametric term eta f q1 of eq. (21)
+(coefficient ~320) acts on the amplitude at Omega only at second order, (320 eta / omega1^2)^2
+~ 1e-7 at eta = 1e-6, and the integrators' and the amplitude extraction's accuracy is ~1e-7 too.
+The error is asserted below 1e-6, ten times that expected 1e-7 (measured 0.8e-7 to 4e-7 over
+sigma = -0.02, 0, 0.02).
 """
 from __future__ import annotations
 
@@ -44,13 +46,13 @@ def test_quick_map_writes_report_and_figures(quick_map):
     assert re.search(r"^\| 0\.7 \| 0 \| not_run \|", md, flags=re.M)
 
 
-def test_linear_limit_error_below_1e3(quick_map):
+def test_linear_limit_error_below_1e6(quick_map):
     md = (quick_map / "failure_map.md").read_text()
     rows = [line.split("|") for line in md.splitlines() if re.match(r"\| 1e-06 \| [+-]0\.0", line)]
     assert len(rows) == 3
     for cells in rows:
         assert cells[3].strip() == "same"
-        assert float(cells[6]) < 1e-3            # relative a1 error, AME against eq. (21)
+        assert float(cells[6]) < 1e-6            # relative a1 error, AME against eq. (21)
         assert cells[8].strip() == "agree"       # Floquet of (21) and AME eigenvalues: both stable
         assert float(cells[9]) < 1.0             # max |mu|
 

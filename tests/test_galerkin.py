@@ -110,9 +110,25 @@ def test_derivation_reports_terms_not_in_eq21(closed):
 
 
 def test_quasi_static_inertia_m0(closed):
+    """m0 = -int(phi1 vhat) / int(phi1^2) (the support motion's inertia -m* vhat eta f'' projected,
+    on the paper's right-hand side), computed here: Irvine's phi1 (`_hand_modes`) and eq. (15)'s
+    quasi-static shape vhat = C1 s^2 + C2 s with C1 = 3 delta (delta cos a - 2 sin a) / (12 tau +
+    delta^2), C2 = cos a - C1 (eq. 16 with docs/model.md M2's 12 H^3 cos alpha: vhat(1) = cos a)."""
+    import tomllib
+
+    from scipy.integrate import quad
     (m0,) = closed.ode.find(1, (0, 0, 0, 0), (0, 0, 1))
-    # m0 = -int(phi1 vhat)/int(phi1^2) on the paper's right-hand side
-    assert m0.name == "m0" and m0.appendix_value > 0
+    delta, tau, (M1, I1, P1, _, _) = _hand_modes(SAMPLE)
+    a = math.radians(tomllib.loads(SAMPLE.read_text())["cable"]["chord_slope_deg"])
+    C1 = 3 * delta * (delta * math.cos(a) - 2 * math.sin(a)) / (12 * tau + delta ** 2)
+    C2 = math.cos(a) - C1
+    b = math.pi * closed.ode.omega1
+    norm = 1 - math.cos(b / 2)
+    overlap = quad(lambda s: (math.cos(b * (s - 0.5)) - math.cos(b / 2)) / norm * (C1 * s * s + C2 * s),
+                   0.0, 1.0, epsabs=1e-14, epsrel=1e-13)[0]
+    assert m0.name == "m0"
+    assert m0.appendix_value == pytest.approx(-overlap / M1, rel=1e-11)
+    assert m0.coefficient == pytest.approx(overlap / M1, rel=1e-11)     # moved to the left-hand side
 
 
 def test_cache_round_trip(closed, tmp_path, monkeypatch):
@@ -193,3 +209,160 @@ def test_calibration_is_invertible(closed):
     roots = sorted(r for r, why in closed.calibration_roots if not why)
     assert roots == pytest.approx([-13.8794, 69.1193], abs=1e-3)
     assert math.degrees(closed.theta0) == pytest.approx(roots[0], abs=1e-9)
+
+
+# ------------------------------------------------------------------------------------------------
+# Independent checks of eq. (21)'s structural coefficients: derived here by hand from eq. (19) with
+# the corrections the model follows (the Irvine term of docs/model.md, M3; the twist, slaved through
+# eq. (19)_3 with (1 + chi), enters eqs. (19)_1,2 only through the aerodynamic loads), with the mode
+# shapes written out here from Irvine's equation, not taken from autocable.model.modes.
+#
+# At eta = 0 without loads, eqs. (19)_1,2 with the Irvine term are
+#     m* v_tt = tau v'' + (v'' + delta) e,    m* w_tt = tau w'' + w'' e,
+#     e(t) = int_0^1 (v'^2 / 2 + w'^2 / 2 - delta v) ds   (the dynamic axial strain),
+# m* = pi^2 tau. With v = q1 phi1, w = q2 phi2, phi2 = sin(pi s), Galerkin projection gives
+#     m* M1 q1'' + tau I1 q1 + (I1 q1 - delta P1) e = 0,   m* M2 q2'' + tau I2 q2 + I2 q2 e = 0,
+#     e = I1 q1^2 / 2 + I2 q2^2 / 2 - delta P1 q1,
+# Mk = int phik^2, Ik = int phik'^2, P1 = int phi1. Divided by m* Mk (eq. 21's normalisation):
+#     omega1^2 = (tau I1 + delta^2 P1^2) / (m* M1),  k31 = -3 delta P1 I1 / (2 m* M1),
+#     k51 = -delta P1 I2 / (2 m* M1),  k4 = I1^2 / (2 m* M1),  k7 = I1 I2 / (2 m* M1),
+#     h41 = -delta P1 I2 / (m* M2),  h5 = I1 I2 / (2 m* M2),  h31 = I2^2 / (2 m* M2) = pi^2 / (4 tau).
+# They derive from the potential V = (m* / 2)(tau I1 q1^2 + ...) + e^2 / 2, hence the reciprocity
+# relations k7 M1 = h5 M2 and 2 k51 M1 = h41 M2 (and, with the support motion, 2 k52 M1 = h42 M2).
+# ------------------------------------------------------------------------------------------------
+def _hand_modes(spec_path):
+    """delta, tau, and (M1, I1, P1, M2, I2) of phi1 = (cos(b (s - 1/2)) - cos(b/2)) / (1 - cos(b/2))
+    (Irvine's symmetric mode, unit maximum, b from tan(b/2) = b/2 - (4 / lambda^2)(b/2)^3) and
+    phi2 = sin(pi s), from the model file's numbers (Sect. 2.1 statics)."""
+    import tomllib
+
+    from scipy.integrate import quad
+    from scipy.optimize import brentq
+
+    cable = tomllib.loads(Path(spec_path).read_text())["cable"]
+    a = math.radians(cable["chord_slope_deg"])
+    H, l = cable["horizontal_tension_N"], cable["length_m"]
+    delta = cable["mass_per_length_kg_m"] * cable["gravity_m_s2"] * math.cos(a) ** 2 / H * l
+    tau = H / math.cos(a) / cable["axial_stiffness_N"]
+    lam2 = delta ** 2 / tau
+    x = brentq(lambda x: math.cos(x) * (x - 4 * x ** 3 / lam2) - math.sin(x), math.pi / 2 * (1 + 1e-15),
+               3 * math.pi / 2 * (1 - 1e-15), xtol=1e-15, rtol=1e-15)
+    b = 2 * x
+    norm = 1 - math.cos(b / 2)
+
+    def integral(fn):
+        return quad(fn, 0.0, 1.0, epsabs=1e-14, epsrel=1e-13, limit=200)[0]
+
+    M1 = integral(lambda s: ((math.cos(b * (s - 0.5)) - math.cos(b / 2)) / norm) ** 2)
+    I1 = integral(lambda s: (b * math.sin(b * (s - 0.5)) / norm) ** 2)
+    P1 = integral(lambda s: (math.cos(b * (s - 0.5)) - math.cos(b / 2)) / norm)
+    return delta, tau, (M1, I1, P1, 0.5, math.pi ** 2 / 2)
+
+
+def _hand_coefficients(delta, tau, integrals):
+    M1, I1, P1, M2, I2 = integrals
+    ms = math.pi ** 2 * tau
+    return {"omega1^2": (tau * I1 + delta ** 2 * P1 ** 2) / (ms * M1),
+            "k31": -1.5 * delta * P1 * I1 / (ms * M1), "k51": -0.5 * delta * P1 * I2 / (ms * M1),
+            "k4": 0.5 * I1 ** 2 / (ms * M1), "k7": 0.5 * I1 * I2 / (ms * M1),
+            "h41": -delta * P1 * I2 / (ms * M2), "h5": 0.5 * I1 * I2 / (ms * M2),
+            "h31": 0.5 * I2 ** 2 / (ms * M2)}
+
+
+def _named(ode):
+    return {t.name: t.coefficient for t in ode.terms if t.name}
+
+
+@pytest.mark.parametrize("which", ["closed", "quad"])
+def test_structural_coefficients_derived_by_hand_from_eq19(which, request):
+    """Every structural term of eq. (21) at eta = 0 against the hand derivation above (Irvine's
+    mode shape, quadrature of its integrals here): 1e-12 relative, for both integrators."""
+    ode = request.getfixturevalue(which).ode
+    hand = _hand_coefficients(*_hand_modes(SAMPLE))
+    got = _named(ode)
+    assert ode.omega1 ** 2 == pytest.approx(hand.pop("omega1^2"), rel=1e-12)
+    for name, value in hand.items():
+        assert got[name] == pytest.approx(value, rel=1e-12 if which == "closed" else 1e-8), name
+    # Nothing else structural and unforced: eq. (21)'s conservative part is exactly these.
+    structural = {t.name for t in ode.terms if t.origin == "structural" and t.forcing == (0, 0, 0)}
+    assert structural == set(hand)
+
+
+def test_reciprocity_of_the_structural_terms(closed):
+    """The structural terms derive from a potential, so the cross terms of the two equations are
+    related through the modal masses M1 = int phi1^2 (computed here), M2 = int sin^2(pi s) = 1/2:
+    k7 M1 = h5 M2 (from q1^2 q2^2 in V), 2 k51 M1 = h41 M2 (from q1 q2^2), and for the support
+    motion's parametric terms 2 k52 M1 = h42 M2 (from eta f q1 q2^2)."""
+    c = _named(closed.ode)
+    _, _, (M1, _, _, M2, _) = _hand_modes(SAMPLE)
+    assert M2 / M1 == pytest.approx(1.000568855, rel=1e-9)    # not 1: the relations see M1 != M2
+    assert c["k7"] * M1 == pytest.approx(c["h5"] * M2, rel=1e-12)
+    assert 2 * c["k51"] * M1 == pytest.approx(c["h41"] * M2, rel=1e-12)
+    assert 2 * c["k52"] * M1 == pytest.approx(c["h42"] * M2, rel=1e-12)
+
+
+def test_taut_string_limit(tmp_path):
+    """delta -> 0 (gravity 1e-3 of the sample's: delta = 1.3e-5, lambda^2 = 1e-7): the in-plane mode
+    becomes sin(pi s) and eq. (21) the taut string's, whose cubic coefficients are known in closed
+    form: k4 = k7 = h5 = h31 = pi^2 / (4 tau) (uniform stretching e = pi^2 (q1^2 + q2^2) / 4), and
+    omega1 -> 1; the quadratic ones vanish like delta: k31 -> -3 delta / (pi tau),
+    k51 -> -delta / (pi tau), h41 -> -2 delta / (pi tau) (P1 -> 2 / pi, I1 -> pi^2 / 2).
+    The corrections are O(lambda^2) = 1e-7 relative."""
+    text = SAMPLE.read_text()
+    assert "gravity_m_s2 = 9.81 " in text
+    taut = tmp_path / "taut.toml"
+    taut.write_text(text.replace("gravity_m_s2 = 9.81 ", "gravity_m_s2 = 0.00981 "))
+    d = derive(load_model(taut), integrator="closed-form", use_cache=False)
+    delta, tau = d.statics.delta, d.statics.tau
+    assert delta == pytest.approx(_hand_modes(taut)[0], rel=1e-13) and delta < 2e-5
+    c = _named(d.ode)
+    string = math.pi ** 2 / (4 * tau)
+    for name in ("k4", "k7", "h5", "h31"):
+        assert c[name] == pytest.approx(string, rel=1e-6), name
+    assert d.ode.omega1 == pytest.approx(1.0, abs=1e-7)
+    assert c["k31"] == pytest.approx(-3 * delta / (math.pi * tau), rel=1e-6)
+    assert c["k51"] == pytest.approx(-delta / (math.pi * tau), rel=1e-6)
+    assert c["h41"] == pytest.approx(-2 * delta / (math.pi * tau), rel=1e-6)
+
+
+def test_energy_of_the_conservative_part_is_conserved(closed):
+    """U = 0, eta = 0, no damping: eq. (21) reduces to its structural terms, which derive from
+    V = M1 (omega1^2 q1^2 / 2 + k31 q1^3 / 3 + k51 q1 q2^2 + k4 q1^4 / 4 + k7 q1^2 q2^2 / 2)
+        + M2 (omega2^2 q2^2 / 2 + h31 q2^4 / 4)
+    (the reciprocity relations make dV/dq2 = M2 x eq. (21)_2's terms). Integrated by the eq. (21)
+    integrator at rtol = 1e-11 over 50 periods from q = (0.01, 0.008) (cubic terms ~10 % of the
+    linear ones), E = sum Mk qk'^2 / 2 + V stays constant to 1e-8 relative (measured 7.7e-11); the
+    same check with the sign of k51 flipped in eq. (21)_1 alone (a broken reciprocity) drifts by
+    far more (measured 2.2e-2)."""
+    import dataclasses
+
+    from autocable.methods.integration.ode21 import Ode21Integrator
+    from autocable.model.equations import TwoModeODE
+    from autocable.model.symbolic import parameter_values
+
+    ode = closed.ode
+    _, _, (M1, _, _, M2, _) = _hand_modes(SAMPLE)
+    keep = tuple(t for t in ode.terms if t.forcing == (0, 0, 0) and t.origin in ("structural", "linear"))
+    assert len(keep) == 9
+
+    def energy(c, y):
+        q1, q2, p1, p2 = y.T
+        V = (M1 * (ode.omega1 ** 2 * q1 ** 2 / 2 + c["k31"] * q1 ** 3 / 3 + c["k51"] * q1 * q2 ** 2
+                   + c["k4"] * q1 ** 4 / 4 + c["k7"] * q1 ** 2 * q2 ** 2 / 2)
+             + M2 * (ode.omega2 ** 2 * q2 ** 2 / 2 + c["h31"] * q2 ** 4 / 4))
+        return M1 * p1 ** 2 / 2 + M2 * p2 ** 2 / 2 + V
+
+    def drift(terms):
+        cons = TwoModeODE(terms=terms, omega1=ode.omega1, omega2=ode.omega2, xi_s=0.0)
+        integ = Ode21Integrator(cons, engine="scipy", rtol=1e-11, atol=1e-15)
+        _, y = integ.run((0.01, 0.008, 0.0, 0.0), 0.0, 50 * 2 * math.pi, 0.05,
+                         parameter_values(0.0, 0.0, ode.omega1))
+        E = energy(_named(ode), y)
+        return float(np.max(np.abs(E - E[0])) / E[0]), y
+
+    err, y = drift(keep)
+    assert np.max(np.abs(y[:, 1])) > 0.007                     # both modes stay excited
+    assert err < 1e-8, err
+    broken = tuple(dataclasses.replace(t, coefficient=-t.coefficient) if t.name == "k51" else t
+                   for t in keep)
+    assert drift(broken)[0] > 1e3 * err

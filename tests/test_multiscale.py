@@ -5,7 +5,6 @@ Closed forms use the peak amplitude a (docs/model.md, C1): q = a cos(Omega t + P
 from __future__ import annotations
 
 import json
-import time
 from fractions import Fraction
 
 import numpy as np
@@ -436,28 +435,25 @@ def synthetic_ode(seed=0, omega1=1.004, omega2=1.0, xi=0.004, keep=lambda spec: 
 @pytest.fixture(scope="module")
 def synthetic():
     ode = synthetic_ode()
-    t0 = time.perf_counter()
-    ame = derive(ode)
-    return ode, ame, time.perf_counter() - t0
+    return ode, derive(ode)
 
 
-def test_synthetic_table_derivation_time_and_cache(synthetic):
-    ode, ame, seconds = synthetic
+def test_synthetic_table_derivation_and_cache(synthetic):
+    """A 100-term table derives with all checks passing and survives a JSON round trip (the
+    derivation and reload times are targets of `autocable bench ame-vs-ode`, not asserted here)."""
+    ode, ame = synthetic
     assert len(ode.terms) == 100
-    assert seconds < 5.0, seconds      # the contract is 60 s cold; it takes a few hundredths
     assert all(ame.checks.values()) and len(ame.checks) == 5
     text = json.dumps(ame.to_dict())
-    t0 = time.perf_counter()
     back = AmplitudeEquations.from_dict(json.loads(text))
     back.cartesian_rhs()
-    assert time.perf_counter() - t0 < 0.5
     assert back == ame
     assert back.cartesian_rows == ame.cartesian_rows and back.polar_rows == ame.polar_rows
     assert ame.provenance["ode_hash"] == ode.content_hash()
 
 
 def test_default_ordering_rules(synthetic):
-    ode, ame, _ = synthetic
+    ode, ame = synthetic
     ordering = default_ordering(ode)
     assert ordering == ame.ordering
     by_label = {e.label: e for e in ordering.entries}
@@ -527,7 +523,7 @@ def test_invariance_of_A2_zero_and_coupling():
 
 
 def test_forms_agree_at_random_points(synthetic):
-    _, ame, _ = synthetic
+    _, ame = synthetic
     s = ame.symbols()
     cplx = ame.complex_expressions()
     polar = ame.polar_expressions()
@@ -572,7 +568,7 @@ def test_no_wind_drops_aerodynamic_rows():
 
 
 def test_one_dof_reduction(synthetic):
-    _, ame, _ = synthetic
+    _, ame = synthetic
     one = ame.one_dof()
     assert one.n_modes == 1 and one.modes == (1,)
     assert one.param_names[:4] == ("eta", "U", "sigma_1", "Omega")
@@ -588,7 +584,7 @@ def test_one_dof_reduction(synthetic):
 
 
 def test_control_relations(synthetic):
-    _, ame, _ = synthetic
+    _, ame = synthetic
     p = ame.control(eta=1e-3, U=0.7, sigma=-0.042)
     eta, U, s1, s2, Omega = p
     assert np.isclose(Omega, 1.004 - 0.042) and np.isclose(s1, 0.042)     # sigma = -sigma_1

@@ -176,7 +176,9 @@ def test_fig10_overlay_marks_eq21_divergence(scene_results):
 
 def test_fig11_time_evolution(scene_results):
     """Fig. 11: the AME oscillate (a periodic solution of the amplitude equations) while eq. (21)
-    from the same start settles on a period-1 response; numbers measured at t in [40000, 60000]."""
+    from the same start settles on a period-1 response; numbers measured at t in [40000, 60000]
+    (regression pins; the AME's statistics are checked across two integrators in
+    tests/test_compiled_integration.py::test_fig11_ame_series_statistics)."""
     import csv
 
     res, out = scene_results("fig11")

@@ -10,6 +10,7 @@ tolerances, on the same equations, in one run (best of ``repeats`` after a warm-
 """
 from __future__ import annotations
 
+import json
 import math
 import os
 import tempfile
@@ -65,6 +66,13 @@ def bench_derive(model_path: str, repeats: int = 3, log=None) -> dict:
     _, ys = reference.run(y0, 0.0, t_end, dt, pars)
     diff = float(np.max(np.abs(yc - ys)) / np.max(np.abs(ys)))
     say(f"  {t_s:.2f} s: compiled is {t_s / t_c:.0f}x faster")
+    # A second integrator on the same equations loads the cached build (no compiler run).
+    t_load = _timed(lambda: Ode21Integrator(d.ode, "dopri", rtol=rtol, atol=atol))
+    say(f"  cached build loaded in {t_load * 1e3:.0f} ms")
+    # Above U_c the cubic model blows up in finite time: `simulate` must say so quickly.
+    say("diverging response (U = 1.1, eta = 0) ...")
+    diverged = Ode21Integrator(d.ode).simulate(1.1, 0.0, 0.0, (0.01, 0.0, 1e-6, 0.0), max_time=5000.0)
+    say(f"  {diverged.message} in {diverged.wall_seconds:.2f} s")
     return {
         "model": spec.name,
         "derivation_cold_s": cold, "derivation_cached_s": cached,
@@ -73,8 +81,12 @@ def bench_derive(model_path: str, repeats: int = 3, log=None) -> dict:
                         "U": pars["U"], "eta": pars["eta"], "Omega": pars["Omega"],
                         "compiled_dopri_s": t_c, "scipy_dop853_s": t_s, "speedup": t_s / t_c,
                         "compiled_build_s": compiled.build_seconds,
-                        "max_relative_difference": diff},
-        "targets": {"derivation_cold_s": 30.0, "derivation_cached_s": 0.5, "speedup": 50.0},
+                        "max_relative_difference": diff,
+                        "cached_build_load_s": t_load},
+        "divergence": {"U": 1.1, "max_time": 5000.0, "message": diverged.message,
+                       "wall_s": diverged.wall_seconds},
+        "targets": {"derivation_cold_s": 30.0, "derivation_cached_s": 0.5, "speedup": 50.0,
+                    "cached_build_load_s": 1.0, "divergence_wall_s": 60.0},
     }
 
 
@@ -138,7 +150,14 @@ def _ame_timings(d, repeats: int) -> dict:
                 os.environ.pop("AUTOCABLE_CACHE", None)
             else:
                 os.environ["AUTOCABLE_CACHE"] = old
+    t0 = time.perf_counter()
+    back = type(cold.ame).from_dict(json.loads(json.dumps(cold.ame.to_dict())))
+    back.cartesian_rhs()
+    reload_s = time.perf_counter() - t0
     return {"ame_derivation_cold_s": cold_s, "ame_derivation_cached_s": cached_s,
+            "ame_json_reload_s": reload_s,
+            "targets": {"ame_derivation_cold_s": 60.0, "ame_derivation_cached_s": 0.5,
+                        "ame_json_reload_s": 0.5},
             "cache_round_trip_equal": hit,
             "engine_seconds": cold.ame.provenance.get("derivation_seconds"),
             "complex_rows": len(cold.ame.complex_rows), "cartesian_rows": len(cold.ame.cartesian_rows)}
