@@ -1,5 +1,6 @@
 """Eq. (21): the Galerkin table, computed two independent ways, and its physics checks."""
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
