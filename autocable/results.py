@@ -61,9 +61,9 @@ __all__ = [
 ]
 
 #: Branch kinds.
-KINDS = ("equilibrium", "cycle", "fold", "hopf")
+KINDS = ("equilibrium", "cycle", "fold", "hopf", "branch_point")
 #: Two-parameter curves (both ``parameter`` and ``parameter2`` vary along them).
-CURVE_KINDS = ("fold", "hopf")
+CURVE_KINDS = ("fold", "hopf", "branch_point")
 #: Special-point types: fold (LP), Hopf (H), branch point (BP) of equilibria; fold (LPC), period
 #: doubling (PD) and Neimark-Sacker (NS) of cycles; the range end (B) and the start point (S); on
 #: two-parameter curves: cusp (CP), Bogdanov-Takens (BT), generalized Hopf (GH), zero-Hopf (ZH),

@@ -94,6 +94,8 @@ _WHERE = {
     "periodic_orbit": "orbits",
     "continue_folds": "curves",
     "continue_hopf": "curves",
+    "continue_branch_points": "branch_points",
+    "SymmetryError": "branch_points",
     "first_lyapunov": "events",
     "bialternate": "events",
 }
