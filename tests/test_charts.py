@@ -286,6 +286,20 @@ def synthetic_map(path, coded: bool, legend_form: str = "list"):
         elif legend_form == "cf":
             resp.attrs["flag_values"] = np.arange(5, dtype=np.int32)
             resp.attrs["flag_meanings"] = " ".join(LEGEND)
+        elif legend_form == "cf+start":
+            # as `autocable sweep` writes it: int8 codes, -1 = not computed, CF words with
+            # underscores (and a JSON legend without -1), a start dimension
+            codes = codes.astype(np.int8)
+            both = np.stack([codes, codes], axis=-1)
+            both[0, 0, 0, 1] = 3                     # the second start finds another attractor
+            both[0, 2, 3, :] = -1                    # a point not computed
+            resp = xr.DataArray(both, dims=("U", "eta", "sigma", "start"))
+            resp.attrs["flag_values"] = np.arange(-1, 5, dtype=np.int8)
+            resp.attrs["flag_meanings"] = "not_computed " + " ".join(c.replace("-", "_") for c in LEGEND)
+            resp.attrs["legend"] = json.dumps({str(k): c for k, c in enumerate(LEGEND)})
+            ds = xr.Dataset({"response": resp}, coords={"U": U, "eta": eta, "sigma": sig, "start": [0, 1]})
+            ds.to_netcdf(path)
+            return both
     else:
         resp = xr.DataArray(np.array(LEGEND, dtype=object)[codes].astype(str), dims=("U", "eta", "sigma"))
     ds = xr.Dataset({"response": resp, "a1": (("U", "eta", "sigma"), np.random.default_rng(0).random(codes.shape))},
@@ -308,6 +322,19 @@ def test_map_reader(tmp_path, coded, form):
     assert m["response"] == want
     m7 = read_response_map(path, "sigma", "eta", {"U": 0.7})
     assert set(m7["response"]) == {"diverged"}
+
+
+def test_map_reader_folds_starts_and_skips_points_not_computed(tmp_path):
+    from autocable.plotting.chart import read_response_map
+    path = tmp_path / "sweep.nc"
+    synthetic_map(path, True, "cf+start")
+    m = read_response_map(path, "sigma", "eta", {"U": 0.0})
+    assert len(m["x"]) == 11                                             # 12 points, one not computed
+    k = list(zip(m["x"], m["y"])).index((-0.04, 5e-4))
+    assert m["response"][k] == "period-1 + quasi-periodic"
+    assert (0.04, 2e-3) not in list(zip(m["x"], m["y"]))
+    assert set(m["response"]) <= {"rest", "period-1", "period-2", "quasi-periodic", "diverged",
+                                  "period-1 + quasi-periodic"}
 
 
 def test_map_reader_errors_are_one_line(tmp_path):

@@ -8,8 +8,10 @@ The map's format (``sweep.nc``, xarray/NetCDF): dimensions and coordinates named
 ``response`` holding either the class names (``rest``, ``period-1``, ``period-2``,
 ``quasi-periodic``, ``diverged``) or integer codes with their names in an attribute: ``legend``
 (a list of names indexed by code, a JSON object {code: name}, or the text "0: rest, 1: period-1,
-...") or the CF pair ``flag_values``/``flag_meanings``. Other dimensions (e.g. several starts per
-point) are folded: a point's classes are joined with " + "."""
+...") or the CF pair ``flag_values``/``flag_meanings`` (preferred when both are there; CF's
+underscores read as hyphens, ``period_1`` is ``period-1``; ``not_computed`` points are left out).
+Other dimensions (e.g. ``start``: several starts per point) are folded: a point's classes are joined
+with " + "."""
 from __future__ import annotations
 
 import json
@@ -112,12 +114,14 @@ def read_response_map(path: str | Path, x: str, y: str, fixed: Mapping[str, floa
         names = np.vectorize(lambda v: legend[int(v)], otypes=[object])(values)
     else:
         names = np.vectorize(lambda v: v.decode() if isinstance(v, bytes) else str(v), otypes=[object])(values)
+    # CF flag_meanings are single words (period_1); a point not computed (yet) is left out.
+    names = np.vectorize(lambda v: str(v).strip().replace("_", "-"), otypes=[object])(names)
     X, Y, R = [], [], []
     xs, ys = np.asarray(da[x], float), np.asarray(da[y], float)
     for j in range(len(ys)):
         for i in range(len(xs)):
             cell = np.atleast_1d(names[j, i]).ravel().tolist()
-            kinds = sorted({c for c in cell if c and c != "nan"},
+            kinds = sorted({c for c in cell if c and c not in ("nan", "not-computed")},
                            key=lambda c: MAP_CLASSES.index(c) if c in MAP_CLASSES else len(MAP_CLASSES))
             if not kinds:
                 continue
@@ -206,7 +210,7 @@ def _plot_chart(results, regions_rows, regions, stem, *, x, y, x_range, y_range,
                       shading="flat", rasterized=True)
         for reg in regions:
             if reg.cells >= min_label_cells:
-                ax.text(reg.x, reg.y, _short(reg.label), ha="center", va="center", fontsize=7, zorder=6,
+                ax.text(reg.x, reg.y, _short(reg.label), ha="center", va="center", fontsize=7, zorder=9,
                         bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="0.6", alpha=0.8, lw=0.5))
         handles += [Patch(fc=colour(c), ec="0.6", lw=0.5, label=f"AME: {c.replace('small', 'small forced')}")
                     for c in classes]
@@ -227,13 +231,17 @@ def _plot_chart(results, regions_rows, regions, stem, *, x, y, x_range, y_range,
                 ax.annotate(f"{s.type}", (px, py), textcoords="offset points", xytext=(4, 4), fontsize=7, zorder=7)
             elif b.kind not in CURVE_KINDS and b.kind != "cycle" and s.type in ("LP", "H", "BP") \
                     and s.origin == "autocable":
-                ax.plot(px, py, {"LP": "o", "H": "s", "BP": "d"}[s.type], color="black", mfc="white", ms=5, zorder=7)
+                ax.plot(px, py, {"LP": "o", "H": "s", "BP": "d"}[s.type], color="black", mfc="white", ms=6.5,
+                        mew=1.4, zorder=8.5)
     if response_map is not None and len(response_map["x"]):
         seen = set()
+        # Markers shrink on a dense map (a 40 x 40 map at full size hides the regions).
+        shrink = min(1.0, 20.0 / math.sqrt(len(response_map["x"])))
         for px, py, cls in zip(response_map["x"], response_map["y"], response_map["response"]):
             first = cls.split(" + ")[0]
-            style = _MAP_STYLE.get(first, dict(marker="*", mfc="magenta", mec="magenta", ms=4))
-            ax.plot(px, py, ls="none", zorder=8, **style)
+            style = dict(_MAP_STYLE.get(first, dict(marker="*", mfc="magenta", mec="magenta", ms=4)))
+            style["ms"] = max(1.5, style["ms"] * shrink)
+            ax.plot(px, py, ls="none", zorder=8, mew=0.8, **style)
             seen.add(first)
         fixed = ", ".join(f"{k} = {v:g}" for k, v in response_map.get("fixed", {}).items())
         handles += [Line2D([], [], ls="none", **_MAP_STYLE.get(c, dict(marker="*", mfc="magenta", mec="magenta")),
