@@ -484,8 +484,14 @@ def cmd_chart(args) -> int:
                                 for s in b.special_points if s.origin == "autocable")
                 print(f"  {b.name:<10} {b.kind:<12} {len(b):>5} points  {pts}")
         x, y = data["plane"]
+        # The regions the chart labels (at least 1 % of the grid); the small ones are counted.
+        least = max(2, data["grid"][0] * data["grid"][1] // 100)
         for g in data["regions"]:
-            print(f"  region {g['label']:<28} {g['cells']:>4} cells, labelled at {x} = {g[x]:.4g}, {y} = {g[y]:.4g}")
+            if g["cells"] >= least:
+                print(f"  region {g['label']:<36} {g['cells']:>4} cells, labelled at {x} = {g[x]:.4g}, {y} = {g[y]:.4g}")
+        small = [g for g in data["regions"] if g["cells"] < least]
+        if small:
+            print(f"  and {len(small)} regions of fewer than {least} cells (coloured, not labelled; regions.json lists them)")
         if "map" in data:
             m = data["map"]
             print(f"  map: {m['points']} points of eq. (21), the AME's class predicts {m['agree']} of them")
