@@ -237,12 +237,18 @@ def _plot_chart(results, regions_rows, regions, stem, *, x, y, x_range, y_range,
         seen = set()
         # Markers shrink on a dense map (a 40 x 40 map at full size hides the regions).
         shrink = min(1.0, 20.0 / math.sqrt(len(response_map["x"])))
+        # Coexisting classes at one point (several starts) sit side by side across a third of the
+        # map's spacing in x.
+        ux = np.unique(response_map["x"])
+        dx = 0.3 * (float(np.min(np.diff(ux))) if len(ux) > 1 else 0.0)
         for px, py, cls in zip(response_map["x"], response_map["y"], response_map["response"]):
-            first = cls.split(" + ")[0]
-            style = dict(_MAP_STYLE.get(first, dict(marker="*", mfc="magenta", mec="magenta", ms=4)))
-            style["ms"] = max(1.5, style["ms"] * shrink)
-            ax.plot(px, py, ls="none", zorder=8, mew=0.8, **style)
-            seen.add(first)
+            parts = cls.split(" + ")
+            for k, part in enumerate(parts):
+                style = dict(_MAP_STYLE.get(part, dict(marker="*", mfc="magenta", mec="magenta", ms=4)))
+                style["ms"] = max(1.5, style["ms"] * shrink)
+                off = (k - (len(parts) - 1) / 2) * dx / max(len(parts) - 1, 1)
+                ax.plot(px + off, py, ls="none", zorder=8, mew=0.8, **style)
+                seen.add(part)
         fixed = ", ".join(f"{k} = {v:g}" for k, v in response_map.get("fixed", {}).items())
         handles += [Line2D([], [], ls="none", **_MAP_STYLE.get(c, dict(marker="*", mfc="magenta", mec="magenta")),
                            label=f"eq. (21): {c}") for c in MAP_CLASSES if c in seen]
