@@ -386,3 +386,12 @@ def test_chart_command_needs_a_chart_table(tmp_path):
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "fig05a.toml" in lines[0] and "chart" in lines[0] and "[chart]" in lines[0]
+
+
+def test_a_bad_map_is_refused_before_anything_is_computed(tmp_path):
+    bad = tmp_path / "sweep.nc"
+    synthetic_map(bad, True, "none")                     # integer codes without a legend
+    with pytest.raises(SpecError) as err:
+        run_scene(load_scene(SCENE_U0), tmp_path / "out", resolution="coarse", response_map=bad)
+    assert "\n" not in str(err.value) and str(bad) in str(err.value) and err.value.field == "response.legend"
+    assert not (tmp_path / "out" / "branches.csv").exists()

@@ -126,6 +126,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         return run_time_scene(scene, out_dir, say, plot, resolution)
 
     t_all = time.perf_counter()
+    rmap = _read_map(scene, response_map) if scene.chart is not None else None
     stages: dict[str, Any] = {}
     advice = None
     if scene.ame == "auto":
@@ -342,6 +343,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
     if scene.chart is not None:
         t0 = time.perf_counter()
         chart_out = _run_chart(scene, ame, systems, say, out, resolution)
+        chart_out["map"] = _score_map(scene, chart_out, out, rmap, say)
         stages["chart_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     write_results(res, out)
@@ -365,7 +367,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
             stages["plot_s"] = time.perf_counter() - t0
         if chart_out is not None:
             t1 = time.perf_counter()
-            files += _plot_chart(scene, res, chart_out, out, response_map, say)
+            files += _plot_chart(scene, res, chart_out, out)
             stages["chart_plot_s"] = time.perf_counter() - t1
         say(f"plot: {', '.join(str(f) for f in files)}")
     stages["total_s"] = time.perf_counter() - t_all
@@ -420,22 +422,44 @@ def _run_chart(scene: Scene, ame, systems: dict, say, out: Path, resolution: str
     return {"rows": rows, "regions": regions, "fixed": data["fixed"]}
 
 
-def _plot_chart(scene: Scene, res, chart_out: dict, out: Path, response_map, say) -> list:
-    """Draw ``<scene>_chart.png``/``.pdf``; with a map, its classes and their agreement with the AME."""
-    import json
-
-    from autocable.plotting.chart import agreement, plot_chart, read_response_map
+def _read_map(scene: Scene, response_map) -> dict | None:
+    """The brute-force map (``response_map`` or the table's ``map``) in the chart's plane, read
+    before anything is computed (a bad map is refused at once, not after the runs)."""
+    from autocable.plotting.chart import read_response_map
 
     ch = scene.chart
     path = Path(response_map) if response_map is not None else ch.map
-    rmap = None
-    if path is not None:
-        rmap = read_response_map(path, ch.x, ch.y, chart_out["fixed"])
-        score = agreement(chart_out["rows"], ch.x, ch.y, rmap)
-        say(f"  map {path}: {score['points']} points, the AME's class predicts eq. (21)'s at {score['agree']}")
-        data = json.loads((out / "regions.json").read_text())
-        data["map"] = {"path": str(path), "fixed": rmap["fixed"], **score}
-        (out / "regions.json").write_text(json.dumps(data, indent=1))
+    if path is None:
+        return None
+    values = {p: 0.0 for p in PARAMETERS}
+    values.update(scene.fixed)
+    rmap = read_response_map(path, ch.x, ch.y, {k: v for k, v in values.items() if k not in (ch.x, ch.y)})
+    return dict(rmap, path=str(path))
+
+
+def _score_map(scene: Scene, chart_out: dict, out: Path, rmap, say) -> dict | None:
+    """How often the AME's class predicts the map's (added to ``regions.json``)."""
+    import json
+
+    from autocable.plotting.chart import agreement
+
+    if rmap is None:
+        return None
+    ch = scene.chart
+    score = agreement(chart_out["rows"], ch.x, ch.y, rmap)
+    say(f"  map {rmap['path']}: {score['points']} points, the AME's class predicts eq. (21)'s at {score['agree']}")
+    data = json.loads((out / "regions.json").read_text())
+    data["map"] = {"path": rmap["path"], "fixed": rmap["fixed"], **score}
+    (out / "regions.json").write_text(json.dumps(data, indent=1))
+    return rmap
+
+
+def _plot_chart(scene: Scene, res, chart_out: dict, out: Path) -> list:
+    """Draw ``<scene>_chart.png``/``.pdf`` (with the map's classes when there is one)."""
+    from autocable.plotting.chart import plot_chart
+
+    ch = scene.chart
+    rmap = chart_out.get("map")
     title = scene.plot.title + "".join(f", {k} = {v:g}" for k, v in chart_out["fixed"].items()
                                        if f"{k} =" not in scene.plot.title)
     return plot_chart(res, chart_out["rows"], chart_out["regions"], out / f"{scene.name}_chart", x=ch.x, y=ch.y,
