@@ -395,3 +395,19 @@ def test_a_bad_map_is_refused_before_anything_is_computed(tmp_path):
         run_scene(load_scene(SCENE_U0), tmp_path / "out", resolution="coarse", response_map=bad)
     assert "\n" not in str(err.value) and str(bad) in str(err.value) and err.value.field == "response.legend"
     assert not (tmp_path / "out" / "branches.csv").exists()
+
+
+def test_map_period_1_points_with_both_modes_are_bi_modal(tmp_path):
+    import xarray as xr
+    from autocable.plotting.chart import agreement, read_response_map
+    sig, eta = np.array([0.0, 0.01]), np.array([1e-3])
+    resp = np.array([[["period-1", "period-1"]]])                      # (U, eta, sigma)
+    a1 = np.array([[[4e-3, 4e-3]]])
+    a2 = np.array([[[2e-3, 4e-3 * 1e-4]]])                             # 0.5 a1 and 1e-4 a1
+    ds = xr.Dataset({"response": (("U", "eta", "sigma"), resp), "a1": (("U", "eta", "sigma"), a1),
+                     "a2": (("U", "eta", "sigma"), a2)}, coords={"U": [0.0], "eta": eta, "sigma": sig})
+    ds.to_netcdf(tmp_path / "sweep.nc")
+    m = read_response_map(tmp_path / "sweep.nc", "sigma", "eta", {"U": 0.0})
+    assert m["response"] == ["period-1 bi-modal", "period-1"]
+    rows = [{"sigma": 0.0, "eta": 1e-3, "class": "bi-modal"}, {"sigma": 0.01, "eta": 1e-3, "class": "bi-modal"}]
+    assert agreement(rows, "sigma", "eta", m)["agree"] == 1                # the mono-modal point disagrees
