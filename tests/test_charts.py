@@ -112,6 +112,28 @@ def test_bp_curve_of_a_symmetric_system_is_the_closed_form(z2_system):
     assert np.all(B["x2"] == 0.0) and np.all(B["y2"] == 0.0)
 
 
+def test_bp_curve_meets_the_fold_of_the_mono_modal_branch():
+    """x1' = (a - x1^2) / 4 (in-plane fold at a = 0), x2' = (x1 - b) x2 - x2^3: pitchforks where
+    x1 = b, i.e. on a = b^2, and the pitchfork curve crosses the in-plane fold at (a, b) = (0, 0).
+    (The factor 1/4 keeps neutral saddles, lambda_i + lambda_j = 0, out of the range.)"""
+    x1, y1, x2, y2, a, b = sp.symbols("x1 y1 x2 y2 a b")
+    system = System("z2_fold", ("x1", "y1", "x2", "y2"), ((a - x1 ** 2) / 4, -y1, (x1 - b) * x2 - x2 ** 3, -y2),
+                    {"a": 0.8, "b": 0.5}, (("a1", ("x1", "y1")), ("a2", ("x2", "y2"))))
+    problem = EquilibriumProblem(system, "a", {"a": 0.8, "b": 0.5}, (-0.5, 0.8))
+    eq = continue_equilibria(problem, ContinuationSettings(), [0.8 ** 0.5, 0.0, 0.0, 0.0], name="E")
+    bp = [s for s in eq.branch.of_type("BP") if s.origin == "autocable"]
+    assert len(bp) == 1 and abs(bp[0].value - 0.25) < 1e-9
+    curve = continue_branch_points(eq, bp[0].label, "b", (-0.6, 0.8),
+                                   ContinuationSettings(curve_step=0.02, curve_max_step=0.05))
+    B = curve.branch
+    assert B.info["check_failure_count"] == 0
+    assert np.max(np.abs(B["a"] - B["b"] ** 2)) < 1e-10 and np.max(np.abs(B["x1"] - B["b"])) < 1e-10
+    assert B["b"].min() < -0.5 and B["b"].max() == pytest.approx(0.8, abs=1e-12)
+    lp = B.of_type("LP")
+    assert len(lp) == 1 and lp[0].converged and not B.of_type("BT")
+    assert abs(lp[0].value) < 1e-9 and abs(lp[0].extra["value2"]) < 1e-9
+
+
 def test_symmetry_is_checked(z2_system):
     assert z2_split(z2_system) == ((0, 1), (2, 3))
     x1, y1, x2, y2, a, b = sp.symbols("x1 y1 x2 y2 a b")
