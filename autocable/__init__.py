@@ -15,6 +15,7 @@ name loads lazily (``import autocable`` costs nothing), so a script pays only fo
     III = ac.switch_branch(I, "BP1")                             # at a labelled point of I
     cycles = ac.continue_cycles(I, "H1")                         # from a Hopf point of I
     folds = ac.continue_folds(I, "LP1", "eta", (0.0, 3e-3))      # a two-parameter curve
+    pitchforks = ac.continue_branch_points(I, "BP1", "eta", (0.0, 2.5e-3))   # where Fig. 6's bi-modal branches are born
     ac.plot_branches([I.branch, III.branch], "fig06", x="sigma", y=("a1", "a2"))
 
 Scenes (``runs/*.toml``) run the same chain from a file: ``ac.run_scene(ac.load_scene(path), out)``;
@@ -53,6 +54,7 @@ _API = {
     "periodic_orbit": "autocable.methods.continuation",
     "continue_folds": "autocable.methods.continuation",
     "continue_hopf": "autocable.methods.continuation",
+    "continue_branch_points": "autocable.methods.continuation",
     "equilibrium_near": "autocable.methods.continuation",
     "settle": "autocable.methods.continuation",
     # time integration

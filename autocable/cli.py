@@ -434,11 +434,68 @@ def cmd_run(args) -> int:
                 second = f", {s.extra['parameter2']} = {s.extra['value2']: .8g}" if "value2" in s.extra else ""
                 print(f"    {s.label:<5} {s.parameter} = {s.value: .8g}{second}  a1 = {s.a1:.6e}  a2 = {s.a2:.6e}"
                       f"{extra}  {conf}")
-        plane = scene.plot.plane and any(b.kind in ("fold", "hopf") for b in res.branches)
+        plane = scene.plot.plane and any(b.kind in ("fold", "hopf", "branch_point") for b in res.branches)
         print(f"  results in {out}/ (branches.csv, special_points.csv, run.json"
               + (f", {scene.name}.png, {scene.name}.pdf" if not getattr(args, "no_plot", False) else "")
               + (f", {scene.name}_plane.png, {scene.name}_plane.pdf" if plane and not getattr(args, "no_plot", False)
                  else "") + ")")
+    return 0
+
+
+def add_chart_parser(subparsers) -> None:
+    """``autocable chart SCENE.toml --out DIR [--map DIR/sweep.nc]``: a stability chart."""
+    c = subparsers.add_parser("chart", help="a stability chart: fold/Hopf/pitchfork curves of the AME in a "
+                              "parameter plane, its response regions labelled, a brute-force map of eq. (21) overlaid")
+    c.add_argument("scene", help="scene file with a [chart] table (e.g. runs/chart_U_eta.toml)")
+    c.add_argument("--out", help="output folder (default: out/<scene name>)")
+    c.add_argument("--map", help="a brute-force map of eq. (21) (the sweep.nc of `autocable sweep`) to overlay")
+    c.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    c.add_argument("--resolution", choices=RESOLUTIONS, default="full",
+                   help="coarse: longer continuation steps and half the classification grid (what the tests run)")
+    c.set_defaults(func=cmd_chart)
+
+
+def cmd_chart(args) -> int:
+    """Run a chart scene (its continuation runs and the [chart] table); print the regions and files."""
+    scene = load_scene(args.scene)
+    if scene.chart is None:
+        raise SpecError(scene.path, "chart", "missing; `autocable chart` draws a scene with a [chart] table "
+                                             "(runs/chart_U_eta.toml is one); use `autocable run` for others")
+    if args.map and not Path(args.map).is_file():
+        raise SpecError("--map", "", f"no such file: {args.map}; give the sweep.nc that `autocable sweep` wrote")
+    out = Path(args.out) if args.out else Path("out") / scene.name
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SpecError("--out", "", f"cannot make the output folder {out}: {exc.strerror or exc}; "
+                                     "give a folder that can be created") from None
+    progress = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    from autocable.scene.runner import run_scene
+    from autocable.studies.advise import choose_ame
+    res = run_scene(scene, out, progress=progress, resolution=args.resolution, choose_ame=choose_ame,
+                    response_map=args.map)
+    if not args.quiet:
+        import json
+        data = json.loads((out / "regions.json").read_text())
+        print(f"{scene.title}")
+        for b in res.branches:
+            if b.parameter2:
+                pts = ", ".join(f"{s.label} ({b.parameter} = {s.value:.6g}, {b.parameter2} = {s.extra['value2']:.6g})"
+                                for s in b.special_points if s.origin == "autocable")
+                print(f"  {b.name:<10} {b.kind:<12} {len(b):>5} points  {pts}")
+        x, y = data["plane"]
+        # The regions the chart labels (at least 1 % of the grid); the small ones are counted.
+        least = max(2, data["grid"][0] * data["grid"][1] // 100)
+        for g in data["regions"]:
+            if g["cells"] >= least:
+                print(f"  region {g['label']:<36} {g['cells']:>4} cells, labelled at {x} = {g[x]:.4g}, {y} = {g[y]:.4g}")
+        small = [g for g in data["regions"] if g["cells"] < least]
+        if small:
+            print(f"  and {len(small)} regions of fewer than {least} cells (coloured, not labelled; regions.json lists them)")
+        if "map" in data:
+            m = data["map"]
+            print(f"  map: {m['points']} points of eq. (21), the AME's class predicts {m['agree']} of them")
+        print(f"  results in {out}/ ({scene.name}_chart.png, .pdf, regions.csv, regions.json, branches.csv, run.json)")
     return 0
 
 
@@ -517,6 +574,7 @@ def build_parser() -> argparse.ArgumentParser:
     fm.set_defaults(func=cmd_failure_map)
 
     add_run_parser(sub)
+    add_chart_parser(sub)
     add_figures_parser(sub)
     return p
 

@@ -6,8 +6,10 @@ eq. 21). It carries its columns (every parameter of the system, the peak modal a
 the Cartesian state r1, s1, r2, s2, and for cycles the period and the min/max of a1, a2 over the
 cycle), an explicit `stable` column, the eigenvalues (equilibria) or Floquet multipliers (cycles)
 at every point, its labelled `SpecialPoint`s and how each end of it came about (`EndPoint`).
-A two-parameter curve (``kind = "fold"`` or ``"hopf"``: the locus of folds or Hopf points of the
-equilibria, `autocable.methods.continuation.continue_folds` / ``continue_hopf``) is a `Branch` too:
+A two-parameter curve (``kind = "fold"``, ``"hopf"`` or ``"branch_point"``: the locus of folds,
+Hopf points or symmetry-breaking pitchforks of the equilibria,
+`autocable.methods.continuation.continue_folds` / ``continue_hopf`` / ``continue_branch_points``)
+is a `Branch` too:
 its ``parameter`` and ``parameter2`` both vary along it, ``stable`` says whether every eigenvalue
 except the critical one(s) has a negative real part (the bifurcation happens on an otherwise stable
 equilibrium), and its special points are codimension-2 points (CP, BT, GH, ZH, DH).
@@ -61,9 +63,9 @@ __all__ = [
 ]
 
 #: Branch kinds.
-KINDS = ("equilibrium", "cycle", "fold", "hopf")
+KINDS = ("equilibrium", "cycle", "fold", "hopf", "branch_point")
 #: Two-parameter curves (both ``parameter`` and ``parameter2`` vary along them).
-CURVE_KINDS = ("fold", "hopf")
+CURVE_KINDS = ("fold", "hopf", "branch_point")
 #: Special-point types: fold (LP), Hopf (H), branch point (BP) of equilibria; fold (LPC), period
 #: doubling (PD) and Neimark-Sacker (NS) of cycles; the range end (B) and the start point (S); on
 #: two-parameter curves: cusp (CP), Bogdanov-Takens (BT), generalized Hopf (GH), zero-Hopf (ZH),

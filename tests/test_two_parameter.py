@@ -297,8 +297,9 @@ def test_fold_curve_scene_runs_end_to_end(folds_scene):
 @pytest.mark.parametrize("body, field, words", [
     ('kind = "curve"\nstart = "I:LP1"\nparameter = "sigma"\nrange = [-0.2, 0.3]\nparameter2 = "eta"\n'
      'range2 = [0, 3e-3]\nparameter3 = "U"\n', "run[1].parameter3", "unknown key"),
-    ('kind = "curve"\nstart = "I:BP1"\nparameter = "sigma"\nrange = [-0.2, 0.3]\nparameter2 = "eta"\n'
-     'range2 = [0, 3e-3]\n', "run[1].start", "fold or a Hopf point"),
+    # (a branch point starts a curve of pitchforks since the stability charts: a cycle's PD does not)
+    ('kind = "curve"\nstart = "I:PD1"\nparameter = "sigma"\nrange = [-0.2, 0.3]\nparameter2 = "eta"\n'
+     'range2 = [0, 3e-3]\n', "run[1].start", "a fold, a Hopf point or a branch point"),
     ('kind = "curve"\nstart = "I:LP1"\nparameter = "sigma"\nrange = [-0.2, 0.3]\nrange2 = [0, 3e-3]\n',
      "run[1].parameter2", "missing"),
     ('kind = "curve"\nstart = "I:LP1"\nparameter = "sigma"\nrange = [-0.2, 0.3]\nparameter2 = "sigma"\n'

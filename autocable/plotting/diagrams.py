@@ -147,7 +147,7 @@ def _plot_scene(results, stem, *, x, y, title, labels, compare, compare_panel, c
             if x not in b.table or len(b) == 0:
                 continue
             xs = np.asarray(b.table[x])
-            if b.kind in ("fold", "hopf"):
+            if b.kind in ("fold", "hopf", "branch_point"):
                 continue  # two-parameter curves: see plot_plane
             if b.kind == "equilibrium":
                 if amp not in b.table:
@@ -224,14 +224,15 @@ def _plot_plane(results, stem, *, x, y, title, labels) -> list[Path]:
     fig = Figure(figsize=(6.0, 4.2))
     FigureCanvasAgg(fig)
     ax = fig.subplots()
-    styles = {"fold": dict(color="black"), "hopf": dict(color="tab:blue")}
+    styles = {"fold": dict(color="black"), "hopf": dict(color="tab:blue"), "branch_point": dict(color="tab:green")}
     markers = {"CP": "^", "BT": "D", "GH": "v", "ZH": "P", "DH": "X", "LP": "o", "H": "s"}
     drawn = set()
     for b in results.branches:
-        if b.kind in ("fold", "hopf") and x in b.table and y in b.table and len(b):
+        if b.kind in ("fold", "hopf", "branch_point") and x in b.table and y in b.table and len(b):
             for sx, sy, st in _segments(np.asarray(b.table[x]), np.asarray(b.table[y]), np.asarray(b.stable)):
                 ax.plot(sx, sy, lw=_THICK, ls="-" if st else "--",
-                        label=None if b.kind in drawn else ("folds (LP)" if b.kind == "fold" else "Hopf points (H)"),
+                        label=None if b.kind in drawn else {"fold": "folds (LP)", "hopf": "Hopf points (H)",
+                                                             "branch_point": "pitchforks (BP)"}[b.kind],
                         **styles[b.kind])
                 drawn.add(b.kind)
             i = len(b) // 2
@@ -239,7 +240,7 @@ def _plot_plane(results, stem, *, x, y, title, labels) -> list[Path]:
         for s in b.special_points:
             if x not in s.parameters or y not in s.parameters:
                 continue
-            if b.kind in ("fold", "hopf"):
+            if b.kind in ("fold", "hopf", "branch_point"):
                 if s.type not in markers:
                     continue
                 filled = s.origin == "autocable"
@@ -249,7 +250,7 @@ def _plot_plane(results, stem, *, x, y, title, labels) -> list[Path]:
                 continue
             px, py = s.parameters[x], s.parameters[y]
             ax.plot(px, py, markers[s.type], color="black", mfc="black" if filled else "white", ms=5)
-            if labels and b.kind in ("fold", "hopf"):
+            if labels and b.kind in ("fold", "hopf", "branch_point"):
                 ax.annotate(s.label, (px, py), textcoords="offset points", xytext=(4, -9), fontsize=7)
     if drawn:
         ax.legend(fontsize=7, frameon=False)

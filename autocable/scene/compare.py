@@ -31,7 +31,7 @@ def polylines(branches: Iterable, x: str, amp: str) -> list[np.ndarray]:
     """The (n, 2) arrays of (x, amplitude) that the figure draws for amplitude ``amp``."""
     out = []
     for b in branches:
-        if b.kind in ("fold", "hopf") or x not in b.table or len(b) == 0:
+        if b.kind in ("fold", "hopf", "branch_point") or x not in b.table or len(b) == 0:
             continue
         cols = [amp] if b.kind == "equilibrium" else [f"{amp}_min", f"{amp}_max"]
         for c in cols:

@@ -83,7 +83,7 @@ def _settings(run: RunSpec, resolution: str = "full"):
 
 def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = None,
               plot: bool = True, resolution: str = "full", engine: str | None = None,
-              choose_ame: Callable | None = None):
+              choose_ame: Callable | None = None, response_map: str | Path | None = None):
     """Run every run of ``scene`` in order, write the results into ``out_dir`` and plot them.
 
     ``engine`` ("pycont" or "compiled") overrides the scene's ``engine`` for equilibria, branch
@@ -95,6 +95,11 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
     ``resolution = "coarse"`` (the tests) runs the same scene with longer steps and capped cycle
     and curve runs (`coarse_settings`) and every third overlay value; a ``[time]`` scene is the
     same at both resolutions.
+
+    A scene with a ``[chart]`` table also classifies the AME's response on the chart's grid
+    (``regions.csv``, ``regions.json``) and draws ``<scene>_chart.png``/``.pdf`` with the curves, the
+    labelled regions and, from ``response_map`` (or the table's ``map``), the classes of a
+    brute-force map of eq. (21) (`_run_chart`).
 
     Returns the `RunResults`. A branch that fails part-way is kept with its points and an end
     reason; a start that does not converge, or a start value outside the range, stops the scene
@@ -121,6 +126,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         return run_time_scene(scene, out_dir, say, plot, resolution)
 
     t_all = time.perf_counter()
+    rmap = _read_map(scene, response_map) if scene.chart is not None else None
     stages: dict[str, Any] = {}
     advice = None
     if scene.ame == "auto":
@@ -215,7 +221,8 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         problem = C.EquilibriumProblem(system, run.parameter, values, run.range, state_scale=scale)
         settings = _settings(run, resolution)
         if run.kind == "curve":
-            say(f"run {run.name}: curve of {'folds' if ':LP' in run.start.label else 'Hopf points'} in "
+            what = {"LP": "folds", "H": "Hopf points", "BP": "pitchforks"}[run.start.label.split(":")[1].rstrip("0123456789")]
+            say(f"run {run.name}: curve of {what} in "
                 f"({run.parameter}, {run.parameter2}) over [{lo:g}, {hi:g}] x [{run.range2[0]:g}, "
                 f"{run.range2[1]:g}] from {run.start.label}")
         else:
@@ -225,11 +232,12 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
             # The labelled point in this run's problem: its parameter and range are the first ones.
             src = C.ContinuationResult(source.branch, problem, settings)
             label = run.start.label.split(":")[1]
-            fn = C.continue_folds if label.startswith("LP") else C.continue_hopf
+            fn = C.continue_folds if label.startswith("LP") else \
+                C.continue_branch_points if label.startswith("BP") else C.continue_hopf
             try:
                 result = fn(src, label, run.parameter2, run.range2, settings, name=run.name,
                             directions=run.directions, progress=say)
-            except C.StartError as exc:
+            except (C.StartError, C.SymmetryError) as exc:
                 raise SpecError(path, f"{where}.start", str(exc)) from None
             add(result)
         elif run.kind == "cycles" and run.start.kind == "orbit":
@@ -331,6 +339,12 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         exact = equilibria_at(results, scene.overlay.parameter, [r["value"] for r in overlay_rows])
         _write_overlay(exact, out / "overlay_ame.csv", COLUMNS)
         stages["overlay_s"] = time.perf_counter() - t0
+    chart_out = None
+    if scene.chart is not None:
+        t0 = time.perf_counter()
+        chart_out = _run_chart(scene, ame, systems, say, out, resolution)
+        chart_out["map"] = _score_map(scene, chart_out, out, rmap, say)
+        stages["chart_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     write_results(res, out)
     stages["write_s"] = time.perf_counter() - t0
@@ -346,16 +360,110 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
                            compare_label=scene.compare.label if scene.compare else "",
                            overlay=overlay_rows)
         stages["plot_s"] = time.perf_counter() - t0
-        if scene.plot.plane and any(b.kind in ("fold", "hopf") for b in branches):
+        if scene.plot.plane and any(b.kind in ("fold", "hopf", "branch_point") for b in branches):
             from autocable.plotting.diagrams import plot_plane
             files += plot_plane(res, out / f"{scene.name}_plane", x=scene.plot.plane[0], y=scene.plot.plane[1],
                                 title=scene.plot.title, labels=scene.plot.labels)
             stages["plot_s"] = time.perf_counter() - t0
+        if chart_out is not None:
+            t1 = time.perf_counter()
+            files += _plot_chart(scene, res, chart_out, out)
+            stages["chart_plot_s"] = time.perf_counter() - t1
         say(f"plot: {', '.join(str(f) for f in files)}")
     stages["total_s"] = time.perf_counter() - t_all
     res = RunResults(scene.name, tuple(branches), {**provenance, "stages": stages})
     write_results(res, out)   # again, now with the complete timings
     return res
+
+
+def _run_chart(scene: Scene, ame, systems: dict, say, out: Path, resolution: str) -> dict:
+    """Classify the AME's response on the chart's grid (`autocable.methods.regions`), label the
+    connected regions, write ``regions.csv`` (one row per grid point) and ``regions.json``."""
+    import csv
+    import json
+
+    import numpy as np
+
+    from autocable.methods.regions import ClassifySettings, classify_grid, label_regions
+
+    ch = scene.chart
+    values = {p: 0.0 for p in PARAMETERS}
+    values.update(scene.fixed)
+    nx, ny = ch.grid
+    if resolution == "coarse":
+        nx, ny = max(4, nx // 2), max(4, ny // 2)
+    xs = np.linspace(*ch.x_range, nx)
+    ys = np.linspace(*ch.y_range, ny)
+    # The wind AME whenever the wind blows anywhere on the chart (its rows carry 1/U).
+    rng = ch.x_range if ch.x == "U" else ch.y_range if ch.y == "U" else (values["U"], values["U"])
+    wind_axis = "U" if "U" in (ch.x, ch.y) else ch.x
+    system = _system_for(scene, ame, values, wind_axis, rng, scene.path, "chart", systems)
+    settings = ClassifySettings(t_end=ch.t_end, starts=ch.starts)
+    say(f"chart: classifying the AME's response on a {nx} x {ny} grid of ({ch.x}, {ch.y})")
+    rows = classify_grid(system, values, ch.x, xs, ch.y, ys, settings,
+                         progress=say if nx * ny >= 100 else None)
+    classes = np.array([r["class"] for r in rows], dtype=object).reshape(ny, nx)
+    regions = label_regions(classes, xs, ys)
+    keys = list(rows[0])
+    for r in rows:
+        keys += [k for k in r if k not in keys]
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "regions.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys)
+        w.writeheader()
+        w.writerows(rows)
+    data = {"plane": [ch.x, ch.y], "fixed": {k: v for k, v in values.items() if k not in (ch.x, ch.y)},
+            "grid": [nx, ny], "settings": {k: (list(v) if isinstance(v, tuple) else v)
+                                           for k, v in settings.__dict__.items()},
+            "regions": [{"label": g.label, ch.x: g.x, ch.y: g.y, "cells": g.cells} for g in regions]}
+    (out / "regions.json").write_text(json.dumps(data, indent=1))
+    say(f"  regions: {', '.join(f'{g.label} ({g.cells})' for g in regions[:8])}"
+        + (" ..." if len(regions) > 8 else ""))
+    return {"rows": rows, "regions": regions, "fixed": data["fixed"]}
+
+
+def _read_map(scene: Scene, response_map) -> dict | None:
+    """The brute-force map (``response_map`` or the table's ``map``) in the chart's plane, read
+    before anything is computed (a bad map is refused at once, not after the runs)."""
+    from autocable.plotting.chart import read_response_map
+
+    ch = scene.chart
+    path = Path(response_map) if response_map is not None else ch.map
+    if path is None:
+        return None
+    values = {p: 0.0 for p in PARAMETERS}
+    values.update(scene.fixed)
+    rmap = read_response_map(path, ch.x, ch.y, {k: v for k, v in values.items() if k not in (ch.x, ch.y)})
+    return dict(rmap, path=str(path))
+
+
+def _score_map(scene: Scene, chart_out: dict, out: Path, rmap, say) -> dict | None:
+    """How often the AME's class predicts the map's (added to ``regions.json``)."""
+    import json
+
+    from autocable.plotting.chart import agreement
+
+    if rmap is None:
+        return None
+    ch = scene.chart
+    score = agreement(chart_out["rows"], ch.x, ch.y, rmap)
+    say(f"  map {rmap['path']}: {score['points']} points, the AME's class predicts eq. (21)'s at {score['agree']}")
+    data = json.loads((out / "regions.json").read_text())
+    data["map"] = {"path": rmap["path"], "fixed": rmap["fixed"], **score}
+    (out / "regions.json").write_text(json.dumps(data, indent=1))
+    return rmap
+
+
+def _plot_chart(scene: Scene, res, chart_out: dict, out: Path) -> list:
+    """Draw ``<scene>_chart.png``/``.pdf`` (with the map's classes when there is one)."""
+    from autocable.plotting.chart import plot_chart
+
+    ch = scene.chart
+    rmap = chart_out.get("map")
+    title = scene.plot.title + "".join(f", {k} = {v:g}" for k, v in chart_out["fixed"].items()
+                                       if f"{k} =" not in scene.plot.title)
+    return plot_chart(res, chart_out["rows"], chart_out["regions"], out / f"{scene.name}_chart", x=ch.x, y=ch.y,
+                      x_range=ch.x_range, y_range=ch.y_range, title=title, response_map=rmap)
 
 
 def write_compare(scene: Scene, rows: list[dict], branches, out: Path) -> Path:

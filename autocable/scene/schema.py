@@ -31,7 +31,8 @@ start that does not converge raise `autocable.spec.SpecError` with one line nami
     kind = "equilibria"               # "equilibria" | "cycles" (from start = "RUN:Hk", or { orbit = [a1, a2] }:
                                       # the stable periodic orbit integration reaches from there; compiled
                                       # engine) | "switch" (from "RUN:BPk")
-                                      # | "curve" (from "RUN:LPk" or "RUN:Hk": a two-parameter curve)
+                                      # | "curve" (from "RUN:LPk", "RUN:Hk" or "RUN:BPk": a two-parameter
+                                      # curve of folds, Hopf points or pitchforks)
     parameter = "sigma"               # the continued parameter: "sigma" | "U" | "eta"
     range = [-0.05, 0.05]
     start = "trivial"                 # "trivial" | { integrate = [a1, a2] } | { state = [r1, s1, r2, s2] } | "RUN:LABEL"
@@ -54,6 +55,14 @@ start that does not converge raise `autocable.spec.SpecError` with one line nami
     [compare]                         # optional digitised points to overlay
     csv = "fig05a_digitised.csv"      # columns x, y, curve, stable (path relative to the scene)
     panel = "a1"
+    [chart]                           # optional: a stability chart in a parameter plane (`autocable chart`)
+    plane = ["U", "eta"]              # x, y (default: plot.plane); the third parameter from [fixed]
+    x_range = [0.1, 1.5]              # the chart's extent (default: the curve runs' ranges)
+    y_range = [0.0, 6e-4]
+    grid = [24, 16]                   # points in x, y where the AME's response is classified
+    t_end = 30000.0                   # AME integration per start and point (t* units)
+    starts = [[0.0, 1e-6], [5e-3, 1e-6]]   # (a1, a2) starts of the classification
+    map = "sweep/sweep.nc"            # optional: a brute-force map of eq. (21) (`autocable sweep`) to overlay
 
 A ``[time]`` scene (Fig. 11) has no runs: it integrates the AME (24) at one parameter point over
 [0, t_end] and the amplitude envelope of eq. (21) from the same start (runs/README.md):
@@ -97,6 +106,7 @@ __all__ = [
     "RunSpec",
     "StartSpec",
     "PlotSpec",
+    "ChartSpec",
     "CompareSpec",
     "OverlaySpec",
     "TimeSpec",
@@ -113,7 +123,8 @@ PARAMETERS = ("sigma", "U", "eta")
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_\-]*$")
 _LABEL = re.compile(r"^([A-Za-z0-9_\-]+):([A-Z]+[0-9]+)$")
 _TOP_KEYS = ("title", "description", "model", "ame", "ame_tol", "ordering", "engine", "state_scale", "fixed", "run",
-             "plot", "compare", "overlay", "time")
+             "plot", "compare", "overlay", "time", "chart")
+_CHART_KEYS = ("plane", "x_range", "y_range", "grid", "t_end", "starts", "map")
 _RUN_KEYS = ("name", "kind", "parameter", "range", "start", "at", "directions", "cycles", "switch",
              "fixed", "steps", "parameter2", "range2")
 _PLOT_KEYS = ("x", "y", "title", "labels", "plane")
@@ -174,6 +185,21 @@ class PlotSpec:
 
 
 @dataclass(frozen=True)
+class ChartSpec:
+    """A stability chart (``[chart]``): the curve runs drawn in the (x, y) plane over the ranges, the
+    AME's response classified on a grid x grid (`autocable.methods.regions`) and its regions
+    labelled, and optionally the classes of a brute-force map of eq. (21) (``map``: a sweep.nc)."""
+    x: str
+    y: str
+    x_range: tuple[float, float]
+    y_range: tuple[float, float]
+    grid: tuple[int, int]
+    t_end: float
+    starts: tuple[tuple[float, float], ...]
+    map: Path | None = None
+
+
+@dataclass(frozen=True)
 class CompareSpec:
     csv: Path
     panel: str = "a1"
@@ -211,6 +237,7 @@ class Scene:
     engine: str = "pycont"             # equilibria, branch switching and cycles: "pycont" | "compiled"
     ame_tol: float = 0.02              # with ame = "auto": the tolerance the advice uses
     ordering: str = "paper"            # the Multiple Scales ordering of the AME (ORDERINGS)
+    chart: ChartSpec | None = None     # a stability chart in a parameter plane
 
 
 @dataclass(frozen=True)
@@ -392,9 +419,9 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
             raise SpecError(path, f"{where}.start", 'a "switch" run starts from a branch point, e.g. "I:BP1"')
         parameter2, range2 = "", None
         if kind == "curve":
-            if not (start.kind == "label" and re.search(r":(LP|H)[0-9]+$", start.label)):
-                raise SpecError(path, f"{where}.start", 'a "curve" run starts from a fold or a Hopf point, '
-                                                        'e.g. "I:LP1" or "I:H1"')
+            if not (start.kind == "label" and re.search(r":(LP|H|BP)[0-9]+$", start.label)):
+                raise SpecError(path, f"{where}.start", 'a "curve" run starts from a fold, a Hopf point or a '
+                                                        'branch point, e.g. "I:LP1", "I:H1" or "I:BP1"')
             for key in ("at", "cycles", "switch"):
                 if key in r:
                     raise SpecError(path, f"{where}.{key}", 'not allowed in a "curve" run (it starts at its '
@@ -474,10 +501,62 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
             raise SpecError(path, "compare.panel", f"expected one of the plotted amplitudes {y}, got {panel!r}")
         compare = CompareSpec(csv_path, panel, str(c.get("label", "digitised")))
     overlay = _overlay(data["overlay"], path, x, runs) if "overlay" in data else None
+    chart = _chart(data["chart"], path, plane, runs, fixed) if "chart" in data else None
     return Scene(path=path, name=path.stem, title=title, description=data.get("description", ""),
                  model=model, ame=ame, state_scale=scale, fixed=fixed, runs=tuple(runs),
                  plot=PlotSpec(x, tuple(y), ptitle, labels, plane), compare=compare, text=text,
-                 overlay=overlay, engine=engine, ame_tol=float(ame_tol), ordering=ordering)
+                 overlay=overlay, engine=engine, ame_tol=float(ame_tol), ordering=ordering, chart=chart)
+
+
+def _pair(table, key, path, where, default):
+    value = table.get(key, list(default) if default else None)
+    if not (isinstance(value, list) and len(value) == 2):
+        raise SpecError(path, where, f"expected [lo, hi], got {value!r}")
+    lo, hi = (_num(v, path, where) for v in value)
+    if not lo < hi:
+        raise SpecError(path, where, f"expected lo < hi, got [{lo}, {hi}]")
+    return lo, hi
+
+
+def _chart(table, path: Path, plane, runs, fixed) -> ChartSpec:
+    """The [chart] table: the plane, its extent, the classification grid, an optional map."""
+    if not isinstance(table, dict):
+        raise SpecError(path, "chart", "expected a table")
+    _check_keys(table, _CHART_KEYS, path, "chart")
+    axes = table.get("plane", list(plane) if plane else None)
+    if not (isinstance(axes, list) and len(axes) == 2 and all(v in PARAMETERS for v in axes) and axes[0] != axes[1]):
+        raise SpecError(path, "chart.plane", f"expected two different parameters of {', '.join(PARAMETERS)}, "
+                                             f"got {axes!r}")
+    x, y = axes
+
+    def span(name):
+        found = [r.range for r in runs if r.kind == "curve" and r.parameter == name] + \
+                [r.range2 for r in runs if r.kind == "curve" and r.parameter2 == name]
+        return (min(f[0] for f in found), max(f[1] for f in found)) if found else None
+    xr = _pair(table, "x_range", path, "chart.x_range", span(x))
+    yr = _pair(table, "y_range", path, "chart.y_range", span(y))
+    for name, (lo, _), key in ((x, xr, "x_range"), (y, yr, "y_range")):
+        if name == "U" and lo <= 0:
+            raise SpecError(path, f"chart.{key}", "U must stay > 0 on the chart (the aerodynamic terms carry 1/U)")
+        if name == "eta" and lo < 0:
+            raise SpecError(path, f"chart.{key}", "eta must stay >= 0")
+    grid = table.get("grid", [20, 16])
+    if not (isinstance(grid, list) and len(grid) == 2 and all(isinstance(g, int) and not isinstance(g, bool)
+                                                               and 2 <= g <= 400 for g in grid)):
+        raise SpecError(path, "chart.grid", f"expected two whole numbers from 2 to 400 (points in x, y), got {grid!r}")
+    t_end = _num(table.get("t_end", 30000.0), path, "chart.t_end")
+    if not t_end > 0:
+        raise SpecError(path, "chart.t_end", "expected a positive time (t* units)")
+    starts = table.get("starts", [[0.0, 1e-6], [5e-3, 1e-6]])
+    if not (isinstance(starts, list) and starts and all(isinstance(a, list) and len(a) == 2 for a in starts)):
+        raise SpecError(path, "chart.starts", f"expected a list of [a1, a2] pairs, got {starts!r}")
+    starts = tuple(tuple(_num(v, path, "chart.starts") for v in a) for a in starts)
+    map_path = None
+    if "map" in table:
+        if not isinstance(table["map"], str):
+            raise SpecError(path, "chart.map", "expected the path of a sweep.nc (relative to the scene)")
+        map_path = (path.parent / table["map"]).resolve()
+    return ChartSpec(x, y, xr, yr, (int(grid[0]), int(grid[1])), float(t_end), starts, map_path)
 
 
 def _overlay(table, path, x: str, runs) -> OverlaySpec:

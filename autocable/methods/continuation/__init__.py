@@ -25,6 +25,11 @@ parameter values, the continued parameter and its range, the state scale) and im
   autocable's own defining system (f = 0 plus a bordered test function) and checked (det J = 0,
   or a pair on the imaginary axis) with the exact Jacobian; CP, BT, ZH, GH, DH from autocable's
   test functions, compared with PyCont's labels.
+* `continue_branch_points(result, "BP1", "eta", (lo, hi))`: the curve of symmetry-breaking
+  pitchforks through a branch point of a mono-modal branch of a Z2-symmetric system (the AME at
+  U = 0: a2 -> -a2), autocable's own pseudo-arclength on f_in(x_in, 0) = 0 plus a bordered test
+  function of the out-of-plane Jacobian block (`branch_points`); with wind the symmetry is broken
+  and it raises `SymmetryError` (the pitchforks unfold into folds).
 
 PyCont only produces points. Everything reported about them is autocable's own, computed from the
 exact sympy Jacobian (numpy): the state is polished by Newton at fixed parameter, stability comes from
@@ -67,7 +72,7 @@ and l1 for equilibria, the multiplier crossings PD, NS, LPC for cycles), `curve_
 two-parameter chart and its codimension-2 test functions), `pycont_driver` (everything that calls
 PyCont), `equilibrium_analysis`, `equilibria` (front of both engines) and `compiled_equilibria`,
 `cycle_records`, `cycles` (front of both engines) and `compiled_cycles`, `orbits`, `curves`,
-`equilibria_at`. Import from here.
+`equilibria_at`, `branch_points`. Import from here.
 """
 
 from __future__ import annotations
@@ -94,6 +99,8 @@ _WHERE = {
     "periodic_orbit": "orbits",
     "continue_folds": "curves",
     "continue_hopf": "curves",
+    "continue_branch_points": "branch_points",
+    "SymmetryError": "branch_points",
     "first_lyapunov": "events",
     "bialternate": "events",
 }
