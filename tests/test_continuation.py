@@ -248,3 +248,19 @@ def test_branch_switching_finds_both_sides_of_the_pitchfork(pitchfork):
     assert b.special("BP0").value == pytest.approx(0.0, abs=1e-10)
     assert b.info["switched_from"] == "T:BP1"
     assert_stability_matches_eigenvalues(b, system)
+
+
+@pytest.mark.parametrize("engine", ["pycont", "compiled"])
+def test_a_test_function_brent_cannot_resolve_does_not_end_the_branch(engine):
+    """x1' = a - x1, y1' = -y1, x2' = (x1 - b) x2 - x2^3, y2' = -y2: along x = (a, 0, 0, 0) the
+    pitchfork is at a = b (closed form), where x2's eigenvalue a - b crosses zero; the real pair
+    -1, a - b passes a neutral saddle of the bialternate test function on the way, which once made
+    Brent's method raise and lose the branch. Now the branch runs over its range and the pitchfork is
+    located at a = b."""
+    sysm = System("neutral_saddle_check", ("x1", "y1", "x2", "y2"), ("a - x1", "-y1", "(x1 - b)*x2 - x2**3", "-y2"),
+                  (("a", -1.0), ("b", 0.5)))
+    r = continue_equilibria(EquilibriumProblem(sysm, "a", {"a": -1.0, "b": 0.5}, (-1.0, 2.0)),
+                            ContinuationSettings(), np.zeros(4), engine=engine)
+    bps = r.branch.of_type("BP")
+    assert len(bps) == 1 and bps[0].value == pytest.approx(0.5, abs=1e-9)
+    assert r.branch["a"][0] == pytest.approx(-1.0) and r.branch["a"][-1] == pytest.approx(2.0)

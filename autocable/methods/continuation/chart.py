@@ -172,8 +172,11 @@ def _locate(chart: _Chart, Ya, Yb, tau: Callable[[np.ndarray], float], tol: floa
         return point(0.0), True
     if gb == 0:
         return point(1.0), True
-    s = brentq(g, 0.0, 1.0, xtol=1e-14, rtol=1e-15, maxiter=100)
-    return point(s), True
+    # A test function that is not smooth along the chord (a neutral saddle's bialternate product
+    # next to a fold, noisy corrections) can keep Brent from converging: keep its best bracket point
+    # and say it did not converge, rather than fail the whole branch.
+    s, info = brentq(g, 0.0, 1.0, xtol=1e-14, rtol=1e-15, maxiter=100, full_output=True, disp=False)
+    return point(s), bool(info.converged)
 
 
 def _build_branch(name: str, kind: str, chart: _Chart, X, P, stable, eig, specials, ends, info,
