@@ -195,6 +195,8 @@ def cmd_simulate(args) -> int:
         return _simulate_nmode(args, d, q0, show, progress)
     if args.method == "ame":
         return _simulate_ame(args, d, q0, show, progress)
+    if args.method == "shooting":
+        return _simulate_shooting(args, d, q0)
     integ = Ode21Integrator(d.ode)
     r = integ.simulate(args.U, args.eta, args.sigma, q0, max_time=args.max_time,
                        keep_history=bool(args.csv), progress=progress)
@@ -209,6 +211,30 @@ def cmd_simulate(args) -> int:
                                    "periods (peak modal amplitude = peak displacement / l)",
            "message": r.message, "method": "ode21", "wall_seconds": r.wall_seconds}
     _print_simulation(args, r, out)
+    return 0
+
+
+def _simulate_shooting(args, d, q0) -> int:
+    """`autocable simulate --method shooting`: the steady response of eq. (21) by Newton on the
+    stroboscopic map, with its Floquet multipliers and class (issue 16)."""
+    from autocable.methods.integration.shooting import ShootingSolver, response_json
+    if args.csv:
+        raise SpecError("--csv", "", "--method shooting computes no time history; use --method ode21 "
+                        "for --csv")
+    r = ShootingSolver(d.ode).steady(args.U, args.eta, args.sigma, q0, max_time=args.max_time)
+    out = response_json(r)
+    if args.json:
+        print(json.dumps(out, indent=1, allow_nan=False))
+        return 0
+    print(f"U* = {r.U:g}  eta* = {r.eta:g}  sigma = {r.sigma:g}  (Omega = {r.Omega:.6g})  method shooting")
+    print(f"response: {r.response}   a1 = {r.a1:.9e}   a2 = {r.a2:.9e}   ({r.message})")
+    if r.response == "period-2" or r.response == "quasi-periodic":
+        print(f"envelope: a1 in [{r.a1_min:.6e}, {r.a1_max:.6e}], a2 in [{r.a2_min:.6e}, {r.a2_max:.6e}]")
+    if len(r.multipliers):
+        print("Floquet multipliers: " + "  ".join(f"{m.real:+.9f}{m.imag:+.9f}i" for m in r.multipliers)
+              + f"   (max |mu| = {r.max_modulus:.9f})")
+    print(f"transient {r.transient_periods} forcing periods, {r.newton_iterations} Newton steps, "
+          f"{r.wall_seconds * 1e3:.1f} ms")
     return 0
 
 
@@ -468,9 +494,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true")
     s.add_argument("--csv", metavar="FILE", help="write the time history")
     s.add_argument("--quiet", action="store_true", help="no progress")
-    s.add_argument("--method", choices=["ode21", "ame"], default="ode21",
+    s.add_argument("--method", choices=["ode21", "ame", "shooting"], default="ode21",
                    help="ode21: direct integration of eq. (21); ame: the Multiple Scales amplitude "
-                        "equations (24) to their steady state (default ode21)")
+                        "equations (24) to their steady state; shooting: the steady response of eq. (21) "
+                        "by Newton on the period map after a short transient, with its Floquet "
+                        "multipliers and class (rest, period-1, period-2, quasi-periodic, diverged) "
+                        "(default ode21)")
     s.add_argument("--modes", type=int, metavar="N",
                    help="integrate eq. (21) with N in-plane and N out-of-plane modes (the check that "
                         "two modes suffice, issue 6); a1, a2 are the first modes' amplitudes")
