@@ -404,6 +404,37 @@ def cmd_failure_map(args) -> int:
 # ------------------------------------------------------------------------------------------------
 # autocable run
 # ------------------------------------------------------------------------------------------------
+def cmd_sweep(args) -> int:
+    """`autocable sweep SWEEP.toml --out DIR`: a grid of steady responses as one dataset (issue 16)."""
+    from autocable.scene.sweep_schema import load_sweep
+    from autocable.studies.sweep import run_sweep
+    spec = load_sweep(args.sweep)
+    if args.workers is not None and args.workers < 0:
+        raise SpecError("--workers", "", f"expected 0 (serial, no Dask) or a number of worker processes, "
+                        f"got {args.workers}")
+    if args.chunk is not None and args.chunk < 1:
+        raise SpecError("--chunk", "", f"expected a number of points per task >= 1, got {args.chunk}")
+    summary = run_sweep(spec, args.out, workers=args.workers, scheduler=args.scheduler, chunk=args.chunk,
+                        log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
+    print(json.dumps(summary, indent=1))
+    return 0
+
+
+def add_sweep_parser(subparsers) -> None:
+    w = subparsers.add_parser("sweep", help="steady responses over a grid of (U, eta, sigma) on Dask; "
+                              "writes DIR/sweep.nc (xarray) and resumes an interrupted sweep")
+    w.add_argument("sweep", help="sweep file (TOML: model, method, [grid] U, eta, sigma)")
+    w.add_argument("--out", required=True, help="output folder (points/, sweep.nc, sweep.json)")
+    w.add_argument("--workers", type=int, default=None,
+                   help="LocalCluster worker processes (default: one per core; 0: serial, without Dask)")
+    w.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler, e.g. tcp://host:8786 "
+                   "(its workers need autocable installed)")
+    w.add_argument("--chunk", type=int, help="grid points per Dask task (default: about 4 tasks per worker, "
+                   "at most 16 points)")
+    w.add_argument("--quiet", action="store_true", help="no progress")
+    w.set_defaults(func=cmd_sweep)
+
+
 def add_run_parser(subparsers) -> None:
     """Add ``autocable run SCENE.toml --out DIR [--quiet] [--no-plot]`` to an argparse subparsers."""
     r = subparsers.add_parser("run", help="run a scene file (runs/*.toml): continuation, results, plot")
@@ -545,6 +576,7 @@ def build_parser() -> argparse.ArgumentParser:
     fm.set_defaults(func=cmd_failure_map)
 
     add_run_parser(sub)
+    add_sweep_parser(sub)
     add_figures_parser(sub)
     return p
 
