@@ -538,7 +538,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
     b.add_argument("what", nargs="?", default=None,
-                   choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "ordering"],
+                   choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "ordering",
+                            "shooting", "sweep"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
                         "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
@@ -546,7 +547,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "or install autocable[auto]); figures: wall time of `autocable figures` (all scenes), "
                         "cold and warm cache, with the share of each stage; ordering: the paper's and the "
                         "natural Multiple Scales ordering (2-dof and A2 = 0) against eq. (21) at Figs. 4c, 7, 9 "
-                        "(with --out, also ordering.md/.png). Without a subcommand "
+                        "(with --out, also ordering.md/.png); shooting: steady points of eq. (21) by "
+                        "shooting against transient integration at equal accuracy (Figs. 5-10, 77 points); "
+                        "sweep: 'autocable sweep' throughput with 1 and 2 Dask workers and the scaling. "
+                        "Without a subcommand "
                         "(--out DIR): the work-precision bench of the method ladder (bench.json, "
                         "work_precision.png, work_precision.md)")
     b.add_argument("--model", default=str(SAMPLE_MODEL))

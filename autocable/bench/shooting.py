@@ -1,0 +1,145 @@
+"""`autocable bench shooting` and `autocable bench sweep` (issue 16): speed targets, measured here.
+
+``shooting``: the steady response of eq. (21) by shooting (`methods.integration.shooting`) against
+transient integration to the steady state (`Ode21Integrator.simulate`, the compiled DOP853, the
+brute-force reference of the ladder) at the (U*, eta*) of Figs. 5-10 and 11 detunings each. Both
+are timed per point (best of ``repeats`` after a warm-up) and checked against a tighter transient
+reference (rtol 1e-12, steady to 1e-11): the speed-up is quoted at the accuracy both reach, with
+each one's largest error. Target (issue 16): shooting at least 20x faster.
+
+``sweep``: the throughput of `autocable sweep` (points per second of the task phase, after the
+workers have loaded the model) with 1 and 2 LocalCluster workers, and the scaling 2 workers / 1
+worker (target >= 1.7 on 2 cores), on a (U, eta, sigma) grid that mixes cheap and slow points.
+"""
+from __future__ import annotations
+
+import math
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+#: (U*, eta*) of the bench: Figs. 5a, 5b, 6 (no wind) and 7-10 (wind), as `bench ame-vs-ode`.
+CASES = ((0.0, 8.2e-5), (0.0, 4.1e-4), (0.0, 1.4e-3), (0.7, 4.1e-4), (1.3, 4.1e-4), (0.7, 1.4e-3),
+         (1.3, 1.4e-3))
+SIGMAS = tuple(np.round(np.linspace(-0.05, 0.05, 11), 12))
+
+
+def _rel(a, b) -> float:
+    if not (math.isfinite(a) and math.isfinite(b)):
+        return 0.0 if (math.isfinite(a) == math.isfinite(b)) else math.inf
+    return abs(a - b)
+
+
+def bench_shooting(model_path: str, repeats: int = 3, log=None) -> dict:
+    from autocable.methods.integration.ode21 import Ode21Integrator
+    from autocable.methods.integration.shooting import ShootingSolver
+    from autocable.model.derive import derive
+    from autocable.spec import load_model
+
+    say = log or (lambda s: None)
+    d = derive(load_model(model_path))
+    solver = ShootingSolver(d.ode)
+    transient = Ode21Integrator(d.ode, engine="compiled")
+    reference = Ode21Integrator(d.ode, engine="compiled", rtol=1e-12, atol=1e-15)
+    solver.steady(0.0, 8.2e-5, 0.0)          # warm-up: builds/loads the compiled integrators
+    transient.simulate(0.0, 8.2e-5, 0.0)
+    rows, tot_s, tot_t = [], 0.0, 0.0
+    for U, eta in CASES:
+        for sigma in SIGMAS:
+            ts, tt = [], []
+            for _ in range(max(repeats, 1)):
+                t0 = time.perf_counter()
+                r = solver.steady(U, eta, sigma)
+                ts.append(time.perf_counter() - t0)
+                t0 = time.perf_counter()
+                q = transient.simulate(U, eta, sigma)
+                tt.append(time.perf_counter() - t0)
+            ref = reference.simulate(U, eta, sigma, steady_tol=1e-11)
+            size = max(ref.a1, ref.a2) if math.isfinite(ref.a1) else 1.0
+            ok_ref = ref.steady and ref.periodic
+            err_s = max(_rel(r.a1, ref.a1), _rel(r.a2, ref.a2)) / size if ok_ref else None
+            err_t = max(_rel(q.a1, ref.a1), _rel(q.a2, ref.a2)) / size if ok_ref else None
+            row = {"U": U, "eta": eta, "sigma": float(sigma), "response": r.response,
+                   "transient_periodic": bool(q.periodic), "transient_diverged": not math.isfinite(q.a1),
+                   "shooting_ms": 1e3 * min(ts), "transient_ms": 1e3 * min(tt),
+                   "speedup": min(tt) / min(ts), "shooting_rel_error": err_s, "transient_rel_error": err_t,
+                   "fallback": r.fallback, "transient_periods_before_shooting": r.transient_periods}
+            rows.append(row)
+            tot_s += min(ts)
+            tot_t += min(tt)
+            say(f"U={U:g} eta={eta:g} sigma={sigma:+.3f}: {r.response:14s} shooting {row['shooting_ms']:7.2f} ms, "
+                f"transient {row['transient_ms']:7.2f} ms ({row['speedup']:.1f}x); errors "
+                f"{err_s if err_s is None else f'{err_s:.1e}'} / {err_t if err_t is None else f'{err_t:.1e}'}")
+    per_case = []
+    for U, eta in CASES:
+        sub = [r for r in rows if r["U"] == U and r["eta"] == eta]
+        s_ms = sum(r["shooting_ms"] for r in sub)
+        t_ms = sum(r["transient_ms"] for r in sub)
+        per_case.append({"U": U, "eta": eta, "shooting_ms_per_point": s_ms / len(sub),
+                         "transient_ms_per_point": t_ms / len(sub), "speedup": t_ms / s_ms,
+                         "responses": sorted({r["response"] for r in sub})})
+    errs_s = [r["shooting_rel_error"] for r in rows if r["shooting_rel_error"] is not None]
+    errs_t = [r["transient_rel_error"] for r in rows if r["transient_rel_error"] is not None]
+    periodic = [r for r in rows if r["shooting_rel_error"] is not None]
+    return {"benchmark": "shooting", "points": len(rows), "repeats": repeats,
+            "shooting_total_s": tot_s, "transient_total_s": tot_t, "speedup_total": tot_t / tot_s,
+            "speedup_period1_points": (sum(r["transient_ms"] for r in periodic)
+                                       / max(sum(r["shooting_ms"] for r in periodic), 1e-12)),
+            "speedup_median": float(np.median([r["speedup"] for r in rows])),
+            "max_rel_error_shooting": max(errs_s, default=None),
+            "max_rel_error_transient": max(errs_t, default=None),
+            "accuracy_note": "errors of a1, a2 relative to max(a1, a2) against transient integration at "
+                             "rtol 1e-12, steady to 1e-11, on the points where that reference is period-1",
+            "class_mismatches": [r for r in rows if (r["response"] == "diverged") != r["transient_diverged"]],
+            "target": "speedup_total >= 20", "per_case": per_case, "rows": rows}
+
+
+SWEEP_BENCH = """
+title = "bench sweep"
+model = "{model}"
+method = "shooting"
+[grid]
+U = [0.0, 0.7]
+eta = [8.2e-5, 4.1e-4, 1.4e-3]
+sigma = {{ from = -0.05, to = 0.05, num = {num} }}
+"""
+
+
+def bench_sweep(model_path: str, repeats: int = 1, log=None, num: int = 21) -> dict:
+    from autocable.scene.sweep_schema import load_sweep
+    from autocable.studies.sweep import run_sweep
+
+    say = log or (lambda s: None)
+    out = {"benchmark": "sweep", "grid": "U in {0, 0.7} x eta in {8.2e-5, 4.1e-4, 1.4e-3} x "
+                                         f"{num} sigma in [-0.05, 0.05], method shooting", "runs": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "bench.toml"
+        path.write_text(SWEEP_BENCH.format(model=Path(model_path).resolve(), num=num))
+        spec = load_sweep(path)
+        out["points"] = spec.size
+        rates = {}
+        for workers in (0, 1, 2):
+            best = None
+            for k in range(max(repeats, 1)):
+                t0 = time.perf_counter()
+                summary = run_sweep(spec, Path(tmp) / f"w{workers}-{k}", workers=workers)
+                wall = time.perf_counter() - t0
+                where = summary["where"]
+                rate = where.get("compute_points_per_second", summary["points_per_second"])
+                run = {"workers": workers if workers else "serial (no Dask)", "wall_seconds": wall,
+                       "startup_seconds": where.get("startup_seconds", 0.0),
+                       "compute_seconds": where.get("compute_seconds", summary["wall_seconds"]),
+                       "points_per_second": rate, "chunk": where.get("chunk"),
+                       "responses": summary["responses"]}
+                out["runs"].append(run)
+                say(f"sweep bench: workers={run['workers']}: {rate:.1f} points/s "
+                    f"(compute {run['compute_seconds']:.2f} s, startup {run['startup_seconds']:.2f} s)")
+                best = rate if best is None else max(best, rate)
+            rates[workers] = best
+        out["points_per_second"] = {"serial": rates[0], "1 worker": rates[1], "2 workers": rates[2]}
+        out["scaling_2_over_1"] = rates[2] / rates[1]
+        out["efficiency_2_workers"] = rates[2] / (2 * rates[1])
+        out["target"] = "scaling_2_over_1 >= 1.7 on 2 cores"
+    return out
