@@ -150,3 +150,30 @@ def test_cli_shooting_json_has_the_ode21_keys(capsys):
     assert main(["simulate", str(SAMPLE), "--U", "1.3", "--eta", "8.2e-5", "--json", "--method", "shooting"]) == 0
     div = _strict(capsys.readouterr().out)
     assert div["response"] == "diverged" and div["a1"] is None and div["floquet_multipliers"] == []
+
+
+def test_period2_subharmonic_of_a_parametric_oscillator():
+    """A Mathieu-Duffing oscillator, q1'' + 2 zeta w q1' + (w^2 + eta sin(Omega t)) q1 + g q1^3 = 0,
+    at the principal parametric resonance Omega = 2 w (= omega1 + sigma, omega1 = 1): with
+    eta / w^2 = 0.2 above the instability threshold 4 zeta = 0.04 the rest state loses stability
+    through a multiplier -1 and the response is the subharmonic at Omega / 2, period 2T. Shooting
+    classes it period-2, with stable multipliers of the period-2 map, and its a1 equals transient
+    integration's (which reports it not period-1) to 1e-6; the orbit does not repeat after one T."""
+    w, zeta, g = 0.5, 0.01, 100.0
+    terms = (Term(1, (1, 0, 0, 0), (0, 0, 0), 0, w**2, "linear"),
+             Term(1, (0, 0, 1, 0), (0, 0, 0), 0, 2 * zeta * w, "damping"),
+             Term(1, (1, 0, 0, 0), (1, 0, 0), 0, 1.0, "structural"),
+             Term(1, (3, 0, 0, 0), (0, 0, 0), 0, g, "structural"),
+             Term(2, (0, 1, 0, 0), (0, 0, 0), 0, 1.0, "linear"),
+             Term(2, (0, 0, 0, 1), (0, 0, 0), 0, 0.1, "damping"))
+    ode = TwoModeODE(terms=terms, omega1=1.0, omega2=1.0, xi_s=zeta)
+    q0 = (1e-3, 0.0, 0.0, 0.0)
+    solver = ShootingSolver(ode)
+    r = solver.steady(0.0, 0.05, 0.0, q0)
+    assert r.response == "period-2" and r.periods == 2 and not r.periodic
+    assert r.max_modulus < 1.0 and len(r.multipliers) == 4
+    q = Ode21Integrator(ode, engine="compiled").simulate(0.0, 0.05, 0.0, q0)
+    assert q.steady and not q.periodic
+    assert r.a1 == pytest.approx(q.a1, rel=1e-6)
+    y1, _ = solver.flow(0.0, 0.05, 1.0, r.state0, 1)
+    assert np.linalg.norm(y1 - np.asarray(r.state0)) > 0.5 * np.linalg.norm(r.state0)

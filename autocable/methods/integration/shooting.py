@@ -60,7 +60,7 @@ RESPONSE_CODES = {name: k for k, name in enumerate(RESPONSE_CLASSES)}
 #: from bifurcations (eq. (21) is weakly nonlinear at these amplitudes); the later stages serve slow
 #: approaches (near folds and pitchforks). The stages integrate at STAGE_RTOL: they only carry the
 #: start into an orbit's basin; the judge and the orbit itself use the full tolerances.
-TRANSIENT_STAGES = (30, 30, 60, 120, 120, 240, 480, 1000)
+TRANSIENT_STAGES = (30, 30, 60, 120, 120, 240, 480, 1000)  # each >= 3
 STAGE_RTOL = 1e-8
 #: Samples per forcing period for the amplitudes (the same as `Ode21Integrator.simulate`).
 SAMPLES_PER_PERIOD = 64
@@ -346,7 +346,7 @@ class ShootingSolver:
             t0 = done * period
             if t0 + n * period > max_time:
                 break
-            r = self._stage.run_compiled(tuple(y), 0.0, n * period, n * period, pars, bound=DIVERGED)
+            r = self._stage_run(y, n, period, pars)
             if not r.ok:
                 done += int(r.t_reached / period)
                 # each stage integrates from t = 0 (the forcing is T-periodic): shift to real time
@@ -356,6 +356,9 @@ class ShootingSolver:
                               f"t = {t0 + r.t_reached:.6g}", t_end=t0 + r.t_reached)
             y = r.y[-1]
             done += n
+            # how far the last period ends are from repeating with period 1 and with period 2
+            d1 = float(np.linalg.norm(r.y[-1] - r.y[-2]))
+            d2 = float(np.linalg.norm(r.y[-1] - r.y[-3]))
             if left is not None and np.linalg.norm(y - left) < 0.5 * np.linalg.norm(left):
                 # still on the way out from the unstable orbit just left: Newton would go back to it
                 continue
@@ -363,7 +366,12 @@ class ShootingSolver:
             if got is not None:
                 return got
             if M is None:
-                continue                    # no period-1 orbit near yet: more transient
+                if d2 < 0.1 * d1:
+                    # the transient repeats every two periods, not every one: a period-2 orbit
+                    got = attempt(y, 2, y)[0]
+                    if got is not None:
+                        return got
+                continue                    # no orbit near yet: more transient
             mu = multipliers_of(M)
             real = np.abs(mu.imag) < 1e-9
             outside = np.abs(mu) > 1.0 + STABILITY_MARGIN
@@ -383,6 +391,16 @@ class ShootingSolver:
                 tried[-1]["torus"] = True
                 break
         return self._fallback(U, eta, sigma, y, done, period, max_time, result, attempt)
+
+    def _stage_run(self, y, n: int, period: float, pars: dict):
+        """A transient stage: n forcing periods from ``y`` at STAGE_RTOL, stopping beyond
+        `ode21.DIVERGED`, sampled only at the last three period ends."""
+        grid = np.array([0.0, (n - 2) * period, (n - 1) * period, n * period])
+        p = [pars[q.name] for q in PARAMETERS]
+        st = self._stage
+        return st._c_integrator().run(np.asarray(y, float), grid, p, rtol=st.rtol, atol=st.atol, max_step=1.0,
+                                      max_steps=st._budget(0.0, n * period, len(grid)), bound=DIVERGED,
+                                      n_bound=2)
 
     @staticmethod
     def _escape(y, y_star, M, tried, size: float = 0.1):
