@@ -220,3 +220,17 @@ def test_build_lock_two_processes_one_compile(tmp_path):
     assert sorted(o["compile_s"] > 0 for o in outs) == [False, True]
     for o in outs:
         assert o["x1"] == pytest.approx(np.exp(-2.0), rel=1e-9)
+
+
+def test_existing_scheduler(serial, tmp_path):
+    """`scheduler=ADDRESS` (`--scheduler`) submits to a running Dask scheduler instead of starting a
+    LocalCluster: the same numbers as the serial sweep."""
+    import logging
+
+    from dask.distributed import LocalCluster
+    spec, out, _ = serial
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None,
+                      silence_logs=logging.ERROR) as cluster:
+        summary = run_sweep(spec, tmp_path / "s", scheduler=cluster.scheduler_address)
+    assert summary["where"]["mode"] == "scheduler" and summary["computed"] == 12
+    same_numbers(load(out), load(tmp_path / "s"))

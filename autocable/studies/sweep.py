@@ -213,7 +213,7 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
 
     ``workers``: LocalCluster worker processes (default: one per core; 0: serial in this process);
     ``scheduler``: the address of an existing Dask scheduler (then ``workers`` is ignored);
-    ``chunk``: points per task (default: about four tasks per worker, at most 16 points);
+    ``chunk``: points per task (default: about eight tasks per worker, at most 16 points);
     ``on_client``: called with the Dask client once the tasks are submitted (tests)."""
     from autocable.spec import load_model
     model = load_model(spec.model)
@@ -274,7 +274,7 @@ def _run_dask(spec, model, todo, folder, workers, scheduler, chunk, progress, cl
     computed = 0
     try:
         nw = max(len(client.scheduler_info().get("workers", {})), 1)
-        size = chunk or max(1, min(16, math.ceil(len(todo) / (4 * nw))))
+        size = chunk or max(1, min(16, math.ceil(len(todo) / (8 * nw))))
         where["chunk"] = size
         # Every worker derives the model and loads the compiled integrators before the clock of
         # the tasks starts (a worker that joins later does it in its first task).
