@@ -417,6 +417,12 @@ def cmd_sweep(args) -> int:
     summary = run_sweep(spec, args.out, workers=args.workers, scheduler=args.scheduler, chunk=args.chunk,
                         log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
     print(json.dumps(summary, indent=1))
+    if summary["failed"]:
+        first = summary["failed"][0]
+        print(f"autocable: sweep: {len(summary['failed'])} point(s) failed (kept out of sweep.nc as not computed; "
+              f"a rerun tries them again), first at U={first['U']:g} eta={first['eta']:g} "
+              f"sigma={first['sigma']:g}: {first['error']}", file=sys.stderr)
+        return 1
     return 0
 
 

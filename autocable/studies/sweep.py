@@ -134,10 +134,35 @@ def compute_chunk(model, method: str, max_time: float, points) -> list:
     """[(key, record)] of a list of (key, U, eta, sigma, q0): one Dask task."""
     out = []
     for key, U, eta, sigma, q0 in points:
-        rec = compute_point(model, method, U, eta, sigma, q0, max_time)
+        try:
+            rec = compute_point(model, method, U, eta, sigma, q0, max_time)
+        except Exception as exc:  # noqa: BLE001 - one failed point must not stop the sweep
+            text = str(exc).strip().splitlines()
+            rec = {"error": f"{type(exc).__name__}: {text[0] if text else ''}"[:300]}
         rec.update({"U": U, "eta": eta, "sigma": sigma, "q0": list(q0), "pid": os.getpid()})
         out.append((key, rec))
     return out
+
+
+class _Sink:
+    """Where finished points go: a point file each; a failed point is counted and reported, not
+    written (it stays not computed in the dataset, and a rerun tries it again)."""
+
+    def __init__(self, folder: Path, progress: "_Progress", log):
+        self.folder, self.progress, self.log = folder, progress, log
+        self.computed = 0
+        self.failed = []
+
+    def take(self, key: str, rec: dict) -> None:
+        if "error" in rec:
+            self.failed.append({k: rec[k] for k in ("U", "eta", "sigma", "q0", "error")})
+            if self.log:
+                self.log(f"sweep: point U={rec['U']:g} eta={rec['eta']:g} sigma={rec['sigma']:g} failed: "
+                         f"{rec['error']}")
+        else:
+            _write_point(self.folder, key, rec)
+            self.computed += 1
+        self.progress.step()
 
 
 # -- the sweep ----------------------------------------------------------------------------------
@@ -231,16 +256,14 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
             f"computed (resumed), {len(todo)} to compute")
     t0 = time.perf_counter()
     where = {"mode": "serial"}
-    computed = 0
+    sink = _Sink(folder, progress, log)
     if todo and (workers == 0 and scheduler is None):
         for key, U, eta, sigma, q0 in todo:
             for k, rec in compute_chunk(model, spec.method, spec.max_time, [(key, U, eta, sigma, q0)]):
-                _write_point(folder, k, rec)
-                computed += 1
-                progress.step()
+                sink.take(k, rec)
     elif todo:
-        computed, where = _run_dask(spec, model, todo, folder, workers, scheduler, chunk, progress,
-                                    cluster_kwargs or {}, on_client)
+        where = _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs or {}, on_client)
+    computed = sink.computed
     wall = time.perf_counter() - t0
     ds = assemble(spec, model, grid, folder, shash)
     tmp = out / ".sweep.nc.tmp"
@@ -249,6 +272,7 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
     counts = {name: int(np.sum(ds["response"].values == k)) for k, name in enumerate(RESPONSE_CLASSES)}
     summary = {"sweep": str(spec.path), "method": spec.method, "points": len(grid), "resumed": resumed,
                "computed": computed, "missing": int(np.sum(ds["response"].values == NOT_COMPUTED)),
+               "failed": sink.failed,
                "wall_seconds": wall, "points_per_second": computed / wall if wall > 0 and computed else None,
                "responses": counts, "where": where, "sweep_hash": shash,
                "dataset": str(out / "sweep.nc")}
@@ -256,7 +280,7 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
     return summary
 
 
-def _run_dask(spec, model, todo, folder, workers, scheduler, chunk, progress, cluster_kwargs, on_client):
+def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs, on_client):
     import logging
 
     from dask.distributed import Client, LocalCluster, as_completed
@@ -271,7 +295,6 @@ def _run_dask(spec, model, todo, folder, workers, scheduler, chunk, progress, cl
                                silence_logs=logging.ERROR, **cluster_kwargs)
         client = Client(cluster)
         where = {"mode": "LocalCluster", "workers": n}
-    computed = 0
     try:
         nw = max(len(client.scheduler_info().get("workers", {})), 1)
         size = chunk or max(1, min(16, math.ceil(len(todo) / (8 * nw))))
@@ -287,18 +310,16 @@ def _run_dask(spec, model, todo, folder, workers, scheduler, chunk, progress, cl
             on_client(client)
         for fut in as_completed(futures):
             for key, rec in fut.result():
-                _write_point(folder, key, rec)
-                computed += 1
-                progress.step()
+                sink.take(key, rec)
             fut.release()
         where["compute_seconds"] = time.perf_counter() - t_tasks
-        where["compute_points_per_second"] = computed / where["compute_seconds"]
+        where["compute_points_per_second"] = (sink.computed + len(sink.failed)) / where["compute_seconds"]
         where["worker_pids"] = sorted({p for p in client.run(os.getpid).values()})
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
-    return computed, where
+    return where
 
 
 def assemble(spec: SweepSpec, model, grid, folder: Path, shash: str):
