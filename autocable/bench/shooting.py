@@ -10,10 +10,13 @@ each one's largest error. Target (issue 16): shooting at least 20x faster.
 ``sweep``: the throughput of `autocable sweep` (points per second of the task phase, after the
 workers have loaded the model) with 1 and 2 LocalCluster workers, and the scaling 2 workers / 1
 worker (target >= 1.7 on 2 cores), on a (U, eta, sigma) grid that mixes cheap and slow points.
+Both record the machine's load average: on a shared machine the scaling says more about the other
+jobs than about Dask.
 """
 from __future__ import annotations
 
 import math
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -84,6 +87,7 @@ def bench_shooting(model_path: str, repeats: int = 3, log=None) -> dict:
     errs_t = [r["transient_rel_error"] for r in rows if r["transient_rel_error"] is not None]
     periodic = [r for r in rows if r["shooting_rel_error"] is not None]
     return {"benchmark": "shooting", "points": len(rows), "repeats": repeats,
+            "load_average_1min_at_end": os.getloadavg()[0], "cpus": os.cpu_count(),
             "shooting_total_s": tot_s, "transient_total_s": tot_t, "speedup_total": tot_t / tot_s,
             "speedup_period1_points": (sum(r["transient_ms"] for r in periodic)
                                        / max(sum(r["shooting_ms"] for r in periodic), 1e-12)),
@@ -107,7 +111,7 @@ sigma = {{ from = -0.05, to = 0.05, num = {num} }}
 """
 
 
-def bench_sweep(model_path: str, repeats: int = 1, log=None, num: int = 21) -> dict:
+def bench_sweep(model_path: str, repeats: int = 3, log=None, num: int = 21) -> dict:
     from autocable.scene.sweep_schema import load_sweep
     from autocable.studies.sweep import run_sweep
 
@@ -120,9 +124,12 @@ def bench_sweep(model_path: str, repeats: int = 1, log=None, num: int = 21) -> d
         spec = load_sweep(path)
         out["points"] = spec.size
         rates = {}
-        for workers in (0, 1, 2):
-            best = None
-            for k in range(max(repeats, 1)):
+        out["load_average_1min_at_start"] = os.getloadavg()[0]
+        out["cpus"] = os.cpu_count()
+        for k in range(max(repeats, 1)):
+            # interleaved (serial, 1, 2, serial, 1, 2, ...) so that a change of the machine's load
+            # during the bench affects every setting alike; the best of the repeats counts
+            for workers in (0, 1, 2):
                 t0 = time.perf_counter()
                 summary = run_sweep(spec, Path(tmp) / f"w{workers}-{k}", workers=workers)
                 wall = time.perf_counter() - t0
@@ -136,8 +143,8 @@ def bench_sweep(model_path: str, repeats: int = 1, log=None, num: int = 21) -> d
                 out["runs"].append(run)
                 say(f"sweep bench: workers={run['workers']}: {rate:.1f} points/s "
                     f"(compute {run['compute_seconds']:.2f} s, startup {run['startup_seconds']:.2f} s)")
-                best = rate if best is None else max(best, rate)
-            rates[workers] = best
+                rates[workers] = max(rates.get(workers, 0.0), rate)
+        out["load_average_1min_at_end"] = os.getloadavg()[0]
         out["points_per_second"] = {"serial": rates[0], "1 worker": rates[1], "2 workers": rates[2]}
         out["scaling_2_over_1"] = rates[2] / rates[1]
         out["efficiency_2_workers"] = rates[2] / (2 * rates[1])
