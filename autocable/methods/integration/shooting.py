@@ -24,7 +24,12 @@ stays the fallback and the judge: a fixed point found by Newton is accepted only
 (every |mu| < 1 - `floquet21.STABILITY_MARGIN`) and the transient's own state is seen moving towards
 it (`_attracts`), so shooting reports the response integration would reach; otherwise the transient
 goes on (stages of `TRANSIENT_STAGES` periods), and after the last stage `Ode21Integrator.simulate`
-decides as it always has.
+decides as it always has. What Newton finds steers the transient: an unstable period-1 orbit with a
+real multiplier > 1 (the planar orbit past its pitchfork, Fig. 6) is left along its unstable
+direction (`_escape`) instead of crept away from; one with a multiplier < -1 (a period doubling), or
+a transient that repeats every two periods, calls for a period-2 attempt; one unstable only through
+a complex pair (a torus: modulated motion, or galloping growth above U_c) hands over to integration
+at once.
 
 Classes (`RESPONSE_CLASSES`): ``rest`` (the period-1 fixed point has amplitudes below the
 integration's absolute accuracy, e.g. eta* = 0 below flutter), ``period-1``, ``period-2``,
