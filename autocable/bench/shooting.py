@@ -134,10 +134,9 @@ def bench_sweep(model_path: str, repeats: int = 3, log=None, num: int = 21) -> d
                 summary = run_sweep(spec, Path(tmp) / f"w{workers}-{k}", workers=workers)
                 wall = time.perf_counter() - t0
                 where = summary["where"]
-                rate = where.get("compute_points_per_second", summary["points_per_second"])
+                rate = where["compute_points_per_second"]
                 run = {"workers": workers if workers else "serial (no Dask)", "wall_seconds": wall,
-                       "startup_seconds": where.get("startup_seconds", 0.0),
-                       "compute_seconds": where.get("compute_seconds", summary["wall_seconds"]),
+                       "startup_seconds": where["startup_seconds"], "compute_seconds": where["compute_seconds"],
                        "points_per_second": rate, "chunk": where.get("chunk"),
                        "responses": summary["responses"]}
                 out["runs"].append(run)

@@ -258,9 +258,14 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
     where = {"mode": "serial"}
     sink = _Sink(folder, progress, log)
     if todo and (workers == 0 and scheduler is None):
+        _warm(model, spec.method)
+        where["startup_seconds"] = time.perf_counter() - t0
+        t_tasks = time.perf_counter()
         for key, U, eta, sigma, q0 in todo:
             for k, rec in compute_chunk(model, spec.method, spec.max_time, [(key, U, eta, sigma, q0)]):
                 sink.take(k, rec)
+        where["compute_seconds"] = time.perf_counter() - t_tasks
+        where["compute_points_per_second"] = (sink.computed + len(sink.failed)) / where["compute_seconds"]
     elif todo:
         where = _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs or {}, on_client)
     computed = sink.computed
