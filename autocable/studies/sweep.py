@@ -260,11 +260,12 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
     if todo and (workers == 0 and scheduler is None):
         _warm(model, spec.method)
         where["startup_seconds"] = time.perf_counter() - t0
-        t_tasks = time.perf_counter()
+        t_tasks, cpu0 = time.perf_counter(), time.process_time()
         for key, U, eta, sigma, q0 in todo:
             for k, rec in compute_chunk(model, spec.method, spec.max_time, [(key, U, eta, sigma, q0)]):
                 sink.take(k, rec)
         where["compute_seconds"] = time.perf_counter() - t_tasks
+        where["cpu_seconds"] = time.process_time() - cpu0
         where["compute_points_per_second"] = (sink.computed + len(sink.failed)) / where["compute_seconds"]
     elif todo:
         where = _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs or {}, on_client)
@@ -308,7 +309,8 @@ def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs
         # the tasks starts (a worker that joins later does it in its first task).
         client.run(_warm, model, spec.method)
         where["startup_seconds"] = time.perf_counter() - t_start
-        t_tasks = time.perf_counter()
+        cpu0 = client.run(time.process_time)
+        t_tasks, own0 = time.perf_counter(), time.process_time()
         futures = [client.submit(compute_chunk, model, spec.method, spec.max_time, part, pure=False)
                    for part in _chunks(todo, size)]
         if on_client is not None:
@@ -319,6 +321,12 @@ def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs
             fut.release()
         where["compute_seconds"] = time.perf_counter() - t_tasks
         where["compute_points_per_second"] = (sink.computed + len(sink.failed)) / where["compute_seconds"]
+        # CPU time the workers got during the task phase (a restarted worker's is partial): on a
+        # machine shared with other jobs this, not the worker count, bounds the throughput
+        cpu1 = client.run(time.process_time)
+        where["cpu_seconds"] = sum(v - cpu0.get(k, 0.0) for k, v in cpu1.items())
+        # this process: the client, and the scheduler of a LocalCluster (Dask's overhead)
+        where["client_cpu_seconds"] = time.process_time() - own0
         where["worker_pids"] = sorted({p for p in client.run(os.getpid).values()})
     finally:
         client.close()
