@@ -177,3 +177,17 @@ def test_period2_subharmonic_of_a_parametric_oscillator():
     assert r.a1 == pytest.approx(q.a1, rel=1e-6)
     y1, _ = solver.flow(0.0, 0.05, 1.0, r.state0, 1)
     assert np.linalg.norm(y1 - np.asarray(r.state0)) > 0.5 * np.linalg.norm(r.state0)
+
+
+def test_modulated_response_is_not_taken_for_an_orbit(solver, sample):
+    """Fig. 9's setting near resonance (U = 0.7, eta* = 1.4e-3, sigma = 0.01): the period-1 orbit
+    Newton finds there is unstable through a complex pair (a torus), and transient integration from
+    rest never settles on a periodic response (its envelope keeps a wide band). Shooting must not
+    report that orbit: it classes the point quasi-periodic, hands over to integration, and
+    reports the modulation band."""
+    r = solver.steady(0.7, 1.4e-3, 0.01, max_time=20000.0)
+    assert r.response == "quasi-periodic" and r.fallback and not r.periodic
+    assert any(a.get("torus") for a in r.details["attempts"])
+    assert r.a1_max - r.a1_min > 0.1 * r.a1_max
+    q = Ode21Integrator(sample.ode, engine="compiled").simulate(0.7, 1.4e-3, 0.01, max_time=20000.0)
+    assert not q.periodic and q.a1_max - q.a1_min > 0.1 * q.a1_max

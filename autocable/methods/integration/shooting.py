@@ -451,7 +451,8 @@ class ShootingSolver:
             mu = multipliers_of(got[1]) if got is not None else []
             kind = "rest" if max(r.a1, r.a2) < 1e3 * self.integrator.atol else "period-1"
             return result(kind, (r.a1, r.a2), env, 1, fs, mu, math.nan,
-                          f"transient integration: {r.message}", fallback=True, t_end=t_end)
+                          f"transient integration from t = {done * period:.6g}: {r.message}",
+                          fallback=True, t_end=t_end)
         if r.steady:
             # A period-2 orbit the transient stages did not get close enough to: its end state is.
             got = attempt(fs, 2, None)[0]
@@ -459,8 +460,8 @@ class ShootingSolver:
                 return got
         # Steady envelope but not period-1 nor period-2: amplitude-modulated.
         return result("quasi-periodic", (r.a1, r.a2), env, 0, fs, [], math.nan,
-                      f"transient integration: {r.message}" + ("" if r.steady else
-                                                               " (amplitude-modulated or slow)"),
+                      f"transient integration from t = {done * period:.6g}: {r.message}"
+                      + ("" if r.steady else " (amplitude-modulated, or too slow to settle)"),
                       fallback=True, t_end=t_end)
 
 
