@@ -158,6 +158,10 @@ def test_interrupted_sweep_resumes_without_recomputing(serial, tmp_path):
     ('[grid]\nU = [0.0, "fast"]\n', "grid.U[1]"),
     ('q0 = [0.0, 0.0]\n', "q0"),
     ('wind = 3\n', "wind"),
+    ('follow = "omega"\n', "follow"),
+    ('direction = "up"\n', "direction"),
+    ('follow = "sigma"\ndirection = "left"\n', "direction"),
+    ('method = "ame"\nfollow = "sigma"\n', "follow"),
 ])
 def test_bad_sweep_file_is_one_line_naming_the_field(tmp_path, capsys, body, field):
     path = write_sweep(tmp_path, body)
@@ -247,3 +251,67 @@ def test_failed_point_is_reported_not_written(tmp_path):
     assert list(load(tmp_path / "o")["response"].values.ravel()) == [-1, RESPONSE_CLASSES.index("period-1")]
     again = run_sweep(spec, tmp_path / "o", workers=0)
     assert again["resumed"] == 1 and again["computed"] == 0 and len(again["failed"]) == 1
+
+
+SIGMAS_11 = [round(-0.05 + 0.01 * k, 12) for k in range(11)]
+
+
+@pytest.fixture(scope="module")
+def followed(tmp_path_factory):
+    """Fig. 6's setting swept up and down in sigma, each point from its neighbour's response:
+    by `follow` with shooting and with ode21, and by `methods.integration.sweeps` (the brute-force
+    up/down sweeps of the overlays, an independent implementation)."""
+    from autocable.methods.integration.ode21 import Ode21Integrator
+    from autocable.methods.integration.sweeps import sweep
+    from autocable.model.derive import derive
+    from autocable.spec import load_model
+    folder = tmp_path_factory.mktemp("follow")
+    integ = Ode21Integrator(derive(load_model(MODEL)).ode, engine="compiled")
+    out = {}
+    for direction in ("up", "down"):
+        ref = sorted(sweep(integ, "sigma", SIGMAS_11, {"U": 0.0, "eta": 1.4e-3}, directions=(direction,)),
+                     key=lambda p: p.value)
+        out[("ref", direction)] = (np.array([p.a1 for p in ref]), np.array([p.a2 for p in ref]))
+        for method in ("ode21", "shooting"):
+            body = (f'method = "{method}"\nfollow = "sigma"\ndirection = "{direction}"\n[grid]\n'
+                    f'eta = 1.4e-3\nsigma = {SIGMAS_11}\n')
+            spec = load_sweep(write_sweep(folder, body, f"{method}-{direction}.toml"))
+            dest = folder / f"{method}-{direction}"
+            run_sweep(spec, dest, workers=0)
+            out[(method, direction)] = (spec, dest)
+    return out
+
+
+def test_follow_sweeps_up_and_down_like_the_brute_force_sweeps(followed):
+    """With follow, ode21 reproduces `sweeps.sweep` bit for bit (the same carried starts) and
+    shooting, started by Newton from the neighbour's orbit, the same responses to 1e-6; up and
+    down differ above resonance (the hysteresis of Fig. 6: the upper branch is kept going up to
+    sigma = 0.05, the small response taken going down)."""
+    for direction in ("up", "down"):
+        r1, r2 = followed[("ref", direction)]
+        size = np.maximum(r1, r2)
+        for method in ("ode21", "shooting"):
+            ds = load(followed[(method, direction)][1])
+            a1, a2 = ds["a1"].values.ravel(), ds["a2"].values.ravel()
+            tol = 0.0 if method == "ode21" else 1e-6
+            assert np.all(np.abs(a1 - r1) <= tol * size) and np.all(np.abs(a2 - r2) <= tol * size), (method, direction)
+            assert (ds["response"].values == RESPONSE_CLASSES.index("period-1")).all()
+    up, down = followed[("ref", "up")][0], followed[("ref", "down")][0]
+    assert up[-1] > 1e-2 and down[-1] < 1e-3
+
+
+def test_follow_resumes_from_the_finished_neighbour(followed):
+    """Point files removed from the middle of a followed line (an interrupted sweep): the rerun
+    computes only those, starting from the finished neighbour's stored state, on a 2-worker
+    LocalCluster, and the dataset equals the uninterrupted one."""
+    import shutil
+    spec, dest = followed[("shooting", "up")]
+    copy = dest.parent / "resume-copy"
+    shutil.copytree(dest, copy)
+    files = sorted((copy / "points").glob("*.json"), key=lambda p: json.loads(p.read_text())["sigma"])
+    for p in files[4:7]:
+        p.unlink()
+    (copy / "sweep.nc").unlink()
+    summary = run_sweep(spec, copy, workers=2)
+    assert summary["resumed"] == 8 and summary["computed"] == 3
+    same_numbers(load(dest), load(copy))

@@ -7,6 +7,12 @@
                                               # Cartesian AME (24) integrated to its steady state)
     q0 = [0.0, 0.0, 1e-6, 0.0]                # optional start (q1, q1', q2, q2'); default rest + q2 seed
     max_time = 60000.0                        # optional: give up on a point after this time (t*)
+    follow = "sigma"                          # optional: along this axis each point starts from
+    direction = "up"                          # its neighbour's response (the previous point in the
+                                              # axis order, "up", or in reverse, "down"): a sweep up
+                                              # or down as with a slowly changed parameter
+                                              # (shooting: Newton from the neighbour's orbit first;
+                                              # ode21: integration from its end state plus q0)
     [grid]
     U = 0.0                                   # a number, a list, or { from = .., to = .., num = .. }
     eta = 8.2e-5
@@ -35,7 +41,8 @@ DEFAULT_Q0 = (0.0, 0.0, 1e-6, 0.0)
 #: A grid larger than this is almost certainly a typo in ``num``.
 MAX_POINTS = 10_000_000
 
-_TOP_KEYS = {"title", "model", "method", "q0", "max_time", "grid"}
+_TOP_KEYS = {"title", "model", "method", "q0", "max_time", "grid", "follow", "direction"}
+DIRECTIONS = ("up", "down")
 _GRID_KEYS = set(AXES) | {"start"}
 
 
@@ -54,6 +61,8 @@ class SweepSpec:
     start_axis: bool            # True when [grid] start was given (the dataset gets a `start` dim)
     max_time: float
     text: str                   # the file as read (provenance)
+    follow: str | None = None   # an axis of AXES: points along it start from their neighbour
+    direction: str = "up"       # "up": in the axis order; "down": reversed
 
     @property
     def shape(self) -> tuple:
@@ -62,6 +71,32 @@ class SweepSpec:
     @property
     def size(self) -> int:
         return math.prod(self.shape)
+
+    def lines(self):
+        """With ``follow``: the grid's lines along that axis, each a list of index tuples in sweep
+        order (``direction``); without: one line per point."""
+        from itertools import product
+        if self.follow is None:
+            return [[idx] for idx in product(*(range(n) for n in self.shape))]
+        ax = AXES.index(self.follow)
+        others = [range(n) if k != ax else range(1) for k, n in enumerate(self.shape)]
+        order = list(range(self.shape[ax]))
+        if self.direction == "down":
+            order.reverse()
+        out = []
+        for base in product(*others):
+            out.append([tuple(i if k == ax else b for k, b in enumerate(base)) for i in order])
+        return out
+
+    def point(self, idx) -> tuple:
+        """(U, eta, sigma, q0) at an index tuple."""
+        q0 = self.starts[idx[3]] if self.start_axis else self.starts[0]
+        return self.U[idx[0]], self.eta[idx[1]], self.sigma[idx[2]], q0
+
+    def points_order(self):
+        """The index tuples in C order (the dataset's)."""
+        from itertools import product
+        return product(*(range(n) for n in self.shape))
 
     def points(self):
         """(index tuple, U, eta, sigma, q0) for every grid point, C order."""
@@ -155,8 +190,19 @@ def parse_sweep(data: dict, path, text: str = "") -> SweepSpec:
         starts = tuple(_start(v, path, f"grid.start[{k}]") for k, v in enumerate(grid["start"]))
     else:
         starts = (q0,)
+    follow = data.get("follow")
+    if follow is not None and follow not in AXES:
+        raise SpecError(path, "follow", f"expected one of {', '.join(repr(a) for a in AXES)}, got {follow!r}")
+    if follow is not None and method == "ame":
+        raise SpecError(path, "follow", 'following a neighbour needs method = "shooting" or "ode21"')
+    direction = data.get("direction", "up")
+    if direction not in DIRECTIONS:
+        raise SpecError(path, "direction", f"expected \"up\" or \"down\", got {direction!r}")
+    if "direction" in data and follow is None:
+        raise SpecError(path, "direction", "only with follow (the axis swept up or down)")
     spec = SweepSpec(path=path, title=title, model=model, method=method, starts=starts,
-                     start_axis=start_axis, max_time=max_time, text=text, **axes)
+                     start_axis=start_axis, max_time=max_time, text=text, follow=follow,
+                     direction=direction, **axes)
     if spec.size > MAX_POINTS:
         raise SpecError(path, "grid", f"{spec.size:,} points is more than {MAX_POINTS:,}; check num")
     return spec

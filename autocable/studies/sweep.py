@@ -75,8 +75,9 @@ def _finite(x):
     return x if math.isfinite(x) else None
 
 
-def _record(kind, a, env, mu, periods, steady, t_end, wall, message, fallback=False) -> dict:
-    return {"response": kind, "a1": _finite(a[0]), "a2": _finite(a[1]),
+def _record(kind, a, env, mu, periods, steady, t_end, wall, message, fallback=False, state=()) -> dict:
+    state = [_finite(v) for v in state]
+    return {"response": kind, "a1": _finite(a[0]), "a2": _finite(a[1]), "state0": state,
             "a1_min": _finite(env[0]), "a1_max": _finite(env[1]),
             "a2_min": _finite(env[2]), "a2_max": _finite(env[3]),
             "multipliers": [[float(m.real), float(m.imag)] for m in mu], "periods": int(periods),
@@ -84,19 +85,33 @@ def _record(kind, a, env, mu, periods, steady, t_end, wall, message, fallback=Fa
             "message": message, "fallback": bool(fallback)}
 
 
-def compute_point(model, method: str, U: float, eta: float, sigma: float, q0, max_time: float) -> dict:
-    """The record of one grid point (plain JSON values; non-finite numbers are None)."""
+def _carried_start(carried, q0) -> tuple:
+    """The start (q1, q1', q2, q2') from a neighbour's state (q1, q2, q1', q2') plus the offset q0
+    (as `methods.integration.sweeps` carries states: the q2 seed is kept, so a planar response
+    cannot hide an out-of-plane instability)."""
+    c = carried
+    return (c[0] + q0[0], c[2] + q0[1], c[1] + q0[2], c[3] + q0[3])
+
+
+def compute_point(model, method: str, U: float, eta: float, sigma: float, q0, max_time: float,
+                  carried=None) -> dict:
+    """The record of one grid point (plain JSON values; non-finite numbers are None). ``carried``:
+    a neighbour's state (q1, q2, q1', q2') at forcing phase 0 (a sweep with ``follow``): shooting
+    tries Newton from it first, and both methods integrate from it (plus q0) otherwise."""
     d, solver = _context(model, method)
     start = time.perf_counter()
+    if carried is not None:
+        q0 = _carried_start(carried, q0)
     if method == "shooting":
-        r = solver.steady(U, eta, sigma, q0, max_time=max_time)
+        r = solver.steady(U, eta, sigma, q0, max_time=max_time, guess=carried)
         return _record(r.response, (r.a1, r.a2), (r.a1_min, r.a1_max, r.a2_min, r.a2_max), r.multipliers,
-                       r.periods, r.steady, r.t_end, r.wall_seconds, r.message, r.fallback)
+                       r.periods, r.steady, r.t_end, r.wall_seconds, r.message, r.fallback, r.state0)
     if method == "ode21":
         r = solver.integrator.simulate(U, eta, sigma, q0, max_time=max_time)
         a, env = (r.a1, r.a2), (r.a1_min, r.a1_max, r.a2_min, r.a2_max)
         if not math.isfinite(r.a1):
-            return _record("diverged", a, env, [], 0, False, r.t_end, time.perf_counter() - start, r.message)
+            return _record("diverged", a, env, [], 0, False, r.t_end, time.perf_counter() - start, r.message,
+                           state=r.final_state)
         mu, kind, periods = [], "quasi-periodic", 0
         if r.steady and max(a) < REST_FLOOR:
             kind, periods = "rest", 1
@@ -112,7 +127,8 @@ def compute_point(model, method: str, U: float, eta: float, sigma: float, q0, ma
             from autocable.methods.integration.floquet21 import multipliers_of
             got = solver.flow(U, eta, r.Omega, r.final_state, periods)
             mu = multipliers_of(got[1]) if got is not None else []
-        return _record(kind, a, env, mu, periods, r.steady, r.t_end, time.perf_counter() - start, r.message)
+        return _record(kind, a, env, mu, periods, r.steady, r.t_end, time.perf_counter() - start, r.message,
+                       state=r.final_state)
     r = solver.simulate(U, eta, sigma, q0, max_time=max_time)
     a, env = (r.a1, r.a2), (r.a1_min, r.a1_max, r.a2_min, r.a2_max)
     if not math.isfinite(r.a1) or not math.isfinite(r.a2):
@@ -130,17 +146,32 @@ def _warm(model, method: str) -> int:
     return os.getpid()
 
 
-def compute_chunk(model, method: str, max_time: float, points) -> list:
-    """[(key, record)] of a list of (key, U, eta, sigma, q0): one Dask task."""
+def _carryable(rec: dict):
+    """The state a neighbour starts from: a bounded response's, else None (start from q0)."""
+    st = rec.get("state0") or []
+    # as `methods.integration.sweeps`: only a steady, bounded response is carried
+    if ("error" in rec or rec.get("response") == "diverged" or not rec.get("steady")
+            or len(st) != 4 or any(v is None for v in st)):
+        return None
+    return tuple(st)
+
+
+def compute_chunk(model, method: str, max_time: float, units, follow: bool = False) -> list:
+    """[(key, record)] of a list of units, one Dask task. A unit is (carried, points): points
+    (key, U, eta, sigma, q0) computed in order; with ``follow`` each starts from the previous one's
+    response (the first from ``carried``, a finished neighbour's state, or from q0 when None)."""
     out = []
-    for key, U, eta, sigma, q0 in points:
-        try:
-            rec = compute_point(model, method, U, eta, sigma, q0, max_time)
-        except Exception as exc:  # noqa: BLE001 - one failed point must not stop the sweep
-            text = str(exc).strip().splitlines()
-            rec = {"error": f"{type(exc).__name__}: {text[0] if text else ''}"[:300]}
-        rec.update({"U": U, "eta": eta, "sigma": sigma, "q0": list(q0), "pid": os.getpid()})
-        out.append((key, rec))
+    for carried, points in units:
+        for key, U, eta, sigma, q0 in points:
+            try:
+                rec = compute_point(model, method, U, eta, sigma, q0, max_time, carried if follow else None)
+            except Exception as exc:  # noqa: BLE001 - one failed point must not stop the sweep
+                text = str(exc).strip().splitlines()
+                rec = {"error": f"{type(exc).__name__}: {text[0] if text else ''}"[:300]}
+            rec.update({"U": U, "eta": eta, "sigma": sigma, "q0": list(q0), "pid": os.getpid()})
+            out.append((key, rec))
+            if follow:
+                carried = _carryable(rec)
     return out
 
 
@@ -170,13 +201,50 @@ class _Sink:
 def sweep_hash(spec: SweepSpec, model) -> str:
     """What makes a point's result: the model, method and settings (not the grid)."""
     from autocable.methods.integration.shooting import SHOOTING_VERSION
-    return content_hash({"model": model.content_hash(), "method": spec.method, "max_time": spec.max_time,
-                         "format": POINT_FORMAT, "shooting": SHOOTING_VERSION})
+    what = {"model": model.content_hash(), "method": spec.method, "max_time": spec.max_time,
+            "format": POINT_FORMAT, "shooting": SHOOTING_VERSION}
+    if spec.follow:
+        what.update(follow=spec.follow, direction=spec.direction)
+    return content_hash(what)
 
 
-def point_key(shash: str, U, eta, sigma, q0) -> str:
-    return content_hash({"sweep": shash, "U": float(U), "eta": float(eta), "sigma": float(sigma),
-                         "q0": [float(v) for v in q0]})
+def point_key(shash: str, U, eta, sigma, q0, after: str | None = None) -> str:
+    """A point's file name: its settings and parameters, and with ``follow`` the key of the point
+    it starts from (``after``), so that a changed line never reuses a stale neighbour's result."""
+    what = {"sweep": shash, "U": float(U), "eta": float(eta), "sigma": float(sigma),
+            "q0": [float(v) for v in q0]}
+    if after is not None:
+        what["after"] = after
+    return content_hash(what)
+
+
+def _plan(spec: SweepSpec, shash: str, folder: Path):
+    """(grid, units, resumed): grid rows (idx, key, U, eta, sigma, q0) for the dataset; the units
+    still to compute (see `compute_chunk`): single points, or with ``follow`` the runs of
+    unfinished consecutive points of each line, started from the finished point before the run."""
+    have = {p.stem for p in folder.glob("*.json")}
+    grid, units, resumed = [], [], 0
+    for line in spec.lines():
+        prev_key, run, carried = None, [], None
+        for idx in line:
+            U, eta, sigma, q0 = spec.point(idx)
+            key = point_key(shash, U, eta, sigma, q0, prev_key if spec.follow else None)
+            grid.append((idx, key, U, eta, sigma, q0))
+            if key in have:
+                resumed += 1
+                if run:
+                    units.append((carried, run))
+                    run = []
+                rec = _read_point(folder / f"{key}.json") if spec.follow else None
+                carried = _carryable(rec) if rec else None
+            else:
+                run.append((key, U, eta, sigma, q0))
+            prev_key = key
+        if run:
+            units.append((carried, run))
+    order = {idx: k for k, idx in enumerate(spec.points_order())}
+    grid.sort(key=lambda row: order[row[0]])
+    return grid, units, resumed
 
 
 def _write_point(folder: Path, key: str, rec: dict) -> None:
@@ -238,7 +306,8 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
 
     ``workers``: LocalCluster worker processes (default: one per core; 0: serial in this process);
     ``scheduler``: the address of an existing Dask scheduler (then ``workers`` is ignored);
-    ``chunk``: points per task (default: about eight tasks per worker, at most 16 points);
+    ``chunk``: units per task, a unit being a point, or with ``follow`` a line (default: about eight
+    tasks per worker, at most 16 points each; with ``follow`` one line per task);
     ``on_client``: called with the Dask client once the tasks are submitted (tests)."""
     from autocable.spec import load_model
     model = load_model(spec.model)
@@ -246,14 +315,12 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
     folder = out / "points"
     folder.mkdir(parents=True, exist_ok=True)
     shash = sweep_hash(spec, model)
-    grid = [(idx, point_key(shash, U, eta, sigma, q0), U, eta, sigma, q0) for idx, U, eta, sigma, q0 in spec.points()]
-    have = {p.stem for p in folder.glob("*.json")}
-    todo = [(key, U, eta, sigma, q0) for _, key, U, eta, sigma, q0 in grid if key not in have]
-    resumed = len(grid) - len(todo)
+    grid, todo, resumed = _plan(spec, shash, folder)
     progress = _Progress(len(grid), resumed, log)
     if log:
-        log(f"sweep {spec.path.name}: {len(grid)} points, method {spec.method}; {resumed} already "
-            f"computed (resumed), {len(todo)} to compute")
+        log(f"sweep {spec.path.name}: {len(grid)} points, method {spec.method}"
+            + (f", following {spec.follow} {spec.direction}" if spec.follow else "")
+            + f"; {resumed} already computed (resumed), {len(grid) - resumed} to compute")
     t0 = time.perf_counter()
     where = {"mode": "serial"}
     sink = _Sink(folder, progress, log)
@@ -261,8 +328,8 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
         _warm(model, spec.method)
         where["startup_seconds"] = time.perf_counter() - t0
         t_tasks, cpu0 = time.perf_counter(), time.process_time()
-        for key, U, eta, sigma, q0 in todo:
-            for k, rec in compute_chunk(model, spec.method, spec.max_time, [(key, U, eta, sigma, q0)]):
+        for unit in todo:
+            for k, rec in compute_chunk(model, spec.method, spec.max_time, [unit], bool(spec.follow)):
                 sink.take(k, rec)
         where["compute_seconds"] = time.perf_counter() - t_tasks
         where["cpu_seconds"] = time.process_time() - cpu0
@@ -303,7 +370,9 @@ def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs
         where = {"mode": "LocalCluster", "workers": n}
     try:
         nw = max(len(client.scheduler_info().get("workers", {})), 1)
-        size = chunk or max(1, min(16, math.ceil(len(todo) / (8 * nw))))
+        # units per task: single points (about 8 tasks per worker, at most 16 points each), or
+        # with follow one line (its points depend on each other) unless ``chunk`` says more
+        size = chunk or (1 if spec.follow else max(1, min(16, math.ceil(len(todo) / (8 * nw)))))
         where["chunk"] = size
         # Every worker derives the model and loads the compiled integrators before the clock of
         # the tasks starts (a worker that joins later does it in its first task).
@@ -311,7 +380,8 @@ def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs
         where["startup_seconds"] = time.perf_counter() - t_start
         cpu0 = client.run(time.process_time)
         t_tasks, own0 = time.perf_counter(), time.process_time()
-        futures = [client.submit(compute_chunk, model, spec.method, spec.max_time, part, pure=False)
+        futures = [client.submit(compute_chunk, model, spec.method, spec.max_time, part, bool(spec.follow),
+                                 pure=False)
                    for part in _chunks(todo, size)]
         if on_client is not None:
             on_client(client)
@@ -403,7 +473,8 @@ def assemble(spec: SweepSpec, model, grid, folder: Path, shash: str):
              "model_name": model.name, "model_hash": model.content_hash(), "sweep_hash": shash,
              "sweep_file": str(spec.path), "sweep_text": spec.text,
              "settings": json.dumps({"max_time": spec.max_time, "q0": list(spec.starts[0]) if not spec.start_axis
-                                     else None, "point_format": POINT_FORMAT}),
+                                     else None, "point_format": POINT_FORMAT, "follow": spec.follow,
+                                     "direction": spec.direction if spec.follow else None}),
              "versions": json.dumps(vers),
              "diverged_amplitudes": "NaN where response = diverged (the amplitudes are unbounded)"}
     return xr.Dataset(data, coords=coords, attrs=attrs)
