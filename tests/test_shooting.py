@@ -191,3 +191,20 @@ def test_modulated_response_is_not_taken_for_an_orbit(solver, sample):
     assert r.a1_max - r.a1_min > 0.1 * r.a1_max
     q = Ode21Integrator(sample.ode, engine="compiled").simulate(0.7, 1.4e-3, 0.01, max_time=20000.0)
     assert not q.periodic and q.a1_max - q.a1_min > 0.1 * q.a1_max
+
+
+def test_neighbour_start_follows_integration_not_a_coexisting_orbit(solver, transient):
+    """Started from a neighbouring point's orbit (Fig. 7's setting, U = 0.7, eta* = 4.1e-4: the
+    resonant orbit at sigma = 0, then sigma = 0.01), Newton converges to a stable large orbit that
+    still exists at sigma = 0.01, while integration from that start falls to the small response
+    (the hysteresis of the resonance). Shooting reports what integration reaches (the judge
+    rejects the other attractor), to 1e-6."""
+    near = solver.steady(0.7, 4.1e-4, 0.0)
+    y = near.state0
+    q0 = (y[0], y[2], y[1] + 1e-6, y[3])          # (q1, q1', q2, q2') with the q2 seed
+    r = solver.steady(0.7, 4.1e-4, 0.01, q0, guess=y)
+    q = transient.simulate(0.7, 4.1e-4, 0.01, q0)
+    assert q.steady and q.periodic and q.a1 < 0.2 * near.a1        # integration jumps down
+    assert r.response == "period-1"
+    assert abs(r.a1 - q.a1) <= 1e-6 * max(q.a1, q.a2) and abs(r.a2 - q.a2) <= 1e-6 * max(q.a1, q.a2)
+    assert any(a.get("not_attracting") for a in r.details["attempts"])

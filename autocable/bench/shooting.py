@@ -83,6 +83,7 @@ def bench_shooting(model_path: str, repeats: int = 3, log=None) -> dict:
         per_case.append({"U": U, "eta": eta, "shooting_ms_per_point": s_ms / len(sub),
                          "transient_ms_per_point": t_ms / len(sub), "speedup": t_ms / s_ms,
                          "responses": sorted({r["response"] for r in sub})})
+    neighbour = _neighbour_sweeps(model_path, repeats, say)
     errs_s = [r["shooting_rel_error"] for r in rows if r["shooting_rel_error"] is not None]
     errs_t = [r["transient_rel_error"] for r in rows if r["transient_rel_error"] is not None]
     periodic = [r for r in rows if r["shooting_rel_error"] is not None]
@@ -97,7 +98,51 @@ def bench_shooting(model_path: str, repeats: int = 3, log=None) -> dict:
             "accuracy_note": "errors of a1, a2 relative to max(a1, a2) against transient integration at "
                              "rtol 1e-12, steady to 1e-11, on the points where that reference is period-1",
             "class_mismatches": [r for r in rows if (r["response"] == "diverged") != r["transient_diverged"]],
-            "target": "speedup_total >= 20", "per_case": per_case, "rows": rows}
+            "target": "speedup_total >= 20", "per_case": per_case,
+            "neighbour_sweeps": neighbour,
+            "neighbour_speedup_total": (sum(c["transient_s"] for c in neighbour)
+                                        / sum(c["shooting_s"] for c in neighbour)),
+            "rows": rows}
+
+
+def _neighbour_sweeps(model_path: str, repeats: int, say) -> list:
+    """Each case swept up in sigma, every point started from its neighbour's response: shooting
+    (Newton from the neighbour's orbit, `sweep` with ``follow``) against the transient sweep of
+    the overlays (`methods.integration.sweeps`, integration from the neighbour's end state); the
+    same responses (largest difference reported) and the time of each (best of ``repeats``)."""
+    from autocable.methods.integration.ode21 import DEFAULT_Q0, Ode21Integrator
+    from autocable.methods.integration.sweeps import sweep
+    from autocable.spec import load_model
+    from autocable.studies.sweep import _context, carry_from, compute_point
+    model = load_model(model_path)
+    _context(model, "shooting")
+    transient = Ode21Integrator(_context(model, "shooting")[0].ode, engine="compiled")
+    out = []
+    for U, eta in CASES:
+        best_s = best_t = math.inf
+        for _ in range(max(repeats, 1)):
+            t0 = time.perf_counter()
+            recs, carried = [], None
+            for sigma in SIGMAS:
+                rec = compute_point(model, "shooting", U, eta, float(sigma), DEFAULT_Q0, 60000.0, carried)
+                recs.append(rec)
+                carried = carry_from(rec)
+            best_s = min(best_s, time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            ref = sweep(transient, "sigma", [float(v) for v in SIGMAS], {"U": U, "eta": eta}, directions=("up",))
+            best_t = min(best_t, time.perf_counter() - t0)
+        diffs = []
+        for rec, p in zip(recs, ref):
+            if rec["a1"] is not None and math.isfinite(p.a1) and p.periodic:
+                diffs.append(max(abs(rec["a1"] - p.a1), abs(rec["a2"] - p.a2)) / max(p.a1, p.a2))
+        row = {"U": U, "eta": eta, "shooting_s": best_s, "transient_s": best_t, "speedup": best_t / best_s,
+               "max_rel_difference_period1": max(diffs, default=None), "compared_points": len(diffs),
+               "responses": sorted({r["response"] for r in recs})}
+        out.append(row)
+        say(f"neighbour sweep U={U:g} eta={eta:g}: shooting {1e3 * best_s / len(SIGMAS):.2f} ms/point, "
+            f"transient {1e3 * best_t / len(SIGMAS):.2f} ms/point ({row['speedup']:.1f}x), max difference "
+            f"{row['max_rel_difference_period1']}")
+    return out
 
 
 SWEEP_BENCH = """

@@ -146,7 +146,7 @@ def _warm(model, method: str) -> int:
     return os.getpid()
 
 
-def _carryable(rec: dict):
+def carry_from(rec: dict):
     """The state a neighbour starts from: a bounded response's, else None (start from q0)."""
     st = rec.get("state0") or []
     # as `methods.integration.sweeps`: only a steady, bounded response is carried
@@ -171,7 +171,7 @@ def compute_chunk(model, method: str, max_time: float, units, follow: bool = Fal
             rec.update({"U": U, "eta": eta, "sigma": sigma, "q0": list(q0), "pid": os.getpid()})
             out.append((key, rec))
             if follow:
-                carried = _carryable(rec)
+                carried = carry_from(rec)
     return out
 
 
@@ -236,7 +236,7 @@ def _plan(spec: SweepSpec, shash: str, folder: Path):
                     units.append((carried, run))
                     run = []
                 rec = _read_point(folder / f"{key}.json") if spec.follow else None
-                carried = _carryable(rec) if rec else None
+                carried = carry_from(rec) if rec else None
             else:
                 run.append((key, U, eta, sigma, q0))
             prev_key = key

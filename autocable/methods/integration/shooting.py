@@ -266,21 +266,24 @@ class ShootingSolver:
         per = [[_half_range(ext[i * n:(i + 1) * n + n // 2 + 1, k]) for i in range(periods)] for k in (0, 1)]
         return amps, [(min(p), max(p)) for p in per]
 
-    def _attracts(self, U, eta, Omega, y_star, y_tr, periods: int) -> bool:
-        """The judge: integrating on from the transient's state ``y_tr``, its distance to the fixed
-        point ``y_star`` of the period-k map shrinks (it is in the orbit's basin, not only in
-        Newton's). 4k more periods with the plain compiled integrator."""
+    def _attracts(self, U, eta, Omega, y_star, y_tr, periods: int, mu_max: float) -> bool:
+        """The judge: integrating on from the transient's state ``y_tr`` (at STAGE_RTOL), its
+        distance to the fixed point ``y_star`` of the period-k map has shrunk by a quarter after
+        as many periods as the slowest multiplier ``mu_max`` needs to halve it (at least 4, at
+        most 200 turns; the margin allows for the non-normal start of the approach): it is in the
+        orbit's basin, not only in Newton's. A coexisting stable
+        orbit that Newton reached from a state integration carries elsewhere (the other side of a
+        resonance's hysteresis) fails: its distance grows."""
         d0 = float(np.linalg.norm(np.asarray(y_tr) - y_star))
-        if d0 <= 1e-9 * max(float(np.linalg.norm(y_star)), 1e-12):
+        if d0 <= 1e-6 * max(float(np.linalg.norm(y_star)), 1e-12):
             return True
+        turns = 200 if not 0.0 < mu_max < 1.0 else min(200, max(4, math.ceil(math.log(0.5) / math.log(mu_max))))
         period = 2 * math.pi / Omega
-        pars = parameter_values(U, eta, Omega)
-        k = 4 * periods
-        r = self.integrator.run_compiled(tuple(y_tr), 0.0, k * period, period, pars, bound=DIVERGED)
+        n = turns * periods
+        r = self._stage_run(np.asarray(y_tr, float), max(n, 3), period, parameter_values(U, eta, Omega))
         if not r.ok:
             return False
-        d = np.linalg.norm(r.y[::periods] - y_star, axis=1)
-        return bool(d[-1] < d0)
+        return bool(float(np.linalg.norm(r.y[-1] - y_star)) < 0.75 * d0)
 
     # -- the steady response -------------------------------------------------------------------
     def steady(self, U: float, eta: float, sigma: float, q0=DEFAULT_Q0, *, guess=None,
@@ -331,7 +334,8 @@ class ShootingSolver:
                 if got is None or float(np.linalg.norm(got[0] - ys)) <= 1e-6 * max(float(np.linalg.norm(ys)), floor):
                     tried[-1]["is_period1"] = True
                     return None, ys, M
-            if judge_from is not None and not self._attracts(U, eta, Omega, ys, judge_from, k):
+            if judge_from is not None and not self._attracts(U, eta, Omega, ys, judge_from, k,
+                                                             float(np.abs(mu[0]))):
                 tried[-1]["not_attracting"] = True
                 return None, ys, M
             amps, env = self.orbit_amplitudes(U, eta, Omega, ys, k)
@@ -344,7 +348,7 @@ class ShootingSolver:
 
         left = None          # the unstable orbit the transient was last pushed away from
         if guess is not None:
-            got = attempt(np.asarray(guess, float), 1, None)[0]
+            got = attempt(np.asarray(guess, float), 1, np.asarray(guess, float))[0]
             if got is not None:
                 return got
         for n in stages:
