@@ -7,6 +7,11 @@ Newton on the period map after a short transient, Floquet multipliers, the respo
 multipliers of the period map at the state it ends in when that is periodic) or ``ame`` (the
 Cartesian AME (24) integrated to its steady state; no Floquet multipliers).
 
+With ``follow = AXIS`` (and ``direction``) each line of the grid along that axis is swept in
+order, every point starting from its neighbour's response (shooting: Newton from the neighbour's
+orbit, judged by integration from it; ode21: integration from its end state plus q0, exactly as
+`methods.integration.sweeps`): the two sides of a hysteresis loop, and fewer transients.
+
 Where. Points are grouped into small tasks and run on a ``dask.distributed`` cluster: a
 `LocalCluster` of one single-threaded worker process per core by default (``workers``), or an
 existing scheduler (``scheduler`` address); ``workers=0`` runs them in this process, in order (the
