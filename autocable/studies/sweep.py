@@ -285,6 +285,10 @@ class _Progress:
         self.t0 = time.perf_counter()
         self.last = -math.inf
 
+    def start(self) -> None:
+        """The task phase begins (after the cluster's start-up): the rate counts from here."""
+        self.t0 = time.perf_counter()
+
     def step(self, n: int = 1) -> None:
         self.done += n
         now = time.perf_counter()
@@ -333,6 +337,7 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
         _warm(model, spec.method)
         where["startup_seconds"] = time.perf_counter() - t0
         t_tasks, cpu0 = time.perf_counter(), time.process_time()
+        progress.start()
         for unit in todo:
             for k, rec in compute_chunk(model, spec.method, spec.max_time, [unit], bool(spec.follow)):
                 sink.take(k, rec)
@@ -385,6 +390,7 @@ def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs
         where["startup_seconds"] = time.perf_counter() - t_start
         cpu0 = client.run(time.process_time)
         t_tasks, own0 = time.perf_counter(), time.process_time()
+        sink.progress.start()
         futures = [client.submit(compute_chunk, model, spec.method, spec.max_time, part, bool(spec.follow),
                                  pure=False)
                    for part in _chunks(todo, size)]
