@@ -282,7 +282,8 @@ def _simulate_nmode(args, d, q0, show, progress) -> int:
     """`autocable simulate --modes N`: eq. (21) with N in-plane and N out-of-plane modes (issue 6)."""
     from autocable.methods.integration.nmode import NModeIntegrator
     if args.method != "ode21":
-        raise SpecError("--modes", "", f"--modes integrates the N-mode equations directly; drop --method {args.method}")
+        raise SpecError("--modes", "", "--modes integrates the N-mode equations directly; "
+                        f"drop --method {args.method}")
     if args.modes < 1:
         raise SpecError("--modes", "", f"the number of modes per plane must be >= 1, got {args.modes}")
     integ = NModeIntegrator(d, args.modes, args.modes)

@@ -201,7 +201,8 @@ def bench_sweep(model_path: str, repeats: int = 3, log=None, num: int = 61) -> d
         # what the workers got from the machine: CPU seconds per wall second of the task phase
         best_runs = {}
         for r in out["runs"]:
-            if r["points_per_second"] >= best_runs.get(str(r["workers"]), {"points_per_second": -1})["points_per_second"]:
+            seen = best_runs.get(str(r["workers"]))
+            if seen is None or r["points_per_second"] >= seen["points_per_second"]:
                 best_runs[str(r["workers"])] = r
         out["cores_obtained"] = {k: r["cores_obtained"] for k, r in best_runs.items()}
         # throughput per CPU second: equal for 1 and 2 workers when Dask costs nothing extra

@@ -456,7 +456,8 @@ def assemble(spec: SweepSpec, model, grid, folder: Path, shash: str):
         "a2_min": (dims, f["a2_min"], {"long_name": "envelope of a2 over single forcing periods: min"}),
         "a2_max": (dims, f["a2_max"], {"long_name": "envelope of a2 over single forcing periods: max"}),
         "response": (dims, code, {"long_name": "response class", "flag_values": np.arange(-1, 5, dtype=np.int8),
-                                  "flag_meanings": "not_computed " + " ".join(c.replace("-", "_") for c in RESPONSE_CLASSES),
+                                  "flag_meanings": " ".join(["not_computed"] + [c.replace("-", "_")
+                                                                                for c in RESPONSE_CLASSES]),
                                   "legend": json.dumps({str(k): c for k, c in enumerate(RESPONSE_CLASSES)}
                                                        | {str(NOT_COMPUTED): "not computed"})}),
         "periods": (dims, periods, {"long_name": "period of the orbit in forcing periods (0: none)"}),
