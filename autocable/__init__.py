@@ -20,7 +20,9 @@ name loads lazily (``import autocable`` costs nothing), so a script pays only fo
 
 Scenes (``runs/*.toml``) run the same chain from a file: ``ac.run_scene(ac.load_scene(path), out)``;
 ``ac.read_results(out)`` reads what a run wrote. Eq. (21) itself is integrated by
-``ac.Ode21Integrator(eq21.ode)`` and the AME by ``ac.AmeIntegrator``. `examples/` holds whole
+``ac.Ode21Integrator(eq21.ode)`` and the AME by ``ac.AmeIntegrator``; its steady responses are shot
+for by ``ac.ShootingSolver(eq21.ode).steady(U, eta, sigma)`` and mapped over grids by
+``ac.run_sweep(ac.load_sweep(path), out)``. `examples/` holds whole
 scripts (each run by the tests).
 """
 from __future__ import annotations
@@ -61,6 +63,10 @@ _API = {
     "Ode21Integrator": "autocable.methods.integration.ode21",
     "AmeIntegrator": "autocable.methods.integration.ame",
     "sweep": "autocable.methods.integration.sweeps",
+    "ShootingSolver": "autocable.methods.integration.shooting",
+    # sweeps as data (grids of steady responses, on Dask)
+    "load_sweep": "autocable.scene.sweep_schema",
+    "run_sweep": "autocable.studies.sweep",
     # results
     "Branch": "autocable.results",
     "SpecialPoint": "autocable.results",

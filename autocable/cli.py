@@ -195,6 +195,8 @@ def cmd_simulate(args) -> int:
         return _simulate_nmode(args, d, q0, show, progress)
     if args.method == "ame":
         return _simulate_ame(args, d, q0, show, progress)
+    if args.method == "shooting":
+        return _simulate_shooting(args, d, q0)
     integ = Ode21Integrator(d.ode)
     r = integ.simulate(args.U, args.eta, args.sigma, q0, max_time=args.max_time,
                        keep_history=bool(args.csv), progress=progress)
@@ -209,6 +211,30 @@ def cmd_simulate(args) -> int:
                                    "periods (peak modal amplitude = peak displacement / l)",
            "message": r.message, "method": "ode21", "wall_seconds": r.wall_seconds}
     _print_simulation(args, r, out)
+    return 0
+
+
+def _simulate_shooting(args, d, q0) -> int:
+    """`autocable simulate --method shooting`: the steady response of eq. (21) by Newton on the
+    stroboscopic map, with its Floquet multipliers and class (issue 16)."""
+    from autocable.methods.integration.shooting import ShootingSolver, response_json
+    if args.csv:
+        raise SpecError("--csv", "", "--method shooting computes no time history; use --method ode21 "
+                        "for --csv")
+    r = ShootingSolver(d.ode).steady(args.U, args.eta, args.sigma, q0, max_time=args.max_time)
+    out = response_json(r)
+    if args.json:
+        print(json.dumps(out, indent=1, allow_nan=False))
+        return 0
+    print(f"U* = {r.U:g}  eta* = {r.eta:g}  sigma = {r.sigma:g}  (Omega = {r.Omega:.6g})  method shooting")
+    print(f"response: {r.response}   a1 = {r.a1:.9e}   a2 = {r.a2:.9e}   ({r.message})")
+    if r.response == "period-2" or r.response == "quasi-periodic":
+        print(f"envelope: a1 in [{r.a1_min:.6e}, {r.a1_max:.6e}], a2 in [{r.a2_min:.6e}, {r.a2_max:.6e}]")
+    if len(r.multipliers):
+        print("Floquet multipliers: " + "  ".join(f"{m.real:+.9f}{m.imag:+.9f}i" for m in r.multipliers)
+              + f"   (max |mu| = {r.max_modulus:.9f})")
+    print(f"transient {r.transient_periods} forcing periods, {r.newton_iterations} Newton steps, "
+          f"{r.wall_seconds * 1e3:.1f} ms")
     return 0
 
 
@@ -256,7 +282,8 @@ def _simulate_nmode(args, d, q0, show, progress) -> int:
     """`autocable simulate --modes N`: eq. (21) with N in-plane and N out-of-plane modes."""
     from autocable.methods.integration.nmode import NModeIntegrator
     if args.method != "ode21":
-        raise SpecError("--modes", "", "--modes integrates the N-mode equations directly; drop --method ame")
+        raise SpecError("--modes", "", "--modes integrates the N-mode equations directly; "
+                        f"drop --method {args.method}")
     if args.modes < 1:
         raise SpecError("--modes", "", f"the number of modes per plane must be >= 1, got {args.modes}")
     integ = NModeIntegrator(d, args.modes, args.modes)
@@ -378,6 +405,44 @@ def cmd_failure_map(args) -> int:
 # ------------------------------------------------------------------------------------------------
 # autocable run
 # ------------------------------------------------------------------------------------------------
+def cmd_sweep(args) -> int:
+    """`autocable sweep SWEEP.toml --out DIR`: a grid of steady responses as one dataset (issue 16)."""
+    from autocable.scene.sweep_schema import load_sweep
+    from autocable.studies.sweep import run_sweep
+    spec = load_sweep(args.sweep)
+    if args.workers is not None and args.workers < 0:
+        raise SpecError("--workers", "", f"expected 0 (serial, no Dask) or a number of worker processes, "
+                        f"got {args.workers}")
+    if args.chunk is not None and args.chunk < 1:
+        raise SpecError("--chunk", "", f"expected a number of points per task >= 1, got {args.chunk}")
+    summary = run_sweep(spec, args.out, workers=args.workers, scheduler=args.scheduler, chunk=args.chunk,
+                        log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
+    print(json.dumps(summary, indent=1))
+    if summary["failed"]:
+        first = summary["failed"][0]
+        print(f"autocable: sweep: {len(summary['failed'])} point(s) failed (kept out of sweep.nc as not computed; "
+              f"a rerun tries them again), first at U={first['U']:g} eta={first['eta']:g} "
+              f"sigma={first['sigma']:g}: {first['error']}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def add_sweep_parser(subparsers) -> None:
+    w = subparsers.add_parser("sweep", help="steady responses over a grid of (U, eta, sigma) on Dask; "
+                              "writes DIR/sweep.nc (xarray) and resumes an interrupted sweep")
+    w.add_argument("sweep", help="sweep file (TOML: model, method, [grid] U, eta, sigma)")
+    w.add_argument("--out", required=True, help="output folder (points/, sweep.nc, sweep.json)")
+    w.add_argument("--workers", type=int, default=None,
+                   help="LocalCluster worker processes (default: one per core; 0: serial, without Dask)")
+    w.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler, e.g. tcp://host:8786 "
+                   "(its workers need autocable installed)")
+    w.add_argument("--chunk", type=int, help="grid points (with follow: lines) per Dask task (default: about 8 "
+                   "tasks per worker, "
+                   "at most 16 points)")
+    w.add_argument("--quiet", action="store_true", help="no progress")
+    w.set_defaults(func=cmd_sweep)
+
+
 def add_run_parser(subparsers) -> None:
     """Add ``autocable run SCENE.toml --out DIR [--quiet] [--no-plot]`` to an argparse subparsers."""
     r = subparsers.add_parser("run", help="run a scene file (runs/*.toml): continuation, results, plot")
@@ -525,9 +590,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true")
     s.add_argument("--csv", metavar="FILE", help="write the time history")
     s.add_argument("--quiet", action="store_true", help="no progress")
-    s.add_argument("--method", choices=["ode21", "ame"], default="ode21",
+    s.add_argument("--method", choices=["ode21", "ame", "shooting"], default="ode21",
                    help="ode21: direct integration of eq. (21); ame: the Multiple Scales amplitude "
-                        "equations (24) to their steady state (default ode21)")
+                        "equations (24) to their steady state; shooting: the steady response of eq. (21) "
+                        "by Newton on the period map after a short transient, with its Floquet "
+                        "multipliers and class (rest, period-1, period-2, quasi-periodic, diverged) "
+                        "(default ode21)")
     s.add_argument("--modes", type=int, metavar="N",
                    help="integrate eq. (21) with N in-plane and N out-of-plane modes (the check that "
                         "two modes suffice); a1, a2 are the first modes' amplitudes")
@@ -535,7 +603,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
     b.add_argument("what", nargs="?", default=None,
-                   choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "ordering", "engines"],
+                   choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "ordering", "engines",
+                            "shooting", "sweep"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
                         "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
@@ -544,7 +613,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "cold and warm cache, with the share of each stage; ordering: the paper's and the "
                         "natural Multiple Scales ordering (2-dof and A2 = 0) against eq. (21) at Figs. 4c, 7, 9 "
                         "(with --out, also ordering.md/.png); engines: every figure scene on PyCont and on the compiled "
-                        "kernel (coarse), their special points compared. Without a subcommand "
+                        "kernel (coarse), their special points compared; shooting: steady points of eq. (21) by "
+                        "shooting against transient integration at equal accuracy (Figs. 5-10, 77 points); "
+                        "sweep: 'autocable sweep' throughput with 1 and 2 Dask workers and the scaling. "
+                        "Without a subcommand "
                         "(--out DIR): the work-precision bench of the method ladder (bench.json, "
                         "work_precision.png, work_precision.md)")
     b.add_argument("--model", default=str(SAMPLE_MODEL))
@@ -575,6 +647,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_run_parser(sub)
     add_chart_parser(sub)
+    add_sweep_parser(sub)
     add_figures_parser(sub)
     return p
 

@@ -115,6 +115,12 @@ def run_bench(what: str, model_path: str, repeats: int = 3, log=None, out=None) 
     if what == "engines":
         from autocable.bench.engines import bench_engines
         return bench_engines(log=log)
+    if what == "shooting":
+        from autocable.bench.shooting import bench_shooting
+        return bench_shooting(model_path, repeats=repeats, log=log)
+    if what == "sweep":
+        from autocable.bench.shooting import bench_sweep
+        return bench_sweep(model_path, repeats=repeats, log=log)
     if what == "continuation":
         from autocable.bench.continuation import bench_continuation
         return bench_continuation(model_path, repeats=repeats, cold=True, progress=log)

@@ -1,0 +1,493 @@
+"""Steady responses of eq. (21) by shooting: Newton on the stroboscopic map (issue 16, item 1).
+
+What it solves. Eq. (21) is forced by f = sin(Omega t), Omega = omega1 + sigma (Sect. 4; ERRATA
+conventions as in `ode21`), so a period-1 response is a fixed point of the period map
+P(y) = phi_T(y), T = 2 pi / Omega, and a period-2 response a fixed point of P o P that is not one of
+P. Newton on G(y) = phi_kT(y) - y (k = 1, 2) with G' = M - I, M = Phi(kT) the fundamental matrix of
+the variational equations
+
+    y' = F(t, y),   Phi' = dF/dy (t, y(t)) Phi,   y(0) = y0,  Phi(0) = I,
+
+converges quadratically from a state near the response; M is then the monodromy and its eigenvalues
+are the Floquet multipliers (the stability that `floquet21` computes, here a by-product).
+
+How. The 20 equations (state and Phi) are written from the same sympy right-hand side as every
+integrator of eq. (21) (`autocable.model.symbolic.first_order_rhs` and its exact Jacobian) and
+compiled into the DOP853 integrator of `autocable.codegen.cintegrate` (content-hashed cache, build
+lock): one C call per Newton step. `floquet21` does the same in Python (scipy's DOP853 over
+lambdified functions, ~20 ms a period); here a period costs well under a millisecond.
+
+Where Newton starts. From a short transient: the compiled `Ode21Integrator` integrates whole
+forcing periods from the start state (rest with the q2 seed of `ode21.DEFAULT_Q0` unless told
+otherwise), or from a caller's ``guess`` (a neighbouring point's response). Transient integration
+stays the fallback and the judge: a fixed point found by Newton is accepted only when it is stable
+(every |mu| < 1 - `floquet21.STABILITY_MARGIN`) and the transient's own state is seen moving towards
+it (`_attracts`), so shooting reports the response integration would reach; otherwise the transient
+goes on (stages of `TRANSIENT_STAGES` periods), and after the last stage `Ode21Integrator.simulate`
+decides as it always has. What Newton finds steers the transient: an unstable period-1 orbit with a
+real multiplier > 1 (the planar orbit past its pitchfork, Fig. 6) is left along its unstable
+direction (`_escape`) instead of crept away from; one with a multiplier < -1 (a period doubling), or
+a transient that repeats every two periods, calls for a period-2 attempt; one unstable only through
+a complex pair (a torus: modulated motion, or galloping growth above U_c) hands over to integration
+at once.
+
+Classes (`RESPONSE_CLASSES`): ``rest`` (the period-1 fixed point has amplitudes below the
+integration's absolute accuracy, e.g. eta* = 0 below flutter), ``period-1``, ``period-2``,
+``quasi-periodic`` (an amplitude-modulated response: not periodic with T or 2T; the transient's
+envelope, or no steady state within the time limit, which `message` says), ``diverged`` (|q_k| beyond
+`ode21.DIVERGED`, e.g. above the critical wind U* > 1 of Sect. 3 where eq. (21) has no bounded
+response).
+
+Amplitudes. a_k as everywhere in autocable: half the peak-to-peak of q_k, sampled 64 times per
+forcing period from forcing phase 0 with parabolic peaks (`ode21._half_range`), over one period
+(period-1) or two (period-2). The samples fall on the same phases as `Ode21Integrator.simulate`'s
+window, so both report the same number for the same orbit.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from autocable.methods.integration.floquet21 import STABILITY_MARGIN, multipliers_of
+from autocable.methods.integration.ode21 import (DEFAULT_Q0, DIVERGED, Ode21Integrator, _half_range,
+                                                 _stopped)
+from autocable.model.symbolic import PARAMETERS, STATE, T, first_order_rhs, parameter_values
+
+#: The response classes, in the order of their integer codes (`RESPONSE_CODES`).
+RESPONSE_CLASSES = ("rest", "period-1", "period-2", "quasi-periodic", "diverged")
+RESPONSE_CODES = {name: k for k, name in enumerate(RESPONSE_CLASSES)}
+#: Transient stages (forcing periods integrated before each shooting attempt). The damping
+#: decrement of the sample cable is 1 - exp(-2 pi xi_s) = 0.025 a period, so 30 periods shrink a
+#: start's distance to the response by ~e^-0.75 and 60 by ~e^-1.5: enough for Newton's basin away
+#: from bifurcations (eq. (21) is weakly nonlinear at these amplitudes); the later stages serve slow
+#: approaches (near folds and pitchforks). The stages integrate at STAGE_RTOL: they only carry the
+#: start into an orbit's basin; the judge and the orbit itself use the full tolerances.
+TRANSIENT_STAGES = (30, 30, 60, 120, 120, 240, 480, 1000)  # each >= 3
+STAGE_RTOL = 1e-8
+#: Samples per forcing period for the amplitudes (the same as `Ode21Integrator.simulate`).
+SAMPLES_PER_PERIOD = 64
+#: Newton's first steps integrate the variational equations at this rtol, down to a residual of
+#: COARSE_SWITCH; then at the solver's rtol (1e-11), which alone decides convergence.
+COARSE_RTOL = 1e-8
+COARSE_SWITCH = 1e-5
+#: Version of the shooting algorithm (part of a sweep's provenance).
+SHOOTING_VERSION = "1"
+
+
+@dataclass(frozen=True, eq=False)
+class SteadyResponse:
+    """The steady response of eq. (21) at one parameter point, as shooting classifies it.
+
+    ``a1 .. a2_max`` follow `ode21.Response` (a_k the half peak-to-peak of q_k over the orbit; the
+    envelope the min/max of that over single forcing periods); ``math.inf`` when diverged and the
+    transient's envelope when quasi-periodic. ``multipliers`` are the Floquet multipliers of the
+    period-k map of the returned orbit (k = ``periods``; empty when there is no orbit)."""
+
+    response: str              # one of RESPONSE_CLASSES
+    a1: float
+    a2: float
+    a1_min: float
+    a1_max: float
+    a2_min: float
+    a2_max: float
+    U: float
+    eta: float
+    sigma: float
+    Omega: float
+    periods: int               # 1 or 2 for an orbit found by shooting, 0 otherwise
+    state0: tuple              # (q1, q2, q1', q2') at forcing phase 0 (the orbit, or the last state)
+    multipliers: np.ndarray    # complex, sorted by modulus, largest first
+    residual: float            # |phi_kT(y) - y| / max(|y|, floor) at state0
+    newton_iterations: int
+    transient_periods: int     # forcing periods integrated before shooting succeeded (or in total)
+    fallback: bool             # True when `Ode21Integrator.simulate` decided
+    t_end: float
+    message: str
+    wall_seconds: float
+    details: dict = field(default_factory=dict)
+
+    @property
+    def steady(self) -> bool:
+        return self.response in ("rest", "period-1", "period-2", "quasi-periodic") and \
+            "not steady" not in self.message
+
+    @property
+    def periodic(self) -> bool:
+        """Period-1 in the forcing (the meaning of ``periodic`` in `ode21.Response`)."""
+        return self.response in ("rest", "period-1")
+
+    @property
+    def max_modulus(self) -> float:
+        return float(np.abs(self.multipliers[0])) if len(self.multipliers) else math.nan
+
+
+def periodic_half_range(x: np.ndarray) -> float:
+    """Half the peak-to-peak of one turn of a periodic signal sampled uniformly (the last sample
+    one step before the first repeats), each extreme refined by the parabola through it and its
+    two neighbours taken cyclically (`ode21.refined_peak` for an extreme inside the window)."""
+    x = np.asarray(x, dtype=float)
+
+    def peak(y):
+        i = int(np.argmax(y))
+        a, b, c = y[i - 1], y[i], y[(i + 1) % len(y)]
+        den = a - 2 * b + c
+        return b - 0.125 * (a - c) ** 2 / den if den < 0 else b
+
+    return 0.5 * (peak(x) + peak(-x))
+
+
+class ShootingSolver:
+    """Shooting for eq. (21) of one `TwoModeODE`: the compiled integrators are built once (cached
+    across processes by content hash) and reused for every point."""
+
+    def __init__(self, ode, *, rtol: float = 1e-11, transient_rtol: float = 1e-10,
+                 transient_atol: float = 1e-13):
+        self.ode = ode
+        self.rtol = float(rtol)
+        self.integrator = Ode21Integrator(ode, engine="compiled", rtol=transient_rtol, atol=transient_atol)
+        self._stage = self.integrator.with_tolerances(max(STAGE_RTOL, transient_rtol),
+                                                      max(STAGE_RTOL, transient_rtol) * 1e-3)
+        self._var = None
+
+    # -- the compiled variational system -------------------------------------------------------
+    def _variational(self):
+        if self._var is None:
+            import sympy as sp
+
+            from autocable.codegen.cintegrate import compiled_integrator
+            rhs = first_order_rhs(self.ode)
+            jac = sp.Matrix(rhs).jacobian(sp.Matrix(STATE))
+            phi = sp.Matrix(4, 4, lambda i, j: sp.Symbol(f"phi{i}{j}", real=True))
+            dphi = jac * phi
+            names = tuple(s.name for s in STATE) + tuple(f"phi{i}{j}" for i in range(4) for j in range(4))
+            self._var = compiled_integrator(f"eq21var_{self.ode.content_hash()}", names,
+                                            tuple(p.name for p in PARAMETERS),
+                                            tuple(rhs) + tuple(dphi[i, j] for i in range(4) for j in range(4)),
+                                            T.name)
+        return self._var
+
+    def _parameters(self, U: float, eta: float, Omega: float) -> list:
+        pars = parameter_values(U, eta, Omega)
+        return [pars[p.name] for p in PARAMETERS]
+
+    def flow(self, U: float, eta: float, Omega: float, y0, periods: int = 1, rtol: float | None = None):
+        """(y(kT), Phi(kT)) from y(0) = ``y0`` over k = ``periods`` forcing periods, or None when
+        the orbit leaves |q_k| <= `ode21.DIVERGED` (or the integration fails); ``rtol`` defaults
+        to the solver's."""
+        rtol = self.rtol if rtol is None else float(rtol)
+        y0 = np.asarray(y0, dtype=float)
+        period = 2 * math.pi / Omega
+        z0 = np.concatenate([y0, np.eye(4).ravel()])
+        scale = max(float(np.max(np.abs(y0))), 1e-9)
+        r = self._variational().run(z0, np.array([0.0, periods * period]),
+                                    self._parameters(U, eta, Omega), rtol=rtol,
+                                    atol=rtol * 1e-2 * scale, max_step=1.0,
+                                    max_steps=200_000 * periods, bound=DIVERGED, n_bound=2)
+        if not r.ok:
+            return None
+        z = r.y[-1]
+        return z[:4].copy(), z[4:].reshape(4, 4).copy()
+
+    def newton(self, U: float, eta: float, Omega: float, guess, periods: int = 1, *,
+               tol: float = 1e-11, max_iter: int = 10, floor: float = 1e-12):
+        """Newton on phi_kT(y) - y from ``guess``: (y, M, residual, iterations, converged).
+
+        The residual is |phi_kT(y) - y| / max(|y|, ``floor``); ``floor`` keeps the rest state y = 0
+        (eta* = 0) convergent in absolute terms. Steps are damped (halved up to 6 times) when the
+        full step does not reduce the residual, which widens the basin a little; a step that four
+        halvings do not make reduce the residual ends the attempt (far from any fixed point, more
+        transient is cheaper than more Newton)."""
+        y = np.asarray(guess, dtype=float).copy()
+        # The first steps only need to get close: the flow at COARSE_RTOL costs about 2.4 times
+        # fewer DOP853 steps (rtol^(1/8)); the last steps, the residual test and the returned
+        # monodromy are at the solver's rtol.
+        rt = max(COARSE_RTOL, self.rtol)
+        fine = rt == self.rtol
+
+        def residual(y_, got_):
+            return float(np.linalg.norm(got_[0] - y_)) / max(float(np.linalg.norm(y_)), floor)
+
+        got = self.flow(U, eta, Omega, y, periods, rt)
+        if got is None:
+            return y, None, math.inf, 0, False
+        yT, M = got
+        res = residual(y, got)
+        for it in range(1, max_iter + 1):
+            if not fine and res < COARSE_SWITCH:
+                rt, fine = self.rtol, True
+                got = self.flow(U, eta, Omega, y, periods, rt)
+                if got is None:
+                    return y, None, math.inf, it, False
+                yT, M = got
+                res = residual(y, got)
+            if fine and res < tol:
+                return y, M, res, it - 1, True
+            try:
+                step = np.linalg.solve(M - np.eye(4), yT - y)
+            except np.linalg.LinAlgError:
+                return y, M, res, it, False
+            lam = 1.0
+            for _ in range(5):
+                y_new = y - lam * step
+                got = self.flow(U, eta, Omega, y_new, periods, rt)
+                if got is not None:
+                    res_new = residual(y_new, got)
+                    if res_new < res or res_new < tol:
+                        break
+                lam *= 0.5
+            else:
+                return y, M, res, it, False
+            y, (yT, M), res = y_new, got, res_new
+        return y, M, res, max_iter, fine and res < tol
+
+    # -- orbit measurements --------------------------------------------------------------------
+    def orbit_amplitudes(self, U: float, eta: float, Omega: float, y0, periods: int):
+        """(a1, a2, envelope) of the period-k orbit through ``y0`` (k = ``periods``): the half
+        peak-to-peak of q_k from 64 k samples over one turn of the orbit, each extreme refined by
+        the parabola through its neighbours taken cyclically (`periodic_half_range`), as inside
+        ode21's window of 20 periods; the envelope is (a, a) for k = 1 and, for k = 2, the min/max
+        of the same over each of the two forcing periods."""
+        n = SAMPLES_PER_PERIOD
+        period = 2 * math.pi / Omega
+        pars = parameter_values(U, eta, Omega)
+        r = self.integrator.run_compiled(tuple(y0), 0.0, periods * period, period / n, pars)
+        if not r.ok or len(r.t) != periods * n + 1:
+            raise RuntimeError("eq. (21) could not be integrated over the orbit found by shooting")
+        w = r.y[:-1, :2]
+        amps = (periodic_half_range(w[:, 0]), periodic_half_range(w[:, 1]))
+        if periods == 1:
+            return amps, [(a, a) for a in amps]
+        # one forcing period of a period-2 orbit is not periodic: ode21's window rule, extended by
+        # a quarter period either side so that its extremes are interior
+        ext = np.concatenate([w[-n // 4:], w, w[:n // 4 + 1]])
+        per = [[_half_range(ext[i * n:(i + 1) * n + n // 2 + 1, k]) for i in range(periods)] for k in (0, 1)]
+        return amps, [(min(p), max(p)) for p in per]
+
+    def _attracts(self, U, eta, Omega, y_star, y_tr, periods: int, mu_max: float) -> bool:
+        """The judge: integrating on from the transient's state ``y_tr`` (at STAGE_RTOL), its
+        distance to the fixed point ``y_star`` of the period-k map has shrunk by a quarter after
+        as many periods as the slowest multiplier ``mu_max`` needs to halve it (at least 4, at
+        most 200 turns; the margin allows for the non-normal start of the approach): it is in the
+        orbit's basin, not only in Newton's. A coexisting stable
+        orbit that Newton reached from a state integration carries elsewhere (the other side of a
+        resonance's hysteresis) fails: its distance grows."""
+        d0 = float(np.linalg.norm(np.asarray(y_tr) - y_star))
+        if d0 <= 1e-6 * max(float(np.linalg.norm(y_star)), 1e-12):
+            return True
+        turns = 200 if not 0.0 < mu_max < 1.0 else min(200, max(4, math.ceil(math.log(0.5) / math.log(mu_max))))
+        period = 2 * math.pi / Omega
+        n = turns * periods
+        r = self._stage_run(np.asarray(y_tr, float), max(n, 3), period, parameter_values(U, eta, Omega))
+        if not r.ok:
+            return False
+        return bool(float(np.linalg.norm(r.y[-1] - y_star)) < 0.75 * d0)
+
+    # -- the steady response -------------------------------------------------------------------
+    def steady(self, U: float, eta: float, sigma: float, q0=DEFAULT_Q0, *, guess=None,
+               stages=TRANSIENT_STAGES, max_time: float = 60000.0, rest_floor: float | None = None
+               ) -> SteadyResponse:
+        """The steady response of eq. (21) at (U*, eta*, sigma) reached from ``q0`` = (q1, q1',
+        q2, q2') (the command-line order of `Ode21Integrator.simulate`), by shooting after short
+        transients; ``guess`` = (q1, q2, q1', q2') at phase 0 (e.g. a neighbouring point's
+        ``state0``) is tried first, before any transient."""
+        start = time.perf_counter()
+        Omega = self.ode.omega1 + sigma
+        if not Omega > 0:
+            raise ValueError(f"sigma = {sigma} gives a non-positive forcing frequency Omega = {Omega}")
+        period = 2 * math.pi / Omega
+        floor = 1e3 * self.integrator.atol if rest_floor is None else float(rest_floor)
+        pars = parameter_values(U, eta, Omega)
+        q1, q1d, q2, q2d = (float(x) for x in q0)
+        y = np.array([q1, q2, q1d, q2d])
+        done = 0
+        newton_total = 0
+        tried = []
+
+        def result(kind, amps, env, k, state, mu, res, msg, fallback=False, t_end=None):
+            return SteadyResponse(kind, float(amps[0]), float(amps[1]), float(env[0][0]), float(env[0][1]),
+                                  float(env[1][0]), float(env[1][1]), float(U), float(eta), float(sigma),
+                                  float(Omega), k, tuple(float(v) for v in state),
+                                  np.asarray(mu, complex), float(res), newton_total, done, fallback,
+                                  done * period if t_end is None else float(t_end), msg,
+                                  time.perf_counter() - start, {"attempts": tried})
+
+        def attempt(y_from, k, judge_from):
+            """Shoot for a period-k orbit from ``y_from``; (accepted SteadyResponse or None, the
+            fixed point and its monodromy when Newton converged)."""
+            nonlocal newton_total
+            ys, M, res, its, ok = self.newton(U, eta, Omega, y_from, k, floor=floor)
+            newton_total += its
+            tried.append({"periods": k, "after_transient_periods": done, "converged": bool(ok),
+                          "iterations": its, "residual": res if math.isfinite(res) else None})
+            if not ok:
+                return None, None, None
+            mu = multipliers_of(M)
+            if not float(np.abs(mu[0])) < 1.0 - STABILITY_MARGIN:
+                tried[-1]["unstable"] = True
+                return None, ys, M
+            if k == 2:
+                # A period-1 orbit is a fixed point of the period-2 map too.
+                got = self.flow(U, eta, Omega, ys, 1)
+                if got is None or float(np.linalg.norm(got[0] - ys)) <= 1e-6 * max(float(np.linalg.norm(ys)), floor):
+                    tried[-1]["is_period1"] = True
+                    return None, ys, M
+            if judge_from is not None and not self._attracts(U, eta, Omega, ys, judge_from, k,
+                                                             float(np.abs(mu[0]))):
+                tried[-1]["not_attracting"] = True
+                return None, ys, M
+            amps, env = self.orbit_amplitudes(U, eta, Omega, ys, k)
+            if k == 1 and max(amps) < floor:
+                return result("rest", amps, env, 1, ys, mu, res,
+                              f"at rest (amplitudes below {floor:.0e}; stable fixed point of the period "
+                              "map)"), ys, M
+            return result("period-1" if k == 1 else "period-2", amps, env, k, ys, mu, res,
+                          f"period-{k} orbit by shooting ({its} Newton steps, residual {res:.1e})"), ys, M
+
+        left = None          # the unstable orbit the transient was last pushed away from
+        if guess is not None:
+            got = attempt(np.asarray(guess, float), 1, np.asarray(guess, float))[0]
+            if got is not None:
+                return got
+        for n in stages:
+            t0 = done * period
+            if t0 + n * period > max_time:
+                break
+            r = self._stage_run(y, n, period, pars)
+            if not r.ok:
+                done += int(r.t_reached / period)
+                # each stage integrates from t = 0 (the forcing is T-periodic): shift to real time
+                why = _stopped(r, 0.0, n * period).split(" at t = ")[0]
+                return result("diverged", (math.inf, math.inf), ((math.inf, math.inf),) * 2, 0, r.y_reached,
+                              [], math.inf, f"the response diverged (no bounded steady state): {why} at "
+                              f"t = {t0 + r.t_reached:.6g}", t_end=t0 + r.t_reached)
+            y = r.y[-1]
+            done += n
+            # how far the last period ends are from repeating with period 1 and with period 2
+            d1 = float(np.linalg.norm(r.y[-1] - r.y[-2]))
+            d2 = float(np.linalg.norm(r.y[-1] - r.y[-3]))
+            if left is not None and np.linalg.norm(y - left) < 0.5 * np.linalg.norm(left):
+                # still on the way out from the unstable orbit just left: Newton would go back to it
+                continue
+            got, ys, M = attempt(y, 1, y)
+            if got is not None:
+                return got
+            if M is None:
+                if d2 < 0.1 * d1:
+                    # the transient repeats every two periods, not every one: a period-2 orbit
+                    got = attempt(y, 2, y)[0]
+                    if got is not None:
+                        return got
+                continue                    # no orbit near yet: more transient
+            mu = multipliers_of(M)
+            real = np.abs(mu.imag) < 1e-9
+            outside = np.abs(mu) > 1.0 + STABILITY_MARGIN
+            if np.any(real & outside & (mu.real < 0)):
+                # past a period doubling: a period-2 orbit nearby
+                got = attempt(y, 2, y)[0]
+                if got is not None:
+                    return got
+            elif np.any(real & outside):
+                y_new = self._escape(y, ys, M, tried)
+                left = ys if y_new is not y else None
+                y = y_new
+            elif np.any(outside):
+                # only a complex pair outside the unit circle (a Neimark-Sacker / Hopf instability of
+                # the forced orbit): the transient leaves along a torus, i.e. an amplitude-modulated
+                # response or galloping growth; integration decides from here
+                tried[-1]["torus"] = True
+                break
+        return self._fallback(U, eta, sigma, y, done, period, max_time, result, attempt)
+
+    def _stage_run(self, y, n: int, period: float, pars: dict):
+        """A transient stage: n forcing periods from ``y`` at STAGE_RTOL, stopping beyond
+        `ode21.DIVERGED`, sampled only at the last three period ends."""
+        grid = np.array([0.0, (n - 2) * period, (n - 1) * period, n * period])
+        p = [pars[q.name] for q in PARAMETERS]
+        st = self._stage
+        return st._c_integrator().run(np.asarray(y, float), grid, p, rtol=st.rtol, atol=st.atol, max_step=1.0,
+                                      max_steps=st._budget(0.0, n * period, len(grid)), bound=DIVERGED,
+                                      n_bound=2)
+
+    @staticmethod
+    def _escape(y, y_star, M, tried, size: float = 0.1):
+        """The transient sits near an unstable period-1 orbit ``y_star`` that it leaves along a
+        real multiplier mu > 1 (the pitchfork of the planar orbit into bi-modal motion, Fig. 6):
+        integration would spend log(1/|y - y*|) / log(mu) periods, thousands near the bifurcation,
+        creeping out. Jump to the point of that eigendirection at ``size`` |y*| on the transient's
+        side (the sign of its projection), on the unstable manifold to first order, so the same
+        attractor is reached. Other instabilities: ``y`` unchanged."""
+        w, v = np.linalg.eig(M)
+        real = np.abs(w.imag) < 1e-9
+        if not np.any(real & (w.real > 1.0)):
+            return y
+        i = int(np.argmax(np.where(real, w.real, -np.inf)))
+        e = np.real(v[:, i])
+        e /= np.linalg.norm(e)
+        side = float(np.dot(np.asarray(y) - y_star, e))
+        if side == 0.0:
+            return y
+        tried[-1]["escape"] = {"multiplier": float(w[i].real), "side": 1 if side > 0 else -1}
+        return y_star + math.copysign(size * max(float(np.linalg.norm(y_star)), 1e-9), side) * e
+
+
+    def _fallback(self, U, eta, sigma, y, done, period, max_time, result, attempt):
+        """Transient integration decides: `Ode21Integrator.simulate` from the last state."""
+        q0 = (y[0], y[2], y[1], y[3])
+        r = self.integrator.simulate(U, eta, sigma, q0, max_time=max(max_time - done * period, period))
+        t_end = done * period + r.t_end
+        env = ((r.a1_min, r.a1_max), (r.a2_min, r.a2_max))
+        fs = np.asarray(r.final_state, float)
+        if not math.isfinite(r.a1):
+            return result("diverged", (r.a1, r.a2), env, 0, fs, [], math.inf,
+                          r.message, fallback=True, t_end=t_end)
+        if r.steady and (r.periodic or max(r.a1, r.a2) < 1e3 * self.integrator.atol):
+            # integration reached a periodic (or rest) response: polish it by Newton from there
+            # (its end state is in the orbit's basin), else report the integration's numbers with
+            # the multipliers of the state it ended in.
+            got = attempt(fs, 1, fs)[0]
+            if got is not None:
+                return replace(got, fallback=True, t_end=t_end, message=got.message + " after transient "
+                               f"integration to t = {t_end:.6g}")
+            got = self.flow(r.U, r.eta, r.Omega, fs, 1)
+            mu = multipliers_of(got[1]) if got is not None else []
+            kind = "rest" if max(r.a1, r.a2) < 1e3 * self.integrator.atol else "period-1"
+            return result(kind, (r.a1, r.a2), env, 1, fs, mu, math.nan,
+                          f"transient integration from t = {done * period:.6g}: {r.message}",
+                          fallback=True, t_end=t_end)
+        if r.steady:
+            # A period-2 orbit the transient stages did not get close enough to: its end state is.
+            got = attempt(fs, 2, None)[0]
+            if got is not None:
+                return got
+        # Steady envelope but not period-1 nor period-2: amplitude-modulated.
+        return result("quasi-periodic", (r.a1, r.a2), env, 0, fs, [], math.nan,
+                      f"transient integration from t = {done * period:.6g}: {r.message}"
+                      + ("" if r.steady else " (amplitude-modulated, or too slow to settle)"),
+                      fallback=True, t_end=t_end)
+
+
+def response_json(r: SteadyResponse) -> dict:
+    """The keys `autocable simulate --method ode21 --json` prints, plus ``floquet_multipliers``
+    ([re, im] pairs), ``max_multiplier_modulus`` and ``response``; strict JSON: a non-finite number
+    is null, and ``response``/``message`` say why (e.g. diverged)."""
+    def num(x):
+        x = float(x)
+        return x if math.isfinite(x) else None
+
+    return {"a1": num(r.a1), "a2": num(r.a2), "steady": r.steady, "periodic": r.periodic,
+            "t_end": num(r.t_end), "U": r.U, "eta": r.eta, "sigma": r.sigma, "Omega": r.Omega,
+            "a1_min": num(r.a1_min), "a1_max": num(r.a1_max), "a2_min": num(r.a2_min),
+            "a2_max": num(r.a2_max),
+            "amplitude_convention": "a_k = half the peak-to-peak of q_k over the orbit (period-1: one "
+                                    "forcing period, period-2: two), 64 samples per period from forcing "
+                                    "phase 0 (peak modal amplitude = peak displacement / l)",
+            "message": r.message, "method": "shooting", "wall_seconds": r.wall_seconds,
+            "response": r.response, "response_periods": r.periods,
+            "floquet_multipliers": [[float(m.real), float(m.imag)] for m in r.multipliers],
+            "max_multiplier_modulus": num(r.max_modulus) if len(r.multipliers) else None,
+            "state0": [num(v) for v in r.state0], "shooting_residual": num(r.residual),
+            "newton_iterations": r.newton_iterations, "transient_periods": r.transient_periods,
+            "fallback_to_integration": r.fallback}

@@ -1,0 +1,492 @@
+"""Brute-force maps of eq. (21) over (U*, eta*, sigma) as one dataset, on Dask (issue 16, items 2-3).
+
+What it computes. At every point of a sweep file's grid (`autocable.scene.sweep_schema`) the steady
+response reached from the start q0 by one method: ``shooting`` (`methods.integration.shooting`:
+Newton on the period map after a short transient, Floquet multipliers, the response class),
+``ode21`` (transient integration of eq. (21) with the compiled DOP853, classified afterwards, the
+multipliers of the period map at the state it ends in when that is periodic) or ``ame`` (the
+Cartesian AME (24) integrated to its steady state; no Floquet multipliers).
+
+With ``follow = AXIS`` (and ``direction``) each line of the grid along that axis is swept in
+order, every point starting from its neighbour's response (shooting: Newton from the neighbour's
+orbit, judged by integration from it; ode21: integration from its end state plus q0, exactly as
+`methods.integration.sweeps`): the two sides of a hysteresis loop, and fewer transients.
+
+Where. Points are grouped into small tasks and run on a ``dask.distributed`` cluster: a
+`LocalCluster` of one single-threaded worker process per core by default (``workers``), or an
+existing scheduler (``scheduler`` address); ``workers=0`` runs them in this process, in order (the
+serial reference). A worker derives eq. (21) and loads the compiled integrators once per model
+(`_context`); the integrators come from the content-hashed cache, whose builds are serialised by a
+file lock (`codegen.cintegrate`, `codegen.ckernel._lock`): two workers of one machine never build
+the same library into the same place at once, the second loads what the first built, and a worker
+on another machine with its own cache builds its own.
+
+Streaming and resuming. The client writes each finished point to ``DIR/points/<key>.json`` as its
+task returns (the key hashes the model, method, settings and the point), so an interrupted sweep
+loses at most the points in flight: a rerun finds the files, counts them as resumed and computes
+only the rest. ``DIR/sweep.nc`` (xarray, NetCDF 3 through scipy) is assembled from the point files
+at the end: dims U, eta, sigma (and start), data variables a1, a2, their envelopes, the response
+class (int8 with CF flag_values/flag_meanings), the Floquet multipliers (real and imaginary parts,
+dim ``multiplier``), provenance in the attributes. ``DIR/sweep.json`` holds the run's summary.
+"""
+from __future__ import annotations
+
+import functools
+import json
+import math
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from autocable._store import atomic_write_json, content_hash
+from autocable.scene.sweep_schema import AXES, SweepSpec
+
+#: Bump when a point record changes meaning (part of every point key).
+POINT_FORMAT = "1"
+#: Codes of the `response` variable: `shooting.RESPONSE_CLASSES` in order; -1 marks a point not
+#: computed (an interrupted sweep assembled anyway).
+RESPONSE_CLASSES = ("rest", "period-1", "period-2", "quasi-periodic", "diverged")
+NOT_COMPUTED = -1
+#: Below this amplitude a steady response is the rest state (`ode21`'s rest floor, 1e3 x atol).
+REST_FLOOR = 1e-10
+
+
+# -- one point ----------------------------------------------------------------------------------
+
+@functools.lru_cache(maxsize=4)
+def _context(model, method: str):
+    """(derivation, solver) of one model on this worker, built once per process. ``model`` is the
+    `ModelSpec` (frozen, hashable): it travels to the workers by value, so a worker on another
+    machine needs no copy of the model file."""
+    from autocable.model.derive import derive
+    d = derive(model)
+    if method == "ame":
+        from autocable.methods.integration.ame import AmeIntegrator
+        from autocable.model.ame_cache import derive_ame
+        return d, AmeIntegrator(derive_ame(d).ame)
+    from autocable.methods.integration.shooting import ShootingSolver
+    solver = ShootingSolver(d.ode)
+    # Load (or build, under the cache's file lock) both compiled integrators now, not in a point.
+    solver._variational()
+    solver.integrator._c_integrator()
+    return d, solver
+
+
+def _finite(x):
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _record(kind, a, env, mu, periods, steady, t_end, wall, message, fallback=False, state=()) -> dict:
+    state = [_finite(v) for v in state]
+    return {"response": kind, "a1": _finite(a[0]), "a2": _finite(a[1]), "state0": state,
+            "a1_min": _finite(env[0]), "a1_max": _finite(env[1]),
+            "a2_min": _finite(env[2]), "a2_max": _finite(env[3]),
+            "multipliers": [[float(m.real), float(m.imag)] for m in mu], "periods": int(periods),
+            "steady": bool(steady), "t_end": _finite(t_end), "wall_seconds": float(wall),
+            "message": message, "fallback": bool(fallback)}
+
+
+def _carried_start(carried, q0) -> tuple:
+    """The start (q1, q1', q2, q2') from a neighbour's state (q1, q2, q1', q2') plus the offset q0
+    (as `methods.integration.sweeps` carries states: the q2 seed is kept, so a planar response
+    cannot hide an out-of-plane instability)."""
+    c = carried
+    return (c[0] + q0[0], c[2] + q0[1], c[1] + q0[2], c[3] + q0[3])
+
+
+def compute_point(model, method: str, U: float, eta: float, sigma: float, q0, max_time: float,
+                  carried=None) -> dict:
+    """The record of one grid point (plain JSON values; non-finite numbers are None). ``carried``:
+    a neighbour's state (q1, q2, q1', q2') at forcing phase 0 (a sweep with ``follow``): shooting
+    tries Newton from it first, and both methods integrate from it (plus q0) otherwise."""
+    d, solver = _context(model, method)
+    start = time.perf_counter()
+    if carried is not None:
+        q0 = _carried_start(carried, q0)
+    if method == "shooting":
+        r = solver.steady(U, eta, sigma, q0, max_time=max_time, guess=carried)
+        return _record(r.response, (r.a1, r.a2), (r.a1_min, r.a1_max, r.a2_min, r.a2_max), r.multipliers,
+                       r.periods, r.steady, r.t_end, r.wall_seconds, r.message, r.fallback, r.state0)
+    if method == "ode21":
+        r = solver.integrator.simulate(U, eta, sigma, q0, max_time=max_time)
+        a, env = (r.a1, r.a2), (r.a1_min, r.a1_max, r.a2_min, r.a2_max)
+        if not math.isfinite(r.a1):
+            return _record("diverged", a, env, [], 0, False, r.t_end, time.perf_counter() - start, r.message,
+                           state=r.final_state)
+        mu, kind, periods = [], "quasi-periodic", 0
+        if r.steady and max(a) < REST_FLOOR:
+            kind, periods = "rest", 1
+        elif r.steady and r.periodic:
+            kind, periods = "period-1", 1
+        elif r.steady:
+            # the transient ends on a whole forcing period: is its end state on a period-2 orbit?
+            got = solver.flow(U, eta, r.Omega, r.final_state, 2)
+            y = np.asarray(r.final_state)
+            if got is not None and np.linalg.norm(got[0] - y) <= 1e-6 * np.linalg.norm(y):
+                kind, periods = "period-2", 2
+        if periods:
+            from autocable.methods.integration.floquet21 import multipliers_of
+            got = solver.flow(U, eta, r.Omega, r.final_state, periods)
+            mu = multipliers_of(got[1]) if got is not None else []
+        return _record(kind, a, env, mu, periods, r.steady, r.t_end, time.perf_counter() - start, r.message,
+                       state=r.final_state)
+    r = solver.simulate(U, eta, sigma, q0, max_time=max_time)
+    a, env = (r.a1, r.a2), (r.a1_min, r.a1_max, r.a2_min, r.a2_max)
+    if not math.isfinite(r.a1) or not math.isfinite(r.a2):
+        kind = "diverged"
+    elif r.steady and r.periodic:
+        kind = "rest" if max(a) < REST_FLOOR else "period-1"
+    else:
+        kind = "quasi-periodic"     # a limit cycle of the AME: amplitude-modulated q
+    return _record(kind, a, env, [], 1 if kind in ("rest", "period-1") else 0, r.steady, r.t_end,
+                   time.perf_counter() - start, r.message)
+
+
+def _warm(model, method: str) -> int:
+    _context(model, method)
+    return os.getpid()
+
+
+def carry_from(rec: dict):
+    """The state a neighbour starts from: a bounded response's, else None (start from q0)."""
+    st = rec.get("state0") or []
+    # as `methods.integration.sweeps`: only a steady, bounded response is carried
+    if ("error" in rec or rec.get("response") == "diverged" or not rec.get("steady")
+            or len(st) != 4 or any(v is None for v in st)):
+        return None
+    return tuple(st)
+
+
+def compute_chunk(model, method: str, max_time: float, units, follow: bool = False) -> list:
+    """[(key, record)] of a list of units, one Dask task. A unit is (carried, points): points
+    (key, U, eta, sigma, q0) computed in order; with ``follow`` each starts from the previous one's
+    response (the first from ``carried``, a finished neighbour's state, or from q0 when None)."""
+    out = []
+    for carried, points in units:
+        for key, U, eta, sigma, q0 in points:
+            try:
+                rec = compute_point(model, method, U, eta, sigma, q0, max_time, carried if follow else None)
+            except Exception as exc:  # noqa: BLE001 - one failed point must not stop the sweep
+                text = str(exc).strip().splitlines()
+                rec = {"error": f"{type(exc).__name__}: {text[0] if text else ''}"[:300]}
+            rec.update({"U": U, "eta": eta, "sigma": sigma, "q0": list(q0), "pid": os.getpid()})
+            out.append((key, rec))
+            if follow:
+                carried = carry_from(rec)
+    return out
+
+
+class _Sink:
+    """Where finished points go: a point file each; a failed point is counted and reported, not
+    written (it stays not computed in the dataset, and a rerun tries it again)."""
+
+    def __init__(self, folder: Path, progress: "_Progress", log):
+        self.folder, self.progress, self.log = folder, progress, log
+        self.computed = 0
+        self.failed = []
+
+    def take(self, key: str, rec: dict) -> None:
+        if "error" in rec:
+            self.failed.append({k: rec[k] for k in ("U", "eta", "sigma", "q0", "error")})
+            if self.log:
+                self.log(f"sweep: point U={rec['U']:g} eta={rec['eta']:g} sigma={rec['sigma']:g} failed: "
+                         f"{rec['error']}")
+        else:
+            _write_point(self.folder, key, rec)
+            self.computed += 1
+        self.progress.step()
+
+
+# -- the sweep ----------------------------------------------------------------------------------
+
+def sweep_hash(spec: SweepSpec, model) -> str:
+    """What makes a point's result: the model, method and settings (not the grid)."""
+    from autocable.methods.integration.shooting import SHOOTING_VERSION
+    what = {"model": model.content_hash(), "method": spec.method, "max_time": spec.max_time,
+            "format": POINT_FORMAT, "shooting": SHOOTING_VERSION}
+    if spec.follow:
+        what.update(follow=spec.follow, direction=spec.direction)
+    return content_hash(what)
+
+
+def point_key(shash: str, U, eta, sigma, q0, after: str | None = None) -> str:
+    """A point's file name: its settings and parameters, and with ``follow`` the key of the point
+    it starts from (``after``), so that a changed line never reuses a stale neighbour's result."""
+    what = {"sweep": shash, "U": float(U), "eta": float(eta), "sigma": float(sigma),
+            "q0": [float(v) for v in q0]}
+    if after is not None:
+        what["after"] = after
+    return content_hash(what)
+
+
+def _plan(spec: SweepSpec, shash: str, folder: Path):
+    """(grid, units, resumed): grid rows (idx, key, U, eta, sigma, q0) for the dataset; the units
+    still to compute (see `compute_chunk`): single points, or with ``follow`` the runs of
+    unfinished consecutive points of each line, started from the finished point before the run."""
+    have = {p.stem for p in folder.glob("*.json")}
+    grid, units, resumed = [], [], 0
+    for line in spec.lines():
+        prev_key, run, carried = None, [], None
+        for idx in line:
+            U, eta, sigma, q0 = spec.point(idx)
+            key = point_key(shash, U, eta, sigma, q0, prev_key if spec.follow else None)
+            grid.append((idx, key, U, eta, sigma, q0))
+            if key in have:
+                resumed += 1
+                if run:
+                    units.append((carried, run))
+                    run = []
+                rec = _read_point(folder / f"{key}.json") if spec.follow else None
+                carried = carry_from(rec) if rec else None
+            else:
+                run.append((key, U, eta, sigma, q0))
+            prev_key = key
+        if run:
+            units.append((carried, run))
+    order = {idx: k for k, idx in enumerate(spec.points_order())}
+    grid.sort(key=lambda row: order[row[0]])
+    return grid, units, resumed
+
+
+def _write_point(folder: Path, key: str, rec: dict) -> None:
+    """One point file, atomically (temporary file + rename, no fsync: a crash loses at most the
+    point being written, which a rerun computes again)."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{key}.", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            json.dump(rec, fh, allow_nan=False)
+        os.replace(tmp, folder / f"{key}.json")
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def _read_point(path: Path):
+    try:
+        with open(path, encoding="utf-8") as fh:
+            return json.load(fh)
+    except (OSError, ValueError):
+        return None
+
+
+class _Progress:
+    """Points done, rate and time left, at most once a second (and at the end)."""
+
+    def __init__(self, total: int, resumed: int, log):
+        self.total, self.resumed, self.log = total, resumed, log
+        self.done = 0
+        self.t0 = time.perf_counter()
+        self.last = -math.inf
+
+    def start(self) -> None:
+        """The task phase begins (after the cluster's start-up): the rate counts from here."""
+        self.t0 = time.perf_counter()
+
+    def step(self, n: int = 1) -> None:
+        self.done += n
+        now = time.perf_counter()
+        if self.log is None or (now - self.last < 1.0 and self.resumed + self.done < self.total):
+            return
+        self.last = now
+        rate = self.done / max(now - self.t0, 1e-9)
+        left = self.total - self.resumed - self.done
+        self.log(f"sweep: {self.resumed + self.done}/{self.total} points ({self.resumed} resumed), "
+                 f"{rate:.1f} points/s, ~{left / rate if rate > 0 else math.inf:.0f} s left")
+
+
+def _chunks(items: list, size: int) -> list:
+    """Tasks of about ``size`` points, strided through the grid: neighbouring points cost alike
+    (a slow corner of the grid, e.g. the bi-modal region of Fig. 6, is spread over all tasks)."""
+    n = max(1, math.ceil(len(items) / size))
+    return [items[k::n] for k in range(n)]
+
+
+def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler: str | None = None,
+              chunk: int | None = None, log=None, cluster_kwargs: dict | None = None,
+              on_client=None) -> dict:
+    """Run a sweep into ``out_dir`` (points/, sweep.nc, sweep.json); returns the summary.
+
+    ``workers``: LocalCluster worker processes (default: one per core; 0: serial in this process);
+    ``scheduler``: the address of an existing Dask scheduler (then ``workers`` is ignored);
+    ``chunk``: units per task, a unit being a point, or with ``follow`` a line (default: about eight
+    tasks per worker, at most 16 points each; with ``follow`` one line per task);
+    ``on_client``: called with the Dask client once the tasks are submitted (tests)."""
+    from autocable.spec import load_model
+    model = load_model(spec.model)
+    out = Path(out_dir)
+    folder = out / "points"
+    folder.mkdir(parents=True, exist_ok=True)
+    shash = sweep_hash(spec, model)
+    grid, todo, resumed = _plan(spec, shash, folder)
+    progress = _Progress(len(grid), resumed, log)
+    if log:
+        log(f"sweep {spec.path.name}: {len(grid)} points, method {spec.method}"
+            + (f", following {spec.follow} {spec.direction}" if spec.follow else "")
+            + f"; {resumed} already computed (resumed), {len(grid) - resumed} to compute")
+    t0 = time.perf_counter()
+    where = {"mode": "serial"}
+    sink = _Sink(folder, progress, log)
+    if todo and (workers == 0 and scheduler is None):
+        _warm(model, spec.method)
+        where["startup_seconds"] = time.perf_counter() - t0
+        t_tasks, cpu0 = time.perf_counter(), time.process_time()
+        progress.start()
+        for unit in todo:
+            for k, rec in compute_chunk(model, spec.method, spec.max_time, [unit], bool(spec.follow)):
+                sink.take(k, rec)
+        where["compute_seconds"] = time.perf_counter() - t_tasks
+        where["cpu_seconds"] = time.process_time() - cpu0
+        where["compute_points_per_second"] = (sink.computed + len(sink.failed)) / where["compute_seconds"]
+    elif todo:
+        where = _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs or {}, on_client)
+    computed = sink.computed
+    wall = time.perf_counter() - t0
+    ds = assemble(spec, model, grid, folder, shash)
+    tmp = out / ".sweep.nc.tmp"
+    ds.to_netcdf(tmp, engine="scipy")
+    os.replace(tmp, out / "sweep.nc")
+    counts = {name: int(np.sum(ds["response"].values == k)) for k, name in enumerate(RESPONSE_CLASSES)}
+    summary = {"sweep": str(spec.path), "method": spec.method, "points": len(grid), "resumed": resumed,
+               "computed": computed, "missing": int(np.sum(ds["response"].values == NOT_COMPUTED)),
+               "failed": sink.failed,
+               "wall_seconds": wall, "points_per_second": computed / wall if wall > 0 and computed else None,
+               "responses": counts, "where": where, "sweep_hash": shash,
+               "dataset": str(out / "sweep.nc")}
+    atomic_write_json(out / "sweep.json", summary)
+    return summary
+
+
+def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs, on_client):
+    import logging
+
+    from dask.distributed import Client, LocalCluster, as_completed
+    cluster = None
+    t_start = time.perf_counter()
+    if scheduler:
+        client = Client(scheduler)
+        where = {"mode": "scheduler", "address": scheduler}
+    else:
+        n = workers if workers else (os.cpu_count() or 1)
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                               silence_logs=logging.ERROR, **cluster_kwargs)
+        client = Client(cluster)
+        where = {"mode": "LocalCluster", "workers": n}
+    try:
+        nw = max(len(client.scheduler_info().get("workers", {})), 1)
+        # units per task: single points (about 8 tasks per worker, at most 16 points each), or
+        # with follow one line (its points depend on each other) unless ``chunk`` says more
+        size = chunk or (1 if spec.follow else max(1, min(16, math.ceil(len(todo) / (8 * nw)))))
+        where["chunk"] = size
+        # Every worker derives the model and loads the compiled integrators before the clock of
+        # the tasks starts (a worker that joins later does it in its first task).
+        client.run(_warm, model, spec.method)
+        where["startup_seconds"] = time.perf_counter() - t_start
+        cpu0 = client.run(time.process_time)
+        t_tasks, own0 = time.perf_counter(), time.process_time()
+        sink.progress.start()
+        futures = [client.submit(compute_chunk, model, spec.method, spec.max_time, part, bool(spec.follow),
+                                 pure=False)
+                   for part in _chunks(todo, size)]
+        if on_client is not None:
+            on_client(client)
+        for fut in as_completed(futures):
+            for key, rec in fut.result():
+                sink.take(key, rec)
+            fut.release()
+        where["compute_seconds"] = time.perf_counter() - t_tasks
+        where["compute_points_per_second"] = (sink.computed + len(sink.failed)) / where["compute_seconds"]
+        # CPU time the workers got during the task phase (a restarted worker's is partial): on a
+        # machine shared with other jobs this, not the worker count, bounds the throughput
+        cpu1 = client.run(time.process_time)
+        where["cpu_seconds"] = sum(v - cpu0.get(k, 0.0) for k, v in cpu1.items())
+        # this process: the client, and the scheduler of a LocalCluster (Dask's overhead)
+        where["client_cpu_seconds"] = time.process_time() - own0
+        where["worker_pids"] = sorted({p for p in client.run(os.getpid).values()})
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    return where
+
+
+def assemble(spec: SweepSpec, model, grid, folder: Path, shash: str):
+    """The xarray Dataset of a sweep from its point files (points without a file: NaN, code -1)."""
+    import xarray as xr
+
+    from autocable.scene.provenance import versions
+    shape = spec.shape
+    f = {k: np.full(shape, np.nan) for k in ("a1", "a2", "a1_min", "a1_max", "a2_min", "a2_max", "t_end",
+                                               "wall_seconds")}
+    code = np.full(shape, NOT_COMPUTED, dtype=np.int8)
+    periods = np.zeros(shape, dtype=np.int8)
+    steady = np.zeros(shape, dtype=np.int8)
+    fallback = np.zeros(shape, dtype=np.int8)
+    mre = np.full(shape + (4,), np.nan)
+    mim = np.full(shape + (4,), np.nan)
+    for idx, key, *_ in grid:
+        rec = _read_point(folder / f"{key}.json")
+        if rec is None:
+            continue
+        for k in f:
+            v = rec.get(k)
+            f[k][idx] = np.nan if v is None else v
+        code[idx] = RESPONSE_CLASSES.index(rec["response"])
+        periods[idx], steady[idx], fallback[idx] = rec["periods"], rec["steady"], rec["fallback"]
+        for j, (re, im) in enumerate(rec["multipliers"][:4]):
+            mre[idx + (j,)], mim[idx + (j,)] = re, im
+    dims = AXES + (("start",) if spec.start_axis else ())
+    coords = {"U": ("U", np.array(spec.U)), "eta": ("eta", np.array(spec.eta)),
+              "sigma": ("sigma", np.array(spec.sigma))}
+    if spec.start_axis:
+        coords["start"] = ("start", np.arange(len(spec.starts)))
+        coords["start_q0"] = (("start", "state"), np.array(spec.starts))
+    amp = "half the peak-to-peak of q_k over the steady response (peak modal amplitude = peak displacement / l)"
+    data = {
+        "a1": (dims, f["a1"], {"long_name": "in-plane amplitude a1", "units": "1", "description": amp}),
+        "a2": (dims, f["a2"], {"long_name": "out-of-plane amplitude a2", "units": "1", "description": amp}),
+        "a1_min": (dims, f["a1_min"], {"long_name": "envelope of a1 over single forcing periods: min"}),
+        "a1_max": (dims, f["a1_max"], {"long_name": "envelope of a1 over single forcing periods: max"}),
+        "a2_min": (dims, f["a2_min"], {"long_name": "envelope of a2 over single forcing periods: min"}),
+        "a2_max": (dims, f["a2_max"], {"long_name": "envelope of a2 over single forcing periods: max"}),
+        "response": (dims, code, {"long_name": "response class", "flag_values": np.arange(-1, 5, dtype=np.int8),
+                                  "flag_meanings": " ".join(["not_computed"] + [c.replace("-", "_")
+                                                                                for c in RESPONSE_CLASSES]),
+                                  "legend": json.dumps({str(k): c for k, c in enumerate(RESPONSE_CLASSES)}
+                                                       | {str(NOT_COMPUTED): "not computed"})}),
+        "periods": (dims, periods, {"long_name": "period of the orbit in forcing periods (0: none)"}),
+        "steady": (dims, steady, {"long_name": "1 when a steady state (or its envelope) was reached"}),
+        "fallback": (dims, fallback, {"long_name": "1 when transient integration decided (shooting)"}),
+        "floquet_re": (dims + ("multiplier",), mre, {"long_name": "Floquet multipliers of the period-k map, "
+                                                     "real part (sorted by modulus, largest first; NaN: none)"}),
+        "floquet_im": (dims + ("multiplier",), mim, {"long_name": "Floquet multipliers, imaginary part"}),
+        "t_end": (dims, f["t_end"], {"long_name": "time integrated (t*)"}),
+        "wall_seconds": (dims, f["wall_seconds"], {"long_name": "compute time of the point", "units": "s"}),
+    }
+    with np.errstate(invalid="ignore"):
+        data["max_multiplier_modulus"] = (dims, np.nanmax(np.hypot(mre, mim), axis=-1, initial=-np.inf),
+                                          {"long_name": "max |Floquet multiplier| (< 1: stable)"})
+    data["max_multiplier_modulus"][1][~np.isfinite(data["max_multiplier_modulus"][1])] = np.nan
+    vers = versions()
+    for pkg in ("dask", "distributed", "xarray"):
+        try:
+            from importlib import metadata
+            vers[pkg] = metadata.version(pkg)
+        except Exception:  # noqa: BLE001 - provenance only
+            vers[pkg] = "not installed"
+    attrs = {"title": spec.title, "Conventions": "CF-1.8", "source": "autocable sweep (eq. (21) of Luongo & "
+             "Zulli 2012, Nonlinear Dyn.)", "method": spec.method, "model_file": str(spec.model),
+             "model_name": model.name, "model_hash": model.content_hash(), "sweep_hash": shash,
+             "sweep_file": str(spec.path), "sweep_text": spec.text,
+             "settings": json.dumps({"max_time": spec.max_time, "q0": list(spec.starts[0]) if not spec.start_axis
+                                     else None, "point_format": POINT_FORMAT, "follow": spec.follow,
+                                     "direction": spec.direction if spec.follow else None}),
+             "versions": json.dumps(vers),
+             "diverged_amplitudes": "NaN where response = diverged (the amplitudes are unbounded)"}
+    return xr.Dataset(data, coords=coords, attrs=attrs)

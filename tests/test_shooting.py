@@ -1,0 +1,210 @@
+"""Steady responses of eq. (21) by shooting (issue 16, item 1): the same steady states as transient
+integration, the Floquet multipliers of `floquet21`, and the response classes."""
+import json
+import math
+from itertools import permutations
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from autocable.cli import main
+from autocable.methods.integration.floquet21 import floquet_multipliers, multipliers_of
+from autocable.methods.integration.ode21 import Ode21Integrator
+from autocable.methods.integration.shooting import RESPONSE_CLASSES, ShootingSolver, periodic_half_range
+from autocable.model.derive import derive
+from autocable.model.equations import Term, TwoModeODE
+from autocable.spec import load_model
+
+SAMPLE = Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"
+
+
+@pytest.fixture(scope="module")
+def sample():
+    return derive(load_model(SAMPLE))
+
+
+@pytest.fixture(scope="module")
+def solver(sample):
+    return ShootingSolver(sample.ode)
+
+
+@pytest.fixture(scope="module")
+def transient(sample):
+    return Ode21Integrator(sample.ode, engine="compiled")
+
+
+def matched(a, b) -> float:
+    """max |a_i - b_pi(i)| over the best pairing (4! pairings)."""
+    return float(min(np.max(np.abs(np.asarray(a) - np.asarray(b)[list(p)])) for p in permutations(range(len(b)))))
+
+
+# Fig. 5a (U = 0, eta* = 8.2e-5: mono-modal) and Fig. 6 (U = 0, eta* = 1.4e-3; sigma = -0.02 lies on
+# a bi-modal branch, a2 > 0, reached from rest with the q2 seed only after the planar orbit's
+# pitchfork instability has grown out).
+CASES = [(0.0, 8.2e-5, -0.02), (0.0, 8.2e-5, 0.0), (0.0, 8.2e-5, 0.03),
+         (0.0, 1.4e-3, -0.02), (0.0, 1.4e-3, 0.03)]
+
+
+@pytest.mark.parametrize("U,eta,sigma", CASES)
+def test_shooting_finds_the_transient_steady_state(solver, transient, sample, U, eta, sigma):
+    """Shooting and transient integration (the judge, from the same start) report the same period-1
+    response: a1, a2 to 1e-6 of its size (both measure the orbit on the same 64 phases per period;
+    the transient's own steady test is 1e-8 relative), and the multipliers equal those `floquet21`
+    computes independently (scipy DOP853 on lambdified variational equations) to 1e-8."""
+    r = solver.steady(U, eta, sigma)
+    q = transient.simulate(U, eta, sigma)
+    assert q.steady and q.periodic
+    assert r.response == "period-1" and r.periods == 1 and r.steady and r.periodic
+    size = max(q.a1, q.a2)
+    assert abs(r.a1 - q.a1) <= 1e-6 * size
+    assert abs(r.a2 - q.a2) <= 1e-6 * size
+    assert r.residual < 1e-10
+    fl = floquet_multipliers(sample, U, eta, sigma, r.state0)
+    assert fl.residual < 1e-9                    # floquet21 agrees the state is on a period-1 orbit
+    assert matched(r.multipliers, fl.multipliers) < 1e-8
+    assert r.max_modulus < 1.0
+
+
+def test_bimodal_response_of_fig6(solver):
+    """Fig. 6 at sigma = -0.02 (U = 0, eta* = 1.4e-3) is bi-modal: both modes respond at the size of
+    a few 1e-3 (the AME branches III-V of Fig. 6), not the planar orbit the transient passes by."""
+    r = solver.steady(0.0, 1.4e-3, -0.02)
+    assert r.response == "period-1"
+    assert r.a2 > 1e-3 and r.a1 > 1e-3
+
+
+def test_linear_oscillator_closed_form():
+    """A linear forced oscillator (the test system of test_periodic21): shooting lands on the closed-
+    form steady response q1 = Im(Q e^{i Omega t}) to 1e-9 of |Q| and its multipliers are exp(T lambda)
+    to 1e-9."""
+    w1, w2, xi1, xi2, m = 1.02, 0.97, 0.03, 0.011, 0.7
+    terms = (Term(1, (1, 0, 0, 0), (0, 0, 0), 0, w1**2, "linear"),
+             Term(1, (0, 0, 1, 0), (0, 0, 0), 0, 2 * xi1 * w1, "damping"),
+             Term(1, (0, 0, 0, 0), (0, 0, 1), 0, -m, "inertia"),
+             Term(2, (0, 1, 0, 0), (0, 0, 0), 0, w2**2, "linear"),
+             Term(2, (0, 0, 0, 1), (0, 0, 0), 0, 2 * xi2 * w2, "damping"))
+    ode = TwoModeODE(terms=terms, omega1=w1, omega2=w2, xi_s=xi1)
+    sigma, eta = 0.013, 1e-3
+    Om = w1 + sigma
+    Q = -m * eta * Om**2 / (w1**2 - Om**2 + 2j * xi1 * w1 * Om)
+    exact = np.array([Q.imag, 0.0, (1j * Om * Q).imag, 0.0])
+    r = ShootingSolver(ode).steady(0.0, eta, sigma)
+    assert r.response == "period-1"
+    assert np.max(np.abs(np.asarray(r.state0) - exact)) < 1e-9 * abs(Q)
+    T = 2 * math.pi / Om
+    expected = multipliers_of(np.diag(np.exp(T * np.linalg.eigvals(ode.linear_matrix(0.0)))))
+    assert matched(r.multipliers, expected) < 1e-9
+    # a1 of a sinusoid is |Q|; 64 samples with parabolic peaks are exact to ~(2 pi / 64)^4 / 100
+    assert r.a1 == pytest.approx(abs(Q), rel=2e-6)
+
+
+def test_periodic_half_range_of_a_sampled_cosine():
+    """The cyclic parabola: a cosine sampled 64 times, its maximum at a sample or half-way between."""
+    n = 64
+    for shift in (0.0, 0.5, 0.25):
+        x = 3.0 * np.cos(2 * math.pi * (np.arange(n) + shift) / n) + 1.0
+        # the parabola through three samples at spacing h misses the peak of A cos by the quartic
+        # Taylor term, at most A h^4 / 24 (h = 2 pi / 64); with shift = 0.5 the minimum's neighbours
+        # wrap around the window's end, which is what the cyclic rule is for
+        assert periodic_half_range(x) == pytest.approx(3.0, abs=3.0 * (2 * math.pi / n) ** 4 / 24)
+
+
+def test_classification_on_known_cases(solver, sample):
+    """rest at eta* = 0 below flutter (U = 0: the only response is q = 0, stable with the linear
+    damping's multipliers exp(T lambda)); period-1 on Fig. 5a; diverged at U* = 1.3 > 1 = U_c
+    (Sect. 3: above the critical wind the trivial equilibrium is unstable and eq. (21) with the
+    sample cable has no bounded response; `Ode21Integrator` agrees)."""
+    rest = solver.steady(0.0, 0.0, 0.0)
+    assert rest.response == "rest"
+    assert max(rest.a1, rest.a2) < 1e-10
+    T = 2 * math.pi / sample.ode.omega1
+    lin = multipliers_of(np.diag(np.exp(T * np.linalg.eigvals(sample.ode.linear_matrix(0.0)))))
+    assert matched(rest.multipliers, lin) < 1e-8
+    assert solver.steady(0.0, 8.2e-5, 0.01).response == "period-1"
+    div = solver.steady(1.3, 8.2e-5, 0.0)
+    assert div.response == "diverged" and math.isinf(div.a1) and not div.steady
+    judge = Ode21Integrator(sample.ode, engine="compiled").simulate(1.3, 8.2e-5, 0.0)
+    assert math.isinf(judge.a1)
+    assert set(RESPONSE_CLASSES) == {"rest", "period-1", "period-2", "quasi-periodic", "diverged"}
+
+
+def _strict(text):
+    def bad(name):
+        raise AssertionError(f"non-strict JSON constant {name}")
+    return json.loads(text, parse_constant=bad)
+
+
+def test_cli_shooting_json_has_the_ode21_keys(capsys):
+    """`simulate --method shooting --json` prints every key of `--method ode21 --json` plus the
+    multipliers and the class, as strict JSON (a diverged response: nulls and a class)."""
+    args = ["simulate", str(SAMPLE), "--U", "0", "--eta", "8.2e-5", "--sigma", "0.02", "--json"]
+    assert main(args) == 0
+    ode21 = _strict(capsys.readouterr().out)
+    assert main(args + ["--method", "shooting"]) == 0
+    shot = _strict(capsys.readouterr().out)
+    assert set(ode21) <= set(shot)
+    assert shot["response"] == "period-1" and shot["method"] == "shooting"
+    assert len(shot["floquet_multipliers"]) == 4
+    assert shot["a1"] == pytest.approx(ode21["a1"], rel=1e-6)
+    assert main(["simulate", str(SAMPLE), "--U", "1.3", "--eta", "8.2e-5", "--json", "--method", "shooting"]) == 0
+    div = _strict(capsys.readouterr().out)
+    assert div["response"] == "diverged" and div["a1"] is None and div["floquet_multipliers"] == []
+
+
+def test_period2_subharmonic_of_a_parametric_oscillator():
+    """A Mathieu-Duffing oscillator, q1'' + 2 zeta w q1' + (w^2 + eta sin(Omega t)) q1 + g q1^3 = 0,
+    at the principal parametric resonance Omega = 2 w (= omega1 + sigma, omega1 = 1): with
+    eta / w^2 = 0.2 above the instability threshold 4 zeta = 0.04 the rest state loses stability
+    through a multiplier -1 and the response is the subharmonic at Omega / 2, period 2T. Shooting
+    classes it period-2, with stable multipliers of the period-2 map, and its a1 equals transient
+    integration's (which reports it not period-1) to 1e-6; the orbit does not repeat after one T."""
+    w, zeta, g = 0.5, 0.01, 100.0
+    terms = (Term(1, (1, 0, 0, 0), (0, 0, 0), 0, w**2, "linear"),
+             Term(1, (0, 0, 1, 0), (0, 0, 0), 0, 2 * zeta * w, "damping"),
+             Term(1, (1, 0, 0, 0), (1, 0, 0), 0, 1.0, "structural"),
+             Term(1, (3, 0, 0, 0), (0, 0, 0), 0, g, "structural"),
+             Term(2, (0, 1, 0, 0), (0, 0, 0), 0, 1.0, "linear"),
+             Term(2, (0, 0, 0, 1), (0, 0, 0), 0, 0.1, "damping"))
+    ode = TwoModeODE(terms=terms, omega1=1.0, omega2=1.0, xi_s=zeta)
+    q0 = (1e-3, 0.0, 0.0, 0.0)
+    solver = ShootingSolver(ode)
+    r = solver.steady(0.0, 0.05, 0.0, q0)
+    assert r.response == "period-2" and r.periods == 2 and not r.periodic
+    assert r.max_modulus < 1.0 and len(r.multipliers) == 4
+    q = Ode21Integrator(ode, engine="compiled").simulate(0.0, 0.05, 0.0, q0)
+    assert q.steady and not q.periodic
+    assert r.a1 == pytest.approx(q.a1, rel=1e-6)
+    y1, _ = solver.flow(0.0, 0.05, 1.0, r.state0, 1)
+    assert np.linalg.norm(y1 - np.asarray(r.state0)) > 0.5 * np.linalg.norm(r.state0)
+
+
+def test_modulated_response_is_not_taken_for_an_orbit(solver, sample):
+    """Fig. 9's setting near resonance (U = 0.7, eta* = 1.4e-3, sigma = 0.01): the period-1 orbit
+    Newton finds there is unstable through a complex pair (a torus), and transient integration from
+    rest never settles on a periodic response (its envelope keeps a wide band). Shooting must not
+    report that orbit: it classes the point quasi-periodic, hands over to integration, and
+    reports the modulation band."""
+    r = solver.steady(0.7, 1.4e-3, 0.01, max_time=20000.0)
+    assert r.response == "quasi-periodic" and r.fallback and not r.periodic
+    assert any(a.get("torus") for a in r.details["attempts"])
+    assert r.a1_max - r.a1_min > 0.1 * r.a1_max
+    q = Ode21Integrator(sample.ode, engine="compiled").simulate(0.7, 1.4e-3, 0.01, max_time=20000.0)
+    assert not q.periodic and q.a1_max - q.a1_min > 0.1 * q.a1_max
+
+
+def test_neighbour_start_follows_integration_not_a_coexisting_orbit(solver, transient):
+    """Started from a neighbouring point's orbit (Fig. 7's setting, U = 0.7, eta* = 4.1e-4: the
+    resonant orbit at sigma = 0, then sigma = 0.01), Newton converges to a stable large orbit that
+    still exists at sigma = 0.01, while integration from that start falls to the small response
+    (the hysteresis of the resonance). Shooting reports what integration reaches (the judge
+    rejects the other attractor), to 1e-6."""
+    near = solver.steady(0.7, 4.1e-4, 0.0)
+    y = near.state0
+    q0 = (y[0], y[2], y[1] + 1e-6, y[3])          # (q1, q1', q2, q2') with the q2 seed
+    r = solver.steady(0.7, 4.1e-4, 0.01, q0, guess=y)
+    q = transient.simulate(0.7, 4.1e-4, 0.01, q0)
+    assert q.steady and q.periodic and q.a1 < 0.2 * near.a1        # integration jumps down
+    assert r.response == "period-1"
+    assert abs(r.a1 - q.a1) <= 1e-6 * max(q.a1, q.a2) and abs(r.a2 - q.a2) <= 1e-6 * max(q.a1, q.a2)
+    assert any(a.get("not_attracting") for a in r.details["attempts"])
