@@ -216,7 +216,7 @@ def cmd_simulate(args) -> int:
 
 def _simulate_shooting(args, d, q0) -> int:
     """`autocable simulate --method shooting`: the steady response of eq. (21) by Newton on the
-    stroboscopic map, with its Floquet multipliers and class (issue 16)."""
+    stroboscopic map, with its Floquet multipliers and class."""
     from autocable.methods.integration.shooting import ShootingSolver, response_json
     if args.csv:
         raise SpecError("--csv", "", "--method shooting computes no time history; use --method ode21 "
@@ -406,7 +406,7 @@ def cmd_failure_map(args) -> int:
 # autocable run
 # ------------------------------------------------------------------------------------------------
 def cmd_sweep(args) -> int:
-    """`autocable sweep SWEEP.toml --out DIR`: a grid of steady responses as one dataset (issue 16)."""
+    """`autocable sweep SWEEP.toml --out DIR`: a grid of steady responses as one dataset."""
     from autocable.scene.sweep_schema import load_sweep
     from autocable.studies.sweep import run_sweep
     spec = load_sweep(args.sweep)

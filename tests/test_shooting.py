@@ -1,4 +1,4 @@
-"""Steady responses of eq. (21) by shooting (issue 16, item 1): the same steady states as transient
+"""Steady responses of eq. (21) by shooting: the same steady states as transient
 integration, the Floquet multipliers of `floquet21`, and the response classes."""
 import json
 import math

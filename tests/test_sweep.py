@@ -1,4 +1,4 @@
-"""Sweeps as data on Dask (issue 16, items 2-3): the sweep file, the dataset, Dask against serial,
+"""Sweeps as data on Dask: the sweep file, the dataset, Dask against serial,
 resuming after a kill, and the build lock that lets workers share the compiled-model cache."""
 import json
 import os

@@ -1,11 +1,11 @@
-"""`autocable bench shooting` and `autocable bench sweep` (issue 16): speed targets, measured here.
+"""`autocable bench shooting` and `autocable bench sweep`: speed targets, measured here.
 
 ``shooting``: the steady response of eq. (21) by shooting (`methods.integration.shooting`) against
 transient integration to the steady state (`Ode21Integrator.simulate`, the compiled DOP853, the
 brute-force reference of the ladder) at the (U*, eta*) of Figs. 5-10 and 11 detunings each. Both
 are timed per point (best of ``repeats`` after a warm-up) and checked against a tighter transient
 reference (rtol 1e-12, steady to 1e-11): the speed-up is quoted at the accuracy both reach, with
-each one's largest error. Target (issue 16): shooting at least 20x faster.
+each one's largest error. Target: shooting at least 20x faster.
 
 ``sweep``: the throughput of `autocable sweep` (points per second of the task phase, after the
 workers have loaded the model) with 1 and 2 LocalCluster workers, and the scaling 2 workers / 1
@@ -113,10 +113,10 @@ def _neighbour_sweeps(model_path: str, repeats: int, say) -> list:
     from autocable.methods.integration.ode21 import DEFAULT_Q0, Ode21Integrator
     from autocable.methods.integration.sweeps import sweep
     from autocable.spec import load_model
-    from autocable.studies.sweep import _context, carry_from, compute_point
+    from autocable.studies.sweep import model_context, carry_from, compute_point
     model = load_model(model_path)
-    _context(model, "shooting")
-    transient = Ode21Integrator(_context(model, "shooting")[0].ode, engine="compiled")
+    model_context(model, "shooting")
+    transient = Ode21Integrator(model_context(model, "shooting")[0].ode, engine="compiled")
     out = []
     for U, eta in CASES:
         best_s = best_t = math.inf

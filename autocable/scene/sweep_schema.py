@@ -1,4 +1,4 @@
-"""Sweep files (issue 16, item 2): a grid of parameter points of eq. (21) (or its AME) as data.
+"""Sweep files: a grid of parameter points of eq. (21) (or its AME) as data.
 
     title = "Fig. 5a, brute force"            # optional text
     model = "../models/luongo_zulli_2012.toml" # relative to the sweep file, or absolute

@@ -1,4 +1,4 @@
-"""Brute-force maps of eq. (21) over (U*, eta*, sigma) as one dataset, on Dask (issue 16, items 2-3).
+"""Brute-force maps of eq. (21) over (U*, eta*, sigma) as one dataset, on Dask.
 
 What it computes. At every point of a sweep file's grid (`autocable.scene.sweep_schema`) the steady
 response reached from the start q0 by one method: ``shooting`` (`methods.integration.shooting`:
@@ -16,7 +16,7 @@ Where. Points are grouped into small tasks and run on a ``dask.distributed`` clu
 `LocalCluster` of one single-threaded worker process per core by default (``workers``), or an
 existing scheduler (``scheduler`` address); ``workers=0`` runs them in this process, in order (the
 serial reference). A worker derives eq. (21) and loads the compiled integrators once per model
-(`_context`); the integrators come from the content-hashed cache, whose builds are serialised by a
+(`model_context`); the integrators come from the content-hashed cache, whose builds are serialised by a
 file lock (`codegen.cintegrate`, `codegen.ckernel._lock`): two workers of one machine never build
 the same library into the same place at once, the second loads what the first built, and a worker
 on another machine with its own cache builds its own.
@@ -57,7 +57,7 @@ REST_FLOOR = 1e-10
 # -- one point ----------------------------------------------------------------------------------
 
 @functools.lru_cache(maxsize=4)
-def _context(model, method: str):
+def model_context(model, method: str):
     """(derivation, solver) of one model on this worker, built once per process. ``model`` is the
     `ModelSpec` (frozen, hashable): it travels to the workers by value, so a worker on another
     machine needs no copy of the model file."""
@@ -103,7 +103,7 @@ def compute_point(model, method: str, U: float, eta: float, sigma: float, q0, ma
     """The record of one grid point (plain JSON values; non-finite numbers are None). ``carried``:
     a neighbour's state (q1, q2, q1', q2') at forcing phase 0 (a sweep with ``follow``): shooting
     tries Newton from it first, and both methods integrate from it (plus q0) otherwise."""
-    d, solver = _context(model, method)
+    d, solver = model_context(model, method)
     start = time.perf_counter()
     if carried is not None:
         q0 = _carried_start(carried, q0)
@@ -147,7 +147,7 @@ def compute_point(model, method: str, U: float, eta: float, sigma: float, q0, ma
 
 
 def _warm(model, method: str) -> int:
-    _context(model, method)
+    model_context(model, method)
     return os.getpid()
 
 

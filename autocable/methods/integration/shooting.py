@@ -1,7 +1,7 @@
-"""Steady responses of eq. (21) by shooting: Newton on the stroboscopic map (issue 16, item 1).
+"""Steady responses of eq. (21) by shooting: Newton on the stroboscopic map.
 
-What it solves. Eq. (21) is forced by f = sin(Omega t), Omega = omega1 + sigma (Sect. 4; ERRATA
-conventions as in `ode21`), so a period-1 response is a fixed point of the period map
+What it solves. Eq. (21) is forced by f = sin(Omega t), Omega = omega1 + sigma (Sect. 4; docs/model.md, C2;
+as in `ode21`), so a period-1 response is a fixed point of the period map
 P(y) = phi_T(y), T = 2 pi / Omega, and a period-2 response a fixed point of P o P that is not one of
 P. Newton on G(y) = phi_kT(y) - y (k = 1, 2) with G' = M - I, M = Phi(kT) the fundamental matrix of
 the variational equations
@@ -39,7 +39,7 @@ envelope, or no steady state within the time limit, which `message` says), ``div
 response).
 
 Amplitudes. a_k as everywhere in autocable: half the peak-to-peak of q_k, sampled 64 times per
-forcing period from forcing phase 0 with parabolic peaks (`ode21._half_range`), over one period
+forcing period from forcing phase 0 with parabolic peaks (`ode21.half_range`), over one period
 (period-1) or two (period-2). The samples fall on the same phases as `Ode21Integrator.simulate`'s
 window, so both report the same number for the same orbit.
 """
@@ -52,7 +52,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from autocable.methods.integration.floquet21 import STABILITY_MARGIN, multipliers_of
-from autocable.methods.integration.ode21 import (DEFAULT_Q0, DIVERGED, Ode21Integrator, _half_range,
+from autocable.methods.integration.ode21 import (DEFAULT_Q0, DIVERGED, Ode21Integrator, half_range,
                                                  _stopped)
 from autocable.model.symbolic import PARAMETERS, STATE, T, first_order_rhs, parameter_values
 
@@ -263,7 +263,7 @@ class ShootingSolver:
         # one forcing period of a period-2 orbit is not periodic: ode21's window rule, extended by
         # a quarter period either side so that its extremes are interior
         ext = np.concatenate([w[-n // 4:], w, w[:n // 4 + 1]])
-        per = [[_half_range(ext[i * n:(i + 1) * n + n // 2 + 1, k]) for i in range(periods)] for k in (0, 1)]
+        per = [[half_range(ext[i * n:(i + 1) * n + n // 2 + 1, k]) for i in range(periods)] for k in (0, 1)]
         return amps, [(min(p), max(p)) for p in per]
 
     def _attracts(self, U, eta, Omega, y_star, y_tr, periods: int, mu_max: float) -> bool:
