@@ -1,0 +1,159 @@
+"""The declared search space of the calibration (issue 15): the readings the paper leaves open that
+change the wind terms, each against a closed form or an independent computation, and the limits in
+which the readings must agree."""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from autocable.model.aero import exact_load, expand_load, expand_load_jet
+from autocable.model.derive import derive
+from autocable.model.modes import linear_modes
+from autocable.model.statics import cable_statics
+from autocable.spec import SpecError, load_model
+
+SAMPLE = "models/luongo_zulli_2012.toml"
+
+
+@pytest.fixture(scope="module")
+def spec():
+    return load_model(SAMPLE)
+
+
+def _variant(spec, *, twist_ends=None, load_axes=None, convention=None, yaw=None, theta0=None):
+    cable = spec.cable if twist_ends is None else replace(spec.cable, twist_ends=twist_ends)
+    aero = spec.aero
+    if load_axes is not None:
+        aero = replace(aero, load_axes=load_axes)
+    if convention is not None:
+        aero = replace(aero, angle_convention=convention)
+    if yaw is not None:
+        aero = replace(aero, yaw_deg=yaw, rivulet_angle_deg=theta0)
+    return replace(spec, cable=cable, aero=aero)
+
+
+def test_defaults_reproduce_the_sample(spec):
+    """The new fields' defaults are the readings the sample always used."""
+    assert spec.cable.twist_ends == "natural"
+    assert spec.aero.load_axes == "reference"
+
+
+@pytest.mark.parametrize("field,text", [
+    ("[cable]\ntwist_ends", "twist_ends = \"clamped\""),
+    ("[aero]\nload_axes", "load_axes = \"current\""),
+])
+def test_bad_reading_is_one_line(tmp_path, field, text):
+    src = open(SAMPLE).read()
+    section, key = field.split("\n")
+    src = src.replace(section + "\n", section + "\n" + text + "\n", 1)
+    path = tmp_path / "bad.toml"
+    path.write_text(src)
+    with pytest.raises(SpecError) as err:
+        load_model(path)
+    msg = str(err.value)
+    assert "\n" not in msg and str(path) in msg and key in msg
+    assert ("restrained" in msg) if key == "twist_ends" else ("twisted" in msg)
+
+
+def test_restrained_twist_closed_form(spec):
+    """theta(0) = theta(1) = 0: the slaved twist is B sin(pi s) with B = -(1 + chi) delta pi^2 /
+    (chi pi^2 + delta^2) (about -0.19 for the sample), and it solves the corrected eq. (19)_3
+    chi theta'' - delta^2 theta + (1 + chi) delta w'' = 0 (checked by finite differences)."""
+    st = cable_statics(spec.cable)
+    nat, res = linear_modes(st, "natural"), linear_modes(st, "restrained")
+    d, chi = st.delta, st.chi
+    B = -(1 + chi) * d * math.pi**2 / (chi * math.pi**2 + d**2)
+    assert res.twist_B == pytest.approx(B, rel=1e-14) and res.twist_C == 0.0
+    assert res.twist_B == pytest.approx(-0.19, abs=0.01)
+    th = res.shapes["theta2"].evaluate
+    assert abs(th(np.array([0.0]))[0]) < 1e-15 and abs(th(np.array([1.0]))[0]) < 1e-15
+    s, h = np.linspace(0.05, 0.95, 19), 1e-4
+    d2 = (th(s + h) - 2 * th(s) + th(s - h)) / h**2
+    residual = chi * d2 - d**2 * th(s) + (1 + chi) * d * (-math.pi**2 * np.sin(math.pi * s))
+    assert np.max(np.abs(residual)) < 1e-6 * (1 + chi) * d * math.pi**2
+    # The natural twist (eq. 20 as printed) is about -2 pi / delta at mid-span: the issue's -477.
+    mid = nat.shapes["theta2"].evaluate(np.array([0.5]))[0]
+    assert mid == pytest.approx(-2 * math.pi / d, rel=0.02)
+    assert abs(mid / res.shapes["theta2"].evaluate(np.array([0.5]))[0]) > 2500
+
+
+def test_restrained_twist_coefficient_by_quadrature(spec):
+    """k21 (the twist-carried stiffness of q2 in the in-plane eq. 21) with restrained twist, against
+    an independent adaptive quadrature of its definition -K b2_theta int(phi1 theta2) / (m* int phi1^2)."""
+    sv = _variant(spec, twist_ends="restrained")
+    d = derive(sv, use_cache=False)
+    st = d.statics
+    modes = linear_modes(st, "restrained")
+    b = modes.b
+    phi1 = lambda s: (math.cos(b * (s - 0.5)) - math.cos(b / 2)) / (1 - math.cos(b / 2))
+    theta = lambda s: modes.twist_B * math.sin(math.pi * s)
+    aero = expand_load(sv.aero.lift, sv.aero.drag, st.alpha, d.beta, d.theta0, sv.aero.angle_convention)
+    num = quad(lambda s: phi1(s) * theta(s), 0, 1, epsabs=1e-15, epsrel=1e-13)[0]
+    den = quad(lambda s: phi1(s) ** 2, 0, 1, epsabs=1e-15, epsrel=1e-13)[0]
+    k21 = -d.aero_scale * aero.b2[(1, 0, 0)] * num / (st.m_star * den)
+    assert d.ode.coefficients()["k21"] == pytest.approx(k21, rel=1e-9)
+
+
+def test_readings_agree_without_wind(spec):
+    """At U = 0 there is no load, and the twist enters eq. (21) only through the load: every reading
+    gives the same non-aerodynamic terms (eq. 21 at U = 0) to round-off."""
+    base = derive(spec)
+    ref = {(t.equation, t.powers, t.forcing, t.u_power): t.coefficient for t in base.ode.terms
+           if t.origin != "aerodynamic"}
+    for kw in ({"twist_ends": "restrained"}, {"load_axes": "twisted"}, {"convention": "eq12"},
+               {"twist_ends": "restrained", "load_axes": "twisted"}):
+        other = derive(_variant(spec, **kw), use_cache=False)
+        got = {(t.equation, t.powers, t.forcing, t.u_power): t.coefficient for t in other.ode.terms
+               if t.origin != "aerodynamic"}
+        assert got.keys() == ref.keys(), kw
+        for k, v in ref.items():
+            assert got[k] == pytest.approx(v, rel=1e-12, abs=1e-300), (kw, k)
+
+
+def test_twisted_axes_linear_term_is_the_mean_load():
+    """On the twisted axes b2' = cos(theta) b2 + sin(theta) b3, so d b2'/d theta at rest is
+    d b2 / d theta + b3(0) and d b3'/d theta = d b3 / d theta - b2(0): the mean load of eq. (11)
+    at the static state, computed here without expansion."""
+    L, D = (-0.48, 0.84, 4.69, 0.86), (1.25, -0.65, -0.08, 6.81)
+    a, bta, th0 = math.radians(-35.2), math.radians(10.0), math.radians(-20.0)
+    for conv in ("eq12", "reversed"):
+        ref = expand_load(L, D, a, bta, th0, conv, "reference")
+        tw = expand_load(L, D, a, bta, th0, conv, "twisted")
+        b2_0, b3_0 = exact_load(L, D, a, bta, th0, 0.0, 0.0, 0.0, conv)
+        assert tw.b2[(1, 0, 0)] - ref.b2[(1, 0, 0)] == pytest.approx(float(b3_0), rel=1e-12)
+        assert tw.b3[(1, 0, 0)] - ref.b3[(1, 0, 0)] == pytest.approx(-float(b2_0), rel=1e-12)
+        # velocity terms carry no theta: identical on both axes
+        assert tw.b2[(0, 1, 0)] == pytest.approx(ref.b2[(0, 1, 0)], rel=1e-13)
+
+
+@pytest.mark.parametrize("conv", ["eq12", "reversed"])
+@pytest.mark.parametrize("axes", ["reference", "twisted"])
+def test_jet_expansion_equals_sympy(conv, axes):
+    """The screen's truncated-Taylor expansion of eq. (14) against sympy's differentiation."""
+    L, D = (-0.48, 0.84, 4.69, 0.86), (1.25, -0.65, -0.08, 6.81)
+    args = (L, D, math.radians(-35.2), math.radians(-22.0), math.radians(31.0), conv, axes)
+    a, b = expand_load(*args), expand_load_jet(*args)
+    scale = max(abs(v) for v in a.b2.values())
+    for m in a.b2:
+        assert b.b2[m] == pytest.approx(a.b2[m], abs=1e-12 * scale)
+        assert b.b3[m] == pytest.approx(a.b3[m], abs=1e-12 * scale)
+    assert b.static_angle == a.static_angle
+
+
+def test_cubic_load_against_exact_for_small_arguments():
+    """The cubic expansion's error against the exact quasi-steady load falls as the 4th power of
+    the arguments (an independent check of both): halving theta, vdot, wdot divides it by ~16."""
+    L, D = (-0.48, 0.84, 4.69, 0.86), (1.25, -0.65, -0.08, 6.81)
+    a, bta, th0 = math.radians(-35.2), math.radians(-6.57), math.radians(-13.88)
+    exp = expand_load_jet(L, D, a, bta, th0, "reversed")
+    b2_0 = exact_load(L, D, a, bta, th0, 0.0, 0.0, 0.0, "reversed")[0]
+    errs = []
+    for h in (0.02, 0.01):
+        x = (h, 0.7 * h, -0.5 * h)
+        cubic = float(b2_0) + sum(c * x[0]**i * x[1]**j * x[2]**k for (i, j, k), c in exp.b2.items())
+        errs.append(abs(cubic - float(exact_load(L, D, a, bta, th0, *x, "reversed")[0])))
+    assert errs[0] / errs[1] == pytest.approx(16, rel=0.1)
