@@ -19,6 +19,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
+from autocable.paper import targets as targets_mod
+
 __all__ = ["SceneData", "load_scene_data", "overlay_comparison", "exact_stable", "study_bound", "build_report", "write_report",
            "stage_seconds", "FIGURE_STAGES", "PAPER_FIGURES", "STUDY_MAX_ERROR", "REASONS", "REPORT_MD"]
 
@@ -957,6 +959,39 @@ def _main_result(scenes: dict) -> list[str]:
     return lines
 
 
+def targets_file(scenes: dict) -> Path | None:
+    """The targets file of the model the scenes used: ``<model>.targets.toml`` beside the model
+    file named in run.json's provenance (None if there is none)."""
+    for d in scenes.values():
+        model = d.provenance().get("model") if d.ok else None
+        if model:
+            path = Path(model).with_suffix("").with_suffix(".targets.toml")
+            return path if path.is_file() else None
+    return None
+
+
+def _targets_summary(scenes: dict) -> list[str]:
+    """The statements of the targets file decided by `autocable.paper.targets` (the code the
+    calibration uses too), and the paper's printed numbers against the model."""
+    path = targets_file(scenes)
+    if path is None:
+        return []
+    targets = targets_mod.load_targets(path)
+    verdicts = targets_mod.decide_statements(targets, scenes)
+    numbers = targets_mod.decide_numbers(targets, targets_mod.scene_numbers(scenes))
+    c = targets_mod.count_shown(verdicts)
+    lines = ["", "## The statements of Sect. 5 and the paper's numbers", "",
+             f"Decided for the {len(verdicts)} statements of {path.name} (the same code as "
+             f"`autocable calibrate`): **{c['yes']} yes**, {c['partly']} partly, {c['no']} no "
+             "(the tables per figure below). The numbers Sect. 5 prints:", "",
+             "| number | paper | here | shown |", "|---|---|---|---|"]
+    by_id = {t.id: t for t in targets}
+    for v in numbers:
+        t = by_id[v.id]
+        lines.append(f"| {t.id} ({t.quantity}) | {t.value:g} ± {t.tolerance:g} | {_g(v.value, 7)} | {v.shown} |")
+    return lines
+
+
 def build_report(out_dir: str | Path) -> str:
     """The text of report.md for the figures in ``out_dir`` (see the module docstring)."""
     out = Path(out_dir)
@@ -990,6 +1025,7 @@ def build_report(out_dir: str | Path) -> str:
                   + ", ".join(absent) + "."]
     lines += ["", "## The main result: wind cuts the out-of-plane amplitude (Fig. 10 against Fig. 6)", ""]
     lines += _main_result(scenes)
+    lines += _targets_summary(scenes)
     lines += ["", "## Figures", "",
               "For each figure: what Sect. 5 states (ERRATA.md's table), whether autocable shows it "
               "(yes / partly / no), where and with what numbers; where not, why."]
@@ -1005,7 +1041,7 @@ def build_report(out_dir: str | Path) -> str:
                if prov.get("ame") else "")
         lines.append("Fixed: " + (", ".join(f"{k} = {_g(v)}" for k, v in fixed.items()) or "none")
                      + f".{ame} Stages: {_stage_line(d)}.")
-        feats = _features(d, scenes)
+        feats = targets_mod.scene_statements(d, scenes)
         if feats:
             lines += ["", "| Sect. 5 states | shown | where, numbers, why |", "|---|---|---|"]
             lines += [f"| {a} | {b} | {c} |" for a, b, c in feats]
