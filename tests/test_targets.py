@@ -21,7 +21,7 @@ def test_the_paper_targets_file():
     assert kinds.count("statement") == 48
     assert {t.id: t.value for t in ts if t.kind == "number"} == {"U_c": 1.0, "omega1": 1.004, "rho": -0.004}
     screen = {t.id for t in ts if t.kind == "screen"}
-    assert {"supercritical", "bounded_fig08", "bounded_fig10", "a2_ratio_ame"} <= screen
+    assert {"supercritical", "onset_21", "bounded_fig08", "bounded_fig10", "a2_ratio_ame"} <= screen
     scenes = {t.scene for t in ts if t.kind == "statement"}
     assert scenes == {"fig03", "fig04a", "fig04b", "fig04c", "fig05a", "fig05b", "fig06", "fig07", "fig08",
                       "fig09", "fig10", "fig11"}
@@ -77,17 +77,22 @@ def _galloping_ode(c: float, xi: float = 0.004, omega1: float = 1.004, out_of_pl
 
 
 def test_onset_speed_closed_form():
-    """The onset of eq. (21) at eta = 0 where zeta11 U cancels the structural damping 2 xi omega1."""
+    """The onset of eq. (21) at eta = 0 where zeta11 U cancels the structural damping 2 xi omega1
+    (uncoupled modes: the mono-modal and the two-mode onsets coincide)."""
     ode = _galloping_ode(c=2 * 0.004 * 1.004 / 1.25)
     U, mode = tg.onset_speed(ode)
     assert U == pytest.approx(1.25, abs=1e-10) and mode == "in-plane"
     nums = tg.ode_numbers(ode)
     assert nums["U_onset"] == pytest.approx(1.25, abs=1e-10)
     assert nums["rho"] == pytest.approx(-0.004, abs=1e-15)
-    # an out-of-plane onset first is not the paper's U_c (Fig. 3 is in-plane galloping)
+    assert tg.onset_error_21(ode) == pytest.approx(0.25, abs=1e-10)
+    # an out-of-plane onset first: eq. (21)'s onset is not the in-plane galloping of Fig. 3, while
+    # the mono-modal onset of eq. (25) (A2 = 0) is still 2 xi omega1 / c
     other = _galloping_ode(c=2 * 0.004 * 1.004 / 1.25, out_of_plane=2 * 0.004 / 0.8)
     assert tg.onset_speed(other)[1] == "out-of-plane"
-    assert math.isnan(tg.ode_numbers(other)["U_onset"])
+    assert tg.onset_speed(other)[0] == pytest.approx(0.8, abs=1e-10)
+    assert math.isnan(tg.onset_error_21(other))
+    assert tg.mono_modal_onset(other) == pytest.approx(1.25, abs=1e-12)
 
 
 def _scene(name: str, a2_over_a1: float) -> SceneData:

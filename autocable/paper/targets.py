@@ -29,7 +29,7 @@ SHOWN = ("yes", "partly", "no")
 OPS = {"<": lambda a, b: a < b, "<=": lambda a, b: a <= b, ">": lambda a, b: a > b,
        ">=": lambda a, b: a >= b}
 NUMBER_QUANTITIES = ("U_onset", "omega1", "rho")
-SCREEN_QUANTITIES = ("zeta8", "bounded_fraction", "ame_a2_ratio", "ode21_a2_ratio")
+SCREEN_QUANTITIES = ("zeta8", "onset_error_21", "bounded_fraction", "ame_a2_ratio", "ode21_a2_ratio")
 KINDS = ("statement", "number", "screen")
 
 
@@ -224,17 +224,33 @@ def onset_speed(ode, U_max: float = 3.0) -> tuple[float, str]:
     return math.nan, ""
 
 
+def mono_modal_onset(ode) -> float:
+    """U* at which the in-plane equation alone (A2 = 0, q2 = 0) loses its damping:
+    2 xi_s omega1 + zeta11 U = 0 (Appendix A, Gamma_{1,1} at eta = 0), i.e. where eq. (25)'s
+    branch starts (ERRATA item 5's reading of its numerator). nan if zeta11 >= 0."""
+    z11 = sum(t.coefficient for t in ode.terms if t.name == "zeta11")
+    damping = sum(t.coefficient for t in ode.terms if t.equation == 1 and t.origin == "damping")
+    return -damping / z11 if z11 < 0 else math.nan
+
+
 def ode_numbers(ode) -> dict[str, float]:
-    """The ``[[number]]`` quantities of eq. (21) itself: U_onset (nan unless through the in-plane
-    mode), omega1, rho = omega2 - omega1."""
+    """The ``[[number]]`` quantities of eq. (21) itself: U_onset, the mono-modal galloping onset
+    that Fig. 3 and eq. (25) show ("the classic mono-modal galloping occurs at U = 1",
+    `mono_modal_onset`); omega1; rho = omega2 - omega1."""
+    return {"U_onset": mono_modal_onset(ode), "omega1": ode.omega1, "rho": ode.omega2 - ode.omega1}
+
+
+def onset_error_21(ode) -> float:
+    """|U* - 1| at the onset of eq. (21)'s trivial solution (both modes and their linear couplings,
+    `onset_speed`), nan if the critical mode is out-of-plane or there is none below U* = 3."""
     U, mode = onset_speed(ode)
-    return {"U_onset": U if mode == "in-plane" else math.nan, "omega1": ode.omega1,
-            "rho": ode.omega2 - ode.omega1}
+    return abs(U - 1.0) if mode == "in-plane" else math.nan
 
 
 def scene_numbers(scenes: dict) -> dict[str, float]:
     """The same quantities from the figures' output folders: omega1, omega2 from run.json's
-    provenance; U_onset where fig03's trivial branch loses stability."""
+    provenance; U_onset where fig03's trivial branch loses stability (fig03 draws the in-plane
+    AME with A2 = 0: the mono-modal onset, as `ode_numbers`)."""
     out = {"U_onset": math.nan, "omega1": math.nan, "rho": math.nan}
     for d in scenes.values():
         prov = d.provenance() if d.ok else {}
@@ -244,15 +260,17 @@ def scene_numbers(scenes: dict) -> dict[str, float]:
             break
     d = scenes.get("fig03")
     if d is not None and d.ok:
-        from autocable.report import _num
+        from autocable.report import AT_REST, _num
         # the zero of the largest real part of the eigenvalues (branches.csv's max_real) along the
-        # trivial branches (a1 = 0 throughout; the scene continues it in pieces), interpolated linearly between the two points around it
+        # trivial branches (a1 at rest throughout; the scene continues it in pieces), interpolated linearly between the two points around it
         pts = []
         for b in d.branches():
             rows = d.branch_rows(b["name"])
-            if b.get("kind") == "equilibrium" and max((_num(x["a1"]) for x in rows), default=1) == 0:
+            if b.get("kind") == "equilibrium" and max((abs(_num(x["a1"])) for x in rows), default=1) < AT_REST:
                 pts += [(_num(r["U"]), _num(r.get("max_real"))) for r in rows]
-        pts = sorted(p for p in pts if math.isfinite(p[0]) and math.isfinite(p[1]))
+        # the growth rates of the amplitude equations are O(xi_s) = 1e-3; a row at a branch point
+        # can carry a spurious O(1) value (seen at PyCont's BP rows): left out
+        pts = sorted(p for p in pts if math.isfinite(p[0]) and math.isfinite(p[1]) and abs(p[1]) < 0.1)
         for (u0, g0), (u1, g1) in zip(pts, pts[1:]):
             if g0 < 0 <= g1 and u1 > u0:
                 out["U_onset"] = u0 - g0 * (u1 - u0) / (g1 - g0)

@@ -96,7 +96,7 @@ class SearchSpace:
     air_density_kg_m3: tuple = (1.25,)
     ordering: tuple = ORDERINGS
     yaw_deg: tuple = tuple(float(x) for x in np.arange(-60.0, 60.01, 5.0))
-    rivulet_angle_deg: tuple | str = "calibrate"
+    rivulet_angle_deg: tuple | str = ("calibrate", "zeta11")
     full: int = 3                     # candidates evaluated on every figure scene
 
     def readings(self) -> list[Readings]:
@@ -105,6 +105,11 @@ class SearchSpace:
 
     def points(self) -> list[tuple[Readings, float]]:
         return [(r, float(b)) for r in self.readings() for b in self.yaw_deg]
+
+    def theta0_values(self) -> list:
+        """The rules (`THETA0_RULES`) or angles Theta0 takes at each point."""
+        th = self.rivulet_angle_deg
+        return [th] if isinstance(th, str) else list(th)
 
 
 _CHOICES = {"twist_ends": ("natural", "restrained"), "load_axes": ("reference", "twisted"),
@@ -151,7 +156,14 @@ def parse_space(data: dict, path="<space>") -> SearchSpace:
         elif key == "yaw_deg":
             vals[key] = _angles(value, path, key, -90.0, 90.0)
         elif key == "rivulet_angle_deg":
-            vals[key] = "calibrate" if value == "calibrate" else _angles(value, path, key, -180.0, 180.0)
+            if isinstance(value, str) or (isinstance(value, list) and value and all(isinstance(v, str) for v in value)):
+                rules = [value] if isinstance(value, str) else value
+                if any(r not in THETA0_RULES for r in rules):
+                    raise SpecError(path, key, f"expected a rule {', '.join(map(repr, THETA0_RULES))}, a list of "
+                                               f"them, or angles in degrees; got {value!r}")
+                vals[key] = rules[0] if len(rules) == 1 else tuple(dict.fromkeys(rules))
+            else:
+                vals[key] = _angles(value, path, key, -180.0, 180.0)
         elif key == "full":
             if isinstance(value, bool) or not isinstance(value, int) or value < 0:
                 raise SpecError(path, key, f"expected a number of candidates >= 0, got {value!r}")
@@ -187,8 +199,39 @@ def candidate_spec(spec: ModelSpec, readings: Readings, yaw_deg: float, theta0_d
     return replace(spec, cable=cable, aero=aero)
 
 
-def theta0_roots(spec: ModelSpec) -> tuple[list[float], list[tuple[float, str]]]:
-    """(valid roots, rejected (root, why)) of the Theta0 calibration of ``spec`` [deg]."""
+#: How Theta0 is found from beta: "calibrate" (rest of eq. 21, both modes, loses stability at U_c
+#: through the in-plane mode: `autocable.model.calibration.calibrate`, the sample's rule) or
+#: "zeta11" (the mono-modal onset of eq. 25 and Fig. 3: zeta11 = -2 xi_s omega1, every root).
+THETA0_RULES = ("calibrate", "zeta11")
+
+
+def zeta11_roots(spec: ModelSpec, step_deg: float = 0.25) -> list[float]:
+    """Every Theta0 in [-90, 90] deg with zeta11 = -2 xi_s omega1 (mono-modal onset at U_c)."""
+    from scipy.optimize import brentq
+
+    from autocable.model.aero import linear_load
+    from autocable.model.galerkin import aero_scales, linear_aero_matrix
+    st, modes, integ = _structure(spec, spec.cable.twist_ends)
+    K, nu = aero_scales(spec.aero, spec.cable, st)
+    target = -2 * spec.cable.damping_ratio * modes.omega1
+    a = spec.aero
+
+    def g(th_deg):
+        lin = linear_load(a.lift, a.drag, st.alpha, math.radians(a.yaw_deg), math.radians(th_deg),
+                          a.angle_convention, a.load_axes)
+        return linear_aero_matrix(integ, K, nu, st.m_star, lin)[(1, 2)] - target
+
+    grid = np.arange(-90.0, 90.0 + 1e-9, step_deg)
+    vals = [g(x) for x in grid]
+    return [float(brentq(g, x0, x1, xtol=1e-12)) for x0, x1, g0, g1 in zip(grid[:-1], grid[1:], vals[:-1], vals[1:])
+            if g0 * g1 < 0]
+
+
+def theta0_roots(spec: ModelSpec, rule: str = "calibrate") -> tuple[list[float], list[tuple[float, str]]]:
+    """(valid roots, rejected (root, why)) of the Theta0 calibration of ``spec`` [deg], by ``rule``
+    (`THETA0_RULES`)."""
+    if rule == "zeta11":
+        return zeta11_roots(spec), []
     from autocable.model.calibration import CalibrationError, calibrate
     from autocable.model.galerkin import aero_scales
     st, modes, integ = _structure(spec, spec.cable.twist_ends)
@@ -196,9 +239,7 @@ def theta0_roots(spec: ModelSpec) -> tuple[list[float], list[tuple[float, str]]]
     try:
         cal = calibrate(spec.aero, st, modes, integ, K, nu, spec.cable.damping_ratio)
     except CalibrationError as exc:
-        roots = [float(x) for x in str(exc).split("roots found: ")[-1].rstrip(")").strip("[]").split(",") if x.strip()] \
-            if "roots found" in str(exc) else []
-        return [], [(r, "fails the onset conditions") for r in roots]
+        return [], [(math.nan, str(exc))]
     why = dict(cal.rejected)
     return [r for r in cal.roots_deg if r not in why], list(cal.rejected)
 
@@ -357,6 +398,8 @@ def screen_candidate(spec: ModelSpec, targets, ode, orderings=ORDERINGS) -> list
             continue
         if t.quantity == "zeta8":
             base[t.id] = tg.decide_screen(t, zeta8)
+        elif t.quantity == "onset_error_21":
+            base[t.id] = tg.decide_screen(t, tg.onset_error_21(ode))
         elif t.quantity == "bounded_fraction":
             res = [runs21.setdefault(p, integrate_ode(ode, *p)) for p in t.points]
             frac = sum(r["bounded"] for r in res) / len(res)
@@ -384,9 +427,12 @@ def screen_candidate(spec: ModelSpec, targets, ode, orderings=ORDERINGS) -> list
     return out
 
 
-def point_key(readings: Readings, yaw_deg: float, theta0) -> str:
+def point_key(readings: Readings, yaw_deg: float, theta0, targets_text: str = "", orderings=ORDERINGS) -> str:
+    """The file name of one screen point: its inputs and the targets file's content (a changed
+    target recomputes; an unchanged one is read back)."""
     text = json.dumps([asdict(readings), round(float(yaw_deg), 9),
-                       theta0 if isinstance(theta0, str) else round(float(theta0), 9)])
+                       theta0 if isinstance(theta0, str) else round(float(theta0), 9),
+                       hashlib.sha256(targets_text.encode()).hexdigest(), list(orderings)])
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
@@ -394,8 +440,8 @@ def screen_point(spec: ModelSpec, targets, readings: Readings, yaw_deg: float, t
                  orderings=ORDERINGS) -> dict:
     """Every candidate of one (readings, beta) point: Theta0 calibrated (each valid root) or given."""
     t0 = time.perf_counter()
-    if theta0 == "calibrate":
-        roots, rejected = theta0_roots(candidate_spec(spec, readings, yaw_deg, None))
+    if theta0 in THETA0_RULES:
+        roots, rejected = theta0_roots(candidate_spec(spec, readings, yaw_deg, None), theta0)
     else:
         roots, rejected = [float(theta0)], []
     cands = []
@@ -405,6 +451,7 @@ def screen_point(spec: ModelSpec, targets, readings: Readings, yaw_deg: float, t
         for ordering, verdicts in zip(orderings, screen_candidate(spec, targets, ode, orderings)):
             twist_mid = float(_structure(spec, readings.twist_ends)[1].shapes["theta2"].evaluate(np.array([0.5]))[0])
             cands.append({"readings": asdict(readings), "yaw_deg": yaw_deg, "rivulet_angle_deg": th,
+                          "theta0_rule": theta0 if isinstance(theta0, str) else "given",
                           "ordering": ordering, "zeta8": sum(t.coefficient for t in ode.terms if t.name == "zeta8"),
                           "xi11_bar": sum(t.coefficient for t in ode.terms if t.name == "xi11_bar"),
                           "twist_mid_per_q2": twist_mid,
@@ -453,7 +500,8 @@ def screen_score(c: dict) -> tuple:
 
 def candidate_name(c: dict) -> str:
     r = Readings(**c["readings"])
-    return f"{r.label}-beta{c['yaw_deg']:+.2f}-th{c['rivulet_angle_deg']:+.3f}-{c['ordering']}"
+    return (f"{r.label}-beta{c['yaw_deg']:+.2f}-th{c['rivulet_angle_deg']:+.3f}-{c.get('theta0_rule', 'calibrate')}"
+            f"-{c['ordering']}")
 
 
 def write_candidate_model(spec_path: Path, c: dict, out: Path) -> Path:
@@ -532,7 +580,8 @@ def _csv_rows(cands: list[dict], target_ids: list[str]) -> list[dict]:
     rows = []
     for c in cands:
         row = {"candidate": candidate_name(c), **c["readings"], "yaw_deg": c["yaw_deg"],
-               "rivulet_angle_deg": c["rivulet_angle_deg"], "ordering": c["ordering"],
+               "rivulet_angle_deg": c["rivulet_angle_deg"], "theta0_rule": c.get("theta0_rule", ""),
+               "ordering": c["ordering"],
                "zeta8": c["zeta8"], "xi11_bar": c["xi11_bar"], "twist_mid_per_q2": c["twist_mid_per_q2"],
                "screen_met": screen_score(c)[0], "stage": "full" if c.get("full") else "screen"}
         v = dict(c["verdicts"])
@@ -678,10 +727,10 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     _ode_integrator()
     _ame_integrator()
     tasks, results = [], []
+    targets_text = targets_path.read_text()
     for readings, beta in space.points():
-        th = space.rivulet_angle_deg
-        for theta0 in ([th] if isinstance(th, str) else list(th)):
-            f = out / "screen" / f"{point_key(readings, beta, theta0)}.json"
+        for theta0 in space.theta0_values():
+            f = out / "screen" / f"{point_key(readings, beta, theta0, targets_text, space.ordering)}.json"
             if f.is_file():
                 try:
                     results.append(json.loads(f.read_text()))
