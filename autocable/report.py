@@ -959,6 +959,34 @@ def _main_result(scenes: dict) -> list[str]:
     return lines
 
 
+def _validity_table(scenes: dict) -> list[str]:
+    """Per scene: the largest slaved twist along its branches (branches.csv's ``twist``), the largest
+    error of the cubic load of eq. (14) against the exact quasi-steady load there (``cubic_error``),
+    the points beyond the bound, and the range of phi the twist sweeps (run.json's model_validity)."""
+    rows = []
+    for n, d in scenes.items():
+        v = d.provenance().get("model_validity") if d.ok else None
+        if not v:
+            continue
+        lo, hi = v.get("phi_range_deg", [_NAN, _NAN])
+        rows.append(f"| {n} | {_g(v['twist_per_q2_rad'], 4)} | {_g(v['largest_twist_rad'], 3)} | "
+                    f"{_e(v['largest_cubic_error'], 2)} | {v['points_beyond_bound']} of {v['points']} | "
+                    f"[{_g(lo, 4)}, {_g(hi, 4)}] |")
+    if not rows:
+        return ["No scene recorded the twist (results written before this check existed)."]
+    bound = next(d.provenance()["model_validity"]["cubic_rtol"] for d in scenes.values()
+                 if d.ok and d.provenance().get("model_validity"))
+    return ["The load is the cubic expansion of eq. (14) in (theta, vdot, wdot), with the twist theta = "
+            "theta2(s) q2 slaved to the out-of-plane mode. Per scene: the peak twist per unit a2, the largest "
+            "twist along its branches (column `twist` of branches.csv, radians), the largest relative error of "
+            "the cubic against the exact quasi-steady load at the motion of a point (column `cubic_error`), "
+            f"the points where that error exceeds {bound:g}, and the range of the angle phi of eq. (12) the "
+            "twist sweeps about the static angle (degrees; the lift and drag fits of eq. 13 come from "
+            "wind-tunnel tests over a limited range of phi).", "",
+            "| scene | twist per unit a2 | largest twist | largest cubic error | beyond the bound | phi range |",
+            "|---|---|---|---|---|---|"] + rows
+
+
 def targets_file(scenes: dict) -> Path | None:
     """The targets file of the model the scenes used: ``<model>.targets.toml`` beside the model
     file named in run.json's provenance (None if there is none)."""
@@ -1060,6 +1088,7 @@ def build_report(out_dir: str | Path) -> str:
               + "; between two of these eta* the bound is their log-log interpolation (marked interp.: the "
               "study finds the error growing as eta*^1.9-2.0), outside them there is none.", ""]
     lines += _overlay_table([d for d in scenes.values() if d.ok])
+    lines += ["", "## Where the model stops applying", ""] + _validity_table(scenes)
     lines += ["", "## Known reasons a feature may not show", ""]
     lines += [f"- **{k}**: {v}." for k, v in REASONS.items()]
     return "\n".join(lines) + "\n"

@@ -273,6 +273,11 @@ def test_screen_and_full_evaluation_agree_on_shared_targets(spec, tmp_path):
             assert screen[tid].shown == full[tid].shown, (R, tid, screen[tid], full[tid])
             assert full[tid].value == pytest.approx(screen[tid].value, abs=2e-4), (R, tid)
         shown.append(screen["U_c"].shown)
+        # item 5: the twist and the cubic's error are columns of branches.csv, the bound in run.json
+        header = open(tmp_path / f"m{i}" / "fig03" / "branches.csv").readline().strip().split(",")
+        assert "twist" in header and "cubic_error" in header
+        v = data.provenance()["model_validity"]
+        assert v["cubic_rtol"] == 0.1 and v["points"] > 0
     # the sample's decoupled choice meets U_c; a coupled restrained one calibrated on the two-mode
     # onset of eq. (21) starts its mono-modal galloping elsewhere (fig03 draws the A2 = 0 AME)
     assert shown[0] == "yes" and "no" in shown[1:]
@@ -281,3 +286,34 @@ def test_screen_and_full_evaluation_agree_on_shared_targets(spec, tmp_path):
 def dataclasses_asdict(x):
     from dataclasses import asdict
     return asdict(x)
+
+
+# ------------------------------------------------------------------------------------------------
+# where the model stops applying (issue 15, item 5)
+# ------------------------------------------------------------------------------------------------
+def test_twist_peak_closed_form(spec):
+    """Both terms of theta2 are even about mid-span and of one sign here: the peak is |B + C| there
+    (natural, about 2 pi / delta = 477), |B| with the twist restrained."""
+    from autocable.model.modes import twist_peak
+    st = cable_statics(spec.cable)
+    nat, res = linear_modes(st, "natural"), linear_modes(st, "restrained")
+    assert twist_peak(nat.twist_B, nat.twist_C, nat.twist_k) == pytest.approx(abs(nat.twist_B + nat.twist_C), rel=1e-12)
+    assert twist_peak(nat.twist_B, nat.twist_C, nat.twist_k) == pytest.approx(477.3, abs=0.1)
+    assert twist_peak(res.twist_B, res.twist_C, res.twist_k) == pytest.approx(abs(res.twist_B), rel=1e-12)
+
+
+def test_cubic_load_error():
+    """At rest in velocity on the reference axes the load is exactly cubic in theta (eq. 13 is cubic
+    in phi, phi linear in theta): round-off even at 3 rad. With velocities the relative error of the
+    cubic falls as the cube of the amplitude (the first dropped terms are of 4th degree against a
+    change of 1st degree in the arguments): halving them divides it by 8. On the twisted axes cos(theta), sin(theta) are truncated too."""
+    from autocable.model.aero import CubicLoadError
+    L, D = (-0.48, 0.84, 4.69, 0.86), (1.25, -0.65, -0.08, 6.81)
+    a, bta, th0 = math.radians(-35.2), math.radians(-6.57), math.radians(-13.88)
+    ref = CubicLoadError(L, D, a, bta, th0, "reversed", "reference")
+    assert ref(3.0, 0.0, 0.0, 1.3) < 1e-12
+    e1, e2 = ref(0.0, 0.04, 0.02, 1.3), ref(0.0, 0.02, 0.01, 1.3)
+    assert e1 / e2 == pytest.approx(8.0, rel=0.1)
+    tw = CubicLoadError(L, D, a, bta, th0, "reversed", "twisted")
+    assert tw(1.0, 0.0, 0.0, 1.3) > 1e-3 > tw(0.05, 0.0, 0.0, 1.3)
+    assert ref(0.5, 0.1, 0.1, 0.0) == 0.0          # no wind, no load

@@ -282,3 +282,42 @@ def exact_load(lift, drag, alpha: float, beta: float, theta0: float, theta, vdot
     if axes == "twisted":
         return np.cos(theta) * b2 + np.sin(theta) * b3, -np.sin(theta) * b2 + np.cos(theta) * b3
     return b2, b3
+
+
+#: The expansion of eq. (14) counts as in range while the cubic's error on the load change it
+#: carries stays below this fraction of that change (a stated bound, not the paper's).
+CUBIC_RTOL = 0.1
+
+
+class CubicLoadError:
+    """The error of the cubic load of eq. (14) against the exact quasi-steady load of eqs. (9)-(13)
+    along a harmonic motion at mid-span: theta = Theta cos(psi2), wdot = -Wd sin(psi2),
+    vdot = -Vd sin(psi1), over a grid of the two phases, at wind U (units of U_c). The error is the
+    largest |cubic - exact| of the load change b - b(rest), both components, over the largest exact
+    change. Note that with vdot = wdot = 0 on the reference axes the load is exactly cubic in theta
+    (c_l, c_d are cubic in phi, eq. 13, and phi is linear in theta): the error comes from the
+    velocities and their products with the twist, and from the turned axes."""
+
+    def __init__(self, lift, drag, alpha: float, beta: float, theta0: float, convention: str = "eq12",
+                 axes: str = "reference", n: int = 24):
+        import numpy as np
+        self.args = (tuple(lift), tuple(drag), alpha, beta, theta0)
+        self.convention, self.axes = convention, axes
+        self.exp = expand_load_jet(lift, drag, alpha, beta, theta0, convention, axes)
+        psi = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
+        self.p1, self.p2 = (x.ravel() for x in np.meshgrid(psi, psi))
+
+    def __call__(self, theta_amp: float, vdot_amp: float, wdot_amp: float, U: float = 1.0) -> float:
+        import numpy as np
+        if U == 0.0 or not (math.isfinite(theta_amp) and math.isfinite(vdot_amp) and math.isfinite(wdot_amp)):
+            return 0.0 if U == 0.0 else math.nan
+        th = theta_amp * np.cos(self.p2)
+        wd = -wdot_amp * np.sin(self.p2)
+        vd = -vdot_amp * np.sin(self.p1)
+        e2, e3 = exact_load(*self.args, th, vd, wd, self.convention, self.axes, U)
+        z2, z3 = exact_load(*self.args, 0.0, 0.0, 0.0, self.convention, self.axes, U)
+        c2 = sum(c * U ** (2 - b - cc) * th**a * vd**b * wd**cc for (a, b, cc), c in self.exp.b2.items())
+        c3 = sum(c * U ** (2 - b - cc) * th**a * vd**b * wd**cc for (a, b, cc), c in self.exp.b3.items())
+        d2, d3 = e2 - z2, e3 - z3
+        scale = max(float(np.max(np.abs(d2))), float(np.max(np.abs(d3))), 1e-300)
+        return float(max(np.max(np.abs(c2 - d2)), np.max(np.abs(c3 - d3))) / scale)

@@ -111,3 +111,11 @@ def ritz_omega1(st: CableStatics, n_terms: int = 60) -> float:
     M = st.m_star / 2
     w2 = np.linalg.eigvalsh(K / M)
     return float(np.sqrt(w2.min()))
+
+
+def twist_peak(B: float, C: float, k: float) -> float:
+    """max over s in [0, 1] of |theta2(s)| = |B sin(pi s) + C cosh(k (s - 1/2))|, the slaved twist
+    per unit q2 (radians per unit modal amplitude): both terms are even about s = 1/2, so the
+    extreme is at mid-span or at an end, or where theta2' = 0 between (a dense grid finds it)."""
+    s = np.linspace(0.0, 1.0, 2001)
+    return float(np.max(np.abs(B * np.sin(math.pi * s) + C * np.cosh(k * (s - 0.5)))))
