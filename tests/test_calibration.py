@@ -244,6 +244,18 @@ def test_rerun_recomputes_nothing_on_disk(tmp_path):
     rows = (out / "calibration.csv").read_text().splitlines()
     assert len(rows) - 1 == third["candidates"] >= 2
     assert "supercritical:shown" in rows[0] and "bounded_fig10:value" in rows[0]
+    # a changed threshold is applied to the stored values: nothing recomputed, verdicts change
+    import csv
+    before = [r["supercritical:shown"] for r in csv.DictReader(open(out / "calibration.csv"))]
+    assert "yes" in before
+    strict = tmp_path / "strict.targets.toml"
+    text = open(TARGETS).read()
+    i = text.index('id = "supercritical"')
+    strict.write_text(text[:i] + text[i:].replace("threshold = 0.0", "threshold = 1e6", 1))
+    fourth = study.calibrate(SAMPLE, strict, out, space=space, jobs=1, quiet=True)
+    assert (fourth["computed"], fourth["reused"]) == (0, 2)
+    after = [r["supercritical:shown"] for r in csv.DictReader(open(out / "calibration.csv"))]
+    assert after == ["no"] * len(before)
 
 
 def test_screen_and_full_evaluation_agree_on_shared_targets(spec, tmp_path):

@@ -427,13 +427,37 @@ def screen_candidate(spec: ModelSpec, targets, ode, orderings=ORDERINGS) -> list
     return out
 
 
-def point_key(readings: Readings, yaw_deg: float, theta0, targets_text: str = "", orderings=ORDERINGS) -> str:
-    """The file name of one screen point: its inputs and the targets file's content (a changed
-    target recomputes; an unchanged one is read back)."""
+def compute_signature(targets) -> str:
+    """What the screen computes for a targets file: the quantities of its ``[[screen]]`` targets
+    with their points and sigmas (not the thresholds, which are applied when the results are read)."""
+    return json.dumps(sorted([t.quantity, [list(p) for p in t.points], list(t.sigmas)]
+                             for t in targets if t.kind == "screen"))
+
+
+def point_key(readings: Readings, yaw_deg: float, theta0, signature: str = "", orderings=ORDERINGS) -> str:
+    """The file name of one screen point: its inputs and what the screen computes for it
+    (`compute_signature`): a changed computation recomputes, a changed threshold does not."""
     text = json.dumps([asdict(readings), round(float(yaw_deg), 9),
                        theta0 if isinstance(theta0, str) else round(float(theta0), 9),
-                       hashlib.sha256(targets_text.encode()).hexdigest(), list(orderings)])
+                       hashlib.sha256(signature.encode()).hexdigest(), list(orderings)])
     return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def redecide(c: dict, targets) -> dict:
+    """A screened candidate's verdicts decided again from its stored values with ``targets`` (the
+    thresholds of the targets file as it is now)."""
+    out = {}
+    for t in targets:
+        if t.kind not in ("number", "screen"):
+            continue
+        old = c["verdicts"].get(t.id)
+        value = old.get("value") if old else None
+        value = math.nan if value is None else value
+        v = tg.decide_number(t, value) if t.kind == "number" else tg.decide_screen(t, value)
+        if old and t.kind == "screen" and "; " in old.get("evidence", ""):
+            v = replace(v, evidence=v.evidence + "; " + old["evidence"].split("; ", 1)[1])
+        out[t.id] = asdict(v) if old else asdict(replace(v, evidence="not computed by the screen"))
+    return {**c, "verdicts": out}
 
 
 def screen_point(spec: ModelSpec, targets, readings: Readings, yaw_deg: float, theta0,
@@ -678,7 +702,10 @@ def _markdown(cands, full, target_ids, targets, space, stats, maps, failed) -> s
         lines.append(f"| {candidate_name(c)} | {screen_score(c)[0]} of {len(v)} | {c['zeta8']:.4g} | {c['xi11_bar']:.4g} | "
                      f"{_fmt(v.get('a2_ratio_ame', {}).get('value'))} | {_fmt(v.get('a2_ratio_21', {}).get('value'))} |")
     if full:
-        lines += ["", "## Full evaluation (every figure scene)", ""]
+        lines += ["", "## Full evaluation (every figure scene)", "",
+                  "Each candidate's inputs written as a model file and every fig*.toml scene run on it "
+                  "(`autocable figures`, the scenes' own Multiple Scales orderings), then every target "
+                  "decided from the output folders by the report's code.", ""]
         for c in full:
             fv = c["full"]["verdicts"]
             cnt = tg.count_shown([tg.Verdict(k, x["shown"]) for k, x in fv.items() if by_id[k].kind == "statement"])
@@ -727,10 +754,10 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     _ode_integrator()
     _ame_integrator()
     tasks, results = [], []
-    targets_text = targets_path.read_text()
+    signature = compute_signature(targets)
     for readings, beta in space.points():
         for theta0 in space.theta0_values():
-            f = out / "screen" / f"{point_key(readings, beta, theta0, targets_text, space.ordering)}.json"
+            f = out / "screen" / f"{point_key(readings, beta, theta0, signature, space.ordering)}.json"
             if f.is_file():
                 try:
                     results.append(json.loads(f.read_text()))
@@ -758,12 +785,22 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     screen_s = time.perf_counter() - t0
     failed = [f"{Readings(**r['readings']).label} beta {r['yaw_deg']:+.2f}: {r['error']}"
               for r in results if r["status"] != "ok"]
-    cands = [c for r in results if r["status"] == "ok" for c in r["candidates"]]
+    cands = [redecide(c, targets) for r in results if r["status"] == "ok" for c in r["candidates"]]
     # stage 2
     full = []
     ranked = sorted(cands, key=screen_score, reverse=True)
     runs = runs or Path(__file__).resolve().parents[2] / "runs"
-    for c in ranked[: space.full]:
+    # one full evaluation per model: the orderings differ only in the screen's AME (the scenes
+    # keep the orderings written in them)
+    chosen, models = [], set()
+    for c in ranked:
+        key = (json.dumps(c["readings"], sort_keys=True), c["yaw_deg"], round(c["rivulet_angle_deg"], 9))
+        if key not in models:
+            models.add(key)
+            chosen.append(c)
+        if len(chosen) >= space.full:
+            break
+    for c in chosen:
         say(f"full evaluation of {candidate_name(c)} (every figure scene)")
         c["full"] = full_evaluation(model_path, targets, c, out / "full" / candidate_name(c), runs, jobs, say)
         full.append(c)
