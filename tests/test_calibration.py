@@ -329,3 +329,18 @@ def test_cubic_load_error():
     tw = CubicLoadError(L, D, a, bta, th0, "reversed", "twisted")
     assert tw(1.0, 0.0, 0.0, 1.3) > 1e-3 > tw(0.05, 0.0, 0.0, 1.3)
     assert ref(0.5, 0.1, 0.1, 0.0) == 0.0          # no wind, no load
+
+
+def test_full_evaluation_drops_a_run_whose_tuned_start_failed(tmp_path):
+    """The scenes' starts are tuned to the sample; on a candidate a failed start drops that run only
+    (Fig. 10's orbit-started P), the scene's other runs, overlay and plot stay."""
+    from autocable.scene import load_scene
+    path = tmp_path / "fig10.toml"
+    path.write_text(open("runs/fig10.toml").read().replace('"../models/', f'"{__import__("os").getcwd()}/models/'))
+    before = load_scene(path)
+    err = f"{path}: run[1].start: integrating from [0.003, 0.0, 0.003, 0.0]: no periodic orbit"
+    assert study._failed_start(err) == 1 and study._failed_start("fig10: other error") is None
+    assert study._drop_run(path, 1)
+    after = load_scene(path)
+    assert [r.name for r in before.runs] == ["I", "P"] and [r.name for r in after.runs] == ["I"]
+    assert after.overlay == before.overlay and after.plot == before.plot and after.fixed == before.fixed
