@@ -837,14 +837,25 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     runs = runs or Path(__file__).resolve().parents[2] / "runs"
     # one full evaluation per model: the orderings differ only in the screen's AME (the scenes
     # keep the orderings written in them)
-    chosen, models = [], set()
-    for c in ranked:
+    # keep the screen's best, then the best of every (twist ends, angle sense) family not yet in,
+    # so that the statements no candidate meets are tested on unlike models too
+    chosen, models, families = [], set(), set()
+
+    def take(c):
         key = (json.dumps(c["readings"], sort_keys=True), c["yaw_deg"], round(c["rivulet_angle_deg"], 9))
-        if key not in models:
-            models.add(key)
-            chosen.append(c)
-        if len(chosen) >= space.full:
-            break
+        if key in models or len(chosen) >= space.full:
+            return
+        models.add(key)
+        families.add((c["readings"]["twist_ends"], c["readings"]["angle_convention"]))
+        chosen.append(c)
+
+    for c in ranked[:1]:
+        take(c)
+    for c in ranked:
+        if (c["readings"]["twist_ends"], c["readings"]["angle_convention"]) not in families:
+            take(c)
+    for c in ranked:
+        take(c)
     for c in chosen:
         say(f"full evaluation of {candidate_name(c)} (every figure scene)")
         c["full"] = full_evaluation(model_path, targets, c, out / "full" / candidate_name(c), runs, jobs, say)
