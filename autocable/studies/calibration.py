@@ -615,6 +615,7 @@ def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path
     res = {"name": candidate_name(c), "wall_s": wall, "returncode": proc.returncode, "dropped_runs": dropped,
            "stderr_tail": proc.stderr[-500:], "verdicts": {v.id: asdict(v) for v in verdicts}, "boxes": boxes}
     from autocable.codegen.cache import atomic_write_json
+    res = _finite(res)
     atomic_write_json(done, res)
     return res
 
@@ -858,7 +859,11 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
         take(c)
     for c in chosen:
         say(f"full evaluation of {candidate_name(c)} (every figure scene)")
-        c["full"] = full_evaluation(model_path, targets, c, out / "full" / candidate_name(c), runs, jobs, say)
+        try:
+            c["full"] = full_evaluation(model_path, targets, c, out / "full" / candidate_name(c), runs, jobs, say)
+        except Exception as exc:  # noqa: BLE001 - one line per failed candidate, and the study goes on
+            say(f"FAILED full evaluation of {candidate_name(c)}: {type(exc).__name__}: {' '.join(str(exc).split())[:300]}")
+            continue
         full.append(c)
     target_ids = [t.id for t in targets]
     rows = _csv_rows(cands, target_ids)
