@@ -9,6 +9,9 @@ Everything here is computed from the output folders alone (``DIR/<scene>/branche
 bounds of the AME-vs-(21) study (`STUDY_MAX_ERROR`, from ``docs/ame_vs_ode21.md``) and the texts
 of the known reasons why a feature may not show (`REASONS`, from that study, the README's
 "Known limit" and the model spec's comments); which reason applies is decided from the results.
+The per-figure statements go through `autocable.paper.targets` (the decision code `autocable
+calibrate` uses too), and when the model file has a ``<model>.targets.toml`` beside it the report
+counts its statements and checks the paper's printed numbers (U_c, omega1, rho) against the results.
 """
 from __future__ import annotations
 
