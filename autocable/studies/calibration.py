@@ -704,7 +704,7 @@ def _markdown(cands, full, target_ids, targets, space, stats, maps, failed) -> s
              f"angle_convention {list(space.angle_convention)}, load_length {list(space.load_length)}, "
              f"air density {list(space.air_density_kg_m3)} kg/m^3, ordering {list(space.ordering)}, "
              f"yaw beta {min(space.yaw_deg):g} to {max(space.yaw_deg):g} deg ({len(space.yaw_deg)} values), "
-             f"Theta0 {space.rivulet_angle_deg if isinstance(space.rivulet_angle_deg, str) else 'scanned'}.", "",
+             f"Theta0 {_theta0_text(space)}.", "",
              f"Points (readings x beta): {stats['points']} ({stats['computed']} computed in this run, "
              f"{stats['reused']} read from disk, {len(failed)} failed); candidates (with a valid Theta0, per "
              f"ordering): {len(cands)}; fully evaluated: {len(full)}. Screen wall time in this run "
@@ -772,6 +772,13 @@ def _markdown(cands, full, target_ids, targets, space, stats, maps, failed) -> s
     if failed:
         lines += ["", "## Failed points", ""] + [f"- {f}" for f in failed]
     return "\n".join(lines) + "\n"
+
+
+def _theta0_text(space: SearchSpace) -> str:
+    vals = space.theta0_values()
+    if all(isinstance(v, str) for v in vals):
+        return "from beta by " + " and ".join(f'"{v}"' for v in vals) + " (every valid root)"
+    return f"scanned over {len(vals)} angles"
 
 
 def _best_value(cands, tid, t):
