@@ -16,7 +16,7 @@ from autocable._paths import SAMPLE_MODEL
 from autocable._version import __version__
 from autocable.paper.figures import add_figures_parser
 from autocable.scene.schema import ENGINES, RESOLUTIONS, load_scene
-from autocable.spec import SpecError
+from autocable.spec import SpecError, load_model
 
 
 def _derivation(path):
@@ -645,11 +645,43 @@ def build_parser() -> argparse.ArgumentParser:
     fm.add_argument("--quiet", action="store_true", help="no progress")
     fm.set_defaults(func=cmd_failure_map)
 
+    cal = sub.add_parser("calibrate", help="search the paper's unknown inputs (yaw, rivulet angle, "
+                         "and the readings it leaves open) against the statements of Sect. 5; writes "
+                         "calibration.csv, calibration.md and beta-Theta0 maps")
+    cal.add_argument("model", help="model spec file (models/*.toml)")
+    cal.add_argument("targets", help="targets file (models/*.targets.toml)")
+    cal.add_argument("--out", required=True, help="output folder (resumable: finished points are reused)")
+    cal.add_argument("--space", help="search-space file (default: <model>.search.toml beside the model if "
+                                     "it exists, else the built-in space)")
+    cal.add_argument("--jobs", type=int, default=2, help="processes (default 2)")
+    cal.add_argument("--full", type=int, help="candidates evaluated on every figure scene (overrides the space's)")
+    cal.add_argument("--quiet", action="store_true", help="no progress lines")
+    cal.set_defaults(func=_cmd_calibrate)
+
     add_run_parser(sub)
     add_chart_parser(sub)
     add_sweep_parser(sub)
     add_figures_parser(sub)
     return p
+
+
+def _cmd_calibrate(args) -> int:
+    """`autocable calibrate MODEL TARGETS --out DIR` (autocable.paper.calibration)."""
+    from dataclasses import replace as _replace
+
+    from autocable.paper import calibration as study
+    space_path = Path(args.space) if args.space else Path(args.model).with_suffix("").with_suffix(".search.toml")
+    if args.space or space_path.is_file():
+        space = study.load_space(space_path)
+    else:
+        space = study.SearchSpace()
+    if args.full is not None:
+        space = _replace(space, full=max(0, args.full))
+    load_model(args.model)                  # bad files: one line before any work
+    study.tg.load_targets(args.targets)
+    stats = study.calibrate(args.model, args.targets, args.out, space=space, jobs=args.jobs, quiet=args.quiet)
+    print(json.dumps(stats))
+    return 0
 
 
 def main(argv=None) -> int:

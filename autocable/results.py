@@ -383,8 +383,12 @@ def branches_csv(branches: Sequence[Branch]) -> str:
     amps = _union([("a1", "a2")] + [b.amplitude_names for b in branches])
     states = _union(b.variables for b in branches)
     nev = max((b.eigenvalues.shape[1] for b in branches), default=0)
+    known = set(params) | set(amps) | set(states) | set(_CYCLE_COLUMNS) | set(_CURVE_COLUMNS)
+    # any further table column (e.g. the twist a scene adds), after the eigenvalues, in order
+    extra = _union([c for c in b.table if c not in known] for b in branches)
     header = (["branch", "kind", "parameter", "parameter2", "point"] + params + amps
-              + ["stable", *_CYCLE_COLUMNS, *_CURVE_COLUMNS] + states + ["max_real"] + [f"ev{k}_{part}" for k in range(1, nev + 1) for part in ("re", "im")])
+              + ["stable", *_CYCLE_COLUMNS, *_CURVE_COLUMNS] + states + ["max_real"] + [f"ev{k}_{part}" for k in range(1, nev + 1) for part in ("re", "im")]
+              + extra)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(header)
@@ -404,6 +408,7 @@ def branches_csv(branches: Sequence[Branch]) -> str:
                     row += [ev[k].real, ev[k].imag]
                 else:
                     row += [None, None]
+            row += [b.table[c][i] if c in b.table else None for c in extra]
             w.writerow([_fmt(x) for x in row])
     return buf.getvalue()
 

@@ -43,6 +43,9 @@ class CableSpec:
     torsional_stiffness_Nm2: float   # GJ
     damping_ratio: float             # xi_s, modal damping ratio of both modes
     gravity_m_s2: float = 9.81       # g
+    twist_ends: str = "natural"      # end conditions of the twist, eq. (20): "natural" (eq. 20 as
+                                     # printed, chi (theta' + kappa w') = 0) or "restrained"
+                                     # (theta(0) = theta(1) = 0, twist held at the anchorages)
 
 
 @dataclass(frozen=True)
@@ -59,6 +62,9 @@ class AeroSpec:
     load_length: str = "diameter"    # the length in eq. (11): "diameter" (1/2 rho V D) or "radius"
     angle_convention: str = "eq12"   # sense of phi against the relative-wind angle: "eq12" | "reversed"
     calibration_root: str = "smallest"  # which root the calibration keeps: "smallest" |angle|
+    load_axes: str = "reference"     # axes the load is projected on in eq. (14): "reference" (the
+                                     # initial section axes a2-bar, a3-bar of eqs. 8) or "twisted"
+                                     # (the current axes a2, a3, turned by the twist theta)
 
 
 @dataclass(frozen=True)
@@ -87,6 +93,8 @@ _CABLE_RULES = {
     "torsional_stiffness_Nm2": ("pos", None, "a positive torsional stiffness GJ in N m^2"),
     "damping_ratio": ("range", (0.0, 1.0), "a damping ratio between 0 and 1 (0.004 is 0.4 %)"),
     "gravity_m_s2": ("pos", None, "a positive acceleration in m/s^2"),
+    "twist_ends": ("choice", ("natural", "restrained"),
+                   '"natural" (eq. 20 as printed) or "restrained" (theta = 0 at both anchorages)'),
 }
 _AERO_RULES = {
     "air_density_kg_m3": ("pos", None, "a positive density in kg/m^3"),
@@ -100,8 +108,11 @@ _AERO_RULES = {
     "load_length": ("choice", ("diameter", "radius"), '"diameter" or "radius"'),
     "calibration_root": ("choice", ("smallest",), '"smallest"'),
     "angle_convention": ("choice", ("eq12", "reversed"), '"eq12" (eq. 12 as printed) or "reversed"'),
+    "load_axes": ("choice", ("reference", "twisted"),
+                  '"reference" (initial section axes) or "twisted" (axes turned by the twist)'),
 }
-_OPTIONAL = {"gravity_m_s2", "load_length", "calibration_root", "angle_convention"}
+_OPTIONAL = {"gravity_m_s2", "load_length", "calibration_root", "angle_convention", "twist_ends",
+             "load_axes"}
 
 
 def _number(value, path, field, expected):
@@ -176,6 +187,7 @@ def parse_model(data: dict, path="<spec>") -> ModelSpec:
     aero_fields.setdefault("load_length", "diameter")
     aero_fields.setdefault("calibration_root", "smallest")
     aero_fields.setdefault("angle_convention", "eq12")
+    aero_fields.setdefault("load_axes", "reference")
     aero = AeroSpec(**aero_fields)
     if aero.yaw_deg is None and aero.rivulet_angle_deg is None:
         raise SpecError(path, "aero.yaw_deg", 'only one of yaw_deg and rivulet_angle_deg may be "calibrate"')

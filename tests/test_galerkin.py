@@ -162,8 +162,10 @@ def test_sample_yaw_is_the_decoupled_one(closed):
 
 def test_literal_eq12_convention_gives_subcritical_galloping(closed):
     """Why the sample spec reverses the sense of phi: with eq. (12) as printed, every member of the
-    U_c family (zeta11 = -2 xi_s omega1) has zeta8 < 0 (subcritical galloping, against Fig. 3); with
-    the reversed sense the sample's zeta8 > 0 and eq. (25)'s branch exists above U = 1."""
+    U_c family (zeta11 = -2 xi_s omega1) at beta = -90, -60, ..., 90 deg has zeta8 < 0 (subcritical
+    galloping, against Fig. 3); with the reversed sense the sample's zeta8 > 0 and eq. (25)'s branch
+    exists above U = 1. Not every beta of the literal sense is subcritical: see
+    tests/test_calibration.py::test_literal_sense_can_gallop_supercritically (beta = 15 deg)."""
     from autocable.model.aero import expand_load, linear_load
     from autocable.model.galerkin import aero_scales, linear_aero_matrix
     from autocable.model.modes import linear_modes

@@ -62,7 +62,7 @@ def calibrate(aero_spec, st, modes, integrator, K: float, nu: float, xi_s: float
     def matrix(angle_deg, U):
         beta = math.radians(angle_deg) if solve_yaw else math.radians(aero_spec.yaw_deg)
         th0 = math.radians(aero_spec.rivulet_angle_deg) if solve_yaw else math.radians(angle_deg)
-        lin = linear_load(lift, drag, st.alpha, beta, th0, aero_spec.angle_convention)
+        lin = linear_load(lift, drag, st.alpha, beta, th0, aero_spec.angle_convention, aero_spec.load_axes)
         al = linear_aero_matrix(integrator, K, nu, st.m_star, lin)
         return _linear_matrix(modes.omega1, modes.omega2, xi_s, al, U)
 
@@ -129,7 +129,7 @@ def decoupled_angles(aero_spec, st, modes, integrator, K: float, nu: float, xi_s
 
     def residual(x):
         lin = linear_load(aero_spec.lift, aero_spec.drag, st.alpha, math.radians(x[0]),
-                          math.radians(x[1]), aero_spec.angle_convention)
+                          math.radians(x[1]), aero_spec.angle_convention, aero_spec.load_axes)
         al = linear_aero_matrix(integrator, K, nu, st.m_star, lin)
         return [(al[(1, 2)] - target) / abs(target), al[(2, 2)] / abs(target)]
 

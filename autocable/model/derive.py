@@ -61,7 +61,7 @@ def _compute(spec: ModelSpec, integrator: str) -> dict:
     timings = {}
     t0 = time.perf_counter()
     st = cable_statics(spec.cable)
-    modes = linear_modes(st)
+    modes = linear_modes(st, spec.cable.twist_ends)
     I = _integrator(integrator, modes.shapes)
     K, nu = aero_scales(spec.aero, spec.cable, st)
     timings["statics_modes_s"] = time.perf_counter() - t0
@@ -78,7 +78,8 @@ def _compute(spec: ModelSpec, integrator: str) -> dict:
     timings["calibration_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    aero = expand_load(spec.aero.lift, spec.aero.drag, st.alpha, beta, theta0, spec.aero.angle_convention)
+    aero = expand_load(spec.aero.lift, spec.aero.drag, st.alpha, beta, theta0, spec.aero.angle_convention,
+                       spec.aero.load_axes)
     timings["aero_expansion_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()

@@ -39,8 +39,9 @@ def derive_nmode(source: Derivation | ModelSpec, n_in: int, n_out: int,
     if data is not None:
         return NModeODE.from_dict(data)
     st = d.statics
-    ms = mode_set(st, n_in, n_out)
-    aero = expand_load(spec.aero.lift, spec.aero.drag, st.alpha, d.beta, d.theta0, spec.aero.angle_convention)
+    ms = mode_set(st, n_in, n_out, spec.cable.twist_ends)
+    aero = expand_load(spec.aero.lift, spec.aero.drag, st.alpha, d.beta, d.theta0, spec.aero.angle_convention,
+                       spec.aero.load_axes)
     ode = project_n(st, ms, aero, d.aero_scale, d.velocity_ratio, spec.cable.damping_ratio,
                     ExactZeroIntegrator(ms.shapes) if integrator == "closed-form"
                     else QuadratureIntegrator(ms.shapes, nodes=128),

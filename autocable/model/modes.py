@@ -9,6 +9,11 @@ Out-of-plane (eq. 19_2 linearised): tau w'' = m* w_tt, so phi2(s) = sin(pi s) an
 Its twist is slaved through the quasi-static eq. (19)_3 as corrected (docs/model.md, M4: (1 + chi)):
     chi theta'' - delta^2 theta + (1 + chi) delta w'' = 0,   chi (theta' + delta w') = 0 at s = 0, 1,
 solved in closed form: theta = B sin(pi s) + C cosh(k (s - 1/2)), k = delta / sqrt(chi).
+The paper's scaling assumes a twist that "does not vanish at the ends" (Sect. 2.2), and with the
+natural conditions C is about 2 pi/delta: the twist is large and nearly uniform. Held at the
+anchorages instead (``twist_ends = "restrained"``, theta(0) = theta(1) = 0), the homogeneous part
+must vanish at both ends, so C = 0 and theta = B sin(pi s), B = -(1 + chi) delta pi^2 /
+(chi pi^2 + delta^2): about -0.19 for the sample cable, some 2500 times smaller.
 Both modes are normalised to a unit maximum displacement (Sect. 5); the twist follows phi2.
 """
 from __future__ import annotations
@@ -49,8 +54,16 @@ class Modes:
                               #                vhat, vhat_d, vhat_dd
 
 
-def linear_modes(st: CableStatics) -> Modes:
-    """The first symmetric in-plane and out-of-plane modes, unit maximum, with the slaved twist."""
+TWIST_ENDS = ("natural", "restrained")
+
+
+def linear_modes(st: CableStatics, twist_ends: str = "natural") -> Modes:
+    """The first symmetric in-plane and out-of-plane modes, unit maximum, with the slaved twist.
+
+    ``twist_ends``: "natural" (eq. 20 as printed) or "restrained" (theta = 0 at s = 0, 1); see the
+    module docstring."""
+    if twist_ends not in TWIST_ENDS:
+        raise ValueError(f"twist_ends must be one of {TWIST_ENDS}, got {twist_ends!r}")
     b = irvine_root(st.lambda2)
     cb = math.cos(b / 2)
     norm = 1.0 - cb
@@ -60,7 +73,9 @@ def linear_modes(st: CableStatics) -> Modes:
     delta, chi = st.delta, st.chi
     B = -(1 + chi) * delta * math.pi**2 / (chi * math.pi**2 + delta**2)
     k = delta / math.sqrt(chi)
-    C = math.pi * (B + delta) / (k * math.sinh(k / 2))
+    # natural: chi (theta' + delta w') = 0 at the ends; restrained: theta = 0 there, which the
+    # particular part B sin(pi s) already meets, so the cosh part must vanish.
+    C = math.pi * (B + delta) / (k * math.sinh(k / 2)) if twist_ends == "natural" else 0.0
     theta = scaled(sin_term(math.pi), B, scaled(cosh_term(k, 0.5), C))
     vhat = poly(0.0, st.C2, st.C1)
 
@@ -96,3 +111,11 @@ def ritz_omega1(st: CableStatics, n_terms: int = 60) -> float:
     M = st.m_star / 2
     w2 = np.linalg.eigvalsh(K / M)
     return float(np.sqrt(w2.min()))
+
+
+def twist_peak(B: float, C: float, k: float) -> float:
+    """max over s in [0, 1] of |theta2(s)| = |B sin(pi s) + C cosh(k (s - 1/2))|, the slaved twist
+    per unit q2 (radians per unit modal amplitude): both terms are even about s = 1/2, so the
+    extreme is at mid-span or at an end, or where theta2' = 0 between (a dense grid finds it)."""
+    s = np.linspace(0.0, 1.0, 2001)
+    return float(np.max(np.abs(B * np.sin(math.pi * s) + C * np.cosh(k * (s - 0.5)))))

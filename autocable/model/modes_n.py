@@ -125,19 +125,24 @@ def _sine(name: str, kk: float):
     return phi, direct
 
 
-def slaved_twist(st: CableStatics, k: int) -> tuple[float, float, float, float]:
-    """(B, C, D, kappa) of the twist slaved to w = sin(k pi s) (module docstring)."""
+def slaved_twist(st: CableStatics, k: int, twist_ends: str = "natural") -> tuple[float, float, float, float]:
+    """(B, C, D, kappa) of the twist slaved to w = sin(k pi s) (module docstring). With
+    ``twist_ends = "restrained"`` (theta = 0 at both ends) the particular part B sin(k pi s) already
+    vanishes there, so the homogeneous part does too: C = D = 0."""
     delta, chi = st.delta, st.chi
     kp = k * math.pi
     B = -(1 + chi) * delta * kp**2 / (chi * kp**2 + delta**2)
     kappa = delta / math.sqrt(chi)
+    if twist_ends == "restrained":
+        return B, 0.0, 0.0, kappa
     if k % 2:
         return B, kp * (B + delta) / (kappa * math.sinh(kappa / 2)), 0.0, kappa
     return B, 0.0, -kp * (B + delta) / (kappa * math.cosh(kappa / 2)), kappa
 
 
-def mode_set(st: CableStatics, n_in: int, n_out: int) -> ModeSet:
-    """The lowest ``n_in`` in-plane and ``n_out`` out-of-plane modes with their shapes."""
+def mode_set(st: CableStatics, n_in: int, n_out: int, twist_ends: str = "natural") -> ModeSet:
+    """The lowest ``n_in`` in-plane and ``n_out`` out-of-plane modes with their shapes (the twist
+    end conditions as in `modes.linear_modes`)."""
     if n_in < 1 or n_out < 1:
         raise ValueError(f"need at least one mode per plane, got n_in = {n_in}, n_out = {n_out}")
     modes, exps, direct = [], {}, {}
@@ -150,7 +155,7 @@ def mode_set(st: CableStatics, n_in: int, n_out: int) -> ModeSet:
     for k in range(1, n_out + 1):
         name = f"w{k}"
         psi, dfun = _sine(name, k * math.pi)
-        B, C, D, kappa = slaved_twist(st, k)
+        B, C, D, kappa = slaved_twist(st, k, twist_ends)
         th = scaled(sin_term(k * math.pi), B,
                     scaled(cosh_term(kappa, 0.5), C) if C else scaled(sinh_term(kappa, 0.5), D))
         modes.append(ModeInfo(name, OUT_OF_PLANE, SYMMETRIC if k % 2 else ANTISYMMETRIC, k, float(k),

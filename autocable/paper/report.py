@@ -9,6 +9,9 @@ Everything here is computed from the output folders alone (``DIR/<scene>/branche
 bounds of the AME-vs-(21) study (`STUDY_MAX_ERROR`, from ``docs/ame_vs_ode21.md``) and the texts
 of the known reasons why a feature may not show (`REASONS`, from that study, the README's
 "Known limit" and the model spec's comments); which reason applies is decided from the results.
+The per-figure statements go through `autocable.paper.targets` (the decision code `autocable
+calibrate` uses too), and when the model file has a ``<model>.targets.toml`` beside it the report
+counts its statements and checks the paper's printed numbers (U_c, omega1, rho) against the results.
 """
 from __future__ import annotations
 
@@ -20,6 +23,7 @@ from pathlib import Path
 from typing import Callable
 
 from autocable.studies.ame_bounds import NEAR, STUDY_MAX_ERROR
+from autocable.paper import targets as targets_mod
 
 __all__ = ["SceneData", "load_scene_data", "overlay_comparison", "exact_stable", "study_bound", "build_report", "write_report",
            "stage_seconds", "FIGURE_STAGES", "PAPER_FIGURES", "STUDY_MAX_ERROR", "REASONS", "REPORT_MD"]
@@ -954,6 +958,67 @@ def _main_result(scenes: dict) -> list[str]:
     return lines
 
 
+def _validity_table(scenes: dict) -> list[str]:
+    """Per scene: the largest slaved twist along its branches (branches.csv's ``twist``), the largest
+    error of the cubic load of eq. (14) against the exact quasi-steady load there (``cubic_error``),
+    the points beyond the bound, and the range of phi the twist sweeps (run.json's model_validity)."""
+    rows = []
+    for n, d in scenes.items():
+        v = d.provenance().get("model_validity") if d.ok else None
+        if not v:
+            continue
+        lo, hi = v.get("phi_range_deg", [_NAN, _NAN])
+        rows.append(f"| {n} | {_g(v['twist_per_q2_rad'], 4)} | {_g(v['largest_twist_rad'], 3)} | "
+                    f"{_e(v['largest_cubic_error'], 2)} | {v['points_beyond_bound']} of {v['points']} | "
+                    f"[{_g(lo, 4)}, {_g(hi, 4)}] |")
+    if not rows:
+        return ["No scene recorded the twist (results written before this check existed)."]
+    bound = next(d.provenance()["model_validity"]["cubic_rtol"] for d in scenes.values()
+                 if d.ok and d.provenance().get("model_validity"))
+    return ["The load is the cubic expansion of eq. (14) in (theta, vdot, wdot), with the twist theta = "
+            "theta2(s) q2 slaved to the out-of-plane mode. Per scene: the peak twist per unit a2, the largest "
+            "twist along its branches (column `twist` of branches.csv, radians), the largest relative error of "
+            "the cubic against the exact quasi-steady load at the motion of a point (column `cubic_error`), "
+            f"the points where that error exceeds {bound:g}, and the range of the angle phi of eq. (12) the "
+            "twist sweeps about the static angle (degrees; the lift and drag fits of eq. 13 come from "
+            "wind-tunnel tests over a limited range of phi).", "",
+            "| scene | twist per unit a2 | largest twist | largest cubic error | beyond the bound | phi range |",
+            "|---|---|---|---|---|---|"] + rows
+
+
+def targets_file(scenes: dict) -> Path | None:
+    """The targets file of the model the scenes used: ``<model>.targets.toml`` beside the model
+    file named in run.json's provenance (None if there is none)."""
+    for d in scenes.values():
+        model = d.provenance().get("model") if d.ok else None
+        if model:
+            path = Path(model).with_suffix("").with_suffix(".targets.toml")
+            return path if path.is_file() else None
+    return None
+
+
+def _targets_summary(scenes: dict) -> list[str]:
+    """The statements of the targets file decided by `autocable.paper.targets` (the code the
+    calibration uses too), and the paper's printed numbers against the model."""
+    path = targets_file(scenes)
+    if path is None:
+        return []
+    targets = targets_mod.load_targets(path)
+    verdicts = targets_mod.decide_statements(targets, scenes)
+    numbers = targets_mod.decide_numbers(targets, targets_mod.scene_numbers(scenes))
+    c = targets_mod.count_shown(verdicts)
+    lines = ["", "## The statements of Sect. 5 and the paper's numbers", "",
+             f"Decided for the {len(verdicts)} statements of {path.name} (the same code as "
+             f"`autocable calibrate`): **{c['yes']} yes**, {c['partly']} partly, {c['no']} no "
+             "(the tables per figure below). The numbers Sect. 5 prints:", "",
+             "| number | paper | here | shown |", "|---|---|---|---|"]
+    by_id = {t.id: t for t in targets}
+    for v in numbers:
+        t = by_id[v.id]
+        lines.append(f"| {t.id} ({t.quantity}) | {t.value:g} ± {t.tolerance:g} | {_g(v.value, 7)} | {v.shown} |")
+    return lines
+
+
 def build_report(out_dir: str | Path) -> str:
     """The text of report.md for the figures in ``out_dir`` (see the module docstring)."""
     out = Path(out_dir)
@@ -987,6 +1052,7 @@ def build_report(out_dir: str | Path) -> str:
                   + ", ".join(absent) + "."]
     lines += ["", "## The main result: wind cuts the out-of-plane amplitude (Fig. 10 against Fig. 6)", ""]
     lines += _main_result(scenes)
+    lines += _targets_summary(scenes)
     lines += ["", "## Figures", "",
               "For each figure: what Sect. 5 states (docs/model.md, F), whether autocable shows it "
               "(yes / partly / no), where and with what numbers; where not, why."]
@@ -1002,7 +1068,7 @@ def build_report(out_dir: str | Path) -> str:
                if prov.get("ame") else "")
         lines.append("Fixed: " + (", ".join(f"{k} = {_g(v)}" for k, v in fixed.items()) or "none")
                      + f".{ame} Stages: {_stage_line(d)}.")
-        feats = _features(d, scenes)
+        feats = targets_mod.scene_statements(d, scenes)
         if feats:
             lines += ["", "| Sect. 5 states | shown | where, numbers, why |", "|---|---|---|"]
             lines += [f"| {a} | {b} | {c} |" for a, b, c in feats]
@@ -1021,6 +1087,7 @@ def build_report(out_dir: str | Path) -> str:
               + "; between two of these eta* the bound is their log-log interpolation (marked interp.: the "
               "study finds the error growing as eta*^1.9-2.0), outside them there is none.", ""]
     lines += _overlay_table([d for d in scenes.values() if d.ok])
+    lines += ["", "## Where the model stops applying", ""] + _validity_table(scenes)
     lines += ["", "## Known reasons a feature may not show", ""]
     lines += [f"- **{k}**: {v}." for k, v in REASONS.items()]
     return "\n".join(lines) + "\n"

@@ -10,6 +10,7 @@ pass it, so the core never imports the studies built on it.
 """
 from __future__ import annotations
 
+import math
 import platform
 import sys
 import time
@@ -312,6 +313,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
                                **{k: v for k, v in results[run.name].timings.items()},
                                "follow_ups": follow, "state_scale": scale}
     stages["runs"] = run_times
+    branches, validity = _with_twist(branches, spec, deriv)
     provenance = {
         "scene": str(scene.path), "scene_name": scene.name, "title": scene.title,
         "scene_text": scene.text, "model": str(scene.model), "model_name": spec.name,
@@ -326,6 +328,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         "cycle_engine": scene.engine,
         "versions": versions(), "platform": platform.platform(), "argv": list(sys.argv),
         "resolution": resolution,
+        "model_validity": validity,
     }
     res = RunResults(scene.name, tuple(branches), {**provenance, "stages": stages})
     out = Path(out_dir)
@@ -464,6 +467,49 @@ def _plot_chart(scene: Scene, res, chart_out: dict, out: Path) -> list:
                                        if f"{k} =" not in scene.plot.title)
     return plot_chart(res, chart_out["rows"], chart_out["regions"], out / f"{scene.name}_chart", x=ch.x, y=ch.y,
                       x_range=ch.x_range, y_range=ch.y_range, title=title, response_map=rmap)
+
+
+def _with_twist(branches, spec, deriv):
+    """Where the model stops applying. Each branch with a2 gets two columns: ``twist``,
+    the peak slaved twist max_s |theta2(s)| a2 [rad] (Sect. 3: theta = theta2(s) q2), and
+    ``cubic_error``, the error of the cubic load of eq. (14) against the exact quasi-steady load at
+    the motion of that point (`aero.CubicLoadError`: twist, and the mid-span velocities
+    nu Omega a1, nu Omega a2, at the point's U); the provenance gets the bound `aero.CUBIC_RTOL`,
+    the largest twist and error, how many points exceed the bound, and the range of the angle phi
+    of eq. (12) the twist sweeps (the lift and drag fits of eq. 13 were measured over a few tens of
+    degrees at most)."""
+    import numpy as np
+
+    from autocable.model.aero import CUBIC_RTOL, CubicLoadError
+    from autocable.model.modes import twist_peak
+    per_q2 = twist_peak(*deriv.twist)
+    a = spec.aero
+    err = CubicLoadError(a.lift, a.drag, deriv.statics.alpha, deriv.beta, deriv.theta0, a.angle_convention,
+                         a.load_axes)
+    nu, om = deriv.velocity_ratio, deriv.ode.omega1
+    out, largest, worst, beyond, total = [], 0.0, 0.0, 0, 0
+    for b in branches:
+        if "a2" in b.table and "a1" in b.table:
+            a1 = np.abs(np.asarray(b.table["a1"], dtype=float))
+            a2 = np.abs(np.asarray(b.table["a2"], dtype=float))
+            U = np.asarray(b.table["U"], dtype=float) if "U" in b.table else np.zeros_like(a2)
+            tw = per_q2 * a2
+            ce = np.array([err(t, nu * om * x1, nu * om * x2, u) for t, x1, x2, u in zip(tw, a1, a2, U)])
+            ok = np.isfinite(tw)
+            largest = max(largest, float(tw[ok].max()) if ok.any() else 0.0)
+            fin = ce[np.isfinite(ce)]
+            worst = max(worst, float(fin.max()) if fin.size else 0.0)
+            beyond += int(np.sum(fin > CUBIC_RTOL))
+            total += len(b)
+            b = b.replace(table={**b.table, "twist": tw, "cubic_error": ce})
+        out.append(b)
+    # the cubic fits c_l, c_d of eq. (13) are in phi = phi0 - theta (velocities aside): a twist of
+    # radians takes them far outside any measured range of [36], whatever the expansion's error
+    phi0 = math.degrees(deriv.static_angle)
+    validity = {"twist_per_q2_rad": per_q2, "cubic_rtol": CUBIC_RTOL, "largest_twist_rad": largest,
+                "largest_cubic_error": worst, "points_beyond_bound": beyond, "points": total,
+                "phi_range_deg": [phi0 - math.degrees(largest), phi0 + math.degrees(largest)]}
+    return out, validity
 
 
 def write_compare(scene: Scene, rows: list[dict], branches, out: Path) -> Path:

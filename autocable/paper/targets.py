@@ -1,0 +1,287 @@
+"""The checkable statements of Sect. 5 of Luongo & Zulli (2012) as data, and the one code that
+decides them.
+
+A targets file (``models/luongo_zulli_2012.targets.toml``) lists three kinds of entries:
+
+* ``[[statement]]``: what Sect. 5 says about one figure, decided from the scene's output folder
+  by the report's decision code (`scene_statements`, which `autocable.paper.report` uses for its tables
+  and `autocable calibrate` for its full evaluation: the two cannot disagree);
+* ``[[number]]``: a printed number against the model (U_c through the onset at U* = 1, omega1 =
+  1.004, rho = -0.004), from eq. (21) itself (`ode_numbers`) or from the output folders
+  (`scene_numbers`), decided by `decide_number`;
+* ``[[screen]]``: a cheap quantity of the calibration's screen (zeta8 of eq. 25, boundedness of
+  eq. (21) from rest at points of Figs. 3, 8, 10, the Fig. 10 / Fig. 6 a2 ratio), decided by
+  `decide_screen`.
+
+A bad file raises `TargetsError` (a `SpecError`): one line naming the file, the entry and field,
+and what is accepted.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from autocable.spec import SpecError, read_toml
+
+#: Verdicts, best first (the report's words).
+SHOWN = ("yes", "partly", "no")
+OPS = {"<": lambda a, b: a < b, "<=": lambda a, b: a <= b, ">": lambda a, b: a > b,
+       ">=": lambda a, b: a >= b}
+NUMBER_QUANTITIES = ("U_onset", "omega1", "rho")
+SCREEN_QUANTITIES = ("zeta8", "onset_error_21", "bounded_fraction", "ame_a2_ratio", "ode21_a2_ratio")
+KINDS = ("statement", "number", "screen")
+
+
+class TargetsError(SpecError):
+    """A bad targets file: ``str(err)`` is one line, ``file: field: what is expected``."""
+
+
+@dataclass(frozen=True)
+class Target:
+    """One entry of a targets file (see the module docstring)."""
+
+    id: str
+    kind: str                       # "statement" | "number" | "screen"
+    says: str                       # the paper's statement (for statements: the report's text start)
+    scene: str = ""                 # the scene (figure) that decides it
+    quantity: str = ""
+    threshold: object = None        # text (statements) or number (screen)
+    value: float = math.nan         # numbers: the paper's value
+    tolerance: float = math.nan     # numbers
+    op: str = ""                    # screen
+    points: tuple = ()              # screen: ((U*, eta*, sigma), ...)
+    sigmas: tuple = ()              # screen: sigma values of the a2 ratios
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """A target decided: its value (a number, or the report's text), shown yes/partly/no, why."""
+
+    id: str
+    shown: str
+    value: object = None
+    evidence: str = ""
+    extra: dict = field(default_factory=dict, compare=False)
+
+
+_FIELDS = {
+    "statement": {"id": str, "scene": str, "says": str, "quantity": str, "threshold": str},
+    "number": {"id": str, "says": str, "quantity": str, "value": float, "tolerance": float},
+    "screen": {"id": str, "scene": str, "says": str, "quantity": str, "op": str, "threshold": float,
+               "points": list, "sigmas": list},
+}
+_OPTIONAL = {"screen": {"points", "sigmas", "scene"}, "number": set(), "statement": set()}
+
+
+def _typed(value, kind, path, where):
+    if kind is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise TargetsError(path, where, f"expected a finite number, got {value!r}")
+        return float(value)
+    if not isinstance(value, kind):
+        raise TargetsError(path, where, f"expected a {kind.__name__}, got {value!r}")
+    return value
+
+
+def parse_targets(data: dict, path="<targets>") -> tuple[Target, ...]:
+    """Validate a parsed targets document (module docstring)."""
+    for key in data:
+        if key not in KINDS:
+            raise TargetsError(path, key, f"unknown entry kind; allowed: {', '.join(f'[[{k}]]' for k in KINDS)}")
+    out, seen = [], set()
+    for kind in KINDS:
+        entries = data.get(kind, [])
+        if not isinstance(entries, list):
+            raise TargetsError(path, kind, f"expected an array of tables [[{kind}]]")
+        rules = _FIELDS[kind]
+        for i, entry in enumerate(entries):
+            where = f"{kind}[{i}]"
+            if not isinstance(entry, dict):
+                raise TargetsError(path, where, "expected a table")
+            for key in entry:
+                if key not in rules:
+                    raise TargetsError(path, f"{where}.{key}", f"unknown field; allowed: {', '.join(rules)}")
+            vals = {}
+            for key, typ in rules.items():
+                if key not in entry:
+                    if key in _OPTIONAL[kind]:
+                        continue
+                    raise TargetsError(path, f"{where}.{key}", "missing")
+                vals[key] = _typed(entry[key], typ, path, f"{where}.{key}")
+            tid = vals["id"]
+            if not tid or tid in seen:
+                raise TargetsError(path, f"{where}.id", f"expected a non-empty id not used before, got {tid!r}")
+            seen.add(tid)
+            if kind == "number" and vals["quantity"] not in NUMBER_QUANTITIES:
+                raise TargetsError(path, f"{where}.quantity",
+                                   f"expected one of {', '.join(NUMBER_QUANTITIES)}, got {vals['quantity']!r}")
+            if kind == "number" and not vals["tolerance"] > 0:
+                raise TargetsError(path, f"{where}.tolerance", f"expected a positive number, got {vals['tolerance']}")
+            if kind == "screen":
+                if vals["quantity"] not in SCREEN_QUANTITIES:
+                    raise TargetsError(path, f"{where}.quantity",
+                                       f"expected one of {', '.join(SCREEN_QUANTITIES)}, got {vals['quantity']!r}")
+                if vals["op"] not in OPS:
+                    raise TargetsError(path, f"{where}.op", f"expected one of {', '.join(OPS)}, got {vals['op']!r}")
+                pts = vals.get("points", [])
+                if vals["quantity"] == "bounded_fraction" and not pts:
+                    raise TargetsError(path, f"{where}.points", "expected a list of [U*, eta*, sigma] triples")
+                for j, p in enumerate(pts):
+                    if not (isinstance(p, list) and len(p) == 3):
+                        raise TargetsError(path, f"{where}.points[{j}]", f"expected [U*, eta*, sigma], got {p!r}")
+                    for x in p:
+                        _typed(x, float, path, f"{where}.points[{j}]")
+                vals["points"] = tuple(tuple(float(x) for x in p) for p in pts)
+                sig = vals.get("sigmas", [])
+                if vals["quantity"] in ("ame_a2_ratio", "ode21_a2_ratio") and not sig:
+                    raise TargetsError(path, f"{where}.sigmas", "expected a non-empty list of sigma values")
+                vals["sigmas"] = tuple(_typed(x, float, path, f"{where}.sigmas") for x in sig)
+            out.append(Target(kind=kind, **vals))
+    if not out:
+        raise TargetsError(path, "", "no targets: add [[statement]], [[number]] or [[screen]] entries")
+    return tuple(out)
+
+
+def load_targets(path) -> tuple[Target, ...]:
+    """Read and validate a targets file; a bad one raises a one-line `TargetsError`."""
+    try:
+        data, _ = read_toml(path)
+    except SpecError as exc:
+        raise TargetsError(path, exc.field, str(exc).split(": ", 2)[-1]) from None
+    return parse_targets(data, Path(path))
+
+
+# ------------------------------------------------------------------------------------------------
+# deciding
+# ------------------------------------------------------------------------------------------------
+def scene_statements(scene, scenes: dict) -> list[tuple[str, str, str]]:
+    """(statement, yes/partly/no, evidence) of one scene's output: the report's decision code,
+    the single source of both the report's tables and the calibration's full evaluation."""
+    from autocable.paper import report
+    return report._features(scene, scenes)
+
+
+def decide_statements(targets, scenes: dict) -> list[Verdict]:
+    """Decide every ``[[statement]]`` target from the scenes' output folders (`SceneData` by name)."""
+    out = []
+    cache: dict[str, list] = {}
+    for t in targets:
+        if t.kind != "statement":
+            continue
+        d = scenes.get(t.scene)
+        if d is None or not d.ok:
+            why = "scene not run" if d is None else f"scene failed: {d.error or d.status}"
+            out.append(Verdict(t.id, "no", "", why))
+            continue
+        if t.scene not in cache:
+            cache[t.scene] = scene_statements(d, scenes)
+        hit = [f for f in cache[t.scene] if f[0].startswith(t.says)]
+        if not hit:
+            out.append(Verdict(t.id, "no", "", "the decision code produced no such statement for this scene"))
+        else:
+            out.append(Verdict(t.id, hit[0][1], hit[0][0], hit[0][2]))
+    return out
+
+
+def decide_number(t: Target, value: float) -> Verdict:
+    """|value - paper value| <= tolerance."""
+    ok = math.isfinite(value) and abs(value - t.value) <= t.tolerance
+    return Verdict(t.id, "yes" if ok else "no", value,
+                   f"{t.quantity} = {value:.6g} against {t.value:g} (tolerance {t.tolerance:g})")
+
+
+def decide_screen(t: Target, value: float, evidence: str = "") -> Verdict:
+    """value `op` threshold; a value that could not be computed (nan) is "no"."""
+    ok = isinstance(value, (int, float)) and math.isfinite(value) and OPS[t.op](value, t.threshold)
+    return Verdict(t.id, "yes" if ok else "no", value,
+                   f"{t.quantity} = {value:.4g} ({t.op} {t.threshold:g} needed)" + (f"; {evidence}" if evidence else ""))
+
+
+def onset_speed(ode, U_max: float = 3.0) -> tuple[float, str]:
+    """(U*, mode) where the trivial solution of eq. (21) at eta = 0 first loses stability, from the
+    eigenvalues of its linear part (`TwoModeODE.linear_matrix`); mode is "in-plane" or
+    "out-of-plane" by the larger displacement component of the critical eigenvector; (nan, "")
+    if it stays stable up to ``U_max``."""
+    import numpy as np
+
+    def growth(U):
+        lam, vec = np.linalg.eig(ode.linear_matrix(U))
+        i = int(np.argmax(lam.real))
+        return lam[i].real, vec[:, i]
+
+    grid = np.linspace(1e-3, U_max, 301)
+    g = [growth(u)[0] for u in grid]
+    for u0, u1, g0, g1 in zip(grid[:-1], grid[1:], g[:-1], g[1:]):
+        if g0 < 0 <= g1:
+            for _ in range(60):
+                um = 0.5 * (u0 + u1)
+                (u0, u1) = (um, u1) if growth(um)[0] < 0 else (u0, um)
+            v = growth(u1)[1]
+            return 0.5 * (u0 + u1), "in-plane" if abs(v[0]) >= abs(v[1]) else "out-of-plane"
+        if g0 >= 0:
+            return float(u0), "in-plane" if abs(growth(u0)[1][0]) >= abs(growth(u0)[1][1]) else "out-of-plane"
+    return math.nan, ""
+
+
+def mono_modal_onset(ode) -> float:
+    """U* at which the in-plane equation alone (A2 = 0, q2 = 0) loses its damping:
+    2 xi_s omega1 + zeta11 U = 0 (Appendix A, Gamma_{1,1} at eta = 0), i.e. where eq. (25)'s
+    branch starts (docs/model.md, M5: the reading of its numerator). nan if zeta11 >= 0."""
+    z11 = sum(t.coefficient for t in ode.terms if t.name == "zeta11")
+    damping = sum(t.coefficient for t in ode.terms if t.equation == 1 and t.origin == "damping")
+    return -damping / z11 if z11 < 0 else math.nan
+
+
+def ode_numbers(ode) -> dict[str, float]:
+    """The ``[[number]]`` quantities of eq. (21) itself: U_onset, the mono-modal galloping onset
+    that Fig. 3 and eq. (25) show ("the classic mono-modal galloping occurs at U = 1",
+    `mono_modal_onset`); omega1; rho = omega2 - omega1."""
+    return {"U_onset": mono_modal_onset(ode), "omega1": ode.omega1, "rho": ode.omega2 - ode.omega1}
+
+
+def onset_error_21(ode) -> float:
+    """|U* - 1| at the onset of eq. (21)'s trivial solution (both modes and their linear couplings,
+    `onset_speed`), nan if the critical mode is out-of-plane or there is none below U* = 3."""
+    U, mode = onset_speed(ode)
+    return abs(U - 1.0) if mode == "in-plane" else math.nan
+
+
+def scene_numbers(scenes: dict) -> dict[str, float]:
+    """The same quantities from the figures' output folders: omega1, omega2 from run.json's
+    provenance; U_onset where fig03's trivial branch loses stability (fig03 draws the in-plane
+    AME with A2 = 0: the mono-modal onset, as `ode_numbers`)."""
+    out = {"U_onset": math.nan, "omega1": math.nan, "rho": math.nan}
+    for d in scenes.values():
+        prov = d.provenance() if d.ok else {}
+        if "omega1" in prov and "omega2" in prov:
+            out["omega1"] = float(prov["omega1"])
+            out["rho"] = float(prov["omega2"]) - float(prov["omega1"])
+            break
+    d = scenes.get("fig03")
+    if d is not None and d.ok:
+        from autocable.paper.report import AT_REST, _num
+        # the zero of the largest real part of the eigenvalues (branches.csv's max_real) along the
+        # trivial branches (a1 at rest throughout; the scene continues it in pieces), interpolated linearly between the two points around it
+        pts = []
+        for b in d.branches():
+            rows = d.branch_rows(b["name"])
+            if b.get("kind") == "equilibrium" and max((abs(_num(x["a1"])) for x in rows), default=1) < AT_REST:
+                pts += [(_num(r["U"]), _num(r.get("max_real"))) for r in rows]
+        # the growth rates of the amplitude equations are O(xi_s) = 1e-3; a row at a branch point
+        # can carry a spurious O(1) value (seen at PyCont's BP rows): left out
+        pts = sorted(p for p in pts if math.isfinite(p[0]) and math.isfinite(p[1]) and abs(p[1]) < 0.1)
+        for (u0, g0), (u1, g1) in zip(pts, pts[1:]):
+            if g0 < 0 <= g1 and u1 > u0:
+                out["U_onset"] = u0 - g0 * (u1 - u0) / (g1 - g0)
+                break
+    return out
+
+
+def decide_numbers(targets, numbers: dict) -> list[Verdict]:
+    return [decide_number(t, numbers.get(t.quantity, math.nan)) for t in targets if t.kind == "number"]
+
+
+def count_shown(verdicts) -> dict[str, int]:
+    """How many verdicts are yes / partly / no."""
+    return {s: sum(v.shown == s for v in verdicts) for s in SHOWN}
