@@ -14,7 +14,7 @@ import math
 import platform
 import sys
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
@@ -58,6 +58,109 @@ def _system_for(scene: Scene, ame, values: Mapping[str, float], parameter: str, 
     if (scene.ame, wind) not in memo:
         memo[(scene.ame, wind)] = ame_system(ame, scene.ame, wind=wind)
     return memo[(scene.ame, wind)]
+
+
+
+# ------------------------------------------------------------------------------------------------
+# one function per run kind (RUN_KINDS): what a scene's [[run]] continues
+# ------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Run:
+    """What every run kind needs: the scene's run, its problem and settings, and where it starts."""
+
+    run: RunSpec
+    problem: Any                  # EquilibriumProblem
+    settings: Any                 # ContinuationSettings
+    system: Any                   # System
+    values: Mapping[str, float]
+    scale: float
+    source: Any                   # the ContinuationResult of a "RUN:LABEL" start, or None
+    start_state: Any              # the labelled point's state, or None
+    engine: str
+    say: Callable[[str], None]
+    path: Path
+    where: str
+
+    def from_label(self):
+        """The labelled point of an earlier run, in this run's problem (its parameter and range)."""
+        from autocable.methods import continuation as C
+        return C.ContinuationResult(self.source.branch, self.problem, self.settings), \
+            self.run.start.label.split(":")[1]
+
+
+def run_curve(r: _Run):
+    """``kind = "curve"``: the curve of folds (LP-C), Hopf points (H-C2) or pitchforks through a
+    labelled point, in (parameter, parameter2)."""
+    from autocable.methods import continuation as C
+    src, label = r.from_label()
+    fn = C.continue_folds if label.startswith("LP") else \
+        C.continue_branch_points if label.startswith("BP") else C.continue_hopf
+    return fn(src, label, r.run.parameter2, r.run.range2, r.settings, name=r.run.name,
+              directions=r.run.directions, progress=r.say)
+
+
+def run_cycles_from_orbit(r: _Run):
+    """``kind = "cycles"`` with ``start = { orbit = [...] }``: the stable periodic orbit the AME
+    settle on from those amplitudes, and its branch (compiled collocation; Figs. 8 and 10's P)."""
+    import numpy as np
+
+    from autocable.methods import continuation as C
+    amps = list(r.run.start.values)
+    n_modes = r.system.dimension // 2
+    amps += [0.0] * max(0, n_modes - len(amps))
+    y0 = np.zeros(r.system.dimension)
+    y0[0::2] = amps[:n_modes]
+    r.say(f"  integrating the AME from a = {amps[:n_modes]} to a periodic orbit")
+    t_orb, x_orb, period = C.periodic_orbit(r.system, r.values, y0, scale=r.scale)
+    return C.continue_cycles_from_orbit(r.problem, r.settings, t_orb, x_orb, period, name=r.run.name,
+                                        directions=r.run.directions, progress=r.say)
+
+
+def run_cycles(r: _Run):
+    """``kind = "cycles"`` from a labelled Hopf point (PyCont's LC-C or the compiled collocation)."""
+    from autocable.methods import continuation as C
+    src, label = r.from_label()
+    return C.continue_cycles(src, label, r.settings, name=r.run.name, progress=r.say, engine=r.engine)
+
+
+def run_switch(r: _Run):
+    """``kind = "switch"``: the other branch through a labelled branch point, both sides."""
+    from autocable.methods import continuation as C
+    src, label = r.from_label()
+    return C.switch_branch(src, label, r.settings, name=r.run.name, progress=r.say, engine=r.engine)
+
+
+def run_equilibria(r: _Run):
+    """``kind = "equilibria"``: a branch of equilibria from the trivial state, a given state, the
+    steady state integration reaches from given amplitudes, or a labelled point."""
+    import numpy as np
+
+    from autocable.methods import continuation as C
+    start, system = r.run.start, r.system
+    if start.kind == "trivial":
+        x0 = np.zeros(system.dimension)
+    elif start.kind == "state":
+        if len(start.values) != system.dimension:
+            raise SpecError(r.path, f"{r.where}.start.state", f"expected {system.dimension} numbers "
+                                                              f"{list(system.variables)}")
+        x0 = np.array(start.values)
+    elif start.kind == "integrate":
+        amps = list(start.values)
+        n_modes = system.dimension // 2
+        amps += [0.0] * max(0, n_modes - len(amps))
+        y0 = np.zeros(system.dimension)
+        y0[0::2] = amps[:n_modes]
+        r.say(f"  integrating the AME from a = {amps[:n_modes]} to a steady state")
+        x0 = C.settle(system, r.values, y0, scale=r.scale, engine=r.engine)
+    else:
+        x0 = r.start_state
+    return C.continue_equilibria(r.problem, r.settings, x0, name=r.run.name, directions=r.run.directions,
+                                 progress=r.say, engine=r.engine)
+
+
+#: The run kinds of a scene ("orbit": a cycles run started from an integrated orbit).
+RUN_KINDS = {"equilibria": run_equilibria, "cycles": run_cycles, "orbit": run_cycles_from_orbit,
+             "switch": run_switch, "curve": run_curve}
 
 
 def coarse_settings(steps: Mapping[str, Any]) -> dict[str, Any]:
@@ -229,69 +332,13 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         else:
             say(f"run {run.name}: {run.kind} in {run.parameter} over [{lo:g}, {hi:g}] from "
                 f"{run.start.label or run.start.kind} at {run.parameter} = {at:g}")
-        if run.kind == "curve":
-            # The labelled point in this run's problem: its parameter and range are the first ones.
-            src = C.ContinuationResult(source.branch, problem, settings)
-            label = run.start.label.split(":")[1]
-            fn = C.continue_folds if label.startswith("LP") else \
-                C.continue_branch_points if label.startswith("BP") else C.continue_hopf
-            try:
-                result = fn(src, label, run.parameter2, run.range2, settings, name=run.name,
-                            directions=run.directions, progress=say)
-            except (C.StartError, C.SymmetryError) as exc:
-                raise SpecError(path, f"{where}.start", str(exc)) from None
-            add(result)
-        elif run.kind == "cycles" and run.start.kind == "orbit":
-            amps = list(run.start.values)
-            n_modes = system.dimension // 2
-            amps += [0.0] * max(0, n_modes - len(amps))
-            y0 = np.zeros(system.dimension)
-            y0[0::2] = amps[:n_modes]
-            say(f"  integrating the AME from a = {amps[:n_modes]} to a periodic orbit")
-            try:
-                t_orb, x_orb, period = C.periodic_orbit(system, values, y0, scale=scale)
-                result = C.continue_cycles_from_orbit(problem, settings, t_orb, x_orb, period, name=run.name,
-                                                      directions=run.directions, progress=say)
-            except C.StartError as exc:
-                raise SpecError(path, f"{where}.start", str(exc)) from None
-            add(result)
-        elif run.kind in ("cycles", "switch"):
-            # The labelled point in this run's problem (its parameter and range).
-            src = C.ContinuationResult(source.branch, problem, settings)
-            label = run.start.label.split(":")[1]
-            if run.kind == "cycles":
-                result = C.continue_cycles(src, label, settings, name=run.name, progress=say,
-                                           engine=scene.engine)
-            else:
-                result = C.switch_branch(src, label, settings, name=run.name, progress=say,
-                                         engine=scene.engine)
-            add(result)
-        else:
-            try:
-                if run.start.kind == "trivial":
-                    x0 = np.zeros(system.dimension)
-                elif run.start.kind == "state":
-                    if len(run.start.values) != system.dimension:
-                        raise SpecError(path, f"{where}.start.state", f"expected {system.dimension} numbers "
-                                                                      f"{list(system.variables)}")
-                    x0 = np.array(run.start.values)
-                elif run.start.kind == "integrate":
-                    amps = list(run.start.values)
-                    n_modes = system.dimension // 2
-                    if len(amps) < n_modes:
-                        amps += [0.0] * (n_modes - len(amps))
-                    y0 = np.zeros(system.dimension)
-                    y0[0::2] = amps[:n_modes]
-                    say(f"  integrating the AME from a = {amps[:n_modes]} to a steady state")
-                    x0 = C.settle(system, values, y0, scale=scale, engine=scene.engine)
-                else:
-                    x0 = start_state
-                result = C.continue_equilibria(problem, settings, x0, name=run.name,
-                                               directions=run.directions, progress=say,
-                                               engine=scene.engine)
-            except C.StartError as exc:
-                raise SpecError(path, f"{where}.start", str(exc)) from None
-            add(result)
+        kind = "orbit" if run.kind == "cycles" and run.start.kind == "orbit" else run.kind
+        try:
+            result = RUN_KINDS[kind](_Run(run, problem, settings, system, values, scale, source, start_state,
+                                          scene.engine, say, path, where))
+        except (C.StartError, C.SymmetryError) as exc:
+            raise SpecError(path, f"{where}.start", str(exc)) from None
+        add(result)
         follow = {"cycles": 0, "switch": 0}
         if run.kind != "cycles" and run.cycles:
             for h in results[run.name].branch.of_type("H"):
