@@ -16,6 +16,7 @@ from autocable._paths import SAMPLE_MODEL
 from autocable._version import __version__
 from autocable.paper.figures import add_figures_parser
 from autocable.scene.schema import ENGINES, RESOLUTIONS, load_scene
+from autocable.errors import EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, CacheError, ComputationError
 from autocable.spec import SpecError, load_model
 
 
@@ -692,12 +693,18 @@ def main(argv=None) -> int:
         return args.func(args)
     except SpecError as exc:
         print(f"autocable: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_INPUT
+    except CacheError as exc:
+        print(f"autocable: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    except ComputationError as exc:
+        print(f"autocable: failed: {exc}", file=sys.stderr)
+        return EXIT_FAILED
     except BrokenPipeError:            # output piped into `head` and cut: not an error
         return 0
     except KeyboardInterrupt:
         print("autocable: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
     except Exception as exc:  # a failure we did not foresee: one line, never a raw traceback
         from autocable.codegen.compat import PyDSToolError
         kind = "PyDSTool" if isinstance(exc, PyDSToolError) else type(exc).__name__
