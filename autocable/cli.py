@@ -687,6 +687,25 @@ def _cmd_calibrate(args) -> int:
 
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
+    import warnings
+    from autocable.model.premises import PremiseWarning
+
+    def one_line(message, category, filename, lineno, file=None, line=None):
+        # a stretched premise is news for the user, not a Python warning with a source line
+        if issubclass(category, PremiseWarning):
+            print(f"autocable: warning: {message}", file=sys.stderr)
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    with warnings.catch_warnings():
+        shown = warnings.showwarning
+        warnings.showwarning = one_line
+        warnings.simplefilter("default", PremiseWarning)    # once per place and text, every call
+        return _dispatch(args)
+
+
+def _dispatch(args) -> int:
+    """`main` after parsing: the command, its failures mapped to the exit status of `autocable.errors`."""
     if os.environ.get("AUTOCABLE_DEBUG"):
         return args.func(args)
     try:

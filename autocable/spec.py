@@ -13,6 +13,9 @@ from __future__ import annotations
 
 import hashlib
 import math
+import os
+import re
+import stat
 import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -20,13 +23,29 @@ from pathlib import Path
 CALIBRATE = "calibrate"
 
 
+#: The longest message a `SpecError` carries: a value quoted in full (``drag = [1e300, ...]``, a
+#: long string) must not turn a one-line error into kilobytes.
+MAX_MESSAGE = 240
+
+
 class SpecError(ValueError):
-    """A bad model or scene file. ``str(err)`` is one line: ``file: field: what is expected``."""
+    """A bad model or scene file. ``str(err)`` is one line: ``file: field: what is expected``
+    (line breaks are folded into spaces and the message is cut at `MAX_MESSAGE` characters)."""
 
     def __init__(self, path, field: str, message: str):
         self.path = str(path)
         self.field = field
-        super().__init__(f"{self.path}: {field}: {message}" if field else f"{self.path}: {message}")
+        text = f"{self.path}: {field}: {message}" if field else f"{self.path}: {message}"
+        text = " ".join(text.split())
+        if len(text) > MAX_MESSAGE:
+            text = text[:MAX_MESSAGE - 3] + "..."
+        super().__init__(text)
+
+
+def show(value, limit: int = 60) -> str:
+    """``repr(value)`` cut to ``limit`` characters, for quoting a rejected value in a message."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
 @dataclass(frozen=True)
@@ -97,11 +116,16 @@ _CABLE_RULES = {
                    '"natural" (eq. 20 as printed) or "restrained" (theta = 0 at both anchorages)'),
 }
 _AERO_RULES = {
-    "air_density_kg_m3": ("pos", None, "a positive density in kg/m^3"),
+    # Air, not a liquid: the quasi-steady load of eqs. (9-14) has no added mass or buoyancy.
+    "air_density_kg_m3": ("bounded", (0.1, 10.0), "an air density in kg/m^3 from 0.1 to 10 (standard air: 1.25)"),
     "rivulet_diameter_ratio": ("range", (0.0, 1.0), "the ratio d/D, between 0 and 1"),
-    "lift": ("coeffs", None, "a list of the 4 numbers A_0, A_1, A_2, A_3 of eq. (13)"),
-    "drag": ("coeffs", None, "a list of the 4 numbers B_0, B_1, B_2, B_3 of eq. (13)"),
-    "critical_wind_speed_m_s": ("pos", None, "a positive wind speed in m/s"),
+    "lift": ("coeffs", (-100.0, 100.0),
+             "a list of the 4 numbers A_0, A_1, A_2, A_3 of eq. (13), each in [-100, 100]"),
+    "drag": ("coeffs", (-100.0, 100.0),
+             "a list of the 4 numbers B_0, B_1, B_2, B_3 of eq. (13), each in [-100, 100]"),
+    # Incompressible quasi-steady flow: below Mach 0.3 (about 100 m/s in air).
+    "critical_wind_speed_m_s": ("bounded", (0.0, 100.0), "a wind speed in m/s above 0 and at most 100 "
+                                                          "(incompressible air, Mach < 0.3)"),
     "yaw_deg": ("angle_or_cal", (-90.0, 90.0), 'an angle in degrees in [-90, 90], or "calibrate"'),
     "rivulet_angle_deg": ("angle_or_cal", (-180.0, 180.0),
                           'an angle in degrees in [-180, 180], or "calibrate"'),
@@ -111,14 +135,24 @@ _AERO_RULES = {
     "load_axes": ("choice", ("reference", "twisted"),
                   '"reference" (initial section axes) or "twisted" (axes turned by the twist)'),
 }
-_OPTIONAL = {"gravity_m_s2", "load_length", "calibration_root", "angle_convention", "twist_ends",
-             "load_axes"}
+# angle_convention is required: its two senses give different cables (the sample's Theta0 is -13.9
+# deg with "reversed", 58.2 deg with "eq12"), so a default would silently pick one.
+_OPTIONAL = {"gravity_m_s2", "load_length", "calibration_root", "twist_ends", "load_axes"}
+
+#: A model's ``name``: a one-line label (it names outputs and cache entries).
+NAME_RULE = ('a label of 1 to 64 characters, on one line, without "/", "\\" or control characters, '
+             'and not "." or ".."')
+_BAD_NAME = re.compile(r"[/\\\x00-\x1f\x7f]")
 
 
 def _number(value, path, field, expected):
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise SpecError(path, field, f"expected {expected}, got {value!r}")
-    value = float(value)
+        raise SpecError(path, field, f"expected {expected}, got {show(value)}")
+    try:
+        value = float(value)
+    except OverflowError:       # an integer beyond the float range (e.g. 400 digits)
+        raise SpecError(path, field, f"expected {expected}, got an integer of {len(str(abs(value)))} "
+                                     f"digits") from None
     if not math.isfinite(value):
         raise SpecError(path, field, f"expected {expected}, got {value!r}")
     return value
@@ -128,24 +162,30 @@ def _check(value, rule, path, field):
     kind, bounds, expected = rule
     if kind == "choice":
         if value not in bounds:
-            raise SpecError(path, field, f"expected {expected}, got {value!r}")
+            raise SpecError(path, field, f"expected {expected}, got {show(value)}")
         return value
     if kind == "coeffs":
         if not isinstance(value, list) or len(value) != 4:
-            raise SpecError(path, field, f"expected {expected}, got {value!r}")
-        return tuple(_number(v, path, field, expected) for v in value)
+            raise SpecError(path, field, f"expected {expected}, got {show(value)}")
+        out = tuple(_number(v, path, field, expected) for v in value)
+        for k, x in enumerate(out):
+            if not bounds[0] <= x <= bounds[1]:
+                raise SpecError(path, f"{field}[{k}]", f"expected {expected}, got {x:g}")
+        return out
     if kind == "angle_or_cal":
         if value == CALIBRATE:
             return None
         x = _number(value, path, field, expected)
         if not bounds[0] <= x <= bounds[1]:
-            raise SpecError(path, field, f"expected {expected}, got {x}")
+            raise SpecError(path, field, f"expected {expected}, got {x:g}")
         return x
     x = _number(value, path, field, expected)
     if kind == "pos" and not x > 0:
-        raise SpecError(path, field, f"expected {expected}, got {x}")
+        raise SpecError(path, field, f"expected {expected}, got {x:g}")
     if kind == "range" and not bounds[0] < x < bounds[1]:
-        raise SpecError(path, field, f"expected {expected}, got {x}")
+        raise SpecError(path, field, f"expected {expected}, got {x:g}")
+    if kind == "bounded" and not bounds[0] < x <= bounds[1]:
+        raise SpecError(path, field, f"expected {expected}, got {x:g}")
     return x
 
 
@@ -177,8 +217,8 @@ def parse_model(data: dict, path="<spec>") -> ModelSpec:
         if key not in allowed:
             raise SpecError(path, key, f"unknown key; allowed top-level keys: {', '.join(sorted(allowed))}")
     name = data.get("name", Path(str(path)).stem)
-    if not isinstance(name, str) or not name:
-        raise SpecError(path, "name", "expected a non-empty string")
+    if not isinstance(name, str) or not 1 <= len(name) <= 64 or name in (".", "..") or _BAD_NAME.search(name):
+        raise SpecError(path, "name", f"expected {NAME_RULE}, got {show(name)}")
     description = data.get("description", "")
     if not isinstance(description, str):
         raise SpecError(path, "description", "expected a string")
@@ -186,7 +226,6 @@ def parse_model(data: dict, path="<spec>") -> ModelSpec:
     aero_fields = _section(data, "aero", _AERO_RULES, path)
     aero_fields.setdefault("load_length", "diameter")
     aero_fields.setdefault("calibration_root", "smallest")
-    aero_fields.setdefault("angle_convention", "eq12")
     aero_fields.setdefault("load_axes", "reference")
     aero = AeroSpec(**aero_fields)
     if aero.yaw_deg is None and aero.rivulet_angle_deg is None:
@@ -199,11 +238,19 @@ def read_toml(path) -> tuple[dict, str]:
     one-line `SpecError`. Shared by model specs and scene files."""
     path = Path(path)
     try:
-        text = path.read_text()
+        # stat before opening: opening a FIFO blocks until a writer comes, forever for a user who
+        # gave the wrong path; a directory or a device is no TOML file either.
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            raise SpecError(path, "", "not a regular file (a directory, FIFO or device); give a .toml file")
+        raw = path.read_bytes()
     except FileNotFoundError:
         raise SpecError(path, "", "no such file") from None
     except OSError as exc:
         raise SpecError(path, "", f"cannot read: {exc.strerror}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise SpecError(path, "", f"not UTF-8 text (byte {exc.start}); TOML files are UTF-8") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

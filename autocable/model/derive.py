@@ -17,6 +17,7 @@ from autocable.model.calibration import calibrate
 from autocable.model.equations import TwoModeODE
 from autocable.model.galerkin import aero_scales, project
 from autocable.model.modes import linear_modes
+from autocable.model.premises import check_model
 from autocable.model.shapes import ClosedFormIntegrator, QuadratureIntegrator
 from autocable.model.statics import CableStatics, cable_statics, regime_warnings
 from autocable.spec import ModelSpec, load_model
@@ -98,6 +99,7 @@ def derive(spec: ModelSpec | str | os.PathLike, integrator: str = "closed-form",
     cached by content (see module docstring)."""
     if not isinstance(spec, ModelSpec):
         spec = load_model(spec)
+    check_model(spec)    # before the root finding an impossible cable would make fail
     key = content_hash({"spec": spec.content_hash(), "version": DERIVATION_VERSION,
                         "integrator": integrator})
     path = cache_dir("derivations") / f"{spec.name}-{key}.json"

@@ -12,9 +12,10 @@ import math
 import warnings
 from typing import Mapping
 
-from autocable.spec import SpecError
+from autocable.model.statics import cable_statics
+from autocable.spec import ModelSpec, SpecError, show
 
-__all__ = ["PremiseWarning", "PARAMETER_RANGES", "check_parameters"]
+__all__ = ["PremiseWarning", "PARAMETER_RANGES", "CABLE_LIMITS", "check_parameters", "check_model"]
 
 
 class PremiseWarning(UserWarning):
@@ -43,8 +44,8 @@ def check_parameters(values: Mapping[str, float], where: str = "arguments",
         label = fields.get(name, name)
         try:
             x = float(value)
-        except (TypeError, ValueError):
-            raise SpecError(where, label, f"expected a number, {what}, got {value!r}") from None
+        except (TypeError, ValueError, OverflowError):
+            raise SpecError(where, label, f"expected a number, {what}, got {show(value)}") from None
         if not math.isfinite(x):
             raise SpecError(where, label, f"expected a finite number, {what}, got {value!r}")
         if not lo <= x <= hi:
@@ -54,3 +55,90 @@ def check_parameters(values: Mapping[str, float], where: str = "arguments",
             warnings.warn(PremiseWarning(f"{where}: {label} = {x:g}: {what} beyond {warn:g}, where the "
                                          f"small-amplitude expansions of Sect. 4 are stretched"),
                           stacklevel=2)
+
+
+#: The derived cable's premises: quantity -> (warn beyond, error beyond). Why these values:
+#:
+#: * static strain tau = T-bar/EA: eqs. (1-4) linearise the constitutive law about a taut, elastic
+#:   cable; steel stays work at 1e-3..5e-3 (the sample 1.8e-3). Above 1e-2 the strain is outside any
+#:   elastic stay; above 0.5 the cable has stretched by half its length and "nearly taut" has no
+#:   meaning (EA = 1 N gives 3.8e6, which the frequencies alone would hide: omega1 = 1 + 2e-12).
+#: * slenderness D/l: the cable is a 1-d continuum loaded by a 2-d section (eqs. 9-14); at 1e-2 the
+#:   section is a hundredth of the span, at 0.1 a beam rather than a cable (sample: 9.8e-4).
+#: * sag delta = kappa-bar l: the nearly-taut statics take the chord as the reference line; delta is
+#:   the angle (rad) the profile turns over the span: above 1 (57 deg) the cable is a hanging chain.
+#:   (delta > 0.1 is flagged by `autocable.model.statics.regime_warnings`.)
+#: * Irvine's lambda^2 = delta^2/tau: above 4 pi^2 the first symmetric in-plane frequency crosses the
+#:   antisymmetric one (omega1 > 2) and the 1:1 resonance of Sect. 4 is gone. Below 1e-12
+#:   omega1 - 1 = 4 lambda^2/pi^4 is lost to rounding (the in-plane root cannot be resolved) and,
+#:   with natural twist ends, the slaved twist ~ 2 pi/delta grows without bound.
+#: * internal detuning |omega2 - omega1|: the Multiple Scales treat it as small (rho = O(eps));
+#:   beyond 0.1 the near 1:1 resonance is stretched (sample: 0.004). It cannot exceed 1 once
+#:   lambda^2 <= 4 pi^2, so it only warns.
+#: * torsion ratio chi = GJ/EI: 1/(1 + nu), below 1, for a solid isotropic section, less for a strand
+#:   (sample: 0.076); above 10 no section has it, and below 1e-6 the slaved twist of eq. (20), with
+#:   wavenumber delta/sqrt(chi), overflows.
+CABLE_LIMITS: dict[str, tuple[float, float]] = {
+    "strain": (1e-2, 0.5),
+    "slenderness": (1e-2, 0.1),
+    "delta": (math.inf, 1.0),
+    "lambda2": (math.inf, 4 * math.pi ** 2),
+    "detuning": (0.1, math.inf),
+    "chi": (math.inf, 10.0),
+}
+LAMBDA2_MIN = 1e-12
+CHI_MIN = 1e-6
+
+
+def check_model(spec: ModelSpec) -> dict[str, float]:
+    """Refuse (`SpecError` naming the file and the quantity, its value and the accepted range) a
+    cable eq. (21) cannot describe, and warn (`PremiseWarning`) where it is stretched; see
+    `CABLE_LIMITS`. Cheap (statics and one root), and runs before any root finding that an
+    impossible cable would make fail. Returns the quantities checked."""
+    c, where = spec.cable, spec.path or spec.name
+    # The groups of eq. (17) by products and quotients only (no powers, which raise OverflowError
+    # on numbers that are finite but absurd), so every one is checked before statics and modes.
+    cos_a = math.cos(math.radians(c.chord_slope_deg))
+    tau = c.horizontal_tension_N / cos_a / c.axial_stiffness_N
+    delta = c.mass_per_length_kg_m * c.gravity_m_s2 * cos_a * cos_a / c.horizontal_tension_N * c.length_m
+    q = {"strain": tau, "slenderness": c.diameter_m / c.length_m, "delta": delta,
+         "lambda2": delta * (delta / tau) if tau > 0 else math.inf,
+         "chi": c.torsional_stiffness_Nm2 / c.bending_stiffness_Nm2}
+    names = {
+        "strain": ("static strain tau = T/EA", "cable.horizontal_tension_N, cable.axial_stiffness_N",
+                   "a nearly taut elastic cable"),
+        "slenderness": ("slenderness D/l", "cable.diameter_m, cable.length_m", "a slender cable"),
+        "delta": ("sag parameter delta = m g l cos^2(alpha)/H",
+                  "cable.mass_per_length_kg_m, cable.gravity_m_s2, cable.horizontal_tension_N",
+                  "a nearly taut cable"),
+        "lambda2": ("Irvine's lambda^2 = delta^2/tau", "cable.gravity_m_s2, cable.horizontal_tension_N, "
+                    "cable.axial_stiffness_N", "the 1:1 resonance (omega1 < 2 omega2)"),
+        "detuning": ("internal detuning |omega2 - omega1|", "the cable's sag and stiffness",
+                     "a near 1:1 resonance"),
+        "chi": ("torsion ratio chi = GJ/EI", "cable.torsional_stiffness_Nm2, cable.bending_stiffness_Nm2",
+                "a real cable section"),
+    }
+
+    def error(key, value, lo, hi):
+        what, fields, needs = names[key]
+        raise SpecError(where, what, f"{value:.3g} is outside [{lo:g}, {hi:.4g}], where eq. (21) "
+                                     f"describes {needs}; check {fields}")
+
+    def warn(key, value, limit):
+        what, fields, needs = names[key]
+        warnings.warn(PremiseWarning(f"{where}: {what} = {value:.3g} exceeds {limit:g}: eq. (21) assumes "
+                                     f"{needs}, and is stretched here ({fields})"), stacklevel=3)
+
+    lows = {"lambda2": LAMBDA2_MIN, "chi": CHI_MIN}
+    for key in ("strain", "slenderness", "delta", "lambda2", "chi"):
+        lo, hi = lows.get(key, 0.0), CABLE_LIMITS[key][1]
+        if not lo <= q[key] <= hi:      # also catches NaN
+            error(key, q[key], lo, hi)
+    from autocable.model.modes import irvine_root    # scipy: only here, so scene parsing stays light
+    st = cable_statics(c)
+    q["detuning"] = abs(1.0 - irvine_root(st.lambda2) / math.pi)    # omega2 = 1 (modes.py)
+    for key in ("strain", "slenderness", "detuning"):
+        w, e = CABLE_LIMITS[key]
+        if q[key] > w:
+            warn(key, q[key], w)
+    return q
