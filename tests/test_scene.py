@@ -133,9 +133,10 @@ def test_an_orbit_start_needs_the_compiled_engine_and_a_periodic_orbit(tmp_path)
 
 
 def test_scene_errors_at_run_time_are_one_line(tmp_path):
-    # a start that does not converge: Newton from amplitudes of ten cable lengths
+    # a start that does not converge: Newton from amplitudes of a tenth of the cable length (the
+    # largest a scene accepts; ten cable lengths are refused when the scene is read)
     far = _scene(tmp_path, '[fixed]\neta = 8.2e-5\n[[run]]\nparameter = "sigma"\nrange = [-0.05, 0.05]\n'
-                           'at = 0.0\nstart = {state = [10.0, 10.0, 10.0, 10.0]}\n')
+                           'at = 0.0\nstart = {state = [0.1, 0.1, 0.1, 0.1]}\n')
     with pytest.raises(SpecError) as err:
         run_scene(load_scene(far), tmp_path / "out", plot=False)
     assert err.value.field == "run[0].start" and "\n" not in str(err.value)

@@ -99,7 +99,8 @@ from typing import Any, Callable, Mapping
 # that a scene parses without loading either and cannot disagree with the engines.
 from autocable.methods.continuation.settings import ENGINES, INTEGER_STEP_KEYS, STEP_KEYS as _STEP_KEYS
 from autocable.model.orderings import ORDERINGS
-from autocable.spec import SpecError, read_toml
+from autocable.model.premises import check_parameters
+from autocable.spec import SpecError, read_toml, show
 
 __all__ = [
     "Scene",
@@ -267,9 +268,34 @@ def _check_keys(table, allowed, path, where) -> None:
 
 
 def _num(value, path, where, what="a number") -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(float(value)):
-        raise SpecError(path, where, f"expected {what}, got {value!r}")
-    return float(value)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise SpecError(path, where, f"expected {what}, got {show(value)}")
+    try:
+        x = float(value)
+    except OverflowError:       # an integer beyond the float range
+        raise SpecError(path, where, f"expected {what}, got an integer of {len(str(abs(value)))} digits") from None
+    if not math.isfinite(x):
+        raise SpecError(path, where, f"expected {what}, got {show(value)}")
+    return x
+
+
+#: The largest start amplitude (a_k, or a state component) a scene may give: amplitudes of eq. (21)
+#: are fractions of the cable length, and beyond 0.1 (12 m on the sample cable) its small-amplitude
+#: expansions cannot apply (the paper's responses are below 1e-2).
+MAX_AMPLITUDE = 0.1
+
+
+def _amplitudes(values, path, where) -> None:
+    for v in values:
+        if abs(v) > MAX_AMPLITUDE:
+            raise SpecError(path, where, f"amplitudes must lie in [-{MAX_AMPLITUDE:g}, {MAX_AMPLITUDE:g}] "
+                                         f"(fractions of the cable length), got {v:g}")
+
+
+def _premises(values: Mapping[str, float], path, fields: Mapping[str, str]) -> None:
+    """U, eta, sigma against the ranges where eq. (21) applies (`check_parameters`: an error
+    outside, a `PremiseWarning` where stretched), each named by its field in the scene."""
+    check_parameters(values, str(path), fields)
 
 
 def _bool(value, path, where) -> bool:
@@ -285,6 +311,7 @@ def _params(table, path, where) -> dict[str, float]:
         raise SpecError(path, f"{where}.eta", f"the support amplitude eta must be >= 0, got {out['eta']}")
     if out.get("U", 0.0) < 0:
         raise SpecError(path, f"{where}.U", f"the wind speed U must be >= 0, got {out['U']}")
+    _premises(out, path, {k: f"{where}.{k}" for k in out})
     return out
 
 
@@ -308,21 +335,55 @@ def _start(value, path, where) -> StartSpec:
         nums = tuple(_num(v, path, f"{where}.{kind}") for v in vals)
         if kind in ("integrate", "orbit") and any(v < 0 for v in nums):
             raise SpecError(path, f"{where}.{kind}", "amplitudes must be >= 0")
+        _amplitudes(nums, path, f"{where}.{kind}")
         return StartSpec(kind, nums)
     raise SpecError(path, where, f'expected "trivial", "RUN:LABEL", {{integrate = [...]}}, '
                                  f'{{state = [...]}} or {{orbit = [...]}}, got {value!r}')
+
+
+#: The accepted values of the step controls (lo, hi, what). Steps are in chart units (the range
+#: spans 1, the state is over state_scale; a cycle branch may take steps of a few units); a tolerance below 1e-14 cannot be met in double
+#: precision (tol = 1e-300 gave a one-point branch) and one above 1e-2 accepts anything; counts
+#: are bounded so that a typo cannot ask for a run of days. ``max_points`` is checked between
+#: chunks of ``chunk`` points, so it cannot be smaller than ``chunk``.
+_STEP_BOUNDS = {
+    **{k: (0.0, 10.0, "a step in chart units (the range spans 1), in (0, 10]")
+       for k in ("step", "min_step", "max_step", "cycle_step", "cycle_max_step", "switch_step", "curve_step",
+                 "curve_max_step")},
+    **{k: (1e-14, 1e-2, "a tolerance from 1e-14 to 1e-2") for k in ("tol", "test_tol", "newton_tol",
+                                                                      "curve_check_tol")},
+    "max_period_ratio": (1.0, 1e4, "a period ratio above 1 and at most 1e4"),
+    "max_points": (None, 1_000_000, "points per direction"),
+    "chunk": (1, 1000, "points per PyCont call"),
+    "cycle_max_points": (2, 100_000, "cycles per branch"),
+    "curve_max_points": (2, 100_000, "points per curve direction"),
+    "ntst": (4, 1000, "collocation intervals"),
+    "ncol": (2, 7, "collocation points per interval"),
+    "max_corrector_iters": (1, 100, "corrector iterations"),
+}
 
 
 def _steps(table, path, where) -> dict[str, float]:
     from autocable.methods.continuation.settings import ContinuationSettings
     _check_keys(table, _STEP_KEYS, path, where)
     ints = set(INTEGER_STEP_KEYS)
+    chunk = table.get("chunk", ContinuationSettings.chunk)
     out: dict[str, Any] = {}
     for k, v in table.items():
-        x = _num(v, path, f"{where}.{k}", "a positive number")
-        if x <= 0:
-            raise SpecError(path, f"{where}.{k}", f"expected a positive number, got {v!r}")
-        out[k] = int(x) if k in ints else x
+        lo, hi, what = _STEP_BOUNDS[k]
+        if k in ints:
+            lo = chunk if k == "max_points" and isinstance(chunk, int) and not isinstance(chunk, bool) else lo
+            rule = f"a whole number from {lo} to {hi} ({what}" + \
+                   (", at least steps.chunk: the budget is checked between chunks)" if k == "max_points" else ")")
+            if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+                raise SpecError(path, f"{where}.{k}", f"expected {rule}, got {show(v)}")
+            out[k] = v
+            continue
+        x = _num(v, path, f"{where}.{k}", what)
+        inside = lo < x <= hi if lo == 0.0 or k == "max_period_ratio" else lo <= x <= hi
+        if not inside:
+            raise SpecError(path, f"{where}.{k}", f"expected {what}, got {x:g}")
+        out[k] = x
     try:
         ContinuationSettings(**out)
     except (TypeError, ValueError) as exc:
@@ -340,7 +401,8 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
         raise SpecError(path, "model", f"expected a path string, got {data['model']!r}")
     model = (path.parent / data["model"]).resolve()
     if not model.is_file():
-        raise SpecError(path, "model", f"no such file: {model}")
+        what = "not a regular file (a directory, FIFO or device)" if model.exists() else "no such file"
+        raise SpecError(path, "model", f"{what}: {model}")
     ame = data.get("ame", "2dof")
     if ame not in AME_KINDS + ("auto",):
         raise SpecError(path, "ame", f'expected "2dof", "1dof", "1dof-amplitude" or "auto", got {ame!r}')
@@ -398,6 +460,8 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
             raise SpecError(path, f"{where}.range", f"expected lo < hi, got [{lo}, {hi}]")
         if parameter in ("eta", "U") and lo < 0:
             raise SpecError(path, f"{where}.range", f"{parameter} must stay >= 0, got [{lo}, {hi}]")
+        _premises({parameter: lo}, path, {parameter: f"{where}.range"})
+        _premises({parameter: hi}, path, {parameter: f"{where}.range"})
         start = _start(r.get("start", "trivial"), path, f"{where}.start")
         if start.kind == "label":
             src = start.label.split(":")[0]
@@ -441,6 +505,8 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
                 raise SpecError(path, f"{where}.range2", f"expected lo < hi, got [{lo2}, {hi2}]")
             if parameter2 in ("eta", "U") and lo2 < 0:
                 raise SpecError(path, f"{where}.range2", f"{parameter2} must stay >= 0, got [{lo2}, {hi2}]")
+            _premises({parameter2: lo2}, path, {parameter2: f"{where}.range2"})
+            _premises({parameter2: hi2}, path, {parameter2: f"{where}.range2"})
             range2 = (lo2, hi2)
         else:
             for key in ("parameter2", "range2"):
@@ -454,13 +520,24 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
         directions = r.get("directions", "both")
         if directions not in ("both", "forward", "backward"):
             raise SpecError(path, f"{where}.directions", f'expected "both", "forward" or "backward", got {directions!r}')
+        run_fixed = _params(r.get("fixed", {}), path, f"{where}.fixed")
+        for p in (parameter, parameter2):
+            if p in run_fixed:
+                raise SpecError(path, f"{where}.fixed.{p}", f"{p} is continued by this run (over its range), so a "
+                                                            f"fixed value would be ignored; remove it")
         runs.append(RunSpec(
             name=name, kind=kind, parameter=parameter, range=(lo, hi), start=start, at=at,
             directions=directions, cycles=_bool(r.get("cycles", False), path, f"{where}.cycles"),
             switch=_bool(r.get("switch", False), path, f"{where}.switch"),
-            fixed=_params(r.get("fixed", {}), path, f"{where}.fixed"),
+            fixed=run_fixed,
             steps=_steps(r.get("steps", {}), path, f"{where}.steps"), index=i,
             parameter2=parameter2, range2=range2))
+    for p in fixed:
+        # A run from a labelled point takes its values from that point; any other run uses [fixed]
+        # unless it continues the parameter. A value no run uses is a mistake, not a default.
+        if not any(r.start.kind != "label" and p not in (r.parameter, r.parameter2) for r in runs):
+            raise SpecError(path, f"fixed.{p}", f"{p} is continued by every run that starts from [fixed] "
+                                                f"(each over its range), so this value would be ignored; remove it")
     plot = data.get("plot", {})
     _check_keys(plot, _PLOT_KEYS, path, "plot")
     x = plot.get("x", runs[0].parameter)
@@ -540,6 +617,9 @@ def _chart(table, path: Path, plane, runs, fixed) -> ChartSpec:
             raise SpecError(path, f"chart.{key}", "U must stay > 0 on the chart (the aerodynamic terms carry 1/U)")
         if name == "eta" and lo < 0:
             raise SpecError(path, f"chart.{key}", "eta must stay >= 0")
+    for name, rng, key in ((x, xr, "x_range"), (y, yr, "y_range")):
+        for v in rng:
+            _premises({name: v}, path, {name: f"chart.{key}"})
     grid = table.get("grid", [20, 16])
     if not (isinstance(grid, list) and len(grid) == 2 and all(isinstance(g, int) and not isinstance(g, bool)
                                                                and 2 <= g <= 400 for g in grid)):
@@ -551,6 +631,8 @@ def _chart(table, path: Path, plane, runs, fixed) -> ChartSpec:
     if not (isinstance(starts, list) and starts and all(isinstance(a, list) and len(a) == 2 for a in starts)):
         raise SpecError(path, "chart.starts", f"expected a list of [a1, a2] pairs, got {starts!r}")
     starts = tuple(tuple(_num(v, path, "chart.starts") for v in a) for a in starts)
+    for a in starts:
+        _amplitudes(a, path, "chart.starts")
     map_path = None
     if "map" in table:
         if not isinstance(table["map"], str):
@@ -579,6 +661,8 @@ def _overlay(table, path, x: str, runs) -> OverlaySpec:
         raise SpecError(path, "overlay.range", f"expected lo < hi, got {rng}")
     if parameter == "U" and lo <= 0:
         raise SpecError(path, "overlay.range", "sweeping U needs U > 0 (the aerodynamic terms carry 1/U)")
+    for v in (lo, hi):
+        _premises({parameter: v}, path, {parameter: "overlay.range"})
     points = table.get("points", 11)
     if isinstance(points, bool) or not isinstance(points, int) or not 1 <= points <= 201:
         raise SpecError(path, "overlay.points", f"expected a whole number from 1 to 201, got {points!r}")
@@ -619,6 +703,7 @@ def _time_scene(data, path: Path, text: str, model: Path, ame: str, scale) -> Sc
         start = tuple(_num(v, path, "time.start.amplitudes") for v in start["amplitudes"])
         if min(start) < 0:
             raise SpecError(path, "time.start.amplitudes", "amplitudes must be >= 0")
+        _amplitudes(start, path, "time.start.amplitudes")
     else:
         raise SpecError(path, "time.start", f'expected "rest" or {{amplitudes = [a1, a2]}}, got {start!r}')
     summary_from = _num(t.get("summary_from", t_end / 2), path, "time.summary_from")

@@ -29,7 +29,8 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from autocable.spec import SpecError, read_toml
+from autocable.model.premises import check_parameters
+from autocable.spec import SpecError, read_toml, show
 
 #: The methods a sweep can use at every point.
 SWEEP_METHODS = ("ode21", "shooting", "ame")
@@ -40,6 +41,9 @@ AXES = ("U", "eta", "sigma")
 DEFAULT_Q0 = (0.0, 0.0, 1e-6, 0.0)
 #: A grid larger than this is almost certainly a typo in ``num``.
 MAX_POINTS = 10_000_000
+#: The largest |q| or |q'| of a start: eq. (21)'s coordinates are fractions of the cable length, and
+#: beyond 0.1 its small-amplitude premises cannot hold (as `autocable.scene.schema.MAX_AMPLITUDE`).
+MAX_START = 0.1
 
 _TOP_KEYS = {"title", "model", "method", "q0", "max_time", "grid", "follow", "direction"}
 DIRECTIONS = ("up", "down")
@@ -107,9 +111,16 @@ class SweepSpec:
 
 
 def _num(value, path, field) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise SpecError(path, field, f"expected a finite number, got {value!r}")
-    return float(value)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise SpecError(path, field, f"expected a finite number, got {show(value)}")
+    try:
+        x = float(value)
+    except OverflowError:       # an integer beyond the float range
+        raise SpecError(path, field, f"expected a finite number, got an integer of {len(str(abs(value)))} "
+                                     f"digits") from None
+    if not math.isfinite(x):
+        raise SpecError(path, field, f"expected a finite number, got {show(value)}")
+    return x
 
 
 def _axis(value, path, name) -> tuple:
@@ -123,8 +134,8 @@ def _axis(value, path, name) -> tuple:
                             + (f"; missing {sorted(missing)}" if missing else ""))
         lo, hi = _num(value["from"], path, f"{field}.from"), _num(value["to"], path, f"{field}.to")
         num = value["num"]
-        if isinstance(num, bool) or not isinstance(num, int) or num < 1:
-            raise SpecError(path, f"{field}.num", f"expected an integer >= 1, got {num!r}")
+        if isinstance(num, bool) or not isinstance(num, int) or not 1 <= num <= MAX_POINTS:
+            raise SpecError(path, f"{field}.num", f"expected a whole number from 1 to {MAX_POINTS:,}, got {show(num)}")
         if num == 1:
             vals = (lo,)
         else:
@@ -139,13 +150,20 @@ def _axis(value, path, name) -> tuple:
         raise SpecError(path, field, "repeated values: each grid value must appear once")
     if name in ("U", "eta") and min(vals) < 0:
         raise SpecError(path, field, f"{name} must be >= 0, got {min(vals)!r}")
+    for v in (min(vals), max(vals)):     # the ranges where eq. (21) applies (error or warning)
+        check_parameters({name: v}, str(path), {name: field})
     return vals
 
 
 def _start(value, path, field) -> tuple:
     if not isinstance(value, list) or len(value) != 4:
-        raise SpecError(path, field, f"a start is [q1, q1dot, q2, q2dot] (four numbers), got {value!r}")
-    return tuple(_num(v, path, f"{field}[{k}]") for k, v in enumerate(value))
+        raise SpecError(path, field, f"a start is [q1, q1dot, q2, q2dot] (four numbers), got {show(value)}")
+    out = tuple(_num(v, path, f"{field}[{k}]") for k, v in enumerate(value))
+    for k, v in enumerate(out):
+        if abs(v) > MAX_START:
+            raise SpecError(path, f"{field}[{k}]", f"expected a value in [-{MAX_START:g}, {MAX_START:g}] (eq. 21's "
+                                                   f"coordinates are fractions of the cable length), got {v:g}")
+    return out
 
 
 def parse_sweep(data: dict, path, text: str = "") -> SweepSpec:
@@ -162,7 +180,8 @@ def parse_sweep(data: dict, path, text: str = "") -> SweepSpec:
     if not model.is_absolute():
         model = (path.parent / model).resolve()
     if not model.is_file():
-        raise SpecError(path, "model", f"no such file {str(model)!r} (relative paths start at the sweep file)")
+        what = "not a regular file (a directory, FIFO or device)" if model.exists() else "no such file"
+        raise SpecError(path, "model", f"{what} {str(model)!r} (relative paths start at the sweep file)")
     method = data.get("method", "shooting")
     if method not in SWEEP_METHODS:
         raise SpecError(path, "method", f"expected one of {', '.join(repr(m) for m in SWEEP_METHODS)}, got {method!r}")
