@@ -5,7 +5,10 @@ is checked: a missing, unknown, non-numeric or non-physical value raises `SpecEr
 one line naming the file, the field and what is expected. Nothing else in autocable reads TOML.
 
 Inputs the paper does not give (the yaw angle beta, the rivulet angle Theta0, the air density, the
-load length and angle convention of eqs. 11-12: docs/model.md, U1-U4) are explicit fields. Exactly one
+load length and angle convention of eqs. 11-12: docs/model.md, U1-U4) are explicit fields; the angle
+convention is required (its two senses give different cables). Values outside the ranges where the
+model can apply are refused here; the premises of the derived cable are checked by
+`autocable.model.premises.check_model` (docs/model.md, P). Exactly one
 of (yaw, rivulet angle) may be the string ``"calibrate"``: it is then found so that the trivial
 solution loses stability at ``critical_wind_speed_m_s`` (see `autocable.model.calibration.calibrate`).
 """

@@ -10,6 +10,9 @@ point (H) of an earlier run in two parameters (``parameter`` over ``range`` and 
 periodic orbits born at every Hopf point of a run, ``switch = true`` the branches through every
 branch point. The schema is closed: an unknown key, a bad value, a parameter outside its range or a
 start that does not converge raise `autocable.spec.SpecError` with one line naming the file and field.
+U, eta and sigma (fixed values and ranges) must lie where eq. (21) applies (docs/model.md, P; a
+`PremiseWarning` where it is stretched), a fixed value must be used by some run, start amplitudes are
+at most 0.1, and step controls have bounded values (`_STEP_BOUNDS`).
 
     title = "Fig. 5a: ..."            # optional text
     model = "../models/luongo_zulli_2012.toml"
