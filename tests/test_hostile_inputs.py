@@ -244,3 +244,11 @@ def test_wide_sigma_range_keeps_fig05a_peak(tmp_path):
     assert narrow == pytest.approx(3.350e-4, rel=1e-3)
     assert wide == pytest.approx(narrow, rel=1e-2)
     assert n > 100
+
+
+def test_non_utf8_compare_csv_names_the_file(tmp_path):
+    from autocable.scene.schema import CompareSpec, read_compare
+    path = tmp_path / "digitised.csv"
+    path.write_bytes(b"x,y,curve,stable\n0.01,2\xe9-4,I,1\n")
+    with pytest.raises(SpecError, match=re.escape(str(path)) + ": not UTF-8"):
+        read_compare(CompareSpec(path))

@@ -575,7 +575,8 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
             raise SpecError(path, "compare.csv", "missing; the path of a CSV with columns x, y, curve, stable")
         csv_path = (path.parent / c["csv"]).resolve()
         if not csv_path.is_file():
-            raise SpecError(path, "compare.csv", f"no such file: {csv_path}")
+            what = "not a regular file (a directory, FIFO or device)" if csv_path.exists() else "no such file"
+            raise SpecError(path, "compare.csv", f"{what}: {csv_path}")
         panel = c.get("panel", y[0])
         if panel not in y:
             raise SpecError(path, "compare.panel", f"expected one of the plotted amplitudes {y}, got {panel!r}")
@@ -744,17 +745,22 @@ def read_compare(spec: CompareSpec) -> list[dict]:
     """The digitised points of ``spec.csv``: dicts with x, y (floats), curve (str), stable (bool)."""
     import csv
     rows = []
-    with open(spec.csv, newline="", encoding="utf-8") as fh:
-        reader = csv.DictReader(fh)
-        missing = {"x", "y"} - set(reader.fieldnames or ())
-        if missing:
-            raise SpecError(spec.csv, "", f"missing columns {sorted(missing)}; expected x, y, curve, stable")
-        for k, r in enumerate(reader):
-            try:
-                rows.append({"x": float(r["x"]), "y": float(r["y"]), "curve": r.get("curve", "") or "",
-                             "stable": str(r.get("stable", "1")).strip().lower() in ("1", "true", "yes", "s")})
-            except ValueError:
-                raise SpecError(spec.csv, f"row {k + 2}", "x and y must be numbers") from None
+    try:
+        with open(spec.csv, newline="", encoding="utf-8") as fh:
+            reader = csv.DictReader(fh)
+            missing = {"x", "y"} - set(reader.fieldnames or ())
+            if missing:
+                raise SpecError(spec.csv, "", f"missing columns {sorted(missing)}; expected x, y, curve, stable")
+            for k, r in enumerate(reader):
+                try:
+                    rows.append({"x": float(r["x"]), "y": float(r["y"]), "curve": r.get("curve", "") or "",
+                                 "stable": str(r.get("stable", "1")).strip().lower() in ("1", "true", "yes", "s")})
+                except (TypeError, ValueError):
+                    raise SpecError(spec.csv, f"row {k + 2}", "x and y must be numbers") from None
+    except UnicodeDecodeError as exc:
+        raise SpecError(spec.csv, "", f"not UTF-8 text (byte {exc.start}); write the CSV as UTF-8") from None
+    except OSError as exc:
+        raise SpecError(spec.csv, "", f"cannot read: {exc.strerror}") from None
     return rows
 
 
