@@ -533,8 +533,9 @@ STAGING_PREFIX = ".autocable-staging-"
 #: Fixed names of the files a run writes (an earlier run's run.json without a manifest, or none).
 _RUN_FILES = (BRANCHES_CSV, SPECIAL_CSV, "overlay.csv", "overlay_ame.csv", "compare.json", "time_series.csv",
               "regions.csv", "regions.json")
-#: Temporary files of an atomic write killed half-way: ``.<name>.<8 random chars>.<suffix>``.
-_TEMP = re.compile(r"^\..+\.[A-Za-z0-9_]{8}\.(tmp|png|pdf)$")
+#: Temporary files of an atomic write killed half-way: ``.<name>.<mkstemp's 8 characters>.<suffix>``
+#: (``.tmp``; earlier versions drew figures into ``.<scene>.png.<8>.png``).
+_TEMP = re.compile(r"^\.(?P<name>.+)\.[a-z0-9_]{8}\.(tmp|png|pdf)$")
 
 
 def is_leftover(name: str) -> bool:
@@ -577,6 +578,11 @@ def _owned_files(meta, name: str) -> set[str]:
     run.json without a manifest (or none), the names a run writes."""
     if isinstance(meta, dict) and isinstance(meta.get("files"), list):
         return {str(f) for f in meta["files"]}
+    return _run_names(meta, name)
+
+
+def _run_names(meta, name: str) -> set[str]:
+    """The names a run of ``name`` (or of the scene an earlier run.json names) writes."""
     names = {name} | ({str(meta["name"])} if isinstance(meta, dict) and meta.get("name") else set())
     return set(_RUN_FILES) | {f"{n}{tail}{ext}" for n in names for tail in ("", "_plane", "_chart")
                               for ext in (".png", ".pdf")}
@@ -587,8 +593,9 @@ def _marker(name: str, files) -> dict:
             "files": sorted(files)}
 
 
-def _prepare(out: Path, name: str) -> Path:
-    """Check ``out``, clear what killed runs left, mark it "running" and make the staging folder."""
+def _prepare(out: Path, name: str, inputs=()) -> Path:
+    """Check ``out``, clear what killed runs left, mark it "running" and make the staging folder.
+    ``inputs`` (files the run reads: scene, model, digitised points, map) may sit in ``out``."""
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -601,16 +608,21 @@ def _prepare(out: Path, name: str) -> Path:
             raise SpecError(out, "--out", f"another autocable run (process {pid}) is writing into this folder; "
                                           "wait for it or give another folder")
     owned = _owned_files(meta, name)
+    # a temporary file is removed only when it is one of a file autocable writes here
+    temp_of = owned | _run_names(meta, name) | {RUN_JSON}
+    read = {Path(p).resolve() for p in inputs if p}
     unknown, leftovers = [], []
     for entry in sorted(out.iterdir()):
         n = entry.name
+        if entry.resolve() in read and n not in owned and n != RUN_JSON:
+            continue
         if n.startswith(STAGING_PREFIX) and entry.is_dir() and not entry.is_symlink():
             pid = n[len(STAGING_PREFIX):]
             if pid.isdigit() and int(pid) != os.getpid() and _pid_alive(int(pid)):
                 raise SpecError(out, "--out", f"another autocable run (process {pid}) is writing into this "
                                               "folder; wait for it or give another folder")
             leftovers.append(entry)
-        elif entry.is_file() and _TEMP.match(n):
+        elif entry.is_file() and _TEMP.match(n) and _TEMP.match(n)["name"] in temp_of:
             leftovers.append(entry)
         elif not (n == RUN_JSON or (n in owned and entry.is_file())):
             unknown.append(n)
@@ -667,18 +679,18 @@ def _reason(exc: BaseException) -> str:
 
 
 @contextmanager
-def output_folder(out_dir: str | Path, name: str) -> Iterator[Path]:
+def output_folder(out_dir: str | Path, name: str, inputs: Sequence = ()) -> Iterator[Path]:
     """Stage a run's files and publish them into ``out_dir``; yields the staging folder.
 
-    Before: ``out_dir`` is refused (`SpecError`) if it holds files no earlier run listed, or another
-    live run writes into it; a killed run's staging folder and temporary files are removed; run.json
+    Before: ``out_dir`` is refused (`SpecError`) if it holds files no earlier run listed (other than
+    the run's ``inputs``, e.g. the scene file or a map it reads), or another live run writes into it; a killed run's staging folder and temporary files are removed; run.json
     becomes ``status = "running"`` (the earlier results stop reading as complete). After: the staged
     files replace the earlier run's (whose other files are removed) and run.json is written last,
     ``"complete"``; a run that raises publishes what it staged as ``"failed"`` (``"interrupted"``
     for Ctrl-C) with the ``reason``, and the exception goes on. A killed run leaves "running".
     """
     out = Path(out_dir)
-    staging = _prepare(out, name)
+    staging = _prepare(out, name, inputs)
     try:
         yield staging
     except BaseException as exc:

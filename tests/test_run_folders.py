@@ -4,7 +4,6 @@ leaves only its own files (and never touches files autocable did not write), wha
 is removed by the next run, and file modes follow the umask."""
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import stat
@@ -136,6 +135,23 @@ def test_a_folder_with_files_autocable_did_not_write_is_refused_untouched(tmp_pa
     assert cli.main(["run", str(scene), "--out", str(out), "--quiet"]) == 2
 
 
+def test_the_runs_own_inputs_may_sit_in_its_folder(tmp_path):
+    """The scene file and the digitised points it compares with, inside the output folder: not
+    refused, not touched, not in the manifest."""
+    out = tmp_path / "out"
+    out.mkdir()
+    points = out / "points.csv"
+    points.write_text("x,y,curve,stable\n1.1,0.01,g,1\n")
+    scene = _scene(tmp_path, "inputs", compare=f'\n[compare]\ncsv = "{points.as_posix()}"\n')
+    inside = out / scene.name
+    inside.write_text(scene.read_text())
+    run_scene(load_scene(inside), out)
+    meta = json.loads((out / "run.json").read_text())
+    assert meta["status"] == "complete" and "compare.json" in meta["files"]
+    assert not {"points.csv", inside.name} & set(meta["files"])
+    assert _files(out) == set(meta["files"]) | {"run.json", "points.csv", inside.name}
+
+
 def test_another_live_run_in_the_folder_is_refused(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
@@ -153,7 +169,8 @@ def test_what_killed_runs_left_is_removed_by_the_next_run(tmp_path):
     staging = out / f"{STAGING_PREFIX}{_dead_pid()}"
     staging.mkdir()
     (staging / "branches.csv").write_text("half")
-    for name in (".tidy.png.k3x_9abq.png", ".run.json.ab12cd34.tmp", ".branches.csv.zz99yy88.tmp"):
+    for name in (".tidy.png.k3x_9abq.png", ".run.json.ab12cd34.tmp", ".branches.csv.zz99yy88.tmp",
+                 ".overlay.csv.q1w2e3r4.tmp"):
         (out / name).write_text("half")
     (out / "run.json").write_text(json.dumps({"status": "running", "pid": _dead_pid(),
                                               "files": ["branches.csv"]}))
@@ -163,6 +180,17 @@ def test_what_killed_runs_left_is_removed_by_the_next_run(tmp_path):
     assert meta["status"] == "complete"
     assert _files(out) == set(meta["files"]) | {"run.json"}
     assert not [n for n in _files(out) if n.startswith(".")]
+
+
+def test_a_hidden_file_that_is_no_temporary_file_of_autocable_is_not_removed(tmp_path):
+    """``.holiday.jpg.abcdefgh.tmp`` looks like a temporary file but of no file a run writes: the
+    folder is refused and the file stays."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / ".holiday.jpg.abcdefgh.tmp").write_text("mine")
+    with pytest.raises(SpecError, match=r"\.holiday\.jpg\.abcdefgh\.tmp"):
+        run_scene(load_scene(_scene(tmp_path, "z", gallop=False)), out)
+    assert (out / ".holiday.jpg.abcdefgh.tmp").read_text() == "mine"
 
 
 def test_a_run_killed_at_random_moments_never_reads_complete(tmp_path):
@@ -202,13 +230,18 @@ def test_file_modes_follow_the_umask(tmp_path, umask, expected):
     assert _mode(written) == expected and _mode(tmp_path / "points" / "k.json") == expected
 
 
-def test_cli_run_reports_a_failed_publication_argparse_free(tmp_path):
-    """`autocable run` into a folder a user's file occupies: one line, naming --out, exit 2."""
+def test_ctrl_c_during_the_run_publishes_interrupted(tmp_path, monkeypatch):
+    """KeyboardInterrupt while the figure is drawn (after the tables are written): run.json says
+    "interrupted", the tables are kept, the folder reads incomplete, the interrupt goes on."""
+    import autocable.plotting.diagrams as diagrams
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(diagrams, "plot_scene", interrupted)
     out = tmp_path / "out"
-    out.mkdir()
-    (out / "data.csv").write_text("mine")
-    args = argparse.Namespace(scene=str(_scene(tmp_path, "y", gallop=False)), out=str(out), quiet=True,
-                              no_plot=True, resolution="coarse", engine=None)
-    with pytest.raises(SpecError, match="--out"):
-        cli.cmd_run(args)
-    assert (out / "data.csv").read_text() == "mine"
+    with pytest.raises(KeyboardInterrupt):
+        run_scene(load_scene(_scene(tmp_path, "stopped", gallop=False)), out)
+    meta = json.loads((out / "run.json").read_text())
+    assert (meta["status"], meta["reason"]) == ("interrupted", "interrupted")
+    assert set(meta["files"]) == {"branches.csv", "special_points.csv"} and not is_complete(out)
+    assert _files(out) == {"run.json", "branches.csv", "special_points.csv"}

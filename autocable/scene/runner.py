@@ -228,7 +228,10 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         scene = replace(scene, engine=engine)
     # a bad map is refused before the folder is touched
     rmap = _read_map(scene, response_map) if scene.chart is not None and scene.time is None else None
-    with output_folder(out_dir, scene.name) as stage:
+    # files the run reads may sit in its output folder (e.g. `--map DIR/sweep.nc`): never refused
+    inputs = (scene.path, scene.model, scene.compare.csv if scene.compare else None,
+              rmap["path"] if rmap else None)
+    with output_folder(out_dir, scene.name, inputs) as stage:
         if scene.time is not None:
             return run_time_scene(scene, stage, say, plot, resolution)
         return _run_branches(scene, stage, Path(out_dir), say, plot, resolution, choose_ame, rmap)
