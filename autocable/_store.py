@@ -23,6 +23,7 @@ __all__ = [
     "atomic_write_text",
     "atomic_write_json",
     "read_json",
+    "file_mode",
 ]
 
 #: Environment variable that overrides the cache folder.
@@ -80,17 +81,44 @@ def content_hash(obj: Any) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:HASH_CHARS]
 
 
+def _umask() -> int:
+    """The process's umask, read without changing it (``os.umask`` can only be read by setting it,
+    which races with other threads creating files); the set-and-restore fallback only where
+    /proc does not report it."""
+    try:
+        with open("/proc/self/status", encoding="ascii", errors="replace") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def file_mode() -> int:
+    """The mode a plain ``open(path, "w")`` would give a new file: 0o666 less the umask.
+
+    ``tempfile.mkstemp`` creates 0o600 and ``os.replace`` keeps it, so every atomic write chmods
+    its temporary file to this before publishing it."""
+    return 0o666 & ~_umask()
+
+
 def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
     """Write ``text`` to ``path`` so readers see either the old file or the complete new one.
 
     Writes a temporary file in the same folder (same filesystem), fsyncs it, then ``os.replace``s
-    it onto ``path``. Creates the parent folder. Returns the path.
+    it onto ``path``. Creates the parent folder. The file's mode follows the umask (`file_mode`).
+    Returns the path.
     """
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
+    mode = file_mode()
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     try:
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
+            os.fchmod(fh.fileno(), mode)
             fh.write(text)
             fh.flush()
             os.fsync(fh.fileno())

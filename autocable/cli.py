@@ -376,6 +376,8 @@ def cmd_bench(args) -> int:
     if args.what is None:
         return cmd_work_precision(args)
     from autocable.bench.commands import run_bench
+    if args.what == "kill":
+        from autocable.bench.kill import run_kill_bench as run_bench  # noqa: F811 - same signature
     result = run_bench(args.what, args.model, repeats=args.repeats,
                        log=None if args.quiet else (lambda s: print(s, file=sys.stderr)),
                        out=args.out)
@@ -605,7 +607,7 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
     b.add_argument("what", nargs="?", default=None,
                    choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "ordering", "engines",
-                            "shooting", "sweep"],
+                            "shooting", "sweep", "kill"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
                         "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
@@ -616,7 +618,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "(with --out, also ordering.md/.png); engines: every figure scene on PyCont and on the compiled "
                         "kernel (coarse), their special points compared; shooting: steady points of eq. (21) by "
                         "shooting against transient integration at equal accuracy (Figs. 5-10, 77 points); "
-                        "sweep: 'autocable sweep' throughput with 1 and 2 Dask workers and the scaling. "
+                        "sweep: 'autocable sweep' throughput with 1 and 2 Dask workers and the scaling; "
+                        "kill: a scene run killed (SIGKILL, SIGINT) at random moments --repeats times (at least "
+                        "20), each folder checked not to read as complete, leftovers checked after a rerun. "
                         "Without a subcommand "
                         "(--out DIR): the work-precision bench of the method ladder (bench.json, "
                         "work_precision.png, work_precision.md)")

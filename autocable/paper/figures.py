@@ -90,9 +90,20 @@ def _collect(name: str, scene_out: Path, out: Path) -> list[str]:
         for ext in (".png", ".pdf"):
             src = scene_out / f"{stem}{ext}"
             if src.is_file():
-                shutil.copyfile(src, out / src.name)
+                _copy_atomic(src, out / src.name)
                 files.append(src.name)
     return files
+
+
+def _copy_atomic(src: Path, dst: Path) -> None:
+    """Copy through a temporary file and a rename: a kill never leaves half a figure at ``dst``."""
+    tmp = dst.with_name(f".{dst.name}.{os.getpid()}.tmp")
+    try:
+        shutil.copyfile(src, tmp)
+        os.replace(tmp, dst)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 def _worker(scene_path: str, scene_out: str, conn, engine: str | None = None) -> None:
@@ -225,11 +236,9 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
             path = pending.pop(0)
             name = path.stem
             folder = out / name
-            # stale results of an earlier run must not pass for this one's
-            for stale in ("run.json", "branches.csv", "special_points.csv", "overlay.csv", "overlay_ame.csv",
-                          "time_series.csv", "compare.json"):
-                if (folder / stale).exists():
-                    (folder / stale).unlink()
+            # The scene's run marks its folder incomplete before it computes and publishes its files
+            # at the end (`autocable.results.output_folder`); the error file is ours to clear.
+            (folder / ERROR_TXT).unlink(missing_ok=True)
             recv, send = ctx.Pipe(duplex=False)
             proc = ctx.Process(target=_worker, args=(str(path), str(folder), send, engine), daemon=True)
             t0 = time.perf_counter()

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
+from autocable.results import is_complete, run_status
 from autocable.studies.ame_bounds import NEAR, STUDY_MAX_ERROR
 from autocable.paper import targets as targets_mod
 
@@ -151,7 +152,8 @@ class SceneData:
 
 
 def load_scene_data(folder: str | Path, status: str | None = None, error: str = "") -> SceneData:
-    """Read one scene's output folder. ``status`` defaults to "ok" when run.json exists."""
+    """Read one scene's output folder. ``status`` defaults to "ok" when run.json says the run is
+    complete; a folder whose run did not finish is "incomplete" whatever ``status`` says."""
     folder = Path(folder)
     run = _read_json(folder / "run.json")
     err_file = folder / "error.txt"
@@ -159,6 +161,11 @@ def load_scene_data(folder: str | Path, status: str | None = None, error: str = 
         error = err_file.read_text(encoding="utf-8").splitlines()[0] if err_file.stat().st_size else ""
     if status is None:
         status = "failed" if error else ("ok" if run is not None else "missing")
+    if status == "ok" and run is not None and not is_complete(folder):
+        status = "incomplete"
+        error = error or (f"run.json status {run_status(folder)!r}"
+                          + (f": {run['reason']}" if isinstance(run, dict) and run.get("reason") else "")
+                          + ": the run did not finish")
     return SceneData(name=folder.name, folder=folder, status=status, error=error, run=run,
                      rows=_read_csv(folder / "branches.csv"), specials=_read_csv(folder / "special_points.csv"),
                      overlay=_read_csv(folder / "overlay.csv"), series=_read_csv(folder / "time_series.csv"),

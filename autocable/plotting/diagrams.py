@@ -71,9 +71,12 @@ def _save_formats(fig, stem: Path) -> list[Path]:
 
 def _save(fig, path: Path, bbox) -> None:
     """savefig to a temporary file in the same folder, then os.replace (readers never see half a file)."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
+    from autocable._store import file_mode
+    # ".tmp", not the format's suffix: a run's next start recognises and removes what a kill left
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
+        os.fchmod(fd, file_mode())     # mkstemp's 0o600 would survive the replace
+        os.close(fd)
         fig.savefig(tmp, format=path.suffix.lstrip("."), dpi=_DPI, bbox_inches=bbox)
         os.replace(tmp, path)
     except BaseException:

@@ -208,13 +208,13 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
     Returns the `RunResults`. A branch that fails part-way is kept with its points and an end
     reason; a start that does not converge, or a start value outside the range, stops the scene
     with a `SpecError` naming the run.
-    """
-    import numpy as np
 
-    from autocable.methods import continuation as C
-    from autocable.model.ame_cache import derive_ame
-    from autocable.model.derive import derive
-    from autocable.results import RunResults, write_results
+    The files are written into a staging folder inside ``out_dir`` and published when the scene
+    ends, run.json last (`autocable.results.output_folder`): ``out_dir`` reads as complete only
+    after a run that finished; a run that raises leaves ``status = "failed"`` with the reason, a
+    killed one ``"running"``.
+    """
+    from autocable.results import output_folder
 
     def say(msg: str) -> None:
         if progress:
@@ -226,11 +226,29 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         if engine not in ENGINES:
             raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
         scene = replace(scene, engine=engine)
-    if scene.time is not None:
-        return run_time_scene(scene, out_dir, say, plot, resolution)
+    # a bad map is refused before the folder is touched
+    rmap = _read_map(scene, response_map) if scene.chart is not None and scene.time is None else None
+    # files the run reads may sit in its output folder (e.g. `--map DIR/sweep.nc`): never refused
+    inputs = (scene.path, scene.model, scene.compare.csv if scene.compare else None,
+              rmap["path"] if rmap else None)
+    with output_folder(out_dir, scene.name, inputs) as stage:
+        if scene.time is not None:
+            return run_time_scene(scene, stage, say, plot, resolution)
+        return _run_branches(scene, stage, Path(out_dir), say, plot, resolution, choose_ame, rmap)
+
+
+def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolution: str,
+                  choose_ame: Callable | None, rmap: dict | None):
+    """`run_scene` of a continuation scene, its files into ``out`` (the staging folder; ``shown``
+    is the output folder the messages name)."""
+    import numpy as np
+
+    from autocable.methods import continuation as C
+    from autocable.model.ame_cache import derive_ame
+    from autocable.model.derive import derive
+    from autocable.results import RunResults, write_results
 
     t_all = time.perf_counter()
-    rmap = _read_map(scene, response_map) if scene.chart is not None else None
     stages: dict[str, Any] = {}
     advice = None
     if scene.ame == "auto":
@@ -378,7 +396,6 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         "model_validity": validity,
     }
     res = RunResults(scene.name, tuple(branches), {**provenance, "stages": stages})
-    out = Path(out_dir)
     overlay_rows = None
     if scene.overlay is not None:
         t0 = time.perf_counter()
@@ -396,7 +413,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
         chart_out["map"] = _score_map(scene, chart_out, out, rmap, say)
         stages["chart_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    write_results(res, out)
+    write_results(res, out, status="running")    # "complete" once published
     stages["write_s"] = time.perf_counter() - t0
     compare = read_compare(scene.compare) if scene.compare else None
     if compare and branches:
@@ -419,10 +436,10 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
             t1 = time.perf_counter()
             files += _plot_chart(scene, res, chart_out, out)
             stages["chart_plot_s"] = time.perf_counter() - t1
-        say(f"plot: {', '.join(str(f) for f in files)}")
+        say(f"plot: {', '.join(str(shown / Path(f).name) for f in files)}")
     stages["total_s"] = time.perf_counter() - t_all
     res = RunResults(scene.name, tuple(branches), {**provenance, "stages": stages})
-    write_results(res, out)   # again, now with the complete timings
+    write_results(res, out, status="running")   # again, now with the complete timings
     return res
 
 

@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from autocable._store import atomic_write_json, content_hash
+from autocable._store import atomic_write_json, content_hash, file_mode
 from autocable.scene.sweep_schema import AXES, SweepSpec
 
 #: Bump when a point record changes meaning (part of every point key).
@@ -258,6 +258,7 @@ def _write_point(folder: Path, key: str, rec: dict) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{key}.", suffix=".tmp", dir=folder)
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            os.fchmod(fh.fileno(), file_mode())    # mkstemp's 0o600 would survive the replace
             json.dump(rec, fh, allow_nan=False)
         os.replace(tmp, folder / f"{key}.json")
     except BaseException:
@@ -323,6 +324,10 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
     out = Path(out_dir)
     folder = out / "points"
     folder.mkdir(parents=True, exist_ok=True)
+    # The dataset and summary describe a finished sweep: an earlier one's must not pass for this
+    # one's if this one is stopped (the points stay: a rerun resumes from them).
+    for done in ("sweep.json", "sweep.nc"):
+        (out / done).unlink(missing_ok=True)
     shash = sweep_hash(spec, model)
     grid, todo, resumed = _plan(spec, shash, folder)
     progress = _Progress(len(grid), resumed, log)
@@ -358,7 +363,7 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
                "failed": sink.failed,
                "wall_seconds": wall, "points_per_second": computed / wall if wall > 0 and computed else None,
                "responses": counts, "where": where, "sweep_hash": shash,
-               "dataset": str(out / "sweep.nc")}
+               "dataset": str(out / "sweep.nc"), "status": "complete"}
     atomic_write_json(out / "sweep.json", summary)
     return summary
 
