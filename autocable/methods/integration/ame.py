@@ -25,7 +25,7 @@ as scipy's DOP853, agreeing with it to the tolerance), until
       period-1. a_k is then the half peak-to-peak of the first-order q_k over the last
       ``window_periods`` forcing periods, the convention of `Ode21Integrator`;
   diverged: max |y| exceeds ``blowup`` (amplitude of the order of the cable length: outside any
-      validity of a cubic model).
+      validity of a cubic model). An integration that fails below it raises `ComputationError`.
 
 Stability: eigenvalues of the analytic Jacobian of (24) at the equilibrium.
 """
@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from autocable.errors import ComputationError
 from autocable.methods.integration.ode21 import DEFAULT_Q0, refined_peak
 from autocable.model.ame import AmplitudeEquations
 
@@ -249,13 +250,16 @@ class AmeIntegrator:
                 jac = {} if self.method == "DOP853" else {"jac": lambda _t, x: J(x, p)}
                 sol = solve_ivp(lambda _t, x: f(x, p), (t, t1), y, method=self.method, t_eval=grid,
                                 rtol=self.rtol, atol=self.atol, events=blow, **jac)
-            if sol.status == -1:
-                message = f"AME integration failed at t = {t:g}: {sol.message}"
-                break
+            grew = sol.status == 1
+            if not grew and (sol.status == -1 or not np.all(np.isfinite(sol.y))):
+                # The integrator stopped (or produced a non-finite state) while max |y| stayed
+                # below ``blowup``, checked at every step: a numerical failure, not growth.
+                raise ComputationError(f"the AME (24) could not be integrated from t = {t:g} while the "
+                                       f"amplitudes stayed below {blowup:g}: {sol.message}")
             if sol.y.size:
                 ts.append(sol.t)
                 ys.append(sol.y.T)
-            if sol.status == 1 or not np.all(np.isfinite(sol.y)):
+            if grew:
                 t = float(sol.t_events[0][0]) if sol.t_events[0].size else float(sol.t[-1])
                 return self._response(U, eta, sigma, Omega, (math.inf, math.inf), (math.inf,) * 4,
                                       False, False, t, "the AME diverged (no bounded steady state)",
@@ -314,14 +318,19 @@ class AmeIntegrator:
     def _c_chunk(self, y, t: float, grid, p, blowup: float):
         """One chunk by the compiled DOP853 (the method scipy's "DOP853" runs in Python), in the
         shape of solve_ivp's result: status 0 done, 1 stopped at max |y| > ``blowup`` (the
-        terminal event, located at the step that crosses it) or a non-finite state, -1 failed."""
+        terminal event, located at the step that crosses it), -1 failed (step budget or size, or a
+        non-finite state)."""
         from types import SimpleNamespace
         if self._c is None:
             self._c = compiled_cartesian(self.rhs)
         ci, extend = self._c
+        # A step budget: a bounded slow flow takes a few steps per time unit; without one a
+        # collapsing step could spin for a billion steps inside one call.
         r = ci.run(y, np.concatenate([[t], grid]), extend(p), rtol=self.rtol, atol=self.atol,
-                   bound=blowup, n_bound=len(y))
-        status = {"done": 0, "bound": 1, "not_finite": 1}.get(r.status, -1)
+                   bound=blowup, n_bound=len(y), max_steps=100_000 + int(400 * (grid[-1] - t)))
+        # Growth past ``blowup`` is checked after every step: a non-finite state without it is a
+        # numerical failure (e.g. one step from a bounded state to inf), not a divergence.
+        status = {"done": 0, "bound": 1}.get(r.status, -1)
         return SimpleNamespace(status=status, t=r.t[1:], y=r.y[1:].T,
                                t_events=[np.array([r.t_reached]) if r.status == "bound" else np.empty(0)],
                                message=f"the compiled DOP853 stopped ({r.status}) at t = {r.t_reached:g}")
