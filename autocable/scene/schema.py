@@ -308,6 +308,11 @@ def _start(value, path, where) -> StartSpec:
         nums = tuple(_num(v, path, f"{where}.{kind}") for v in vals)
         if kind in ("integrate", "orbit") and any(v < 0 for v in nums):
             raise SpecError(path, f"{where}.{kind}", "amplitudes must be >= 0")
+        # a_k is the peak displacement over the cable length: beyond 1 the model cannot apply, and
+        # an integration from there only spends its budget on a blow-up
+        if kind in ("integrate", "orbit") and any(v > 1.0 for v in nums):
+            raise SpecError(path, f"{where}.{kind}", "amplitudes must lie in [0, 1] (peak displacement / "
+                                                     f"cable length), got {[f'{v:g}' for v in nums]}")
         return StartSpec(kind, nums)
     raise SpecError(path, where, f'expected "trivial", "RUN:LABEL", {{integrate = [...]}}, '
                                  f'{{state = [...]}} or {{orbit = [...]}}, got {value!r}')
