@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 import re
 
 import numpy as np
@@ -74,6 +75,18 @@ def test_other_commands_refuse_bad_options_before_any_work(capsys, tmp_path, mon
     assert code == 2
     line, = err.strip().splitlines()
     assert f": {option}: " in line
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["figures", "--out", ""], "--out"),
+    (["figures", "--out", "o", "--timeout", "nan"], "--timeout"),
+])
+def test_figures_refuses_bad_options(capsys, tmp_path, monkeypatch, argv, option):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("os.environ", dict(os.environ))    # `figures` sets thread counts there
+    code, _, err = run_cli(capsys, *argv)
+    assert code == 2 and f": {option}: " in err.strip()
     assert list(tmp_path.iterdir()) == []
 
 
@@ -166,6 +179,12 @@ def test_non_finite_parameters_in_the_library_are_failures(derivation, sample_am
         AmeIntegrator(sample_ame, method="DOP853").simulate(0.7, math.nan, 0.01)
     with pytest.raises(ComputationError):
         ShootingSolver(derivation.ode).steady(0.7, math.nan, 0.01)
+
+
+def test_ame_integration_has_a_budget(sample_ame):
+    from autocable.methods.integration.ame import AmeIntegrator
+    with pytest.raises(BudgetExceeded, match="budget of 10 right-hand side evaluations"):
+        AmeIntegrator(sample_ame).simulate(0.0, 8.2e-5, 0.02, max_evaluations=10)
 
 
 # -- budgets: a start that would integrate without end stops, the other runs are kept --------------

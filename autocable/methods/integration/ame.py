@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from autocable.errors import ComputationError
+from autocable.errors import BudgetExceeded, ComputationError
 from autocable.methods.integration.ode21 import DEFAULT_Q0, refined_peak
 from autocable.model.ame import AmplitudeEquations
 
@@ -216,9 +216,11 @@ class AmeIntegrator:
                  y0=None, chunk: float = 250.0, max_time: float = 60000.0, step_tol: float = 1e-6,
                  abs_tol: float = 1e-12, window: float = 4000.0, envelope_tol: float = 1e-4,
                  window_periods: int = 20, blowup: float = 1.0, keep_history: bool = False,
-                 progress=None) -> AmeResponse:
+                 progress=None, max_evaluations: int = 5_000_000) -> AmeResponse:
         """Integrate (24) from ``q0`` = (q1, q1', q2, q2') (or from ``y0`` = (r1, s1, r2, s2)) until
-        steady (module docstring); give up at ``max_time`` (t* units, as eq. (21))."""
+        steady (module docstring); give up at ``max_time`` (t* units, as eq. (21)). Budget: the
+        scipy methods raise `BudgetExceeded` after ``max_evaluations`` of the right-hand side, the
+        compiled DOP853 (`_c_chunk`) has a step budget per chunk."""
         from scipy.integrate import solve_ivp
 
         start = time.perf_counter()
@@ -229,7 +231,17 @@ class AmeIntegrator:
         y = np.asarray(y0, dtype=float) if y0 is not None else initial_amplitudes(q0, Omega)
         f, J = self._numeric(p)
 
+        evaluations = [0]
+
+        def rhs(_t, x):
+            evaluations[0] += 1      # counted here, checked per step in `blow` (outside LSODA's
+            return f(x, p)           # Fortran callback, where an exception prints a C traceback)
+
         def blow(t, x):
+            if evaluations[0] > max_evaluations:
+                raise BudgetExceeded(f"the AME integration spent its budget of {max_evaluations:,} "
+                                     f"right-hand side evaluations at t = {t:.6g} (a stiff slow flow); "
+                                     "lower max_time or use method='DOP853'")
             return blowup - np.max(np.abs(x))
         blow.terminal = True
 
@@ -248,14 +260,15 @@ class AmeIntegrator:
             else:
                 # An explicit method takes no Jacobian (scipy warns about a jac=None too).
                 jac = {} if self.method == "DOP853" else {"jac": lambda _t, x: J(x, p)}
-                sol = solve_ivp(lambda _t, x: f(x, p), (t, t1), y, method=self.method, t_eval=grid,
+                sol = solve_ivp(rhs, (t, t1), y, method=self.method, t_eval=grid,
                                 rtol=self.rtol, atol=self.atol, events=blow, **jac)
             grew = sol.status == 1
             if not grew and (sol.status == -1 or not np.all(np.isfinite(sol.y))):
                 # The integrator stopped (or produced a non-finite state) while max |y| stayed
                 # below ``blowup``, checked at every step: a numerical failure, not growth.
-                raise ComputationError(f"the AME (24) could not be integrated from t = {t:g} while the "
-                                       f"amplitudes stayed below {blowup:g}: {sol.message}")
+                failure = BudgetExceeded if "step_budget" in str(sol.message) else ComputationError
+                raise failure(f"the AME (24) could not be integrated from t = {t:g} while the "
+                              f"amplitudes stayed below {blowup:g}: {sol.message}")
             if sol.y.size:
                 ts.append(sol.t)
                 ys.append(sol.y.T)
