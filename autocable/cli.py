@@ -20,6 +20,103 @@ from autocable.errors import EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, CacheErr
 from autocable.spec import SpecError, load_model
 
 
+#: Accepted ranges of the numeric options that premises.check_parameters does not cover.
+#: |q0| beyond `ode21.DIVERGED` (a tenth of the cable length) is already a diverged response.
+Q0_LIMIT = 0.1
+#: Time limit of `simulate` (t* units): the default 60000 reaches every steady state of the
+#: sample cable; a million is about half an hour of integration.
+MAX_TIME_LIMIT = 1e6
+#: Modes per plane of `simulate --modes`: the symbolic N-mode derivation grows as N^4.
+MODES_LIMIT = 6
+
+
+def _refuse(option: str, message: str):
+    """The one-line input error for a command-line option (exit 2)."""
+    return SpecError("arguments", option, message)
+
+
+def _check_number(option: str, value, lo: float, hi: float, *, integer: bool = False,
+                  lo_open: bool = False) -> None:
+    """Refuse a non-finite ``value`` or one outside [lo, hi] ((lo, hi] with ``lo_open``)."""
+    kind = "an integer" if integer else "a number"
+    span = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]"
+    if value is None:
+        return
+    if not math.isfinite(value) or not (lo < value if lo_open else lo <= value) or not value <= hi:
+        raise _refuse(option, f"expected {kind} in {span}, got {value!r}")
+
+
+def _check_out(option: str, value) -> None:
+    """An output path given as "" would fall back to the default folder: refuse it."""
+    if value is not None and not str(value).strip():
+        raise _refuse(option, "an empty path; give a file or folder name (or leave the option out)")
+
+
+def _check_parameters(args) -> None:
+    """U*, eta*, sigma of `simulate` against the premises of eq. (21) (one line each; a stretched
+    premise is a one-line warning on stderr)."""
+    import warnings
+
+    from autocable.model.premises import PremiseWarning, check_parameters
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", PremiseWarning)
+        check_parameters({"U": args.U, "eta": args.eta, "sigma": args.sigma}, "arguments",
+                         {"U": "--U", "eta": "--eta", "sigma": "--sigma"})
+    for w in caught:
+        if issubclass(w.category, PremiseWarning):
+            print(f"autocable: warning: {w.message}", file=sys.stderr)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+
+
+def _check_simulate(args) -> None:
+    """Every numeric option of `simulate`, where it enters, before any work."""
+    _check_parameters(args)
+    if args.q0:
+        for name, v in zip(("Q1", "Q1DOT", "Q2", "Q2DOT"), args.q0):
+            if not (math.isfinite(v) and abs(v) <= Q0_LIMIT):
+                raise _refuse("--q0", f"{name}: expected a finite number with |{name}| <= {Q0_LIMIT:g} "
+                                      f"(beyond it the response has already diverged), got {v!r}")
+    _check_number("--max-time", args.max_time, 0.0, MAX_TIME_LIMIT, lo_open=True)
+    _check_number("--modes", args.modes, 1, MODES_LIMIT, integer=True)
+    _check_out("--csv", args.csv)
+
+
+def _strict(x):
+    """``x`` with every non-finite float replaced by None (strict JSON: no NaN, no Infinity)."""
+    if isinstance(x, float):
+        return x if math.isfinite(x) else None
+    if isinstance(x, dict):
+        return {k: _strict(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_strict(v) for v in x]
+    try:                                 # numpy scalars
+        import numpy as np
+        if isinstance(x, np.floating):
+            return _strict(float(x))
+        if isinstance(x, np.integer):
+            return int(x)
+        if isinstance(x, np.ndarray):
+            return _strict(x.tolist())
+    except ImportError:                  # pragma: no cover
+        pass
+    return x
+
+
+def dumps(obj, **kw) -> str:
+    """The JSON the command line prints or writes: strict (a non-finite number is null; a
+    ``status`` beside it says why), so any JSON parser reads it."""
+    return json.dumps(_strict(obj), allow_nan=False, **kw)
+
+
+def response_status(a1: float, steady: bool) -> str:
+    """The ``status`` of a simulated response: "diverged" (growth past the model's range; the
+    amplitudes are null), "steady", or "not_steady" (``--max-time`` reached first)."""
+    if not math.isfinite(a1):
+        return "diverged"
+    return "steady" if steady else "not_steady"
+
+
 def _derivation(path):
     from autocable.model.derive import derive
     return derive(path)
@@ -171,7 +268,7 @@ def cmd_derive(args) -> int:
     if args.json:
         out = derive_json(d)
         out["ame"] = ame_json(cached)
-        print(json.dumps(out, indent=1))
+        print(dumps(out, indent=1))
     else:
         print(derive_report(d))
         print(ame_report(cached, latex=args.latex))
@@ -180,11 +277,8 @@ def cmd_derive(args) -> int:
 
 def cmd_simulate(args) -> int:
     from autocable.methods.integration.ode21 import DEFAULT_Q0, Ode21Integrator
+    _check_simulate(args)
     d = _derivation(args.model)
-    if args.eta < 0:
-        raise SpecError("--eta", "", f"the support amplitude eta* must be >= 0, got {args.eta}")
-    if args.U < 0:
-        raise SpecError("--U", "", f"the wind speed U* must be >= 0, got {args.U}")
     q0 = tuple(args.q0) if args.q0 else DEFAULT_Q0
     show = not (args.quiet or args.json)
 
@@ -205,7 +299,8 @@ def cmd_simulate(args) -> int:
         print(file=sys.stderr)
     if args.csv:
         _write_history(Path(args.csv), r)
-    out = {"a1": r.a1, "a2": r.a2, "steady": r.steady, "periodic": r.periodic, "t_end": r.t_end,
+    out = {"status": response_status(r.a1, r.steady),
+           "a1": r.a1, "a2": r.a2, "steady": r.steady, "periodic": r.periodic, "t_end": r.t_end,
            "U": r.U, "eta": r.eta, "sigma": r.sigma, "Omega": r.Omega,
            "a1_min": r.a1_min, "a1_max": r.a1_max, "a2_min": r.a2_min, "a2_max": r.a2_max,
            "amplitude_convention": "a_k = half the peak-to-peak of q_k over the last 20 forcing "
@@ -223,9 +318,9 @@ def _simulate_shooting(args, d, q0) -> int:
         raise SpecError("--csv", "", "--method shooting computes no time history; use --method ode21 "
                         "for --csv")
     r = ShootingSolver(d.ode).steady(args.U, args.eta, args.sigma, q0, max_time=args.max_time)
-    out = response_json(r)
+    out = {"status": response_status(r.a1, r.steady), **response_json(r)}
     if args.json:
-        print(json.dumps(out, indent=1, allow_nan=False))
+        print(dumps(out, indent=1))
         return 0
     print(f"U* = {r.U:g}  eta* = {r.eta:g}  sigma = {r.sigma:g}  (Omega = {r.Omega:.6g})  method shooting")
     print(f"response: {r.response}   a1 = {r.a1:.9e}   a2 = {r.a2:.9e}   ({r.message})")
@@ -250,7 +345,8 @@ def _simulate_ame(args, d, q0, show, progress) -> int:
         print(file=sys.stderr)
     if args.csv:
         from autocable._store import atomic_write_text
-        t, r1, s1, r2, s2 = r.history
+        # A diverged response keeps what was computed up to the divergence (possibly nothing).
+        t, r1, s1, r2, s2 = r.history or ((),) * 5
         rows = ["t,r1,s1,r2,s2"] + [f"{a:.10g},{b:.10e},{c:.10e},{e:.10e},{f:.10e}"
                                     for a, b, c, e, f in zip(t, r1, s1, r2, s2)]
         atomic_write_text(Path(args.csv), "\n".join(rows) + "\n")
@@ -259,7 +355,8 @@ def _simulate_ame(args, d, q0, show, progress) -> int:
     def finite(x):
         return x if math.isfinite(x) else None
 
-    out = {"a1": finite(r.a1), "a2": finite(r.a2), "steady": r.steady, "periodic": r.periodic,
+    out = {"status": response_status(r.a1, r.steady),
+           "a1": finite(r.a1), "a2": finite(r.a2), "steady": r.steady, "periodic": r.periodic,
            "t_end": r.t_end, "U": r.U, "eta": r.eta, "sigma": r.sigma, "Omega": r.Omega,
            "a1_min": finite(r.a1_min), "a1_max": finite(r.a1_max),
            "a2_min": finite(r.a2_min), "a2_max": finite(r.a2_max),
@@ -285,8 +382,6 @@ def _simulate_nmode(args, d, q0, show, progress) -> int:
     if args.method != "ode21":
         raise SpecError("--modes", "", "--modes integrates the N-mode equations directly; "
                         f"drop --method {args.method}")
-    if args.modes < 1:
-        raise SpecError("--modes", "", f"the number of modes per plane must be >= 1, got {args.modes}")
     integ = NModeIntegrator(d, args.modes, args.modes)
     x0 = None
     if args.q0:
@@ -298,9 +393,9 @@ def _simulate_nmode(args, d, q0, show, progress) -> int:
                        keep_history=bool(args.csv), progress=progress)
     if show:
         print(file=sys.stderr)
-    if args.csv and r.history:
+    if args.csv:
         from autocable._store import atomic_write_text
-        t, ys = r.history
+        t, ys = r.history or ((), ())
         rows = [",".join(("t",) + integ.ode.state_names)]
         rows += [f"{a:.10g}," + ",".join(f"{v:.10e}" for v in y) for a, y in zip(t, ys)]
         atomic_write_text(Path(args.csv), "\n".join(rows) + "\n")
@@ -308,7 +403,8 @@ def _simulate_nmode(args, d, q0, show, progress) -> int:
     def finite(x):
         return x if math.isfinite(x) else None
 
-    out = {"a1": finite(r.a1), "a2": finite(r.a2), "amplitudes": {k: finite(v) for k, v in r.amplitudes.items()},
+    out = {"status": response_status(r.a1, r.steady),
+           "a1": finite(r.a1), "a2": finite(r.a2), "amplitudes": {k: finite(v) for k, v in r.amplitudes.items()},
            "omegas": dict(zip(integ.ode.names, integ.ode.omegas)), "steady": r.steady,
            "periodic": r.periodic, "diverged": r.diverged, "t_end": r.t_end, "U": r.U, "eta": r.eta,
            "sigma": r.sigma, "Omega": r.Omega,
@@ -317,7 +413,7 @@ def _simulate_nmode(args, d, q0, show, progress) -> int:
            "message": r.message, "method": "nmode", "modes_per_plane": args.modes,
            "wall_seconds": r.wall_seconds}
     if args.json:
-        print(json.dumps(out, indent=1))
+        print(dumps(out, indent=1))
     else:
         print(f"U* = {r.U:g}  eta* = {r.eta:g}  sigma = {r.sigma:g}  (Omega = {r.Omega:.6g})  "
               f"method nmode ({args.modes} in-plane + {args.modes} out-of-plane modes)")
@@ -329,10 +425,13 @@ def _simulate_nmode(args, d, q0, show, progress) -> int:
 
 def _print_simulation(args, r, out) -> None:
     if args.json:
-        print(json.dumps(out, indent=1))
+        print(dumps(out, indent=1))
     else:
         print(f"U* = {r.U:g}  eta* = {r.eta:g}  sigma = {r.sigma:g}  (Omega = {r.Omega:.6g})  "
               f"method {out['method']}")
+        if out["status"] == "diverged":
+            print(f"diverged: no bounded steady state ({r.message}; t_end = {r.t_end:.6g})")
+            return
         print(f"a1 = {r.a1:.9e}   a2 = {r.a2:.9e}   ({r.message}; "
               f"{'periodic' if r.periodic else 'not period-1'}; t_end = {r.t_end:.1f})")
         if not r.periodic:
@@ -346,7 +445,8 @@ def _print_simulation(args, r, out) -> None:
 def _write_history(path: Path, r) -> None:
     from autocable._store import atomic_write_text
     rows = ["t,q1,q2,q1dot,q2dot"]
-    t, q1, q2, v1, v2 = r.history
+    # A diverged response keeps the rows up to the divergence (none when it diverged at once).
+    t, q1, q2, v1, v2 = r.history or ((),) * 5
     rows += [f"{a:.10g},{b:.10e},{c:.10e},{d:.10e},{e:.10e}" for a, b, c, d, e in zip(t, q1, q2, v1, v2)]
     atomic_write_text(path, "\n".join(rows) + "\n")
 
@@ -354,13 +454,13 @@ def _write_history(path: Path, r) -> None:
 def cmd_work_precision(args) -> int:
     """`autocable bench --out DIR` without a subcommand: the method ladder's work-precision bench."""
     from autocable.studies.work_precision import run_bench as run_work_precision
-    if not args.out:
+    if args.out is None:
         raise SpecError("bench", "--out", "the work-precision bench writes files: give --out DIR "
                         "(or name a subcommand: derive, ame-vs-ode, continuation, auto, ...)")
     result = run_work_precision(args.out, scenes=args.scene or None, quick=args.quick,
                                 repeats=max(args.repeats, 0),
                                 log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
-    print(json.dumps({"summary": result["summary"], "notes": result["notes"],
+    print(dumps({"summary": result["summary"], "notes": result["notes"],
                       "wall_seconds": result["wall_seconds"],
                       "files": [str(Path(args.out) / f) for f in ("bench.json", "work_precision.png",
                                                                   "work_precision.md")]}, indent=1))
@@ -372,7 +472,15 @@ def _cmd_advise(args) -> int:
     return cmd_advise(args)
 
 
+#: Repeats of a benchmark: each costs up to minutes.
+REPEATS_LIMIT = 100
+#: Processes or Dask workers: more than this is a typing error on any machine autocable targets.
+WORKERS_LIMIT = 1024
+
+
 def cmd_bench(args) -> int:
+    _check_number("--repeats", args.repeats, 0, REPEATS_LIMIT, integer=True)
+    _check_out("--out", args.out)
     if args.what is None:
         return cmd_work_precision(args)
     from autocable.bench.commands import run_bench
@@ -385,8 +493,8 @@ def cmd_bench(args) -> int:
         from autocable._store import atomic_write_json
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
-        atomic_write_json(out / f"bench_{args.what}.json", result)
-    print(json.dumps(result, indent=1))
+        atomic_write_json(out / f"bench_{args.what}.json", _strict(result))
+    print(dumps(result, indent=1))
     return 0
 
 
@@ -395,6 +503,7 @@ def cmd_failure_map(args) -> int:
     import time
     from autocable.studies.failure_map import run_failure_map
     from autocable.studies.failure_map_report import write_failure_map
+    _check_out("--out", args.out)
     say = None if args.quiet else (lambda s: print(s, file=sys.stderr))
     t0 = time.perf_counter()
     result = run_failure_map(args.model, quick=args.quick, log=say)
@@ -412,15 +521,13 @@ def cmd_sweep(args) -> int:
     """`autocable sweep SWEEP.toml --out DIR`: a grid of steady responses as one dataset."""
     from autocable.scene.sweep_schema import load_sweep
     from autocable.studies.sweep import run_sweep
+    _check_out("--out", args.out)
+    _check_number("--workers", args.workers, 0, WORKERS_LIMIT, integer=True)   # 0: serial, no Dask
+    _check_number("--chunk", args.chunk, 1, 10**6, integer=True)
     spec = load_sweep(args.sweep)
-    if args.workers is not None and args.workers < 0:
-        raise SpecError("--workers", "", f"expected 0 (serial, no Dask) or a number of worker processes, "
-                        f"got {args.workers}")
-    if args.chunk is not None and args.chunk < 1:
-        raise SpecError("--chunk", "", f"expected a number of points per task >= 1, got {args.chunk}")
     summary = run_sweep(spec, args.out, workers=args.workers, scheduler=args.scheduler, chunk=args.chunk,
                         log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
-    print(json.dumps(summary, indent=1))
+    print(dumps(summary, indent=1))
     if summary["failed"]:
         first = summary["failed"][0]
         print(f"autocable: sweep: {len(summary['failed'])} point(s) failed (kept out of sweep.nc as not computed; "
@@ -462,6 +569,7 @@ def add_run_parser(subparsers) -> None:
 
 def cmd_run(args) -> int:
     """Run a scene; print a summary (branches, special points, files) on stdout."""
+    _check_out("--out", getattr(args, "out", None))
     scene = load_scene(args.scene)
     out = Path(args.out) if getattr(args, "out", None) else Path("out") / scene.name
     # Before the computation, not after it: a folder that cannot be made would lose the results.
@@ -525,6 +633,7 @@ def add_chart_parser(subparsers) -> None:
 
 def cmd_chart(args) -> int:
     """Run a chart scene (its continuation runs and the [chart] table); print the regions and files."""
+    _check_out("--out", args.out)
     scene = load_scene(args.scene)
     if scene.chart is None:
         raise SpecError(scene.path, "chart", "missing; `autocable chart` draws a scene with a [chart] table "
@@ -675,6 +784,9 @@ def _cmd_calibrate(args) -> int:
     from dataclasses import replace as _replace
 
     from autocable.paper import calibration as study
+    _check_out("--out", args.out)
+    _check_number("--jobs", args.jobs, 1, WORKERS_LIMIT, integer=True)
+    _check_number("--full", args.full, 0, 10**6, integer=True)
     space_path = Path(args.space) if args.space else Path(args.model).with_suffix("").with_suffix(".search.toml")
     if args.space or space_path.is_file():
         space = study.load_space(space_path)
@@ -685,7 +797,7 @@ def _cmd_calibrate(args) -> int:
     load_model(args.model)                  # bad files: one line before any work
     study.tg.load_targets(args.targets)
     stats = study.calibrate(args.model, args.targets, args.out, space=space, jobs=args.jobs, quiet=args.quiet)
-    print(json.dumps(stats))
+    print(dumps(stats))
     return 0
 
 

@@ -328,8 +328,10 @@ def cmd_figures(args) -> int:
     os.environ.update(blas_thread_env(int(args.jobs or os.cpu_count() or 1), os.cpu_count() or 1, os.environ,
                                       "numpy" in sys.modules))
     from autocable.paper.report import write_report
-    if args.timeout is not None and args.timeout <= 0:
+    if args.timeout is not None and not 0 < args.timeout < float("inf"):   # also refuses nan
         raise SpecError("--timeout", "", f"expected a positive number of seconds, got {args.timeout}")
+    if not str(args.out).strip():
+        raise SpecError("--out", "", "an empty path; give the output folder")
     only = [s.strip() for s in args.only.split(",") if s.strip()] if args.only else []
     scenes = discover(Path(args.runs) if args.runs else default_runs_dir(), only, args.quick)
     out = Path(args.out)

@@ -18,6 +18,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
+from autocable.errors import ComputationError
 from autocable.spec import SpecError, load_model
 
 from autocable.scene.provenance import ode21_engine, versions
@@ -111,7 +112,8 @@ def run_cycles_from_orbit(r: _Run):
     y0 = np.zeros(r.system.dimension)
     y0[0::2] = amps[:n_modes]
     r.say(f"  integrating the AME from a = {amps[:n_modes]} to a periodic orbit")
-    t_orb, x_orb, period = C.periodic_orbit(r.system, r.values, y0, scale=r.scale)
+    t_orb, x_orb, period = C.periodic_orbit(r.system, r.values, y0, scale=r.scale,
+                                            seconds=r.settings.orbit_seconds)
     return C.continue_cycles_from_orbit(r.problem, r.settings, t_orb, x_orb, period, name=r.run.name,
                                         directions=r.run.directions, progress=r.say)
 
@@ -151,7 +153,8 @@ def run_equilibria(r: _Run):
         y0 = np.zeros(system.dimension)
         y0[0::2] = amps[:n_modes]
         r.say(f"  integrating the AME from a = {amps[:n_modes]} to a steady state")
-        x0 = C.settle(system, r.values, y0, scale=r.scale, engine=r.engine)
+        x0 = C.settle(system, r.values, y0, scale=r.scale, engine=r.engine,
+                      seconds=r.settings.settle_seconds, evaluations=r.settings.settle_evaluations)
     else:
         x0 = r.start_state
     return C.continue_equilibria(r.problem, r.settings, x0, name=r.run.name, directions=r.run.directions,
@@ -280,6 +283,7 @@ def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolut
     systems: dict = {}
     branches = []
     run_times: dict[str, Any] = {}
+    failed: dict[str, str] = {}      # run -> why it has no branch (a budget spent, a numerical failure)
     path = scene.path
 
     def check_values(values, where):
@@ -307,6 +311,10 @@ def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolut
         source = None
         if run.start.kind == "label":
             src_name, label = run.start.label.split(":")
+            if src_name in failed:
+                failed[run.name] = f"its start {run.start.label} is on run {src_name}, which failed"
+                say(f"run {run.name} skipped: {failed[run.name]}")
+                continue
             if src_name not in results:
                 raise SpecError(path, f"{where}.start", f"no branch {src_name!r} has been computed")
             try:
@@ -356,6 +364,12 @@ def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolut
                                           scene.engine, say, path, where))
         except (C.StartError, C.SymmetryError) as exc:
             raise SpecError(path, f"{where}.start", str(exc)) from None
+        except ComputationError as exc:
+            # A spent budget or a numerical failure: this run has no branch; the others are still
+            # computed and written, and the scene ends with the failure (exit status 3).
+            failed[run.name] = f"{where}.start: {exc}"
+            say(f"run {run.name} failed: {exc}")
+            continue
         add(result)
         follow = {"cycles": 0, "switch": 0}
         if run.kind != "cycles" and run.cycles:
@@ -394,6 +408,7 @@ def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolut
         "versions": versions(), "platform": platform.platform(), "argv": list(sys.argv),
         "resolution": resolution,
         "model_validity": validity,
+        "failed_runs": dict(failed),
     }
     res = RunResults(scene.name, tuple(branches), {**provenance, "stages": stages})
     overlay_rows = None
@@ -440,6 +455,12 @@ def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolut
     stages["total_s"] = time.perf_counter() - t_all
     res = RunResults(scene.name, tuple(branches), {**provenance, "stages": stages})
     write_results(res, out, status="running")   # again, now with the complete timings
+    if failed:
+        # published as "failed" by output_folder: what was computed stays, visibly incomplete
+        name, why = next(iter(failed.items()))
+        more = f" (and {len(failed) - 1} more)" if len(failed) > 1 else ""
+        raise ComputationError(f"{path}: run {name} failed{more}: {why}; the other runs are written "
+                               f"to {shown} (run.json lists the failed runs)")
     return res
 
 

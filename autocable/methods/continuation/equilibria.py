@@ -22,8 +22,14 @@ from autocable.methods.continuation.system import System
 from autocable.results import EndPoint, SpecialPoint
 
 
+#: The largest modal amplitude a start may have or an integration may reach: a_k is the peak
+#: displacement over the cable length, and the cubic model holds only far below it.
+AMPLITUDE_LIMIT = 1.0
+
+
 def settle(system: System, values: Mapping[str, float], x0, *, scale: float = 1.0,
-           chunks: int = 40, patience: int = 4, rtol: float = 1e-9, engine: str = "pycont") -> np.ndarray:
+           chunks: int = 40, patience: int = 4, rtol: float = 1e-9, engine: str = "pycont",
+           seconds: float = 60.0, evaluations: int = 2_000_000) -> np.ndarray:
     """The stable equilibrium reached by integrating x' = f(x; p) from ``x0``, refined by Newton.
 
     Integrates (scipy LSODA with the exact Jacobian) in chunks of 25 / (mean damping rate) until the
@@ -33,8 +39,14 @@ def settle(system: System, values: Mapping[str, float], x0, *, scale: float = 1.
     a cycle, or creeping along a family of equilibria), or after ``chunks`` chunks.
 
     ``engine = "compiled"`` evaluates f and J in the system's C kernel (the same functions, tested
-    equal to the sympy ones), otherwise they are the numpy ones."""
+    equal to the sympy ones), otherwise they are the numpy ones.
+
+    Budget: ``seconds`` of wall time and ``evaluations`` of f (`ContinuationSettings.settle_seconds`,
+    ``settle_evaluations``); spending either raises `BudgetExceeded`. A start or a state with an
+    amplitude beyond `AMPLITUDE_LIMIT` raises `StartError`."""
     from scipy.integrate import solve_ivp
+
+    from autocable.methods.continuation.settings import Budget
 
     if _engine(engine) == "compiled":
         from autocable.codegen.ckernel import compiled_kernel
@@ -43,20 +55,40 @@ def settle(system: System, values: Mapping[str, float], x0, *, scale: float = 1.
         rhs = system
     p = system.parameter_vector(values)
     y = np.array(x0, dtype=float)
+    start = np.round(np.asarray(x0, float), 12).tolist()
+    if not np.all(np.isfinite(y)) or max(system.amplitude_values(y), default=0.0) > AMPLITUDE_LIMIT:
+        raise StartError(f"the start {start} has an amplitude beyond {AMPLITUDE_LIMIT:g} (a_k is the "
+                         "peak displacement over the cable length); start from amplitudes of the "
+                         "response, e.g. 5e-3")
     rate = abs(np.trace(system.jac(y, p))) / max(system.dimension, 1)
     if not rate > 0:
         rate = 1.0
     chunk = 25.0 / rate
     bound = 1e6 * (np.linalg.norm(y) + scale)
     t, best, stale = 0.0, math.inf, 0
-    start = np.round(np.asarray(x0, float), 12).tolist()
+    budget = Budget(f"integrating the AME from {start} to a steady state", seconds, evaluations,
+                    "raise settle_seconds or settle_evaluations in the run's steps, or start from other "
+                    "amplitudes")
+
+    def f(_t, z):
+        budget.spent += 1        # counted here, checked per step in `grown`: an exception raised
+        return rhs.f(z, p)       # inside LSODA's Fortran callback would print a C-level traceback
+
+    def grown(tt, z):
+        # stops the integration where the orbit leaves the model's range (a_k <= AMPLITUDE_LIMIT)
+        # or the ball of `bound`, instead of following a blow-up to its end; and at the budget
+        budget.check(at=f"(t = {tt:.6g})")
+        return min(bound - float(np.linalg.norm(z)),
+                   AMPLITUDE_LIMIT - max(system.amplitude_values(z), default=0.0))
+    grown.terminal = True
+
     for _ in range(int(chunks)):
-        sol = solve_ivp(lambda _t, z: rhs.f(z, p), (t, t + chunk), y, method="LSODA",
+        sol = solve_ivp(f, (t, t + chunk), y, method="LSODA", events=grown,
                         jac=lambda _t, z: rhs.jac(z, p), rtol=rtol, atol=rtol * scale * 1e-3)
         if sol.status < 0 or not np.all(np.isfinite(sol.y)):
             raise StartError(f"integrating from {start} failed at t = {t:g}: {sol.message}")
         y, t = sol.y[:, -1].copy(), float(sol.t[-1])
-        if np.linalg.norm(y) > bound:
+        if sol.status == 1 or np.linalg.norm(y) > bound:
             raise StartError(f"integrating from {start}: the orbit diverges "
                              f"(|x| = {np.linalg.norm(y):.3g} at t = {t:g}); start elsewhere")
         J = system.jac(y, p)

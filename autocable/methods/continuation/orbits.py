@@ -34,7 +34,8 @@ def _crossings(t: np.ndarray, x: np.ndarray) -> tuple[int, np.ndarray, np.ndarra
 
 def periodic_orbit(system: System, values: Mapping[str, float], x0, *, scale: float = 1.0,
                    chunks: int = 40, rtol: float = 1e-10, samples_per_period: int = 2000,
-                   period_tol: float = 1e-6) -> tuple[np.ndarray, np.ndarray, float]:
+                   period_tol: float = 1e-6, seconds: float = 120.0,
+                   max_steps: int = 5_000_000) -> tuple[np.ndarray, np.ndarray, float]:
     """One period of the stable periodic orbit reached by integrating x' = f(x; p) from ``x0``:
     (t, X, T), the states X at increasing times t covering [t0, t0 + T) about
     ``samples_per_period`` times, and the period T.
@@ -50,8 +51,12 @@ def periodic_orbit(system: System, values: Mapping[str, float], x0, *, scale: fl
     Raises `StartError` with what happened instead: the orbit diverges or the integration fails,
     it settles on an equilibrium or dies down towards one (swing below 1e-6 of |x| + ``scale``;
     use an equilibria run with ``start = { integrate }``), or it is not periodic after ``chunks``
-    chunks (a quasi-periodic or chaotic amplitude motion)."""
+    chunks (a quasi-periodic or chaotic amplitude motion). Budget: ``seconds`` of wall time
+    (`ContinuationSettings.orbit_seconds`), checked between the integrator's calls, and
+    ``max_steps`` steps per call; spending either raises `BudgetExceeded`."""
     from autocable.codegen.cintegrate import compiled_integrator, sample_grid
+    from autocable.errors import BudgetExceeded
+    from autocable.methods.continuation.settings import Budget
 
     ci = compiled_integrator(f"{system.name}_flow", system.variables, system.parameter_names, system.rhs, None)
     p = system.parameter_vector(values)
@@ -62,9 +67,17 @@ def periodic_orbit(system: System, values: Mapping[str, float], x0, *, scale: fl
     bound = 1e6 * (np.linalg.norm(y) + scale)
     atol = rtol * scale * 1e-3
     t = 0.0
+    budget = Budget(f"integrating the AME from {start} to a periodic orbit", seconds,
+                    hint="raise orbit_seconds in the run's steps, or start from other amplitudes")
 
     def run(t0: float, t1: float, dt: float):
-        r = ci.run(y, sample_grid(t0, t1, dt), p, rtol=rtol, atol=atol, bound=bound, n_bound=system.dimension)
+        budget.spend(0, at=f"(t = {t0:.6g})")
+        r = ci.run(y, sample_grid(t0, t1, dt), p, rtol=rtol, atol=atol, bound=bound, n_bound=system.dimension,
+                   max_steps=max_steps)
+        if r.status == "step_budget":
+            raise BudgetExceeded(f"integrating the AME from {start} to a periodic orbit took more than "
+                                 f"{max_steps:,} steps between t = {t0:.6g} and {t1:.6g} (a stiff or "
+                                 "fast-growing motion); start from other amplitudes")
         if not r.ok:
             raise StartError(f"integrating from {start}: the orbit diverges or the integration fails "
                              f"({r.status}) at t = {r.t_reached:.6g}; start elsewhere")

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
-__all__ = ["ContinuationSettings", "ENGINES", "CYCLE_ENGINES", "STEP_KEYS", "INTEGER_STEP_KEYS"]
+__all__ = ["ContinuationSettings", "ENGINES", "CYCLE_ENGINES", "STEP_KEYS", "INTEGER_STEP_KEYS", "Budget"]
 
 #: Engines of equilibrium continuation and branch switching: PyCont's EP-C (the AUTO-style workflow)
 #: or autocable's compiled C kernel (`compiled_equilibria`).
@@ -50,10 +50,16 @@ class ContinuationSettings:
     curve_max_points: int = 400      # per direction
     curve_check_tol: float = 1e-8    # independent check at every point: sigma_min(J)/sigma_max(J)
                                      # (folds), |Re lambda|/||J||_F of the critical pair (Hopf)
+    # budgets of the integrations that find a start (`settle`, `periodic_orbit`): a start far from
+    # any attractor, or a stiff one, would otherwise integrate without end
+    settle_seconds: float = 60.0
+    settle_evaluations: int = 2_000_000   # right-hand side evaluations
+    orbit_seconds: float = 120.0
 
     def __post_init__(self):
         for name in ("step", "min_step", "max_step", "tol", "test_tol", "newton_tol", "cycle_step",
-                     "cycle_max_step", "switch_step", "curve_step", "curve_max_step", "curve_check_tol"):
+                     "cycle_max_step", "switch_step", "curve_step", "curve_max_step", "curve_check_tol",
+                     "settle_seconds", "orbit_seconds"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and v > 0 and math.isfinite(v)):
                 raise ValueError(f"{name} must be a positive number, got {v!r}")
@@ -63,7 +69,7 @@ class ContinuationSettings:
             raise ValueError(f"need min_step <= curve_step <= curve_max_step, got {self.min_step}, "
                              f"{self.curve_step}, {self.curve_max_step}")
         for name in ("max_points", "chunk", "cycle_max_points", "ntst", "ncol", "max_corrector_iters",
-                     "curve_max_points"):
+                     "curve_max_points", "settle_evaluations"):
             if int(getattr(self, name)) < 1:
                 raise ValueError(f"{name} must be a positive integer")
         bad = set(self.locate) - {"LP", "H", "BP"}
@@ -76,3 +82,31 @@ class ContinuationSettings:
 STEP_KEYS = tuple(f.name for f in fields(ContinuationSettings) if f.name not in ("locate", "floquet_rtol"))
 #: Those of `STEP_KEYS` that are counts.
 INTEGER_STEP_KEYS = tuple(f.name for f in fields(ContinuationSettings) if f.type == "int")
+
+
+class Budget:
+    """A budget of wall time and right-hand side evaluations for one integration: `spend` raises
+    `BudgetExceeded` naming ``what``, the budget and the ``hint`` (how to raise it) once either is
+    spent. One per integration (it holds the clock), never shared."""
+
+    def __init__(self, what: str, seconds: float, evaluations: float = math.inf, hint: str = ""):
+        import time
+        self.what, self.seconds, self.evaluations, self.hint = what, float(seconds), evaluations, hint
+        self._clock = time.monotonic
+        self._deadline = self._clock() + self.seconds
+        self.spent = 0
+
+    def spend(self, n: int = 1, at: str = "") -> None:
+        """Count ``n`` evaluations and `check`."""
+        self.spent += n
+        self.check(at)
+
+    def check(self, at: str = "") -> None:
+        """Raise `BudgetExceeded` if the time or the evaluations counted so far are spent."""
+        from autocable.errors import BudgetExceeded
+        over_time = self._clock() > self._deadline
+        if over_time or self.spent > self.evaluations:
+            budget = f"{self.seconds:g} s" if over_time else f"{self.evaluations:,} right-hand side evaluations"
+            raise BudgetExceeded(f"{self.what} spent its budget of {budget}{' ' + at if at else ''}"
+                                 f"{'; ' + self.hint if self.hint else ''}")
+

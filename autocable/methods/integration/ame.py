@@ -25,7 +25,7 @@ as scipy's DOP853, agreeing with it to the tolerance), until
       period-1. a_k is then the half peak-to-peak of the first-order q_k over the last
       ``window_periods`` forcing periods, the convention of `Ode21Integrator`;
   diverged: max |y| exceeds ``blowup`` (amplitude of the order of the cable length: outside any
-      validity of a cubic model).
+      validity of a cubic model). An integration that fails below it raises `ComputationError`.
 
 Stability: eigenvalues of the analytic Jacobian of (24) at the equilibrium.
 """
@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from autocable.errors import BudgetExceeded, ComputationError
 from autocable.methods.integration.ode21 import DEFAULT_Q0, refined_peak
 from autocable.model.ame import AmplitudeEquations
 
@@ -215,9 +216,11 @@ class AmeIntegrator:
                  y0=None, chunk: float = 250.0, max_time: float = 60000.0, step_tol: float = 1e-6,
                  abs_tol: float = 1e-12, window: float = 4000.0, envelope_tol: float = 1e-4,
                  window_periods: int = 20, blowup: float = 1.0, keep_history: bool = False,
-                 progress=None) -> AmeResponse:
+                 progress=None, max_evaluations: int = 5_000_000) -> AmeResponse:
         """Integrate (24) from ``q0`` = (q1, q1', q2, q2') (or from ``y0`` = (r1, s1, r2, s2)) until
-        steady (module docstring); give up at ``max_time`` (t* units, as eq. (21))."""
+        steady (module docstring); give up at ``max_time`` (t* units, as eq. (21)). Budget: the
+        scipy methods raise `BudgetExceeded` after ``max_evaluations`` of the right-hand side, the
+        compiled DOP853 (`_c_chunk`) has a step budget per chunk."""
         from scipy.integrate import solve_ivp
 
         start = time.perf_counter()
@@ -228,7 +231,17 @@ class AmeIntegrator:
         y = np.asarray(y0, dtype=float) if y0 is not None else initial_amplitudes(q0, Omega)
         f, J = self._numeric(p)
 
+        evaluations = [0]
+
+        def rhs(_t, x):
+            evaluations[0] += 1      # counted here, checked per step in `blow` (outside LSODA's
+            return f(x, p)           # Fortran callback, where an exception prints a C traceback)
+
         def blow(t, x):
+            if evaluations[0] > max_evaluations:
+                raise BudgetExceeded(f"the AME integration spent its budget of {max_evaluations:,} "
+                                     f"right-hand side evaluations at t = {t:.6g} (a stiff slow flow); "
+                                     "lower max_time or use method='DOP853'")
             return blowup - np.max(np.abs(x))
         blow.terminal = True
 
@@ -247,15 +260,19 @@ class AmeIntegrator:
             else:
                 # An explicit method takes no Jacobian (scipy warns about a jac=None too).
                 jac = {} if self.method == "DOP853" else {"jac": lambda _t, x: J(x, p)}
-                sol = solve_ivp(lambda _t, x: f(x, p), (t, t1), y, method=self.method, t_eval=grid,
+                sol = solve_ivp(rhs, (t, t1), y, method=self.method, t_eval=grid,
                                 rtol=self.rtol, atol=self.atol, events=blow, **jac)
-            if sol.status == -1:
-                message = f"AME integration failed at t = {t:g}: {sol.message}"
-                break
+            grew = sol.status == 1
+            if not grew and (sol.status == -1 or not np.all(np.isfinite(sol.y))):
+                # The integrator stopped (or produced a non-finite state) while max |y| stayed
+                # below ``blowup``, checked at every step: a numerical failure, not growth.
+                failure = BudgetExceeded if "step_budget" in str(sol.message) else ComputationError
+                raise failure(f"the AME (24) could not be integrated from t = {t:g} while the "
+                              f"amplitudes stayed below {blowup:g}: {sol.message}")
             if sol.y.size:
                 ts.append(sol.t)
                 ys.append(sol.y.T)
-            if sol.status == 1 or not np.all(np.isfinite(sol.y)):
+            if grew:
                 t = float(sol.t_events[0][0]) if sol.t_events[0].size else float(sol.t[-1])
                 return self._response(U, eta, sigma, Omega, (math.inf, math.inf), (math.inf,) * 4,
                                       False, False, t, "the AME diverged (no bounded steady state)",
@@ -314,14 +331,19 @@ class AmeIntegrator:
     def _c_chunk(self, y, t: float, grid, p, blowup: float):
         """One chunk by the compiled DOP853 (the method scipy's "DOP853" runs in Python), in the
         shape of solve_ivp's result: status 0 done, 1 stopped at max |y| > ``blowup`` (the
-        terminal event, located at the step that crosses it) or a non-finite state, -1 failed."""
+        terminal event, located at the step that crosses it), -1 failed (step budget or size, or a
+        non-finite state)."""
         from types import SimpleNamespace
         if self._c is None:
             self._c = compiled_cartesian(self.rhs)
         ci, extend = self._c
+        # A step budget: a bounded slow flow takes a few steps per time unit; without one a
+        # collapsing step could spin for a billion steps inside one call.
         r = ci.run(y, np.concatenate([[t], grid]), extend(p), rtol=self.rtol, atol=self.atol,
-                   bound=blowup, n_bound=len(y))
-        status = {"done": 0, "bound": 1, "not_finite": 1}.get(r.status, -1)
+                   bound=blowup, n_bound=len(y), max_steps=100_000 + int(400 * (grid[-1] - t)))
+        # Growth past ``blowup`` is checked after every step: a non-finite state without it is a
+        # numerical failure (e.g. one step from a bounded state to inf), not a divergence.
+        status = {"done": 0, "bound": 1}.get(r.status, -1)
         return SimpleNamespace(status=status, t=r.t[1:], y=r.y[1:].T,
                                t_events=[np.array([r.t_reached]) if r.status == "bound" else np.empty(0)],
                                message=f"the compiled DOP853 stopped ({r.status}) at t = {r.t_reached:g}")
@@ -404,7 +426,7 @@ class Comparison:
     eta: float
     sigma: float
     ame: AmeResponse
-    ode: object                 # integration.Response, or None if eq. (21) could not be integrated
+    ode: object                 # integration.Response (a1 = inf when eq. (21) diverged)
     ode_error: str              # why eq. (21) has no response ("" if it has one)
     harmonics: tuple            # first harmonics r_k + i s_k of eq. (21)'s q_k over its last period
     nearest: Equilibrium | None  # the AME equilibrium Newton finds from `harmonics`
@@ -436,17 +458,15 @@ def first_harmonics(ode_integrator, response, samples: int = 128) -> tuple:
 def compare_with_ode21(ame_integrator: AmeIntegrator, ode_integrator, U: float, eta: float,
                        sigma: float, q0=DEFAULT_Q0, *, max_time: float = 60000.0) -> Comparison:
     """Integrate the AME and eq. (21) (`Ode21Integrator`) from the same start ``q0`` and classify
-    the pair (`STATUSES`). A failed eq. (21) integration (step size collapsing on a finite-time
-    blow-up of the cubic model) counts as divergence."""
+    the pair (`STATUSES`). A blow-up of eq. (21) (growth past `ode21.DIVERGED`, however the
+    integrator ends) is a divergence; an integration that fails at a bounded state raises
+    `ComputationError`, not counted as one."""
     a = ame_integrator.simulate(U, eta, sigma, q0, max_time=max_time)
     ame_div = not math.isfinite(a.a1)
-    try:
-        o = ode_integrator.simulate(U, eta, sigma, q0, max_time=max_time)
-        err = "" if math.isfinite(o.a1) else o.message
-    except Exception as exc:          # PyDSTool reports a blow-up as an integration failure
-        o, err = None, str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    o = ode_integrator.simulate(U, eta, sigma, q0, max_time=max_time)
+    err = "" if math.isfinite(o.a1) else o.message
     nan = math.nan
-    if o is None or not math.isfinite(o.a1):
+    if not math.isfinite(o.a1):
         status = "diverged-both" if ame_div else "diverged-21"
         return Comparison(U, eta, sigma, a, o, err or "diverged", (), None, status, nan, nan, nan)
     rel1 = abs(a.a1 - o.a1) / o.a1 if o.a1 > 0 else nan

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from autocable.codegen.compat import PyDSToolError
+from autocable.errors import ComputationError
 from autocable.methods.integration.ode21 import DIVERGED, half_range
 from autocable.model.derive_n import derive_nmode
 from autocable.model.modes_n import IN_PLANE, OUT_OF_PLANE, SYMMETRIC
@@ -130,8 +131,42 @@ class NModeIntegrator:
         sol = solve_ivp(lambda t, y: f(t, y, p), (t0, grid[-1]), list(y0), method="DOP853",
                         t_eval=grid, rtol=self.rtol, atol=self.atol)
         if not sol.success:
-            raise RuntimeError(f"scipy DOP853 failed: {sol.message}")
+            raise ComputationError(f"scipy DOP853 failed: {sol.message}")
         return sol.t, sol.y.T
+
+    def _judge(self, y0, t0: float, t1: float, dt: float, pars: dict, reason: str,
+               max_evaluations: int = 500_000):
+        """After PyDSTool failed on [t0, t1] from ``y0``: the same chunk by scipy's DOP853, stopping
+        where a modal coordinate passes `DIVERGED`. Returns the samples (t, states) up to there when
+        the response grows past it (a divergence); raises `ComputationError` otherwise (the failure
+        happened at a bounded state, or the check itself ran out of ``max_evaluations``)."""
+        import sympy as sp
+        from scipy.integrate import solve_ivp
+
+        from autocable.model.multimode import state_symbols
+        if self._numeric is None:
+            self._numeric = sp.lambdify((T, state_symbols(self.ode), PARAMETERS), self._sym(), "numpy")
+        f, p, n = self._numeric, tuple(pars[s.name] for s in PARAMETERS), self.ode.n
+        count = [0]
+
+        def rhs(t, y):
+            count[0] += 1
+            if count[0] > max_evaluations:
+                raise ComputationError(f"eq. (21) with {n} modes could not be integrated from t = {t0:g} "
+                                       f"to {t1:g} ({reason}), and the check for growth spent "
+                                       f"{max_evaluations:,} evaluations without |q| passing {DIVERGED:g}")
+            return f(t, y, p)
+
+        def grown(t, y):
+            return DIVERGED - np.max(np.abs(y[:n]))
+        grown.terminal = True
+        grid = t0 + dt * np.arange(int(math.floor((t1 - t0) / dt * (1 + 1e-12))) + 1)
+        sol = solve_ivp(rhs, (t0, grid[-1]), list(y0), method="DOP853", t_eval=grid, events=grown,
+                        rtol=self.rtol, atol=self.atol)
+        if sol.status == 1:
+            return sol.t, sol.y.T
+        raise ComputationError(f"eq. (21) with {n} modes could not be integrated from t = {t0:g} to "
+                               f"{t1:g} while the response stayed bounded (|q| <= {DIVERGED:g}): {reason}")
 
     def simulate(self, U: float, eta: float, sigma: float, x0=None, *, periods_per_chunk: int = 100,
                  window_periods: int = 20, max_time: float = 60000.0, steady_tol: float = 1e-8,
@@ -180,14 +215,31 @@ class NModeIntegrator:
             t1 = min(t + chunk, max_time)
             try:
                 tt, ys = self.run(y, t, t1, dt, pars)
-            except PyDSToolError as exc:
+            except (PyDSToolError, ComputationError) as exc:
+                # A blow-up and a numerical failure both stop the integrator: growth past the
+                # bound (`_judge`) is a result, the rest raises ComputationError.
+                why = str(exc).splitlines()[0]
+                tt, ys = self._judge(y, t, t1, dt, pars, why)
+                if keep_history and len(tt):
+                    history.append((tt, ys))
+                y, t = tuple(ys[-1]) if len(ys) else y, float(tt[-1]) if len(tt) else t
                 return result(None, False, False, True, f"the response diverged between t = {t:g} and "
-                              f"{t1:g} (no bounded steady state): {str(exc).splitlines()[0]}")
+                              f"{t1:g} (no bounded steady state): {why}")
+            finite = np.all(np.isfinite(ys), axis=1)
+            grown = np.max(np.abs(np.where(finite[:, None], ys[:, :n], 0.0)), axis=1) > DIVERGED
+            if grown.any() or not finite.all():
+                stop = int(np.argmax(grown | ~finite))
+                if not grown[:stop + 1].any():
+                    raise ComputationError(f"eq. (21) with {n} modes reached a non-finite state at "
+                                           f"t = {tt[stop]:.6g} from a bounded one")
+                if keep_history and stop > 0:
+                    history.append((tt[:stop], ys[:stop]))
+                y, t = tuple(ys[stop]), float(tt[stop])
+                return result(None, False, False, True, "the response diverged (no bounded steady state): "
+                              f"|q| > {DIVERGED:g} at t = {t:.6g}")
             if keep_history:
                 history.append((tt[:-1], ys[:-1]))
             y, t = tuple(ys[-1]), float(tt[-1])
-            if not np.all(np.isfinite(ys)) or np.max(np.abs(ys[:, :n])) > DIVERGED:
-                return result(None, False, False, True, "the response diverged (no bounded steady state)")
             window = np.concatenate([window, ys[1:]])[-keep:]
             amps = tuple(half_range(window[:, i]) for i in range(n))
             if progress:

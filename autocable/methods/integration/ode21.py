@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from autocable.codegen.compat import PyDSToolError
+from autocable.errors import ComputationError
 from autocable.model.equations import TwoModeODE
 from autocable.model.symbolic import PARAMETERS, STATE, T, first_order_rhs, parameter_values
 
@@ -44,8 +45,16 @@ SCENE_ENGINE = "compiled"
 
 
 class IntegrationError(RuntimeError):
-    """The compiled engine stopped before the end of the interval (step budget, step size
-    collapsing, non-finite state or a bound exceeded): for eq. (21), a blow-up."""
+    """An engine stopped before the end of the interval (step budget, step size collapsing,
+    non-finite state or a bound exceeded); `Ode21Integrator.simulate` tells growth (a result) from
+    failure (`ComputationError`) by where the state was when it stopped."""
+
+
+def _failed(t0: float, t1: float, reason: str) -> ComputationError:
+    """The integrator failed while |q_k| stayed within `DIVERGED`: a numerical failure, not growth."""
+    return ComputationError(f"eq. (21) could not be integrated from t = {t0:g} to {t1:g} while the "
+                            f"response stayed bounded (|q_k| <= {DIVERGED:g}): {reason}; check the "
+                            "parameters or loosen the tolerances")
 
 
 @dataclass(frozen=True)
@@ -211,8 +220,17 @@ class Ode21Integrator:
         sol = solve_ivp(lambda t, y: f(t, y, p), (t0, grid[-1]), list(y0), method="DOP853",
                         t_eval=grid, rtol=self.rtol, atol=self.atol)
         if not sol.success:
-            raise RuntimeError(f"scipy DOP853 failed: {sol.message}")
+            raise IntegrationError(f"scipy DOP853 failed: {sol.message}")
         return sol.t, sol.y.T
+
+    def _judge(self, y, t0: float, t1: float, dt: float, pars: dict, reason: str):
+        """After another engine failed on [t0, t1] from ``y``: the same chunk by the compiled engine,
+        stopping at |q_k| > `DIVERGED`. Returns its run when the response grows past the bound (a
+        divergence, the samples up to it included); raises `ComputationError` otherwise."""
+        r = self.run_compiled(y, t0, t1, dt, pars, bound=DIVERGED)
+        if r.status == "bound":
+            return r
+        raise _failed(t0, t1, reason)
 
     # -- the steady response -------------------------------------------------------------------
     def simulate(self, U: float, eta: float, sigma: float, q0=DEFAULT_Q0, *,
@@ -253,8 +271,12 @@ class Ode21Integrator:
                 r = self.run_compiled(y, t, t1, dt, pars, bound=DIVERGED,
                                       last=None if keep_history else keep)
                 if not r.ok:
-                    if keep_history and len(r.t) > 1:
-                        history.append((r.t[:-1], r.y[:-1]))
+                    # Growth past the bound is the physics (a result); any other stop happened
+                    # with |q_k| <= DIVERGED (checked after every step): the integrator failed.
+                    if r.status != "bound":
+                        raise _failed(t, t1, _stopped(r, t, t1))
+                    if keep_history and len(r.t):
+                        history.append((r.t, r.y))
                     return self._response(U, eta, sigma, Omega, (math.inf, math.inf), False, False,
                                           r.t_reached, None, "the response diverged (no bounded steady "
                                           f"state): {_stopped(r, t, t1)}", start,
@@ -263,19 +285,34 @@ class Ode21Integrator:
             else:
                 try:
                     tt, ys = self.run(y, t, t1, dt, pars)
-                except PyDSToolError as exc:
-                    # A finite-time blow-up of the cubic model ends in a collapsing step: a result.
-                    return self._response(U, eta, sigma, Omega, (math.inf, math.inf), False, False, t,
-                                          None, f"the response diverged between t = {t:g} and {t1:g} "
-                                          f"(no bounded steady state): {str(exc).splitlines()[0]}",
-                                          start, y, history)
+                except (PyDSToolError, IntegrationError) as exc:
+                    # A finite-time blow-up of the cubic model ends in a collapsing step or a spent
+                    # step budget, and so does a numerical failure: the compiled engine, stopping
+                    # at the bound, tells them apart.
+                    why = str(exc).splitlines()[0]
+                    r = self._judge(y, t, t1, dt, pars, why)
+                    if keep_history and len(r.t):
+                        history.append((r.t, r.y))
+                    return self._response(U, eta, sigma, Omega, (math.inf, math.inf), False, False,
+                                          r.t_reached, None, f"the response diverged between t = {t:g} "
+                                          f"and {t1:g} (no bounded steady state): {_stopped(r, t, t1)}; "
+                                          f"{self.engine}: {why}", start, tuple(r.y_reached), history)
+            finite = np.all(np.isfinite(ys), axis=1)
+            grown = np.max(np.abs(np.where(finite[:, None], ys[:, :2], 0.0)), axis=1) > DIVERGED
+            if grown.any() or not finite.all():
+                # Keep the samples up to the first one beyond the bound (or not finite).
+                stop = int(np.argmax(grown | ~finite))
+                if not grown[:stop + 1].any():
+                    raise _failed(t, t1, f"a non-finite state at t = {tt[stop]:.6g}")
+                if keep_history and stop > 0:
+                    history.append((tt[:stop], ys[:stop]))
+                return self._response(U, eta, sigma, Omega, (math.inf, math.inf), False, False,
+                                      float(tt[stop]), None, "the response diverged (no bounded steady "
+                                      f"state): |q_k| > {DIVERGED:g} at t = {tt[stop]:.6g}",
+                                      start, tuple(ys[stop]), history)
             if keep_history:
                 history.append((tt[:-1], ys[:-1]))
             y, t = tuple(ys[-1]), float(tt[-1])
-            if not np.all(np.isfinite(ys)) or np.max(np.abs(ys[:, :2])) > DIVERGED:
-                return self._response(U, eta, sigma, Omega, (math.inf, math.inf), False, False, t,
-                                      None, "the response diverged (no bounded steady state)",
-                                      start, y, history)
             # A rolling window across chunks: the last chunk may be shorter than the window.
             window = np.concatenate([window, ys[1:]])[-keep:]
             amps = (half_range(window[:, 0]), half_range(window[:, 1]))
@@ -302,8 +339,9 @@ class Ode21Integrator:
         """The amplitude envelope of eq. (21) from ``y0`` = (q1, q2, q1', q2') over [0, t_end]
         (Fig. 11): the half peak-to-peak of q1, q2 over each forcing period (``samples_per_period``
         samples, parabolic peaks), at the period's mid time. Returns (t, a1, a2, message); a
-        divergence (|q_k| > `DIVERGED`, a non-finite state or a failed integration) ends the arrays
-        at the last whole period before it. ``Omega`` overrides omega1 + sigma."""
+        divergence (|q_k| > `DIVERGED`, or a non-finite sample) ends the arrays
+        at the last whole period before it; an integrator failure at a bounded state raises
+        `ComputationError`. ``Omega`` overrides omega1 + sigma."""
         Om = self.ode.omega1 + sigma if Omega is None else float(Omega)
         if not Om > 0:
             raise ValueError(f"sigma = {sigma} gives a non-positive forcing frequency Omega = {Om}")
@@ -320,14 +358,15 @@ class Ode21Integrator:
                 r = self.run_compiled(q, t, t1, period / n, pars, bound=DIVERGED)
                 tt, ys = r.t, r.y
                 if not r.ok:
-                    stop = (f"eq. (21) diverges between t = {t:.6g} and {t1:.6g}: {_stopped(r, t, t1)}"
-                            if r.status in ("step_budget", "step_too_small") else "bound")
+                    if r.status != "bound":
+                        raise _failed(t, t1, _stopped(r, t, t1))
+                    stop = "bound"
             else:
                 try:
                     tt, ys = self.run(q, t, t1, period / n, pars)
-                except PyDSToolError as exc:
-                    message = f"eq. (21) diverges between t = {t:.6g} and {t1:.6g}: {str(exc).splitlines()[0]}"
-                    break
+                except (PyDSToolError, IntegrationError) as exc:
+                    r = self._judge(q, t, t1, period / n, pars, str(exc).splitlines()[0])
+                    tt, ys, stop = r.t, r.y, "bound"
             m = (len(tt) - 1) // n
             idx = np.arange(m)[:, None] * n + np.arange(n + 1)[None, :]
             w = ys[:, :2][idx] if m else np.empty((0, n + 1, 2))
@@ -340,9 +379,6 @@ class Ode21Integrator:
             if good < m or stop == "bound":
                 # the first period with a sample beyond the bound, or the one the integration stopped in
                 message = f"eq. (21) diverges at t = {tt[good * n]:.6g} (|q| > {DIVERGED:g})"
-                break
-            if stop:
-                message = stop
                 break
             q, t = tuple(ys[m * n]), float(tt[m * n])
         cat = (lambda parts: np.concatenate(parts) if parts else np.empty(0))

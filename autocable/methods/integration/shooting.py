@@ -51,6 +51,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from autocable.errors import ComputationError
 from autocable.methods.integration.floquet21 import STABILITY_MARGIN, multipliers_of
 from autocable.methods.integration.ode21 import (DEFAULT_Q0, DIVERGED, Ode21Integrator, half_range,
                                                  _stopped)
@@ -255,7 +256,8 @@ class ShootingSolver:
         pars = parameter_values(U, eta, Omega)
         r = self.integrator.run_compiled(tuple(y0), 0.0, periods * period, period / n, pars)
         if not r.ok or len(r.t) != periods * n + 1:
-            raise RuntimeError("eq. (21) could not be integrated over the orbit found by shooting")
+            raise ComputationError("eq. (21) could not be integrated over the orbit found by shooting "
+                                   f"({_stopped(r, 0.0, periods * period)})")
         w = r.y[:-1, :2]
         amps = (periodic_half_range(w[:, 0]), periodic_half_range(w[:, 1]))
         if periods == 1:
@@ -357,6 +359,12 @@ class ShootingSolver:
                 break
             r = self._stage_run(y, n, period, pars)
             if not r.ok:
+                if r.status != "bound":
+                    # stopped while |q_k| <= DIVERGED: the integrator failed, the response did not grow
+                    raise ComputationError(
+                        f"eq. (21) could not be integrated in the transient from t = {t0:.6g} while the "
+                        f"response stayed bounded (|q_k| <= {DIVERGED:g}): "
+                        f"{_stopped(r, 0.0, n * period).split(' (integrating')[0]}")
                 done += int(r.t_reached / period)
                 # each stage integrates from t = 0 (the forcing is T-periodic): shift to real time
                 why = _stopped(r, 0.0, n * period).split(" at t = ")[0]
