@@ -146,14 +146,14 @@ def _preload() -> None:
 
 
 def _timings_file() -> Path:
-    from autocable._store import cache_dir
-    return cache_dir("figures") / WALL_JSON
+    from autocable._store import cache_root
+    return cache_root() / "figures" / WALL_JSON     # not created here: a read-only cache is fine
 
 
 def recorded_wall_times() -> dict[str, float]:
     """Wall seconds per scene name of the last `run_figures` that ran it (the cache folder)."""
-    from autocable._store import read_json
-    data = read_json(_timings_file())
+    from autocable._store import load_checked_json
+    data = load_checked_json(_timings_file(), None)   # a hint for the order only: no message
     return {str(k): float(v) for k, v in data.items()
             if isinstance(v, (int, float))} if isinstance(data, dict) else {}
 
@@ -264,10 +264,14 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
             else:
                 finish(name, path, *message, t0)
     ordered = [outcomes[p.stem] for p in scenes]
-    from autocable._store import atomic_write_json
+    from autocable._store import atomic_write_json, cache_dir, store_checked_json
+    from autocable.errors import CacheError
     recorded = recorded_wall_times()
     recorded.update({o.name: round(o.wall_s, 3) for o in ordered if o.status == "ok"})
-    atomic_write_json(_timings_file(), recorded)
+    try:
+        store_checked_json(cache_dir("figures") / WALL_JSON, recorded)
+    except CacheError:
+        pass    # a shared read-only cache: the times only order the next run's scenes
     atomic_write_json(out / SUMMARY_JSON, {"format": "autocable.paper.figures/1", "jobs": jobs,
                                            "scenes": [asdict(o) for o in ordered]})
     return ordered
