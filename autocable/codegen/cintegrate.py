@@ -339,15 +339,15 @@ class CIntegrator:
 
     def rhs(self, t: float, y, p) -> np.ndarray:
         out = np.empty(self.n)
-        self.lib.ac_rhs(float(t), np.ascontiguousarray(y, float).ctypes.data,
-                        np.ascontiguousarray(p, float).ctypes.data, out.ctypes.data)
+        y, p = np.ascontiguousarray(y, float), np.ascontiguousarray(p, float)   # alive in the call
+        self.lib.ac_rhs(float(t), y.ctypes.data, p.ctypes.data, out.ctypes.data)
         return out
 
     def jac(self, t: float, y, p) -> np.ndarray:
         """The Jacobian d rhs / d y at (t, y) (n x n)."""
         out = np.empty((self.n, self.n))
-        self.lib.ac_jac(float(t), np.ascontiguousarray(y, float).ctypes.data,
-                        np.ascontiguousarray(p, float).ctypes.data, out.ctypes.data)
+        y, p = np.ascontiguousarray(y, float), np.ascontiguousarray(p, float)   # alive in the call
+        self.lib.ac_jac(float(t), y.ctypes.data, p.ctypes.data, out.ctypes.data)
         return out
 
     def run(self, y0, grid, p, *, rtol: float, atol: float, max_step: float = math.inf,

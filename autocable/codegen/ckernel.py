@@ -615,17 +615,20 @@ class CKernel:
 
     def f(self, x, p) -> np.ndarray:
         out = np.empty(self.n)
-        self.lib.ac_f(_ptr(np.ascontiguousarray(x, float)), _ptr(np.ascontiguousarray(p, float)), out.ctypes.data)
+        x, p = _c(x), _c(p)   # named: a temporary copy would be freed before the call
+        self.lib.ac_f(x.ctypes.data, p.ctypes.data, out.ctypes.data)
         return out
 
     def jac(self, x, p) -> np.ndarray:
         out = np.empty((self.n, self.n))
-        self.lib.ac_jac(_ptr(np.ascontiguousarray(x, float)), _ptr(np.ascontiguousarray(p, float)), out.ctypes.data)
+        x, p = _c(x), _c(p)   # named: a temporary copy would be freed before the call
+        self.lib.ac_jac(x.ctypes.data, p.ctypes.data, out.ctypes.data)
         return out
 
     def jac_p(self, x, p) -> np.ndarray:
         out = np.empty((self.n, max(self.m, 1)))
-        self.lib.ac_jacp(_ptr(np.ascontiguousarray(x, float)), _ptr(np.ascontiguousarray(p, float)), out.ctypes.data)
+        x, p = _c(x), _c(p)   # named: a temporary copy would be freed before the call
+        self.lib.ac_jacp(x.ctypes.data, p.ctypes.data, out.ctypes.data)
         return out[:, :self.m]
 
     def chart(self, cfg: np.ndarray, Y, derivative: bool) -> np.ndarray:
@@ -641,11 +644,13 @@ class CKernel:
 
     def hopf_test(self, J) -> float:
         """det(2J (.) I) as the loop computes it (1 for n = 1)."""
-        return float(self.lib.ac_hopf(np.ascontiguousarray(J, float).ctypes.data))
+        J = _c(J)
+        return float(self.lib.ac_hopf(J.ctypes.data))
 
     def unstable_count(self, J) -> int:
         """Eigenvalues of J with positive real part by the loop's Routh count (-1: undecided)."""
-        return int(self.lib.ac_count(np.ascontiguousarray(J, float).ctypes.data))
+        J = _c(J)
+        return int(self.lib.ac_count(J.ctypes.data))
 
     def both(self, cfg: np.ndarray, Y) -> tuple[np.ndarray, np.ndarray]:
         """(F~(Y), DF~(Y)) in one call."""
@@ -669,16 +674,18 @@ class CKernel:
         tests, Js = np.empty((mp, 3)), np.empty((mp, self.n, self.n))
         npos, pol, reason = np.empty(mp, np.intc), np.empty(mp, np.intc), np.zeros(1, np.intc)
         o = np.ascontiguousarray(opts, float)
-        k = self.lib.ac_continue(cfg.ctypes.data, _ptr(np.ascontiguousarray(Y0, float)),
-                                 _ptr(np.ascontiguousarray(d0, float)), o.ctypes.data, mp,
+        Y0, d0 = _c(Y0), _c(d0)
+        k = self.lib.ac_continue(cfg.ctypes.data, Y0.ctypes.data, d0.ctypes.data, o.ctypes.data, mp,
                                  Ys.ctypes.data, Ts.ctypes.data, tests.ctypes.data, npos.ctypes.data,
                                  Js.ctypes.data, pol.ctypes.data, reason.ctypes.data)
         return {"Y": Ys[:k], "T": Ts[:k], "tests": tests[:k], "npos": npos[:k].astype(int), "J": Js[:k],
                 "polished": pol[:k].astype(bool), "reason": REASONS.get(int(reason[0]), "error")}
 
 
-def _ptr(a: np.ndarray) -> int:
-    return a.ctypes.data
+def _c(a) -> np.ndarray:
+    """``a`` as a C-contiguous float array. Callers keep it in a variable until the C call returns:
+    ``_c(a).ctypes.data`` of a copy (e.g. of a list) points into memory freed at once."""
+    return np.ascontiguousarray(a, float)
 
 
 def _load(path: Path, n: int, m: int, timings) -> CKernel:
