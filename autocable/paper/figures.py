@@ -9,6 +9,7 @@ the traceback below it), to ``DIR/figures.json`` and to the report, and the comm
 """
 from __future__ import annotations
 
+import math
 import multiprocessing
 import os
 import shutil
@@ -152,10 +153,10 @@ def _timings_file() -> Path:
 
 def recorded_wall_times() -> dict[str, float]:
     """Wall seconds per scene name of the last `run_figures` that ran it (the cache folder)."""
-    from autocable._store import load_checked_json
-    data = load_checked_json(_timings_file(), None)   # a hint for the order only: no message
+    from autocable._store import read_json
+    data = read_json(_timings_file())   # a hint for the order only: numbers are taken, nothing else
     return {str(k): float(v) for k, v in data.items()
-            if isinstance(v, (int, float))} if isinstance(data, dict) else {}
+            if isinstance(v, (int, float)) and math.isfinite(v) and v >= 0} if isinstance(data, dict) else {}
 
 
 def expected_cost(path: Path, recorded: dict[str, float] | None = None) -> float:
@@ -264,13 +265,12 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
             else:
                 finish(name, path, *message, t0)
     ordered = [outcomes[p.stem] for p in scenes]
-    from autocable._store import atomic_write_json, cache_dir, store_checked_json
-    from autocable.errors import CacheError
+    from autocable._store import atomic_write_json
     recorded = recorded_wall_times()
     recorded.update({o.name: round(o.wall_s, 3) for o in ordered if o.status == "ok"})
     try:
-        store_checked_json(cache_dir("figures") / WALL_JSON, recorded)
-    except CacheError:
+        atomic_write_json(_timings_file(), recorded)
+    except OSError:
         pass    # a shared read-only cache: the times only order the next run's scenes
     atomic_write_json(out / SUMMARY_JSON, {"format": "autocable.paper.figures/1", "jobs": jobs,
                                            "scenes": [asdict(o) for o in ordered]})
