@@ -22,6 +22,7 @@ import pytest
 from conftest import REPO, SAMPLE
 
 SIMULATE = ("simulate", str(SAMPLE), "--U", "0.7", "--eta", "4.1e-4", "--sigma", "0.01", "--json")
+AME = (*SIMULATE, "--method", "ame")
 REBUILT = "autocable: cache: "
 
 
@@ -46,9 +47,10 @@ def _rebuilt_lines(done: subprocess.CompletedProcess) -> list[str]:
 
 @pytest.fixture(scope="module")
 def warm(tmp_path_factory):
-    """A cache warmed by one clean `simulate` of the sample, and that run's a1."""
+    """A cache warmed by one clean `simulate` of the sample (eq. (21), then the AME: the compiled
+    PyDSTool and C integrators, the derivation and the AME), a1 of eq. (21) and a1 of the AME."""
     cache = tmp_path_factory.mktemp("warm") / "cache"
-    return cache, _a1(_cli(cache, *SIMULATE))
+    return cache, _a1(_cli(cache, *SIMULATE)), _a1(_cli(cache, *AME))
 
 
 @pytest.fixture()
@@ -165,6 +167,18 @@ def test_edited_derivation_is_derived_again(cache, warm):
     assert _rebuilt_lines(done) == [f"{REBUILT}derivation {path.name} failed its check, rebuilt"]
     assert json.loads(path.read_text(encoding="utf-8"))["payload"]["ode"]["omega1"] == \
         pytest.approx(doc["payload"]["ode"]["omega1"] / 1.01, rel=1e-15, abs=0)
+
+
+def test_edited_amplitude_equations_are_derived_again(cache, warm):
+    """The same for the cached AME (22)-(24): its frequencies x 1.01 are detected, the AME derived
+    again, and `simulate --method ame` gives the clean a1."""
+    path = _only(cache / "ame", "ame-*.json")
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    doc["payload"]["omegas"] = [w * 1.01 for w in doc["payload"]["omegas"]]
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    done = _cli(cache, *AME)
+    assert _a1(done) == pytest.approx(warm[2], rel=1e-12, abs=0)
+    assert _rebuilt_lines(done) == [f"{REBUILT}amplitude equations {path.name} failed its check, rebuilt"]
 
 
 _C_SCRIPT = textwrap.dedent("""
@@ -292,9 +306,10 @@ def test_read_only_warm_cache_is_used_and_a_needed_write_is_a_cache_error(cache,
                                 f"open({str(cache / 'probe')!r}, 'w')"], capture_output=True, text=True)
         assert probe.returncode != 0, "the child could write the read-only cache"
         before = _snapshot(cache)
-        done = _cli(cache, *SIMULATE, prefix=prefix)
-        assert _a1(done) == pytest.approx(warm[1], rel=1e-12, abs=0)
-        assert "AUTOCABLE_CACHE" not in done.stderr and _rebuilt_lines(done) == []
+        for args, a1 in ((SIMULATE, warm[1]), (AME, warm[2])):
+            done = _cli(cache, *args, prefix=prefix)
+            assert _a1(done) == pytest.approx(a1, rel=1e-12, abs=0)
+            assert "AUTOCABLE_CACHE" not in done.stderr and _rebuilt_lines(done) == []
         assert _snapshot(cache) == before
 
         other = tmp_path / "other.toml"
