@@ -38,6 +38,7 @@ __all__ = [
     "read_json",
     "cache_error",
     "cache_write_bytes",
+    "file_mode",
     "require_writable",
     "store_checked_json",
     "load_checked_json",
@@ -164,14 +165,28 @@ def atomic_write_json(path: str | os.PathLike, obj: Any) -> Path:
     return atomic_write_text(path, text + "\n")
 
 
+def file_mode() -> int:
+    """The mode a new file gets from the umask (0o666 & ~umask): temporary files are made 0600,
+    which would keep other users from a cache shared between them."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            umask = next(int(ln.split()[1], 8) for ln in fh if ln.startswith("Umask:"))
+    except (OSError, StopIteration, ValueError, IndexError):
+        umask = os.umask(0o022)     # no /proc: read it by setting it, and put it back at once
+        os.umask(umask)
+    return 0o666 & ~umask
+
+
 def cache_write_bytes(path: str | os.PathLike, blob: bytes) -> Path:
-    """Write ``blob`` atomically to a file in the cache; a failed write raises `CacheError`."""
+    """Write ``blob`` atomically to a file in the cache (mode from the umask); a failed write
+    raises `CacheError`."""
     target = Path(path)
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     except OSError as exc:
         raise cache_error(target, exc) from None
     try:
+        os.fchmod(fd, file_mode())
         with os.fdopen(fd, "wb") as fh:
             fh.write(blob)
             fh.flush()
@@ -209,6 +224,8 @@ def store_checked_json(path: str | os.PathLike, payload: Any) -> Path:
     """Store ``payload`` in the cache as JSON with the sha256 of its `canonical_json` beside it
     (read back by `load_checked_json`); a failed write raises `CacheError`."""
     try:
+        if os.path.isdir(path) and not os.path.islink(path):
+            _move_aside(Path(path))     # a folder where the file belongs: keep it, out of the way
         return atomic_write_json(path, {"sha256": _payload_sha(payload), "payload": payload})
     except OSError as exc:
         raise cache_error(path, exc) from None

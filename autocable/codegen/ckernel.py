@@ -596,6 +596,7 @@ def _compile(source: str, folder: Path, cc: str, label: str) -> Path:
         if done.returncode != 0:
             raise KernelBuildError(f"C kernel of {label}: {cc} failed: {_first_error(done.stderr)} "
                                    f"(source kept in {src}); use engine='pycont' for this system")
+        os.chmod(tmp, cache.file_mode())   # not mkstemp's 0600: other users of a shared cache load it
         os.replace(tmp, lib)
     finally:
         if os.path.exists(tmp):
