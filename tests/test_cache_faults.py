@@ -350,3 +350,16 @@ def test_cache_dir_refuses_names_that_are_not_one_plain_component(tmp_path, monk
         with pytest.raises(ValueError, match="plain names"):
             cache_dir("derivations", bad)
     assert cache_dir("derivations", "ok") == tmp_path / "cache" / "derivations" / "ok"
+
+
+def test_figure_timings_are_read_without_creating_the_cache(tmp_path, monkeypatch):
+    """The figure runner's wall-time hint (``figures/wall_s.json``) is read without creating any
+    folder, and only finite, non-negative numbers are taken from it."""
+    from autocable.paper.figures import recorded_wall_times
+    monkeypatch.setenv("AUTOCABLE_CACHE", str(tmp_path / "cache"))
+    assert recorded_wall_times() == {}
+    assert not (tmp_path / "cache").exists()
+    (tmp_path / "cache" / "figures").mkdir(parents=True)
+    (tmp_path / "cache" / "figures" / "wall_s.json").write_text(
+        '{"a": 1.5, "b": NaN, "c": -2, "d": "x", "e": Infinity}', encoding="utf-8")
+    assert recorded_wall_times() == {"a": 1.5}
