@@ -303,8 +303,10 @@ def test_read_only_warm_cache_is_used_and_a_needed_write_is_a_cache_error(cache,
     _make_read_only(cache)
     try:
         probe = subprocess.run([*prefix, sys.executable, "-c",
-                                f"open({str(cache / 'probe')!r}, 'w')"], capture_output=True, text=True)
-        assert probe.returncode != 0, "the child could write the read-only cache"
+                                f"try:\n    open({str(cache / 'probe')!r}, 'w')\n"
+                                f"except PermissionError:\n    print('denied')"],
+                               capture_output=True, text=True)
+        assert probe.stdout == "denied\n", f"the child could write the read-only cache: {probe.stderr}"
         before = _snapshot(cache)
         for args, a1 in ((SIMULATE, warm[1]), (AME, warm[2])):
             done = _cli(cache, *args, prefix=prefix)
