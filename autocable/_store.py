@@ -1,17 +1,30 @@
 """The one cache folder of autocable, content hashes that name what goes in it, and atomic writes.
 
-Built artefacts are keyed by a hash of their content, never by a user-chosen name alone, so a
-changed model can never pick up a stale build. The folder is ``$AUTOCABLE_CACHE`` or
-``~/.cache/autocable``; autocable never writes caches into the working directory.
+Built artefacts are named by a hash of their content, never by user text (a model's name may hold
+``/`` or ``..``), so a changed model can never pick up a stale build and no name can lead outside the
+folder. The folder is ``$AUTOCABLE_CACHE`` or ``~/.cache/autocable``; autocable never writes caches
+into the working directory.
+
+Every artefact is checked when loaded: JSON files carry the sha256 of their payload
+(`store_checked_json` / `load_checked_json`), binary builds have their sha256 recorded in a
+manifest (`file_sha256`). One that fails its check is rebuilt, with one line on stderr
+(`report_rebuilt`). A warm cache is only read (no folder, lock or file is created), so a shared
+read-only cache works; a write it cannot make raises `autocable.errors.CacheError`.
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
+import stat
+import sys
 import tempfile
+import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
+
+from autocable.errors import CacheError
 
 __all__ = [
     "CACHE_ENV",
@@ -23,7 +36,15 @@ __all__ = [
     "atomic_write_text",
     "atomic_write_json",
     "read_json",
+    "cache_error",
+    "cache_write_bytes",
     "file_mode",
+    "require_writable",
+    "store_checked_json",
+    "load_checked_json",
+    "file_sha256",
+    "report_rebuilt",
+    "cache_lock",
 ]
 
 #: Environment variable that overrides the cache folder.
@@ -42,10 +63,42 @@ def cache_root() -> Path:
     return root.resolve()
 
 
+def _check_part(part: str) -> None:
+    """Refuse a path component that could leave its parent folder or is not one plain name."""
+    if (not isinstance(part, str) or part in ("", ".", "..") or os.sep in part or "/" in part
+            or (os.altsep and os.altsep in part) or any(ord(ch) < 32 or ord(ch) == 127 for ch in part)):
+        raise ValueError(f"cache folder names must be plain names, got {part!r}")
+
+
+def cache_error(path: str | os.PathLike, exc: BaseException) -> CacheError:
+    """The `CacheError` for a failed write at ``path`` (one line naming the variable and folder)."""
+    reason = getattr(exc, "strerror", None) or type(exc).__name__
+    return CacheError(f"the autocable cache {cache_root()} cannot be written ({reason}: {path}); "
+                      f"make it writable or set {CACHE_ENV} to a writable folder")
+
+
+def _move_aside(path: Path) -> None:
+    """Rename a foreign object (a folder or pipe where a file belongs, or the reverse) out of the way."""
+    os.rename(path, path.with_name(f".{path.name}.broken-{os.getpid()}-{time.time_ns()}"))
+
+
 def cache_dir(*parts: str) -> Path:
-    """A sub-folder of `cache_root` (created if missing), e.g. ``cache_dir("pydstool")``."""
+    """A sub-folder of `cache_root`, e.g. ``cache_dir("pydstool")``; each part a plain name.
+
+    Created if missing (nothing is written when it exists, so a read-only warm cache works); a
+    non-folder in its place is moved aside. Raises `CacheError` if it cannot be created."""
+    for part in parts:
+        _check_part(part)
     folder = cache_root().joinpath(*parts)
-    folder.mkdir(parents=True, exist_ok=True)
+    if folder.is_dir():
+        return folder
+    try:
+        for level in [cache_root().joinpath(*parts[:k]) for k in range(1, len(parts) + 1)]:
+            if (level.exists() or level.is_symlink()) and not level.is_dir():
+                _move_aside(level)
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise cache_error(folder, exc) from None
     return folder
 
 
@@ -137,6 +190,140 @@ def atomic_write_json(path: str | os.PathLike, obj: Any) -> Path:
     text = json.dumps(obj, sort_keys=True, indent=2, ensure_ascii=False, allow_nan=False,
                       default=_plain)
     return atomic_write_text(path, text + "\n")
+
+
+def cache_write_bytes(path: str | os.PathLike, blob: bytes) -> Path:
+    """Write ``blob`` atomically to a file in the cache (mode from the umask); a failed write
+    raises `CacheError`."""
+    target = Path(path)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    except OSError as exc:
+        raise cache_error(target, exc) from None
+    try:
+        os.fchmod(fd, file_mode())
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(blob)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, target)
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise cache_error(target, exc) from None
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    return target
+
+
+def require_writable(folder: str | os.PathLike) -> None:
+    """Raise `CacheError` unless a file can be created in ``folder`` (created if missing): called
+    before a build whose tools (compilers, PyDSTool) would fail with a less clear message."""
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=".probe.", dir=folder)
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as exc:
+        raise cache_error(folder, exc) from None
+
+
+def _payload_sha(payload: Any) -> str:
+    return hashlib.sha256(canonical_json(payload).encode("utf-8")).hexdigest()
+
+
+def store_checked_json(path: str | os.PathLike, payload: Any) -> Path:
+    """Store ``payload`` in the cache as JSON with the sha256 of its `canonical_json` beside it
+    (read back by `load_checked_json`); a failed write raises `CacheError`."""
+    try:
+        if os.path.isdir(path) and not os.path.islink(path):
+            _move_aside(Path(path))     # a folder where the file belongs: keep it, out of the way
+        return atomic_write_json(path, {"sha256": _payload_sha(payload), "payload": payload})
+    except OSError as exc:
+        raise cache_error(path, exc) from None
+
+
+def load_checked_json(path: str | os.PathLike, what: str | None) -> Any | None:
+    """The payload `store_checked_json` stored at ``path``, or None if there is none or it fails its
+    check (edited, truncated, foreign). A failed check of ``what`` is reported (`report_rebuilt`),
+    since the caller then rebuilds it; ``what=None`` for a caller that reports it itself."""
+    if not os.path.lexists(path):
+        return None
+    data = read_json(path)
+    try:
+        ok = (isinstance(data, dict) and set(data) == {"sha256", "payload"}
+              and data["sha256"] == _payload_sha(data["payload"]))
+    except (TypeError, ValueError):  # e.g. a NaN edited into the file
+        ok = False
+    if ok:
+        return data["payload"]
+    if what is not None:
+        report_rebuilt(what)
+    return None
+
+
+def file_sha256(path: str | os.PathLike) -> str | None:
+    """The sha256 (hex) of the file at ``path``, or None if it is missing or unreadable."""
+    digest = hashlib.sha256()
+    try:
+        with open(path, "rb") as fh:
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                digest.update(block)
+    except OSError:
+        return None
+    return digest.hexdigest()
+
+
+def report_rebuilt(what: str) -> None:
+    """The one stderr line saying a cached artefact failed its check and is built again."""
+    print(f"autocable: cache: {what} failed its check, rebuilt", file=sys.stderr, flush=True)
+
+
+def _open_lock(path: Path):
+    """The lock file at ``path`` opened for `flock`, or None when it cannot be created (a read-only
+    cache: a reader needs no lock, and a writer fails on its first write with `CacheError`).
+
+    Anything but a regular file there (a folder, a pipe, a symlink) is moved aside first, so a
+    damaged lock never blocks every later run."""
+    for _ in range(3):
+        try:
+            if path.is_symlink() or (path.exists() and not path.is_file()):
+                _move_aside(path)
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK, 0o666)
+        except (IsADirectoryError, FileExistsError):
+            continue  # replaced between the check and the open: check again
+        except OSError:
+            return None
+        if not stat.S_ISREG(os.fstat(fd).st_mode):  # a pipe or device created in between
+            os.close(fd)
+            continue
+        return os.fdopen(fd, "r+")
+    return None
+
+
+@contextlib.contextmanager
+def cache_lock(path: str | os.PathLike) -> Iterator[None]:
+    """Hold an exclusive advisory lock on ``path`` (POSIX ``flock``) for the block, so concurrent
+    processes build an artefact once. Recovers from a damaged lock (see `_open_lock`); without a
+    lock file (read-only cache, no ``fcntl``) the block runs unlocked."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - the builds are POSIX-only
+        yield
+        return
+    fh = _open_lock(Path(path))
+    if fh is None:
+        yield
+        return
+    with fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
 
 
 def read_json(path: str | os.PathLike) -> Any | None:

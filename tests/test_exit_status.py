@@ -243,7 +243,7 @@ def test_start_far_outside_the_model_is_refused_at_load(capsys, tmp_path):
     code, _, err = run_cli(capsys, "run", scene, "--out", tmp_path / "out", "--quiet")
     assert code == 2
     line, = err.strip().splitlines()
-    assert "run[1].start.integrate" in line and "[0, 1]" in line
+    assert "run[1].start.integrate" in line and "[-0.1, 0.1]" in line
     assert not (tmp_path / "out" / "branches.csv").exists()
 
 

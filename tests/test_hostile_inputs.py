@@ -252,3 +252,10 @@ def test_non_utf8_compare_csv_names_the_file(tmp_path):
     path.write_bytes(b"x,y,curve,stable\n0.01,2\xe9-4,I,1\n")
     with pytest.raises(SpecError, match=re.escape(str(path)) + ": not UTF-8"):
         read_compare(CompareSpec(path))
+
+
+def test_every_step_key_has_bounds():
+    """A step key without bounds would reach the runner unchecked (a KeyError at load before)."""
+    from autocable.methods.continuation.settings import STEP_KEYS
+    from autocable.scene.schema import _STEP_BOUNDS
+    assert set(_STEP_BOUNDS) == set(STEP_KEYS)

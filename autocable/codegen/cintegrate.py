@@ -27,7 +27,8 @@ one C file per right-hand side with
 
 Build and cache as for `autocable.codegen.ckernel` (whose printer, compiler call and build lock are
 reused): the library is keyed by a content hash of the right-hand side, names, coefficient table
-and this emitter's version, and lives in ``cache_root()/cintegrate/<name>-<hash>/``.
+and this emitter's version, and lives in ``cache_root()/cintegrate/<hash>/`` (checked by sha256 before
+every load, as there).
 """
 from __future__ import annotations
 
@@ -44,7 +45,7 @@ import numpy as np
 import sympy as sp
 
 from autocable import _store as cache
-from autocable.codegen.ckernel import CFLAGS, KernelBuildError, _block, _compile, _lock, _Printer
+from autocable.codegen.ckernel import CFLAGS, KernelBuildError, _block, _compile, _Printer, cached_library
 
 __all__ = ["INTEGRATOR_VERSION", "STATUS", "CIntegrator", "CRun", "compiled_integrator",
            "integrator_source", "sample_grid"]
@@ -338,15 +339,15 @@ class CIntegrator:
 
     def rhs(self, t: float, y, p) -> np.ndarray:
         out = np.empty(self.n)
-        self.lib.ac_rhs(float(t), np.ascontiguousarray(y, float).ctypes.data,
-                        np.ascontiguousarray(p, float).ctypes.data, out.ctypes.data)
+        y, p = np.ascontiguousarray(y, float), np.ascontiguousarray(p, float)   # alive in the call
+        self.lib.ac_rhs(float(t), y.ctypes.data, p.ctypes.data, out.ctypes.data)
         return out
 
     def jac(self, t: float, y, p) -> np.ndarray:
         """The Jacobian d rhs / d y at (t, y) (n x n)."""
         out = np.empty((self.n, self.n))
-        self.lib.ac_jac(float(t), np.ascontiguousarray(y, float).ctypes.data,
-                        np.ascontiguousarray(p, float).ctypes.data, out.ctypes.data)
+        y, p = np.ascontiguousarray(y, float), np.ascontiguousarray(p, float)   # alive in the call
+        self.lib.ac_jac(float(t), y.ctypes.data, p.ctypes.data, out.ctypes.data)
         return out
 
     def run(self, y0, grid, p, *, rtol: float, atol: float, max_step: float = math.inf,
@@ -413,28 +414,30 @@ def _load(path: Path, n: int, m: int, timings) -> CIntegrator:
 @functools.lru_cache(maxsize=32)
 def _integrator_for(name: str, variables: tuple, parameters: tuple, time_symbol, rhs: tuple,
                     cc: str) -> CIntegrator:
-    key = _key(name, variables, parameters, time_symbol, rhs, cc)
-    folder = cache.cache_dir("cintegrate", f"{name}-{key}")
-    lib = folder / "kernel.so"
-    emit_s = compile_s = 0.0
-    with _lock(folder):
-        if not lib.exists():
-            t0 = time.perf_counter()
-            try:
-                source = integrator_source(variables, parameters, rhs, time_symbol)
-            except KernelBuildError:
-                raise
-            except Exception as exc:  # noqa: BLE001 - sympy's printer raises many kinds
-                text = " ".join(str(exc).split())
-                raise KernelBuildError(f"C integrator of {name!r}: the right-hand side cannot be "
-                                       f"written as C ({type(exc).__name__}: {text}); use "
-                                       f"engine='dopri'") from None
-            t1 = time.perf_counter()
-            try:
-                _compile(source, folder, cc, repr(name))
-            except KernelBuildError as exc:
-                raise KernelBuildError(str(exc).replace("engine='pycont'", "engine='dopri'")) from None
-            emit_s, compile_s = t1 - t0, time.perf_counter() - t1
+    # The folder is named by the content hash only: the caller's name is free text.
+    folder = cache.cache_dir("cintegrate", _key(name, variables, parameters, time_symbol, rhs, cc))
+    times = {"emit_s": 0.0, "compile_s": 0.0}
+
+    def build() -> None:
+        t0 = time.perf_counter()
+        try:
+            source = integrator_source(variables, parameters, rhs, time_symbol)
+        except KernelBuildError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - sympy's printer raises many kinds
+            text = " ".join(str(exc).split())
+            raise KernelBuildError(f"C integrator of {name!r}: the right-hand side cannot be "
+                                   f"written as C ({type(exc).__name__}: {text}); use "
+                                   f"engine='dopri'") from None
+        t1 = time.perf_counter()
+        try:
+            _compile(source, folder, cc, repr(name))
+        except KernelBuildError as exc:
+            raise KernelBuildError(str(exc).replace("engine='pycont'", "engine='dopri'")) from None
+        times.update(emit_s=t1 - t0, compile_s=time.perf_counter() - t1)
+
+    lib, _ = cached_library(folder, build, "C integrator")
+    emit_s, compile_s = times["emit_s"], times["compile_s"]
     t2 = time.perf_counter()
     k = _load(lib, len(variables), len(parameters), ())
     return CIntegrator(k.n, k.m, k.path, k.lib, (("emit_s", emit_s), ("compile_s", compile_s),

@@ -32,14 +32,14 @@ the caller decides from numpy's eigenvalues. Counts that are decided are exact s
 quantities computed in a few dozen flops from J.
 
 Build. The source is keyed by a content hash of the right-hand side, the names and the emitter
-version; the library lives in ``cache_root()/ckernel/<name>-<hash>/`` and is compiled with gcc
-(``$CC`` if set) under an advisory file lock, so concurrent processes build it once. Any compiler
+version; the library lives in ``cache_root()/ckernel/<hash>/`` (its sha256 in ``kernel.json``,
+checked before every load) and is compiled with gcc (``$CC`` if set) under an advisory file lock,
+so concurrent processes build it once. Any compiler
 failure raises `KernelBuildError` with one line naming the system, the compiler's first error and
 what to do.
 """
 from __future__ import annotations
 
-import contextlib
 import ctypes
 import functools
 import os
@@ -49,7 +49,7 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import sympy as sp
@@ -530,20 +530,38 @@ int ac_continue(const double *cfg, const double *Y0, const double *d0, const dou
 # ------------------------------------------------------------------------------------------------
 # build and load
 # ------------------------------------------------------------------------------------------------
-@contextlib.contextmanager
-def _lock(folder: Path) -> Iterator[None]:
-    """Serialise builds of one kernel across processes (POSIX advisory lock)."""
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover - gcc builds are POSIX-only here
-        yield
-        return
-    with open(folder / "build.lock", "w") as fh:
-        fcntl.flock(fh, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(fh, fcntl.LOCK_UN)
+def _lock(folder: Path):
+    """Serialise builds of one kernel across processes (`autocable._store.cache_lock`: recovers
+    from a damaged lock file, runs unlocked in a read-only cache)."""
+    return cache.cache_lock(folder / "build.lock")
+
+
+#: The manifest beside ``kernel.so``: the library's sha256, checked before every load.
+MANIFEST = "kernel.json"
+
+
+def _library_ok(folder: Path) -> bool:
+    lib = folder / "kernel.so"
+    manifest = cache.load_checked_json(folder / MANIFEST, None)
+    return (isinstance(manifest, dict) and lib.is_file()
+            and manifest.get("library_sha256") == cache.file_sha256(lib))
+
+
+def cached_library(folder: Path, build: Callable[[], None], what: str) -> tuple[Path, bool]:
+    """``folder/kernel.so``, built by ``build()`` unless a library that matches its manifest's
+    sha256 is there; returns (path, built). A library that fails the check (edited, truncated,
+    from a killed build) is rebuilt with one stderr line. A warm folder is only read."""
+    lib = folder / "kernel.so"
+    if _library_ok(folder):
+        return lib, False
+    with _lock(folder):
+        if _library_ok(folder):          # another process built it while we waited
+            return lib, False
+        if lib.exists() or (folder / MANIFEST).exists():
+            cache.report_rebuilt(f"{what} {folder.name}")
+        build()
+        cache.store_checked_json(folder / MANIFEST, {"library_sha256": cache.file_sha256(lib)})
+    return lib, True
 
 
 def _key(name: str, variables, parameters, rhs, cc: str) -> str:
@@ -563,18 +581,22 @@ def _first_error(text: str) -> str:
 def _compile(source: str, folder: Path, cc: str, label: str) -> Path:
     lib = folder / "kernel.so"
     src = folder / "kernel.c"
-    cache.atomic_write_text(src, source)
     exe = shutil.which(cc)
     if exe is None:
         raise KernelBuildError(f"C kernel of {label}: compiler {cc!r} not found; install gcc or set "
                                f"CC to a C compiler")
-    fd, tmp = tempfile.mkstemp(prefix=".kernel.", suffix=".so", dir=folder)
+    try:
+        cache.atomic_write_text(src, source)
+        fd, tmp = tempfile.mkstemp(prefix=".kernel.", suffix=".so", dir=folder)
+    except OSError as exc:
+        raise cache.cache_error(folder, exc) from None
     os.close(fd)
     try:
         done = subprocess.run([exe, *CFLAGS, "-o", tmp, str(src), "-lm"], capture_output=True, text=True)
         if done.returncode != 0:
             raise KernelBuildError(f"C kernel of {label}: {cc} failed: {_first_error(done.stderr)} "
                                    f"(source kept in {src}); use engine='pycont' for this system")
+        os.chmod(tmp, cache.file_mode())   # not mkstemp's 0600: other users of a shared cache load it
         os.replace(tmp, lib)
     finally:
         if os.path.exists(tmp):
@@ -594,17 +616,20 @@ class CKernel:
 
     def f(self, x, p) -> np.ndarray:
         out = np.empty(self.n)
-        self.lib.ac_f(_ptr(np.ascontiguousarray(x, float)), _ptr(np.ascontiguousarray(p, float)), out.ctypes.data)
+        x, p = _c(x), _c(p)   # named: a temporary copy would be freed before the call
+        self.lib.ac_f(x.ctypes.data, p.ctypes.data, out.ctypes.data)
         return out
 
     def jac(self, x, p) -> np.ndarray:
         out = np.empty((self.n, self.n))
-        self.lib.ac_jac(_ptr(np.ascontiguousarray(x, float)), _ptr(np.ascontiguousarray(p, float)), out.ctypes.data)
+        x, p = _c(x), _c(p)   # named: a temporary copy would be freed before the call
+        self.lib.ac_jac(x.ctypes.data, p.ctypes.data, out.ctypes.data)
         return out
 
     def jac_p(self, x, p) -> np.ndarray:
         out = np.empty((self.n, max(self.m, 1)))
-        self.lib.ac_jacp(_ptr(np.ascontiguousarray(x, float)), _ptr(np.ascontiguousarray(p, float)), out.ctypes.data)
+        x, p = _c(x), _c(p)   # named: a temporary copy would be freed before the call
+        self.lib.ac_jacp(x.ctypes.data, p.ctypes.data, out.ctypes.data)
         return out[:, :self.m]
 
     def chart(self, cfg: np.ndarray, Y, derivative: bool) -> np.ndarray:
@@ -620,11 +645,13 @@ class CKernel:
 
     def hopf_test(self, J) -> float:
         """det(2J (.) I) as the loop computes it (1 for n = 1)."""
-        return float(self.lib.ac_hopf(np.ascontiguousarray(J, float).ctypes.data))
+        J = _c(J)
+        return float(self.lib.ac_hopf(J.ctypes.data))
 
     def unstable_count(self, J) -> int:
         """Eigenvalues of J with positive real part by the loop's Routh count (-1: undecided)."""
-        return int(self.lib.ac_count(np.ascontiguousarray(J, float).ctypes.data))
+        J = _c(J)
+        return int(self.lib.ac_count(J.ctypes.data))
 
     def both(self, cfg: np.ndarray, Y) -> tuple[np.ndarray, np.ndarray]:
         """(F~(Y), DF~(Y)) in one call."""
@@ -648,16 +675,18 @@ class CKernel:
         tests, Js = np.empty((mp, 3)), np.empty((mp, self.n, self.n))
         npos, pol, reason = np.empty(mp, np.intc), np.empty(mp, np.intc), np.zeros(1, np.intc)
         o = np.ascontiguousarray(opts, float)
-        k = self.lib.ac_continue(cfg.ctypes.data, _ptr(np.ascontiguousarray(Y0, float)),
-                                 _ptr(np.ascontiguousarray(d0, float)), o.ctypes.data, mp,
+        Y0, d0 = _c(Y0), _c(d0)
+        k = self.lib.ac_continue(cfg.ctypes.data, Y0.ctypes.data, d0.ctypes.data, o.ctypes.data, mp,
                                  Ys.ctypes.data, Ts.ctypes.data, tests.ctypes.data, npos.ctypes.data,
                                  Js.ctypes.data, pol.ctypes.data, reason.ctypes.data)
         return {"Y": Ys[:k], "T": Ts[:k], "tests": tests[:k], "npos": npos[:k].astype(int), "J": Js[:k],
                 "polished": pol[:k].astype(bool), "reason": REASONS.get(int(reason[0]), "error")}
 
 
-def _ptr(a: np.ndarray) -> int:
-    return a.ctypes.data
+def _c(a) -> np.ndarray:
+    """``a`` as a C-contiguous float array. Callers keep it in a variable until the C call returns:
+    ``_c(a).ctypes.data`` of a copy (e.g. of a list) points into memory freed at once."""
+    return np.ascontiguousarray(a, float)
 
 
 def _load(path: Path, n: int, m: int, timings) -> CKernel:
@@ -693,28 +722,30 @@ def _load(path: Path, n: int, m: int, timings) -> CKernel:
 # so two equal systems share one.
 @functools.lru_cache(maxsize=32)
 def _kernel_for(name: str, variables: tuple, parameters: tuple, rhs: tuple, cc: str) -> CKernel:
-    key = _key(name, variables, parameters, rhs, cc)
-    folder = cache.cache_dir("ckernel", f"{name}-{key}")
-    lib = folder / "kernel.so"
-    emit_s = compile_s = 0.0
-    with _lock(folder):
-        if not lib.exists():
-            t0 = time.perf_counter()
-            undefined = sorted({str(f.func) for e in rhs for f in sp.sympify(e).atoms(AppliedUndef)})
-            if undefined:
-                raise KernelBuildError(f"C kernel of {name!r}: the right-hand side calls {undefined}, "
-                                       f"which C does not know; define them or use engine='pycont'")
-            try:
-                source = kernel_source(variables, parameters, rhs)
-            except KernelBuildError:
-                raise
-            except Exception as exc:  # noqa: BLE001 - sympy's printer raises many kinds
-                text = " ".join(str(exc).split())
-                raise KernelBuildError(f"C kernel of {name!r}: the right-hand side cannot be written "
-                                       f"as C ({type(exc).__name__}: {text}); use engine='pycont'") from None
-            t1 = time.perf_counter()
-            _compile(source, folder, cc, repr(name))
-            emit_s, compile_s = t1 - t0, time.perf_counter() - t1
+    # The folder is named by the content hash only: a system's name is free text.
+    folder = cache.cache_dir("ckernel", _key(name, variables, parameters, rhs, cc))
+    times = {"emit_s": 0.0, "compile_s": 0.0}
+
+    def build() -> None:
+        t0 = time.perf_counter()
+        undefined = sorted({str(f.func) for e in rhs for f in sp.sympify(e).atoms(AppliedUndef)})
+        if undefined:
+            raise KernelBuildError(f"C kernel of {name!r}: the right-hand side calls {undefined}, "
+                                   f"which C does not know; define them or use engine='pycont'")
+        try:
+            source = kernel_source(variables, parameters, rhs)
+        except KernelBuildError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - sympy's printer raises many kinds
+            text = " ".join(str(exc).split())
+            raise KernelBuildError(f"C kernel of {name!r}: the right-hand side cannot be written "
+                                   f"as C ({type(exc).__name__}: {text}); use engine='pycont'") from None
+        t1 = time.perf_counter()
+        _compile(source, folder, cc, repr(name))
+        times.update(emit_s=t1 - t0, compile_s=time.perf_counter() - t1)
+
+    lib, _ = cached_library(folder, build, "C kernel")
+    emit_s, compile_s = times["emit_s"], times["compile_s"]
     t2 = time.perf_counter()
     k = _load(lib, len(variables), len(parameters), ())
     return CKernel(k.n, k.m, k.path, k.lib, (("emit_s", emit_s), ("compile_s", compile_s),

@@ -35,6 +35,8 @@ import warnings
 from pathlib import Path
 from typing import Iterator
 
+from autocable.errors import CacheError
+
 __all__ = [
     "PyDSToolError",
     "Chatter",
@@ -286,7 +288,8 @@ def build_dir(path: str | os.PathLike) -> Iterator[Path]:
     restored on exit, also on exceptions. The only ``os.chdir`` in autocable.
     """
     folder = Path(path).expanduser().resolve()
-    folder.mkdir(parents=True, exist_ok=True)
+    if not folder.is_dir():     # an existing folder is only read (a read-only cache works warm)
+        folder.mkdir(parents=True, exist_ok=True)
     old_cwd = os.getcwd()
     old_sys_path = list(sys.path)
     had_path, old_path = "PATH" in os.environ, os.environ.get("PATH", "")
@@ -404,12 +407,13 @@ def pydstool_errors(what: str, chatter: Chatter | None = None) -> Iterator[None]
 
     ``what`` names the step in the user's words ("building the Dopri integrator for 'duffing'").
     ``chatter`` (from an enclosing `quiet`) supplies the text PyDSTool printed; its tail goes into
-    the error's ``chatter`` attribute. `PyDSToolError` passes through unchanged, KeyboardInterrupt
-    is never caught. distutils' SystemExit on a failed compile is converted too.
+    the error's ``chatter`` attribute. `PyDSToolError` and `autocable.errors.CacheError` (an
+    unwritable cache: the user's fix, not PyDSTool's failure) pass through unchanged,
+    KeyboardInterrupt is never caught. distutils' SystemExit on a failed compile is converted too.
     """
     try:
         yield
-    except PyDSToolError:
+    except (PyDSToolError, CacheError):
         raise
     except (Exception, SystemExit) as exc:
         tail = chatter.tail() if chatter is not None else ""

@@ -15,7 +15,9 @@ and a PyCont ``ContClass`` ready for continuation. What it guarantees:
 * Build names carry a content hash (`model_name`): a changed model never reuses a stale build,
   an unchanged one reuses it across processes without recompiling.
 * Builds happen in ``cache_root()/pydstool`` (never the working directory), silenced; failures
-  surface as `PyDSToolError`.
+  surface as `PyDSToolError`. Each build's manifest records the sha256 of its library, its Python
+  wrapper and its pickled generator; all three are checked before import or unpickling, and a build
+  that fails the check is made again (one line on stderr).
 """
 from __future__ import annotations
 
@@ -25,14 +27,13 @@ import importlib
 import importlib.machinery
 import keyword
 import math
-import os
 import re
 import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Iterator, Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 import sympy
@@ -407,8 +408,8 @@ def _spec_strings(vf: VectorField, jacobian: bool):
     varspecs = {v: pydstool_str(e) for v, e in zip(vf.variables, vf.rhs)}
     # The symbolic Jacobian of the wind AME takes seconds of sympy in every process; its text is
     # kept next to the libraries, under the model name (a hash of the printed equations).
-    path = pydstool_cache_dir() / "specs" / f"{name}.json"
-    stored = cache.read_json(path)
+    path = cache.cache_dir("pydstool", "specs") / f"{name}.json"
+    stored = cache.load_checked_json(path, f"PyDSTool spec {path.name}")
     if isinstance(stored, dict) and stored.get("varspecs") == varspecs and isinstance(stored.get("fnspecs"), dict):
         fnspecs = {k: (tuple(v[0]), v[1]) for k, v in stored["fnspecs"].items()}
     else:
@@ -416,8 +417,8 @@ def _spec_strings(vf: VectorField, jacobian: bool):
         if jacobian:
             args, text = jacobian_spec(vf)
             fnspecs["Jacobian"] = (tuple(args), text)
-        cache.atomic_write_json(path, {"model": name, "varspecs": varspecs,
-                                       "fnspecs": _jsonable_fnspecs(fnspecs)})
+        cache.store_checked_json(path, {"model": name, "varspecs": varspecs,
+                                        "fnspecs": _jsonable_fnspecs(fnspecs)})
     return name, MappingProxyType(varspecs), MappingProxyType(fnspecs)
 
 
@@ -496,22 +497,34 @@ class OdeGenerator:
 _LIVE: dict[str, Any] = {}
 
 
-@contextlib.contextmanager
-def _build_lock(folder: Path, name: str) -> Iterator[None]:
-    """Serialise builds of one model name across processes (POSIX advisory lock)."""
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover - PyDSTool's builds are POSIX-only anyway
-        yield
-        return
+def _build_lock(folder: Path, name: str):
+    """Serialise builds of one model name across processes (`autocable._store.cache_lock`: recovers
+    from a damaged lock, runs unlocked in a read-only cache, where nothing is built)."""
     locks = folder / "locks"
-    locks.mkdir(parents=True, exist_ok=True)
-    with open(locks / f"{name}.lock", "w") as fh:
-        fcntl.flock(fh, fcntl.LOCK_EX)
+    if not locks.is_dir():
         try:
-            yield
-        finally:
-            fcntl.flock(fh, fcntl.LOCK_UN)
+            locks = cache.cache_dir(*locks.relative_to(cache.cache_root()).parts)
+        except cache.CacheError:
+            return contextlib.nullcontext()   # read-only: a reader needs no lock
+    return cache.cache_lock(locks / f"{name}.lock")
+
+
+#: Version of the build manifests (`_manifest_ok`); another value rebuilds without a warning.
+MANIFEST_FORMAT = "pydstool-build/2"
+
+
+def _manifest_ok(manifest: Any, files: Mapping[str, Path]) -> bool:
+    """Whether ``manifest`` (a build's JSON) records exactly the sha256 of each of ``files``."""
+    recorded = manifest.get("sha256") if isinstance(manifest, dict) else None
+    return isinstance(recorded, dict) and all(
+        recorded.get(role) is not None and recorded.get(role) == cache.file_sha256(path)
+        for role, path in files.items())
+
+
+def _current(manifest: Any) -> bool:
+    """A manifest of this format and environment (otherwise a rebuild is expected, not a fault)."""
+    return (isinstance(manifest, dict) and manifest.get("format") == MANIFEST_FORMAT
+            and manifest.get("environment") == _environment())
 
 
 def _environment() -> dict[str, str]:
@@ -576,15 +589,26 @@ def make_ode_generator(vf: VectorField, kind: str = "Dopri", *,
     package = f"{libname}_temp"
     so_file, py_file, manifest_file = _library_files(folder / package, modname)
     pickled = folder / package / f"{modname}.generator.pickle"
+    rebuilt: list[str] = []     # said after the session, which silences fd 2
     with _build_lock(folder, modname), pydstool_session(what, folder) as chatter:
         manifest = cache.read_json(manifest_file)
-        reusable = (so_file.exists() and py_file.exists() and isinstance(manifest, dict)
-                    and manifest.get("environment") == _environment())
+        library = {"library": so_file, "wrapper": py_file}
+        reusable = _current(manifest) and _manifest_ok(manifest, library)
+        if not reusable and any(f.exists() for f in (so_file, py_file, manifest_file)) \
+                and (_current(manifest) or not isinstance(manifest, dict)):
+            # e.g. an emptied wrapper or a library cut short by a killed build: importing it would
+            # "work" and every integration fail
+            rebuilt.append(f"PyDSTool library {modname}")
         # PyDSTool's FuncSpec parsing of the equations takes seconds for the wind AME in every
         # process; the generator as constructed (before any run, no algparams) is kept next to
         # its library and unpickled instead (PyDSTool's own pickling protocol: the C module is
-        # re-imported on first use).
-        gen = _unpickle_generator(pickled, modname) if reusable else None
+        # re-imported on first use), once its sha256 matches the manifest.
+        gen = None
+        if reusable and pickled.exists() and manifest["sha256"].get("generator") is not None:
+            if _manifest_ok(manifest, {"generator": pickled}):
+                gen = _unpickle_generator(pickled, modname)
+            if gen is None:
+                rebuilt.append(f"pickled generator {pickled.name}")
         from_pickle = gen is not None
         if gen is None:
             # Never let PyDSTool build on its own: its reuse check looks for '_<mod>.so' while
@@ -600,12 +624,13 @@ def make_ode_generator(vf: VectorField, kind: str = "Dopri", *,
         if reusable:
             try:
                 importlib.import_module(f"{package}.{modname}")
-            except ImportError:  # e.g. a library truncated by a killed build: rebuild it
+            except ImportError:  # a library that matches its hash but does not load here
                 reusable = False
-                for stale in (so_file, py_file, manifest_file):
-                    with contextlib.suppress(OSError):
-                        stale.unlink()
+                rebuilt.append(f"PyDSTool library {modname}")
         if not reusable:
+            _remove_stale(so_file, py_file, manifest_file, pickled)
+            sys.modules.pop(f"{package}.{modname}", None)
+            sys.modules.pop(f"{package}._{modname}", None)
             build_generator_library(gen)
             if not so_file.exists():
                 raise PyDSToolError(f"{what} failed: the compiler produced no library "
@@ -613,45 +638,73 @@ def make_ode_generator(vf: VectorField, kind: str = "Dopri", *,
             # Import now, while the cache folder is on sys.path: PyDSTool imports lazily at the
             # first integration, which may happen anywhere.
             importlib.import_module(f"{package}.{modname}")
-            cache.atomic_write_json(manifest_file, {
-                "model": name, "kind": kind, "environment": _environment(),
-                "spec": {"varspecs": args["varspecs"], "fnspecs": _jsonable_fnspecs(args["fnspecs"]),
-                         "pars": sorted(args["pars"])},
-            })
-        if not from_pickle:
-            _pickle_generator(gen, pickled)
+        if not (reusable and from_pickle):
+            pickled_ok = from_pickle or _pickle_generator(gen, pickled)
+            files = {**library, **({"generator": pickled} if pickled_ok else {})}
+            record = {"format": MANIFEST_FORMAT, "model": name, "kind": kind,
+                      "environment": _environment(),
+                      "sha256": {role: cache.file_sha256(path) for role, path in files.items()},
+                      "spec": {"varspecs": args["varspecs"], "fnspecs": _jsonable_fnspecs(args["fnspecs"]),
+                               "pars": sorted(args["pars"])}}
+            if reusable:
+                # Only the pickle was missing: recording it is a speed-up, so a read-only cache
+                # (where the pickle could not be written either) goes on without it.
+                with contextlib.suppress(cache.CacheError):
+                    _write_manifest(manifest_file, record)
+            else:
+                _write_manifest(manifest_file, record)
         unknown = sorted(set(settings) - set(gen.algparams))
         if unknown:
             raise ValueError(f"Invalid keys present in algparams argument: {unknown}")
         gen.set(ics=args["ics"], pars=args["pars"], tdata=args["tdata"], algparams=settings)
+    if rebuilt:
+        cache.report_rebuilt(rebuilt[0])
     memoize_name_map(gen)           # after pickling: the pickle keeps PyDSTool's own map
     _LIVE[modname] = gen
     return handle(gen, reusable)
 
 
-def _pickle_generator(gen: Any, path: Path) -> None:
-    """Keep ``gen`` (constructed, never run) for later processes; a failure only costs speed."""
+def _remove_stale(*paths: Path) -> None:
+    """Delete the files of a build about to be made again; this is also the first write of the
+    build, so a read-only cache fails here with `CacheError` rather than inside PyDSTool."""
+    for path in paths:
+        try:
+            path.unlink()
+        except FileNotFoundError:
+            pass
+        except OSError as exc:
+            raise cache.cache_error(path, exc) from None
+    cache.require_writable(paths[0].parent)
+
+
+def _write_manifest(path: Path, record: dict) -> None:
+    try:
+        cache.atomic_write_json(path, record)
+    except OSError as exc:
+        raise cache.cache_error(path, exc) from None
+
+
+def _pickle_generator(gen: Any, path: Path) -> bool:
+    """Keep ``gen`` (constructed, never run) for later processes; False if it could not be kept
+    (a failure only costs speed)."""
     import pickle
     try:
         blob = pickle.dumps(gen, protocol=pickle.HIGHEST_PROTOCOL)
     except Exception:   # noqa: BLE001 - an unpicklable generator is simply rebuilt next time
-        return
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        return False
     try:
-        tmp.write_bytes(blob)
-        os.replace(tmp, path)
-    except OSError:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
+        cache.cache_write_bytes(path, blob)
+    except cache.CacheError:
+        return False
+    return True
 
 
 def _unpickle_generator(path: Path, modname: str) -> Any | None:
-    """The generator `_pickle_generator` kept for ``modname``, or None (none, stale or unreadable).
+    """The generator `_pickle_generator` kept for ``modname``, or None (unreadable or foreign).
     The file sits in the user's own cache folder next to the compiled library it drives, written
-    by this module under the same content-hashed name."""
+    by this module under the same content-hashed name, and its sha256 was checked against the
+    build manifest before this is called."""
     import pickle
-    if not path.is_file():
-        return None
     try:
         gen = pickle.loads(path.read_bytes())  # noqa: S301 - autocable's own cache file
     except Exception:   # noqa: BLE001 - a truncated or incompatible file: build instead
@@ -802,16 +855,25 @@ def _load_auto(cont: Any, name: str, what: str) -> None:
     folder = pydstool_cache_dir()
     modname = f"auto_{name}_vf"
     so_file, py_file, manifest_file = _library_files(folder, modname)
+    rebuilt: list[str] = []     # said after the session, which silences fd 2
     with _build_lock(folder, modname), pydstool_session(what, folder) as chatter:
         manifest = cache.read_json(manifest_file)
-        if (so_file.exists() and py_file.exists() and isinstance(manifest, dict)
-                and manifest.get("environment") == _environment()):
+        files = {"library": so_file, "wrapper": py_file}
+        if _current(manifest) and _manifest_ok(manifest, files):
             cont.loadAutoMod(nobuild=True)
             cont.importAutoLib()
             return
+        if any(f.exists() for f in (so_file, py_file, manifest_file)) \
+                and (_current(manifest) or not isinstance(manifest, dict)):
+            rebuilt.append(f"PyCont AUTO library {modname}")
+        _remove_stale(so_file, py_file, manifest_file)
         cont.loadAutoMod()
         if cont._autoMod is None or not so_file.exists():
             raise PyDSToolError(f"{what} failed: no AUTO library was produced", what=what,
                                 chatter=chatter.tail())
-        cache.atomic_write_json(manifest_file, {"model": name, "kind": "AUTO",
-                                                "environment": _environment()})
+        _write_manifest(manifest_file, {"format": MANIFEST_FORMAT, "model": name, "kind": "AUTO",
+                                        "environment": _environment(),
+                                        "sha256": {role: cache.file_sha256(path)
+                                                   for role, path in files.items()}})
+    if rebuilt:
+        cache.report_rebuilt(rebuilt[0])

@@ -7,16 +7,18 @@ is the same each time: a scene of Figs. 7-10 spent most of its warm run there. T
 ``sympy.lambdify`` generates is therefore stored under ``cache_dir("lambdas")``, named by a content
 hash of the right-hand side (``sympy.srepr``), the argument names, the kind of function and the
 sympy version, and executed on later calls in the namespace lambdify itself uses: the function is
-the one lambdify would have made, without the differentiation and the elimination.
+the one lambdify would have made, without the differentiation and the elimination. The file's first
+line holds the sha256 of the rest, checked before it is executed (a file that fails is written again).
 """
 from __future__ import annotations
 
+import hashlib
 import inspect
 from typing import Callable, Sequence
 
 import sympy as sp
 
-from autocable._store import atomic_write_text, cache_dir, content_hash
+from autocable._store import atomic_write_text, cache_dir, cache_error, content_hash, report_rebuilt
 
 #: What `numeric_function` can build from a right-hand side F(x; p).
 KINDS = ("f", "jac", "jac_p", "d2", "d3")
@@ -55,7 +57,7 @@ def rhs_key_of_srepr(texts: Sequence[str]) -> str:
 def function_key(kind: str, variables: Sequence[str], parameters: Sequence[str], key: str) -> str:
     """The content hash that names a cached function; ``key`` is `rhs_key` of the right-hand side."""
     return content_hash({"kind": kind, "variables": list(variables), "parameters": list(parameters),
-                         "rhs": key, "sympy": sp.__version__, "format": 1})
+                         "rhs": key, "sympy": sp.__version__, "format": 2})
 
 
 def numeric_function(kind: str, variables: Sequence[str], parameters: Sequence[str],
@@ -73,11 +75,35 @@ def numeric_function(kind: str, variables: Sequence[str], parameters: Sequence[s
     if not use_cache:
         return sp.lambdify((xs, ps), _expression(kind, rhs, xs, ps), modules="numpy", cse=True)
     path = cache_dir("lambdas") / f"{kind}-{function_key(kind, variables, parameters, key or rhs_key(rhs))}.py"
-    if path.exists():
+    source = _checked_source(path) if path.exists() else None
+    if source is not None:
         namespace = _namespace()
-        source = path.read_text(encoding="utf-8")
         exec(compile(source, str(path), "exec"), namespace)  # noqa: S102 - text lambdify wrote
         return namespace["_lambdifygenerated"]
     fn = sp.lambdify((xs, ps), _expression(kind, rhs, xs, ps), modules="numpy", cse=True)
-    atomic_write_text(path, inspect.getsource(fn))
+    source = inspect.getsource(fn)
+    try:
+        atomic_write_text(path, f"{_HEADER}{_sha(source)}\n{source}")
+    except OSError as exc:
+        raise cache_error(path, exc) from None
     return fn
+
+
+_HEADER = "# sha256 "
+
+
+def _sha(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _checked_source(path) -> str | None:
+    """The function text stored at ``path`` if its first line is the sha256 of the rest, else None
+    (reported: the caller writes it again)."""
+    try:
+        head, _, source = path.read_text(encoding="utf-8").partition("\n")
+    except (OSError, ValueError):
+        head, source = "", ""
+    if head.startswith(_HEADER) and head[len(_HEADER):] == _sha(source):
+        return source
+    report_rebuilt(f"numeric function {path.name}")
+    return None

@@ -3,7 +3,7 @@
 `derive_ame(derivation)` runs the Multiple Scales engine (`autocable.model.multiscale`, Sect. 4) on
 eq. (21) of the derivation and stores the result (`AmplitudeEquations.to_dict`, plain JSON) in the
 autocable cache folder under a key made of the ODE's `content_hash()`, the engine options and
-`AME_VERSION`, so a changed eq. (21), a changed ordering rule or a changed engine never reuses a stale
+`AME_VERSION` (the file carries the sha256 of its content, checked on load), so a changed eq. (21), a changed ordering rule or a changed engine never reuses a stale
 table. A cached AME loads without sympy work.
 """
 from __future__ import annotations
@@ -11,7 +11,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-from autocable._store import atomic_write_json, cache_dir, content_hash, read_json
+from autocable._store import cache_dir, content_hash, load_checked_json, store_checked_json
 from autocable.model.ame import AmplitudeEquations
 from autocable.model.equations import TwoModeODE
 
@@ -49,7 +49,7 @@ def derive_ame(source, *, omega: str = "exact", ordering: str = "paper", use_cac
     key = ame_key(ode, omega, ordering)
     path = cache_dir("ame") / f"ame-{key}.json"
     t0 = time.perf_counter()
-    data = read_json(path) if use_cache else None
+    data = load_checked_json(path, f"amplitude equations {path.name}") if use_cache else None
     if data is not None:
         try:
             ame = AmplitudeEquations.from_dict(data)
@@ -62,5 +62,5 @@ def derive_ame(source, *, omega: str = "exact", ordering: str = "paper", use_cac
     from autocable.model import multiscale
     ame = multiscale.derive(ode, ordering, omega=omega)
     seconds = time.perf_counter() - t0
-    atomic_write_json(path, ame.to_dict())
+    store_checked_json(path, ame.to_dict())
     return CachedAME(ame, False, seconds, key, {"multiscale_s": seconds})

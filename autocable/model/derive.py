@@ -2,7 +2,8 @@
 
 `derive(spec)` (a spec or a model file) runs the whole chain and returns a `Derivation` (plain frozen data). The result is
 cached in the autocable cache folder under a hash of the spec's physical content and of
-`DERIVATION_VERSION`, so a second call with the same spec costs only a JSON read.
+`DERIVATION_VERSION` (never under the model's name), so a second call with the same spec costs only a
+JSON read; the file carries the sha256 of its content and is derived again if it fails that check.
 """
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import os
 import time
 from dataclasses import dataclass, field
 
-from autocable._store import atomic_write_json, cache_dir, content_hash, read_json
+from autocable._store import cache_dir, content_hash, load_checked_json, store_checked_json
 from autocable.model.aero import expand_load
 from autocable.model.calibration import calibrate
 from autocable.model.equations import TwoModeODE
@@ -102,13 +103,13 @@ def derive(spec: ModelSpec | str | os.PathLike, integrator: str = "closed-form",
     check_model(spec)    # before the root finding an impossible cable would make fail
     key = content_hash({"spec": spec.content_hash(), "version": DERIVATION_VERSION,
                         "integrator": integrator})
-    path = cache_dir("derivations") / f"{spec.name}-{key}.json"
-    data = read_json(path) if use_cache else None
+    path = cache_dir("derivations") / f"eq21-{key}.json"
+    data = load_checked_json(path, f"derivation {path.name}") if use_cache else None
     from_cache = data is not None
     t0 = time.perf_counter()
     if data is None:
         data = _compute(spec, integrator)
-        atomic_write_json(path, data)
+        store_checked_json(path, data)
     st = cable_statics(spec.cable)
     timings = dict(data["timings"]) if not from_cache else {"cache_read_s": time.perf_counter() - t0}
     return Derivation(spec=spec, statics=st, ode=TwoModeODE.from_dict(data["ode"]),

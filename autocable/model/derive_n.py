@@ -6,7 +6,7 @@ only the trial functions change (`modes_n.mode_set`).
 """
 from __future__ import annotations
 
-from autocable._store import atomic_write_json, cache_dir, content_hash, read_json
+from autocable._store import cache_dir, content_hash, load_checked_json, store_checked_json
 from autocable.model.aero import expand_load
 from autocable.model.derive import DERIVATION_VERSION, Derivation, derive
 from autocable.model.galerkin_n import ExactZeroIntegrator, project_n
@@ -34,8 +34,8 @@ def derive_nmode(source: Derivation | ModelSpec, n_in: int, n_out: int,
                         "n_in": n_in, "n_out": n_out, "integrator": integrator})
     if integrator not in ("closed-form", "quadrature"):
         raise ValueError(f"unknown integrator {integrator!r}; use 'closed-form' or 'quadrature'")
-    path = cache_dir("derivations") / f"{spec.name}-nmode{n_in}x{n_out}-{key}.json"
-    data = read_json(path) if use_cache else None
+    path = cache_dir("derivations") / f"nmode{n_in}x{n_out}-{key}.json"
+    data = load_checked_json(path, f"derivation {path.name}") if use_cache else None
     if data is not None:
         return NModeODE.from_dict(data)
     st = d.statics
@@ -47,5 +47,5 @@ def derive_nmode(source: Derivation | ModelSpec, n_in: int, n_out: int,
                     else QuadratureIntegrator(ms.shapes, nodes=128),
                     provenance={"model": spec.name, "model_hash": spec.content_hash(),
                                 "derivation": NMODE_VERSION, "n_in": n_in, "n_out": n_out})
-    atomic_write_json(path, ode.to_dict())
+    store_checked_json(path, ode.to_dict())
     return ode

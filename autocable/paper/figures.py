@@ -9,6 +9,7 @@ the traceback below it), to ``DIR/figures.json`` and to the report, and the comm
 """
 from __future__ import annotations
 
+import math
 import multiprocessing
 import os
 import shutil
@@ -157,16 +158,16 @@ def _preload() -> None:
 
 
 def _timings_file() -> Path:
-    from autocable._store import cache_dir
-    return cache_dir("figures") / WALL_JSON
+    from autocable._store import cache_root
+    return cache_root() / "figures" / WALL_JSON     # not created here: a read-only cache is fine
 
 
 def recorded_wall_times() -> dict[str, float]:
     """Wall seconds per scene name of the last `run_figures` that ran it (the cache folder)."""
     from autocable._store import read_json
-    data = read_json(_timings_file())
+    data = read_json(_timings_file())   # a hint for the order only: numbers are taken, nothing else
     return {str(k): float(v) for k, v in data.items()
-            if isinstance(v, (int, float))} if isinstance(data, dict) else {}
+            if isinstance(v, (int, float)) and math.isfinite(v) and v >= 0} if isinstance(data, dict) else {}
 
 
 def expected_cost(path: Path, recorded: dict[str, float] | None = None) -> float:
@@ -276,7 +277,10 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
     from autocable._store import atomic_write_json
     recorded = recorded_wall_times()
     recorded.update({o.name: round(o.wall_s, 3) for o in ordered if o.status == "ok"})
-    atomic_write_json(_timings_file(), recorded)
+    try:
+        atomic_write_json(_timings_file(), recorded)
+    except OSError:
+        pass    # a shared read-only cache: the times only order the next run's scenes
     atomic_write_json(out / SUMMARY_JSON, {"format": "autocable.paper.figures/1", "jobs": jobs,
                                            "scenes": [asdict(o) for o in ordered]})
     return ordered

@@ -363,6 +363,10 @@ _STEP_BOUNDS = {
     "ntst": (4, 1000, "collocation intervals"),
     "ncol": (2, 7, "collocation points per interval"),
     "max_corrector_iters": (1, 100, "corrector iterations"),
+    # budgets of the settling integration and the orbit search (a long computation stops with a message)
+    "settle_seconds": (0.0, 86400.0, "a wall-time budget in seconds, in (0, 86400]"),
+    "settle_evaluations": (1, 1e10, "a budget of right-hand side evaluations, from 1 to 1e10"),
+    "orbit_seconds": (0.0, 86400.0, "a wall-time budget in seconds, in (0, 86400]"),
 }
 
 

@@ -12,7 +12,7 @@ from typing import Any, Mapping
 import numpy as np
 import sympy as sp
 
-from autocable._store import atomic_write_json, cache_dir, content_hash, read_json
+from autocable._store import cache_dir, content_hash, load_checked_json, store_checked_json
 from autocable.codegen.pydstool import VectorField
 from autocable.methods.lambda_cache import numeric_function, rhs_key, rhs_key_of_srepr
 
@@ -258,14 +258,14 @@ def ame_system(ame, dof: str = "2dof", *, wind: bool = True, name: str | None = 
     rhs = [_plain(sp.expand(e.xreplace(rel)).xreplace(ren)) for e in exprs]
     system = System(tag, variables, rhs, params, tuple(amps), description=description)
     if path is not None:
-        atomic_write_json(path, {"format": AME_SYSTEM_VERSION, "rhs": [sp.srepr(e) for e in system.rhs]})
+        store_checked_json(path, {"format": AME_SYSTEM_VERSION, "rhs": [sp.srepr(e) for e in system.rhs]})
     return system
 
 
 def _cached_rhs(path, n: int) -> tuple[list[str], list[sp.Expr]] | None:
     """The srepr texts `ame_system` stored at ``path`` and their expressions, or None (missing,
     corrupt or foreign: the caller builds them again)."""
-    data = read_json(path)
+    data = load_checked_json(path, f"AME system {path.name}")
     if not (isinstance(data, dict) and data.get("format") == AME_SYSTEM_VERSION):
         return None
     texts = data.get("rhs")
