@@ -240,14 +240,25 @@ def test_existing_scheduler(serial, tmp_path):
     same_numbers(load(out), load(tmp_path / "s"))
 
 
-def test_failed_point_is_reported_not_written(tmp_path):
-    """A point that cannot be computed (sigma = -2: Omega = omega1 + sigma < 0) is reported with its
+def test_failed_point_is_reported_not_written(tmp_path, monkeypatch):
+    """A point whose computation fails (here the solver raises a `ComputationError` at sigma = -0.01,
+    as a Newton or integrator failure would; the sweep file itself is valid) is reported with its
     reason and left out (response -1, not computed); the other points are kept; a rerun tries only
     the failed one again."""
-    spec = load_sweep(write_sweep(tmp_path, 'method = "shooting"\n[grid]\neta = 8.2e-5\nsigma = [-2.0, 0.0]\n'))
+    from autocable.errors import ComputationError
+    from autocable.methods.integration import shooting
+    steady = shooting.ShootingSolver.steady
+
+    def failing(self, U, eta, sigma, *args, **kwargs):
+        if sigma < 0:
+            raise ComputationError(f"the integrator stopped at a bounded state (sigma = {sigma})")
+        return steady(self, U, eta, sigma, *args, **kwargs)
+
+    monkeypatch.setattr(shooting.ShootingSolver, "steady", failing)
+    spec = load_sweep(write_sweep(tmp_path, 'method = "shooting"\n[grid]\neta = 8.2e-5\nsigma = [-0.01, 0.0]\n'))
     summary = run_sweep(spec, tmp_path / "o", workers=0)
     assert summary["computed"] == 1 and summary["missing"] == 1
-    assert len(summary["failed"]) == 1 and "non-positive forcing frequency" in summary["failed"][0]["error"]
+    assert len(summary["failed"]) == 1 and "stopped at a bounded state" in summary["failed"][0]["error"]
     assert list(load(tmp_path / "o")["response"].values.ravel()) == [-1, RESPONSE_CLASSES.index("period-1")]
     again = run_sweep(spec, tmp_path / "o", workers=0)
     assert again["resumed"] == 1 and again["computed"] == 0 and len(again["failed"]) == 1
