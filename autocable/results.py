@@ -31,7 +31,7 @@ Files in an output folder (written atomically, read back by `read_results`):
   other files of the run, the manifest). It is written last.
 
 A run writes into a staging folder inside its output folder and publishes from there
-(`output_folder`): the folder reads as complete (`is_complete`) only once run.json says so, and a
+(`autocable.run_folder.output_folder`): the folder reads as complete (`is_complete`) only once run.json says so, and a
 rerun replaces only the files an earlier run listed (docs/robustness.md, "Output folders").
 
 This module imports neither PyDSTool nor matplotlib.
@@ -41,19 +41,14 @@ from __future__ import annotations
 import csv
 import io
 import math
-import os
-import re
-import shutil
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Iterable, Iterator, Mapping, Sequence
+from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
 from autocable._store import atomic_write_json, atomic_write_text, read_json
-from autocable.spec import SpecError
 
 __all__ = [
     "KINDS",
@@ -74,9 +69,7 @@ __all__ = [
     "IncompleteResults",
     "run_status",
     "is_complete",
-    "output_folder",
-    "is_leftover",
-    "STAGING_PREFIX",
+    "status_of",
 ]
 
 #: Branch kinds.
@@ -487,7 +480,7 @@ def read_results(out_dir: str | Path) -> RunResults:
     meta = read_json(folder / RUN_JSON)
     if not isinstance(meta, dict):
         raise FileNotFoundError(f"{folder / RUN_JSON}: missing or not valid JSON")
-    status = _status_of(meta)
+    status = status_of(meta)
     if status != STATUS_COMPLETE:
         reason = f" ({meta['reason']})" if meta.get("reason") else ""
         raise IncompleteResults(f"{folder / RUN_JSON}: status {status!r}{reason}: the run in this folder did "
@@ -528,23 +521,9 @@ class IncompleteResults(ValueError):
     """An output folder whose run.json does not say ``status = "complete"``."""
 
 
-#: The staging folder of the process ``<pid>`` inside an output folder.
-STAGING_PREFIX = ".autocable-staging-"
-#: Fixed names of the files a run writes (an earlier run's run.json without a manifest, or none).
-_RUN_FILES = (BRANCHES_CSV, SPECIAL_CSV, "overlay.csv", "overlay_ame.csv", "compare.json", "time_series.csv",
-              "regions.csv", "regions.json")
-#: Temporary files of an atomic write killed half-way: ``.<name>.<mkstemp's 8 characters>.<suffix>``
-#: (``.tmp``; earlier versions drew figures into ``.<scene>.png.<8>.png``).
-_TEMP = re.compile(r"^\.(?P<name>.+)\.[a-z0-9_]{8}\.(tmp|png|pdf)$")
-
-
-def is_leftover(name: str) -> bool:
-    """Whether a name in an output folder is what a killed run leaves: its staging folder or the
-    temporary file of an atomic write (the next run into the folder removes both)."""
-    return name.startswith(STAGING_PREFIX) or bool(_TEMP.match(name))
-
-
-def _status_of(meta) -> str:
+def status_of(meta) -> str:
+    """The ``status`` of a parsed run.json (``meta``): "missing" when there is none, "unmarked"
+    when it has no status (a folder of an earlier version)."""
     if not isinstance(meta, dict):
         return "missing"
     return str(meta.get("status") or "unmarked")
@@ -553,151 +532,9 @@ def _status_of(meta) -> str:
 def run_status(folder: str | Path) -> str:
     """run.json's ``status`` in ``folder``: "complete", "running" (being written, or killed),
     "failed", "interrupted", "unmarked" (no status: not a result of this version) or "missing"."""
-    return _status_of(read_json(Path(folder) / RUN_JSON))
+    return status_of(read_json(Path(folder) / RUN_JSON))
 
 
 def is_complete(folder: str | Path) -> bool:
     """Whether ``folder`` holds a run that finished (run.json written last, ``status = "complete"``)."""
     return run_status(folder) == STATUS_COMPLETE
-
-
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    except (OverflowError, ValueError, OSError):
-        return False
-    return True
-
-
-def _owned_files(meta, name: str) -> set[str]:
-    """The files of ``folder`` a new run may replace: those the earlier run.json lists, or, from a
-    run.json without a manifest (or none), the names a run writes."""
-    if isinstance(meta, dict) and isinstance(meta.get("files"), list):
-        return {str(f) for f in meta["files"]}
-    return _run_names(meta, name)
-
-
-def _run_names(meta, name: str) -> set[str]:
-    """The names a run of ``name`` (or of the scene an earlier run.json names) writes."""
-    names = {name} | ({str(meta["name"])} if isinstance(meta, dict) and meta.get("name") else set())
-    return set(_RUN_FILES) | {f"{n}{tail}{ext}" for n in names for tail in ("", "_plane", "_chart")
-                              for ext in (".png", ".pdf")}
-
-
-def _marker(name: str, files) -> dict:
-    return {"format": "autocable.run/1", "name": name, "status": "running", "pid": os.getpid(),
-            "files": sorted(files)}
-
-
-def _prepare(out: Path, name: str, inputs=()) -> Path:
-    """Check ``out``, clear what killed runs left, mark it "running" and make the staging folder.
-    ``inputs`` (files the run reads: scene, model, digitised points, map) may sit in ``out``."""
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise SpecError(out, "--out", f"cannot make the output folder: {exc.strerror or exc}; "
-                                      "give a folder that can be created") from None
-    meta = read_json(out / RUN_JSON)
-    if _status_of(meta) == "running":
-        pid = meta.get("pid")
-        if isinstance(pid, int) and pid != os.getpid() and _pid_alive(pid):
-            raise SpecError(out, "--out", f"another autocable run (process {pid}) is writing into this folder; "
-                                          "wait for it or give another folder")
-    owned = _owned_files(meta, name)
-    # a temporary file is removed only when it is one of a file autocable writes here
-    temp_of = owned | _run_names(meta, name) | {RUN_JSON}
-    read = {Path(p).resolve() for p in inputs if p}
-    unknown, leftovers = [], []
-    for entry in sorted(out.iterdir()):
-        n = entry.name
-        if entry.resolve() in read and n not in owned and n != RUN_JSON:
-            continue
-        if n.startswith(STAGING_PREFIX) and entry.is_dir() and not entry.is_symlink():
-            pid = n[len(STAGING_PREFIX):]
-            if pid.isdigit() and int(pid) != os.getpid() and _pid_alive(int(pid)):
-                raise SpecError(out, "--out", f"another autocable run (process {pid}) is writing into this "
-                                              "folder; wait for it or give another folder")
-            leftovers.append(entry)
-        elif entry.is_file() and _TEMP.match(n) and _TEMP.match(n)["name"] in temp_of:
-            leftovers.append(entry)
-        elif not (n == RUN_JSON or (n in owned and entry.is_file())):
-            unknown.append(n)
-    if unknown:
-        shown = ", ".join(unknown[:5]) + (f" and {len(unknown) - 5} more" if len(unknown) > 5 else "")
-        raise SpecError(out, "--out", f"holds files autocable did not write ({shown}); a run replaces only "
-                                      "the files its earlier run listed in run.json: give an empty or new folder, "
-                                      "or move them away")
-    for entry in leftovers:       # a killed run's staging folder or half-written temporary file
-        if entry.is_dir():
-            shutil.rmtree(entry, ignore_errors=True)
-        else:
-            entry.unlink(missing_ok=True)
-    # From here the earlier run's files no longer read as a result, whatever happens to this run.
-    atomic_write_json(out / RUN_JSON, _marker(name, {f for f in owned if (out / f).is_file()}))
-    staging = out / f"{STAGING_PREFIX}{os.getpid()}"
-    shutil.rmtree(staging, ignore_errors=True)
-    staging.mkdir()
-    return staging
-
-
-def _publish(staging: Path, out: Path, name: str, status: str, reason: str = "") -> None:
-    """Move the staged files into ``out``, remove the earlier run's others, write run.json last."""
-    staged = sorted(p.name for p in staging.iterdir()
-                    if p.is_file() and p.name != RUN_JSON and not _TEMP.match(p.name))
-    earlier = read_json(out / RUN_JSON)
-    old = set(earlier.get("files", [])) if isinstance(earlier, dict) and isinstance(earlier.get("files"), list) \
-        else set()
-    # Before a file moves: the marker names every file a kill during the moves could leave here.
-    atomic_write_json(out / RUN_JSON, _marker(name, old | set(staged)))
-    for n in staged:
-        os.replace(staging / n, out / n)
-    for n in sorted(old - set(staged)):
-        if n != RUN_JSON and "/" not in n:
-            (out / n).unlink(missing_ok=True)
-    meta = read_json(staging / RUN_JSON)
-    meta = dict(meta) if isinstance(meta, dict) else {"format": "autocable.run/1", "name": name}
-    meta.pop("pid", None)
-    meta.update(status=status, files=staged)
-    if reason:
-        meta["reason"] = reason
-    else:
-        meta.pop("reason", None)
-    atomic_write_json(out / RUN_JSON, meta)
-    shutil.rmtree(staging, ignore_errors=True)
-
-
-def _reason(exc: BaseException) -> str:
-    if isinstance(exc, KeyboardInterrupt):
-        return "interrupted"
-    text = str(exc).strip().splitlines()
-    first = text[0] if text else ""
-    return first if isinstance(exc, SpecError) else f"{type(exc).__name__}: {first}".rstrip(": ")
-
-
-@contextmanager
-def output_folder(out_dir: str | Path, name: str, inputs: Sequence = ()) -> Iterator[Path]:
-    """Stage a run's files and publish them into ``out_dir``; yields the staging folder.
-
-    Before: ``out_dir`` is refused (`SpecError`) if it holds files no earlier run listed (other than
-    the run's ``inputs``, e.g. the scene file or a map it reads), or another live run writes into it; a killed run's staging folder and temporary files are removed; run.json
-    becomes ``status = "running"`` (the earlier results stop reading as complete). After: the staged
-    files replace the earlier run's (whose other files are removed) and run.json is written last,
-    ``"complete"``; a run that raises publishes what it staged as ``"failed"`` (``"interrupted"``
-    for Ctrl-C) with the ``reason``, and the exception goes on. A killed run leaves "running".
-    """
-    out = Path(out_dir)
-    staging = _prepare(out, name, inputs)
-    try:
-        yield staging
-    except BaseException as exc:
-        status = "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed"
-        try:
-            _publish(staging, out, name, status, _reason(exc))
-        except Exception:   # noqa: BLE001 - the run's own error matters; run.json still says "running"
-            pass
-        raise
-    _publish(staging, out, name, STATUS_COMPLETE)

@@ -14,7 +14,8 @@ import pytest
 from autocable import cli
 from autocable._store import atomic_write_text
 from autocable.paper.report import load_scene_data
-from autocable.results import (STAGING_PREFIX, IncompleteResults, is_complete, read_results, run_status)
+from autocable.results import IncompleteResults, is_complete, read_results, run_status
+from autocable.run_folder import STAGING_PREFIX
 from autocable.scene.runner import run_scene
 from autocable.scene.schema import load_scene
 from autocable.spec import SpecError

@@ -27,7 +27,8 @@ from typing import Callable
 
 from autocable._paths import RUNS_DIR
 from autocable._store import read_json
-from autocable.results import RUN_JSON, is_complete, is_leftover, read_results, run_status
+from autocable.results import RUN_JSON, is_complete, read_results, run_status
+from autocable.run_folder import is_leftover
 
 __all__ = ["MIN_TRIALS", "kill_bench", "run_kill_bench", "folder_state"]
 

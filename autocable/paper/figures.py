@@ -238,7 +238,7 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
             name = path.stem
             folder = out / name
             # The scene's run marks its folder incomplete before it computes and publishes its files
-            # at the end (`autocable.results.output_folder`); the error file is ours to clear.
+            # at the end (`autocable.run_folder.output_folder`); the error file is ours to clear.
             (folder / ERROR_TXT).unlink(missing_ok=True)
             recv, send = ctx.Pipe(duplex=False)
             proc = ctx.Process(target=_worker, args=(str(path), str(folder), send, engine), daemon=True)

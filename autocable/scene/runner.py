@@ -213,11 +213,11 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
     with a `SpecError` naming the run.
 
     The files are written into a staging folder inside ``out_dir`` and published when the scene
-    ends, run.json last (`autocable.results.output_folder`): ``out_dir`` reads as complete only
+    ends, run.json last (`autocable.run_folder.output_folder`): ``out_dir`` reads as complete only
     after a run that finished; a run that raises leaves ``status = "failed"`` with the reason, a
     killed one ``"running"``.
     """
-    from autocable.results import output_folder
+    from autocable.run_folder import output_folder
 
     def say(msg: str) -> None:
         if progress:
