@@ -70,7 +70,8 @@ class Case:
         h = hashlib.sha256(repr(self.argv).encode())
         for name in sorted(self.files):
             v = self.files[name]
-            h.update(name.encode() + (v if isinstance(v, bytes) else repr(v if isinstance(v, str) else id(v)).encode()))
+            text = v if isinstance(v, (str, bytes)) else ("<fifo>" if v is FIFO else "<folder>")
+            h.update(name.encode() + (text if isinstance(text, bytes) else text.encode()))
         return h.hexdigest()[:16]
 
     def describe(self) -> dict:
