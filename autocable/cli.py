@@ -483,9 +483,12 @@ def cmd_bench(args) -> int:
     _check_out("--out", args.out)
     if args.what is None:
         return cmd_work_precision(args)
-    from autocable.bench.commands import run_bench
+    if args.what == "fuzz":
+        return cmd_fuzz(args)
     if args.what == "kill":
-        from autocable.bench.kill import run_kill_bench as run_bench  # noqa: F811 - same signature
+        from autocable.bench.kill import run_kill_bench as run_bench
+    else:
+        from autocable.bench.commands import run_bench
     result = run_bench(args.what, args.model, repeats=args.repeats,
                        log=None if args.quiet else (lambda s: print(s, file=sys.stderr)),
                        out=args.out)
@@ -496,6 +499,20 @@ def cmd_bench(args) -> int:
         atomic_write_json(out / f"bench_{args.what}.json", _strict(result))
     print(dumps(result, indent=1))
     return 0
+
+
+def cmd_fuzz(args) -> int:
+    """`autocable bench fuzz`: hostile specs, scenes and arguments through this command line;
+    exit 1 when any case shows a problem."""
+    from autocable.bench.fuzz import run_fuzz
+    result = run_fuzz(main, specs=args.specs, scenes=args.scenes, args=args.args, seed=args.seed,
+                      out=args.out, real_runs=args.runs,
+                      log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
+    if args.out:
+        from autocable._store import atomic_write_json
+        atomic_write_json(Path(args.out) / "bench_fuzz.json", result)
+    print(json.dumps(result, indent=1))
+    return 1 if result["problem_count"] else 0
 
 
 def cmd_failure_map(args) -> int:
@@ -716,7 +733,7 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
     b.add_argument("what", nargs="?", default=None,
                    choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "ordering", "engines",
-                            "shooting", "sweep", "kill"],
+                            "shooting", "sweep", "kill", "fuzz"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
                         "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
@@ -729,7 +746,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "shooting against transient integration at equal accuracy (Figs. 5-10, 77 points); "
                         "sweep: 'autocable sweep' throughput with 1 and 2 Dask workers and the scaling; "
                         "kill: a scene run killed (SIGKILL, SIGINT) at random moments --repeats times (at least "
-                        "20), each folder checked not to read as complete, leftovers checked after a rerun. "
+                        "20), each folder checked not to read as complete, leftovers checked after a rerun; "
+                        "fuzz: hostile model specs, scenes and arguments, counts of tracebacks, exit-0 "
+                        "results for invalid input, unnamed rejections and hangs. "
                         "Without a subcommand "
                         "(--out DIR): the work-precision bench of the method ladder (bench.json, "
                         "work_precision.png, work_precision.md)")
@@ -742,6 +761,11 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--scene", action="append", metavar="SCENE",
                    help="work-precision bench: a scene name (fig06) or file; repeatable (default: "
                         "fig05a, fig06, fig09 and fig10 when its file exists)")
+    b.add_argument("--specs", type=int, default=1000, help="fuzz: mutated model specs (default 1000)")
+    b.add_argument("--scenes", type=int, default=300, help="fuzz: mutated scenes (default 300)")
+    b.add_argument("--args", type=int, default=60, help="fuzz: argument vectors (default 60)")
+    b.add_argument("--runs", type=int, default=16, help="fuzz: real scene runs at most (default 16)")
+    b.add_argument("--seed", type=int, default=0, help="fuzz: seed of the mutations (default 0)")
     b.set_defaults(func=cmd_bench)
 
     adv = sub.add_parser("advise", help="which rung of the method ladder a scene needs at a tolerance "
