@@ -259,3 +259,26 @@ def test_every_step_key_has_bounds():
     from autocable.methods.continuation.settings import STEP_KEYS
     from autocable.scene.schema import _STEP_BOUNDS
     assert set(_STEP_BOUNDS) == set(STEP_KEYS)
+
+
+def test_a_calibration_no_angle_satisfies_names_the_file_and_field(capsys, tmp_path):
+    """A horizontal chord (alpha = 0) leaves no rivulet angle with the onset at U_c and the
+    out-of-plane mode stable: an input the user must change, so exit 2 naming the file and field
+    (it went through the catch-all as a CalibrationError before)."""
+    path = _spec(tmp_path, "chord_slope_deg = -35.2", "chord_slope_deg = 0.0")
+    err = _refused(capsys, ["derive", str(path), "--json"], str(path), "aero.rivulet_angle_deg", "no angle")
+    assert "CalibrationError" not in err
+
+
+def test_scene_state_start_has_the_ame_dimension_and_model_path_is_plain(capsys, tmp_path):
+    """A `state` start with 3 numbers on the 2-dof AME (4 variables) and a model path with a NUL
+    byte are refused when the scene is read, naming the field."""
+    text = (REPO / "runs" / "fig05b.toml").read_text().replace(
+        '"../models/', f'"{REPO}/models/')
+    scene = tmp_path / "s.toml"
+    scene.write_text(text.replace('start = "trivial"', "start = { state = [0.0, 0.0, 0.0] }", 1))
+    _refused(capsys, ["run", str(scene), "--out", str(tmp_path / "o")], str(scene), ".start.state",
+             "4 state variables")
+    scene.write_text(text.replace(f'"{REPO}/models/luongo_zulli_2012.toml"', '"nul\\u0000.toml"', 1))
+    _refused(capsys, ["run", str(scene), "--out", str(tmp_path / "o")], str(scene), "model",
+             "control characters")

@@ -20,7 +20,11 @@ from autocable.model.galerkin import linear_aero_matrix
 
 
 class CalibrationError(ValueError):
-    """No angle satisfies the calibration conditions."""
+    """No angle satisfies the calibration conditions; ``field`` is the spec field to change."""
+
+    def __init__(self, field: str, message: str):
+        self.field, self.message = field, message
+        super().__init__(f"{field}: {message}")
 
 
 @dataclass(frozen=True)
@@ -84,7 +88,7 @@ def calibrate(aero_spec, st, modes, integrator, K: float, nu: float, xi_s: float
     field = "yaw_deg" if solve_yaw else "rivulet_angle_deg"
     if not accepted:
         raise CalibrationError(
-            f"aero.{field}: no angle in [{lo}, {hi}] deg makes the in-plane mode lose stability at "
+            f"aero.{field}", f"no angle in [{lo}, {hi}] deg makes the in-plane mode lose stability at "
             f"U_c with the out-of-plane mode stable up to 1.3 U_c (roots found: "
             f"{[round(r, 3) for r in roots]}); give the angle explicitly or change the other one")
     best = min(accepted, key=abs)
@@ -135,5 +139,5 @@ def decoupled_angles(aero_spec, st, modes, integrator, K: float, nu: float, xi_s
 
     x, info, ok, msg = fsolve(residual, list(guess_deg), xtol=1e-13, full_output=True)
     if ok != 1 or max(abs(r) for r in residual(x)) > 1e-9:
-        raise CalibrationError(f"aero: no decoupled (yaw, rivulet) pair near {guess_deg} deg: {msg}")
+        raise CalibrationError("aero", f"no decoupled (yaw, rivulet) pair near {guess_deg} deg: {msg}")
     return float(x[0]), float(x[1])

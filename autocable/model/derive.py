@@ -14,14 +14,14 @@ from dataclasses import dataclass, field
 
 from autocable._store import cache_dir, content_hash, load_checked_json, store_checked_json
 from autocable.model.aero import expand_load
-from autocable.model.calibration import calibrate
+from autocable.model.calibration import CalibrationError, calibrate
 from autocable.model.equations import TwoModeODE
 from autocable.model.galerkin import aero_scales, project
 from autocable.model.modes import linear_modes
 from autocable.model.premises import check_model
 from autocable.model.shapes import ClosedFormIntegrator, QuadratureIntegrator
 from autocable.model.statics import CableStatics, cable_statics, regime_warnings
-from autocable.spec import ModelSpec, load_model
+from autocable.spec import ModelSpec, SpecError, load_model
 
 #: Bump when a change in the physics changes the numbers, so stale cached derivations are not used.
 DERIVATION_VERSION = "eq21-v2"
@@ -71,7 +71,10 @@ def _compute(spec: ModelSpec, integrator: str) -> dict:
     t0 = time.perf_counter()
     calibrated, roots = "", []
     if spec.aero.yaw_deg is None or spec.aero.rivulet_angle_deg is None:
-        cal = calibrate(spec.aero, st, modes, I, K, nu, spec.cable.damping_ratio)
+        try:
+            cal = calibrate(spec.aero, st, modes, I, K, nu, spec.cable.damping_ratio)
+        except CalibrationError as exc:    # an input no angle can satisfy: the user's to change
+            raise SpecError(spec.path or "<spec>", exc.field, exc.message) from None
         beta, theta0, calibrated = cal.beta, cal.theta0, cal.solved_for
         why = dict(cal.rejected)
         roots = [[r, why.get(r, "")] for r in cal.roots_deg]

@@ -148,6 +148,8 @@ Progress = Callable[[str], None]
 #: `ame` of a scene: the Cartesian AME (24) of both modes, its A2 = 0 reduction, or the one-mode
 #: polar amplitude equation (23) at eta = 0 (galloping, Fig. 3; see methods/amplitude_system.py).
 AME_KINDS = ("2dof", "1dof", "1dof-amplitude")
+#: State variables of each AME's continuation system: (r1, s1, r2, s2), (r1, s1), (a1) of eq. (23).
+_STATE_SIZE = {"2dof": 4, "1dof": 2, "1dof-amplitude": 1}
 
 
 @dataclass(frozen=True)
@@ -406,6 +408,8 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
         raise SpecError(path, "model", "missing; give the model file, e.g. \"../models/luongo_zulli_2012.toml\"")
     if not isinstance(data["model"], str):
         raise SpecError(path, "model", f"expected a path string, got {data['model']!r}")
+    if not data["model"] or any(ord(c) < 32 for c in data["model"]):
+        raise SpecError(path, "model", f"expected a file path without control characters, got {show(data['model'])}")
     model = (path.parent / data["model"]).resolve()
     if not model.is_file():
         what = "not a regular file (a directory, FIFO or device)" if model.exists() else "no such file"
@@ -470,6 +474,9 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
         _premises({parameter: lo}, path, {parameter: f"{where}.range"})
         _premises({parameter: hi}, path, {parameter: f"{where}.range"})
         start = _start(r.get("start", "trivial"), path, f"{where}.start")
+        if start.kind == "state" and ame in _STATE_SIZE and len(start.values) != _STATE_SIZE[ame]:
+            raise SpecError(path, f"{where}.start.state", f'ame = "{ame}" has {_STATE_SIZE[ame]} state '
+                                                          f"variables, got {len(start.values)} numbers")
         if start.kind == "label":
             src = start.label.split(":")[0]
             earlier = names - {name}
