@@ -282,3 +282,16 @@ def test_scene_state_start_has_the_ame_dimension_and_model_path_is_plain(capsys,
     scene.write_text(text.replace(f'"{REPO}/models/luongo_zulli_2012.toml"', '"nul\\u0000.toml"', 1))
     _refused(capsys, ["run", str(scene), "--out", str(tmp_path / "o")], str(scene), "model",
              "control characters")
+
+
+def test_empty_model_path_and_non_finite_compare_points(capsys, tmp_path):
+    """`derive ""` is refused as an empty path (it read as the folder "." before); a [compare] csv
+    with nan/inf points is refused naming the csv and the row (it failed as a JSON error after the
+    continuation before)."""
+    _refused(capsys, ["derive", ""], "<empty path>", "no file given")
+    from autocable.scene.schema import CompareSpec, read_compare
+    csv_path = tmp_path / "points.csv"
+    csv_path.write_text("x,y\n0.01,2e-4\nnan,inf\n")
+    with pytest.raises(SpecError) as err:
+        read_compare(CompareSpec(csv=csv_path))
+    assert str(csv_path) in str(err.value) and "row 3" in str(err.value) and "finite" in str(err.value)

@@ -764,10 +764,13 @@ def read_compare(spec: CompareSpec) -> list[dict]:
                 raise SpecError(spec.csv, "", f"missing columns {sorted(missing)}; expected x, y, curve, stable")
             for k, r in enumerate(reader):
                 try:
-                    rows.append({"x": float(r["x"]), "y": float(r["y"]), "curve": r.get("curve", "") or "",
-                                 "stable": str(r.get("stable", "1")).strip().lower() in ("1", "true", "yes", "s")})
+                    x, y = float(r["x"]), float(r["y"])
                 except (TypeError, ValueError):
                     raise SpecError(spec.csv, f"row {k + 2}", "x and y must be numbers") from None
+                if not (math.isfinite(x) and math.isfinite(y)):
+                    raise SpecError(spec.csv, f"row {k + 2}", f"x and y must be finite numbers, got {x}, {y}")
+                rows.append({"x": x, "y": y, "curve": r.get("curve", "") or "",
+                             "stable": str(r.get("stable", "1")).strip().lower() in ("1", "true", "yes", "s")})
     except UnicodeDecodeError as exc:
         raise SpecError(spec.csv, "", f"not UTF-8 text (byte {exc.start}); write the CSV as UTF-8") from None
     except OSError as exc:
