@@ -844,11 +844,19 @@ def main(argv=None) -> int:
         return _dispatch(args)
 
 
+#: The positional file arguments of the commands (model spec, scene, targets, sweep file).
+_INPUT_ARGUMENTS = ("model", "scene", "targets", "sweep")
+
+
 def _dispatch(args) -> int:
     """`main` after parsing: the command, its failures mapped to the exit status of `autocable.errors`."""
     if os.environ.get("AUTOCABLE_DEBUG"):
         return args.func(args)
     try:
+        # an input file given as "" would read as the current folder: name the argument instead
+        for arg in _INPUT_ARGUMENTS:
+            if isinstance(getattr(args, arg, None), str) and not getattr(args, arg).strip():
+                raise _refuse(arg.upper(), "an empty path; give the file")
         return args.func(args)
     except SpecError as exc:
         print(f"autocable: error: {exc}", file=sys.stderr)

@@ -288,7 +288,8 @@ def test_empty_model_path_and_non_finite_compare_points(capsys, tmp_path):
     """`derive ""` is refused as an empty path (it read as the folder "." before); a [compare] csv
     with nan/inf points is refused naming the csv and the row (it failed as a JSON error after the
     continuation before)."""
-    _refused(capsys, ["derive", ""], "<empty path>", "no file given")
+    _refused(capsys, ["derive", ""], "MODEL", "an empty path")
+    _refused(capsys, ["run", " ", "--out", str(tmp_path / "o")], "SCENE", "an empty path")
     from autocable.scene.schema import CompareSpec, read_compare
     csv_path = tmp_path / "points.csv"
     csv_path.write_text("x,y\n0.01,2e-4\nnan,inf\n")
