@@ -80,6 +80,8 @@ def _check_simulate(args) -> None:
     _check_number("--max-time", args.max_time, 0.0, MAX_TIME_LIMIT, lo_open=True)
     _check_number("--modes", args.modes, 1, MODES_LIMIT, integer=True)
     _check_out("--csv", args.csv)
+    if args.csv and Path(args.csv).is_dir():       # found before the integration, not after it
+        raise _refuse("--csv", f"{args.csv} is a folder; give a file name for the time history")
 
 
 def _strict(x):

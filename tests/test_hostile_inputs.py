@@ -296,3 +296,9 @@ def test_empty_model_path_and_non_finite_compare_points(capsys, tmp_path):
     with pytest.raises(SpecError) as err:
         read_compare(CompareSpec(csv=csv_path))
     assert str(csv_path) in str(err.value) and "row 3" in str(err.value) and "finite" in str(err.value)
+
+
+def test_csv_into_a_folder_is_refused_before_the_integration(capsys, tmp_path):
+    """`simulate --csv FOLDER` failed after the integration with IsADirectoryError (found by the
+    fuzz run with seed 1): now refused at once, naming the option."""
+    _refused(capsys, ["simulate", str(SAMPLE), "--csv", str(tmp_path)], "--csv", "is a folder")
