@@ -208,3 +208,29 @@ def test_neighbour_start_follows_integration_not_a_coexisting_orbit(solver, tran
     assert r.response == "period-1"
     assert abs(r.a1 - q.a1) <= 1e-6 * max(q.a1, q.a2) and abs(r.a2 - q.a2) <= 1e-6 * max(q.a1, q.a2)
     assert any(a.get("not_attracting") for a in r.details["attempts"])
+
+
+def test_neighbour_sweep_at_fig9_follows_integration_into_bimodal_motion():
+    """Fig. 9's setting (U* = 0.7, eta* = 1.4e-3) swept up in sigma, each point started from its
+    neighbour's response (`autocable sweep` with ``follow``) against the transient up-sweep of the
+    overlays (`methods.integration.sweeps`, an independent implementation): at sigma = -0.02 a
+    coexisting bi-modal orbit with a2 = 3.4e-3 lies next to the one integration reaches (a2 =
+    1.6e-3). A judge that accepted Newton's orbit because the transient had approached it over its
+    last periods took the wrong one; shooting must report integration's, to 1e-6."""
+    from autocable.methods.integration.ode21 import DEFAULT_Q0, Ode21Integrator
+    from autocable.methods.integration.sweeps import sweep
+    from autocable.spec import load_model
+    from autocable.studies.sweep import carry_from, compute_point, model_context
+    model = load_model(SAMPLE)
+    sigmas = [-0.05, -0.04, -0.03, -0.02]
+    transient = Ode21Integrator(model_context(model, "shooting")[0].ode, engine="compiled")
+    ref = sweep(transient, "sigma", sigmas, {"U": 0.7, "eta": 1.4e-3}, directions=("up",))
+    carried = None
+    for sigma, p in zip(sigmas, ref):
+        rec = compute_point(model, "shooting", 0.7, 1.4e-3, sigma, DEFAULT_Q0, 60000.0, carried)
+        carried = carry_from(rec)
+        assert p.periodic and rec["response"] == "period-1", (sigma, rec["response"])
+        size = max(p.a1, p.a2)
+        assert abs(rec["a1"] - p.a1) <= 1e-6 * size and abs(rec["a2"] - p.a2) <= 1e-6 * size, \
+            (sigma, rec["a1"], rec["a2"], p.a1, p.a2)
+    assert ref[-1].a2 > 1e-3        # the point where the two orbits coexist is bi-modal
