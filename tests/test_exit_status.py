@@ -256,3 +256,32 @@ def test_settle_and_orbit_budgets_raise(sample_ame):
         settle(system, values, y0, scale=1e-3, evaluations=10)
     with pytest.raises(BudgetExceeded, match="more than 3 steps"):
         periodic_orbit(system, values, y0, scale=1e-3, max_steps=3)
+
+
+def test_a_failed_follow_up_branch_keeps_the_scene(capsys, tmp_path, monkeypatch):
+    """A numerical failure while switching branches at a pitchfork (Fig. 6, compiled engine,
+    coarse) loses that follow-up branch only (and the runs that start on it): run I and its cycles
+    are computed and written, run.json lists the failed follow-ups and the folder is published as
+    "failed", exit 3 (a failed follow-up ended the whole scene before)."""
+    from conftest import RUNS
+    from autocable.methods import continuation as C
+
+    def failing(source, label, *args, **kwargs):
+        raise ComputationError(f"the corrector did not converge at {label} (provoked)")
+
+    monkeypatch.setattr(C, "switch_branch", failing)
+    out = tmp_path / "out"
+    code, _, err = run_cli(capsys, "run", RUNS / "fig06.toml", "--out", out, "--no-plot", "--quiet",
+                           "--resolution", "coarse", "--engine", "compiled")
+    assert code == 3
+    assert "failed" in err and "provoked" in err
+    run = json.loads((out / "run.json").read_text())
+    assert run["status"] == "failed"
+    failed = run["provenance"]["failed_runs"]
+    switched = {name for name in failed if re.fullmatch(r"I-BP\d+", name)}
+    assert switched == {"I-BP1", "I-BP2"}, failed
+    # run II starts on I-BP1's branch: skipped with the reason, not attempted
+    assert set(failed) - switched == {"II"} and "I-BP1, which failed" in failed["II"]
+    with (out / "branches.csv").open() as fh:
+        names = {r["branch"] for r in csv.DictReader(fh)}
+    assert "I" in names and not names & set(failed)

@@ -300,6 +300,15 @@ def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolut
                                               if b.parameter2 else "") + ", special points "
             f"{', '.join(s.label for s in b.special_points) or 'none'} ({ends})")
 
+    def follow_up(compute, name: str, where: str) -> None:
+        """A branch launched from a run's special point (cycles from H, switching at BP): a
+        numerical failure there loses that branch only, as a run's own start does."""
+        try:
+            add(compute())
+        except ComputationError as exc:
+            failed[name] = f"{where} (follow-up {name}): {exc}"
+            say(f"  {name} failed: {exc}")
+
     for run in scene.runs:
         where = f"run[{run.index}]"
         t_run = time.perf_counter()
@@ -377,16 +386,18 @@ def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolut
                 if h.origin != "autocable":
                     continue
                 say(f"  cycles from {h.name}")
-                add(C.continue_cycles(results[run.name], h.label, settings, name=f"{run.name}-{h.label}",
-                                      progress=say, engine=scene.engine))
+                follow_up(lambda h=h: C.continue_cycles(results[run.name], h.label, settings,
+                                                        name=f"{run.name}-{h.label}", progress=say,
+                                                        engine=scene.engine), f"{run.name}-{h.label}", where)
                 follow["cycles"] += 1
         if run.kind != "cycles" and run.switch:
             for bp in results[run.name].branch.of_type("BP"):
                 if bp.origin != "autocable" or bp.label == "BP0":
                     continue
                 say(f"  switching branches at {bp.name}")
-                add(C.switch_branch(results[run.name], bp.label, settings, name=f"{run.name}-{bp.label}",
-                                    progress=say, engine=scene.engine))
+                follow_up(lambda bp=bp: C.switch_branch(results[run.name], bp.label, settings,
+                                                        name=f"{run.name}-{bp.label}", progress=say,
+                                                        engine=scene.engine), f"{run.name}-{bp.label}", where)
                 follow["switch"] += 1
         run_times[run.name] = {"wall_s": time.perf_counter() - t_run,
                                **{k: v for k, v in results[run.name].timings.items()},
