@@ -1,0 +1,192 @@
+"""The `autocable` command: derive, simulate, run, chart, sweep, figures, bench, calibrate.
+
+Errors a user can fix (a bad spec, a bad option, a failed build or run) are printed as one line
+naming the file and field; no traceback. ``AUTOCABLE_DEBUG=1`` shows tracebacks. The exit status is
+`autocable.errors`'s: 0 a result, 2 bad input, 3 a failed computation, 130 interrupted.
+
+One module per group of commands: `derivation`, `simulate`, `runs` (run, chart, sweep), `studies`
+(bench, advise, failure-map, calibrate); `checks` holds the option checks and the strict JSON.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from autocable._paths import SAMPLE_MODEL
+from autocable._version import __version__
+from autocable.errors import EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, CacheError, ComputationError
+from autocable.paper.figures import add_figures_parser
+from autocable.cli.checks import refuse
+from autocable.cli.derivation import cmd_derive
+from autocable.cli.runs import add_chart_parser, add_run_parser, add_sweep_parser
+from autocable.cli.simulate import cmd_simulate
+from autocable.cli.studies import cmd_advise, cmd_bench, cmd_calibrate, cmd_failure_map
+from autocable.spec import SpecError
+
+__all__ = ["main", "build_parser", "add_run_parser"]
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="autocable", description=__doc__.splitlines()[0])
+    p.add_argument("--version", action="version", version=f"autocable {__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    d = sub.add_parser("derive", help="derive eq. (21) from a model spec and report its coefficients")
+    d.add_argument("model", help="model spec file (models/*.toml)")
+    d.add_argument("--json", action="store_true", help="one JSON object instead of the report "
+                   "(key 'ame': the Cartesian amplitude equations (24) as a coefficient table)")
+    d.add_argument("--latex", action="store_true", help="print the amplitude equations (22) in LaTeX")
+    d.add_argument("--ordering", choices=("paper", "natural"), default="paper",
+                   help="Multiple Scales ordering of the AME: 'paper' (Sect. 4, every aerodynamic term at "
+                        "third order; default) or 'natural' (aerodynamic terms at their natural order)")
+    d.set_defaults(func=cmd_derive)
+
+    s = sub.add_parser("simulate", help="integrate eq. (21) (or its amplitude equations) to a steady state")
+    s.add_argument("model")
+    s.add_argument("--U", type=float, default=0.0, help="nondimensional wind speed U* = U/U_c")
+    s.add_argument("--eta", type=float, default=0.0, help="nondimensional support amplitude eta* = eta/l")
+    s.add_argument("--sigma", type=float, default=0.0, help="external detuning: Omega = omega1 + sigma")
+    s.add_argument("--q0", type=float, nargs=4, metavar=("Q1", "Q1DOT", "Q2", "Q2DOT"),
+                   help="initial state (default: rest with q2 = 1e-6)")
+    s.add_argument("--max-time", type=float, default=60000.0, help="give up after this time (t* units)")
+    s.add_argument("--json", action="store_true")
+    s.add_argument("--csv", metavar="FILE", help="write the time history")
+    s.add_argument("--quiet", action="store_true", help="no progress")
+    s.add_argument("--method", choices=["ode21", "ame", "shooting"], default="ode21",
+                   help="ode21: direct integration of eq. (21); ame: the Multiple Scales amplitude "
+                        "equations (24) to their steady state; shooting: the steady response of eq. (21) "
+                        "by Newton on the period map after a short transient, with its Floquet "
+                        "multipliers and class (rest, period-1, period-2, quasi-periodic, diverged) "
+                        "(default ode21)")
+    s.add_argument("--modes", type=int, metavar="N",
+                   help="integrate eq. (21) with N in-plane and N out-of-plane modes (the check that "
+                        "two modes suffice); a1, a2 are the first modes' amplitudes")
+    s.set_defaults(func=cmd_simulate)
+
+    b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
+    b.add_argument("what", nargs="?", default=None,
+                   choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "ordering", "engines",
+                            "shooting", "sweep", "kill", "fuzz"],
+                   help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
+                        "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
+                        "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
+                        "auto: EP-C cost per point against AUTO-07p (bifpy; set AUTOCABLE_AUTO_PYTHON "
+                        "or install autocable[auto]); figures: wall time of `autocable figures` (all scenes), "
+                        "cold and warm cache, with the share of each stage; ordering: the paper's and the "
+                        "natural Multiple Scales ordering (2-dof and A2 = 0) against eq. (21) at Figs. 4c, 7, 9 "
+                        "(with --out, also ordering.md/.png); engines: every figure scene on PyCont and on the compiled "
+                        "kernel (coarse), their special points compared; shooting: steady points of eq. (21) by "
+                        "shooting against transient integration at equal accuracy (Figs. 5-10, 77 points); "
+                        "sweep: 'autocable sweep' throughput with 1 and 2 Dask workers and the scaling; "
+                        "kill: a scene run killed (SIGKILL, SIGINT) at random moments --repeats times (at least "
+                        "20), each folder checked not to read as complete, leftovers checked after a rerun; "
+                        "fuzz: hostile model specs, scenes and arguments, counts of tracebacks, exit-0 "
+                        "results for invalid input, unnamed rejections and hangs. "
+                        "Without a subcommand "
+                        "(--out DIR): the work-precision bench of the method ladder (bench.json, "
+                        "work_precision.png, work_precision.md)")
+    b.add_argument("--model", default=str(SAMPLE_MODEL))
+    b.add_argument("--repeats", type=int, default=3)
+    b.add_argument("--out", help="folder to write bench_<what>.json")
+    b.add_argument("--quiet", action="store_true")
+    b.add_argument("--quick", action="store_true", help="work-precision bench: the one-minute version "
+                   "(Fig. 5a only, coarse reference, two knob settings per method, no repeats)")
+    b.add_argument("--scene", action="append", metavar="SCENE",
+                   help="work-precision bench: a scene name (fig06) or file; repeatable (default: "
+                        "fig05a, fig06, fig09 and fig10 when its file exists)")
+    b.add_argument("--specs", type=int, default=1000, help="fuzz: mutated model specs (default 1000)")
+    b.add_argument("--scenes", type=int, default=300, help="fuzz: mutated scenes (default 300)")
+    b.add_argument("--args", type=int, default=60, help="fuzz: argument vectors (default 60)")
+    b.add_argument("--runs", type=int, default=16, help="fuzz: real scene runs at most (default 16)")
+    b.add_argument("--seed", type=int, default=0, help="fuzz: seed of the mutations (default 0)")
+    b.set_defaults(func=cmd_bench)
+
+    adv = sub.add_parser("advise", help="which rung of the method ladder a scene needs at a tolerance "
+                                        "(1-dof AME, 2-dof AME, or eq. (21) itself), with the evidence")
+    adv.add_argument("scene", help="scene file (runs/*.toml)")
+    adv.add_argument("--tol", type=float, default=0.02, help="relative tolerance on a1, a2 (default 0.02)")
+    adv.add_argument("--json", action="store_true", help="one JSON object instead of the report")
+    adv.set_defaults(func=cmd_advise)
+
+    fm = sub.add_parser("failure-map", help="maps over (sigma, eta) and (sigma, U) of where the AME "
+                        "and the integrators fail; writes failure_map.md and failure_map_<k>.png")
+    fm.add_argument("--out", required=True, help="folder for failure_map.md and the figures")
+    fm.add_argument("--quick", action="store_true", help="a tiny grid (seconds, for tests)")
+    fm.add_argument("--model", default=str(SAMPLE_MODEL))
+    fm.add_argument("--quiet", action="store_true", help="no progress")
+    fm.set_defaults(func=cmd_failure_map)
+
+    cal = sub.add_parser("calibrate", help="search the paper's unknown inputs (yaw, rivulet angle, "
+                         "and the readings it leaves open) against the statements of Sect. 5; writes "
+                         "calibration.csv, calibration.md and beta-Theta0 maps")
+    cal.add_argument("model", help="model spec file (models/*.toml)")
+    cal.add_argument("targets", help="targets file (models/*.targets.toml)")
+    cal.add_argument("--out", required=True, help="output folder (resumable: finished points are reused)")
+    cal.add_argument("--space", help="search-space file (default: <model>.search.toml beside the model if "
+                                     "it exists, else the built-in space)")
+    cal.add_argument("--jobs", type=int, default=2, help="processes (default 2)")
+    cal.add_argument("--full", type=int, help="candidates evaluated on every figure scene (overrides the space's)")
+    cal.add_argument("--quiet", action="store_true", help="no progress lines")
+    cal.set_defaults(func=cmd_calibrate)
+
+    add_run_parser(sub)
+    add_chart_parser(sub)
+    add_sweep_parser(sub)
+    add_figures_parser(sub)
+    return p
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    import warnings
+    from autocable.model.premises import PremiseWarning
+
+    def one_line(message, category, filename, lineno, file=None, line=None):
+        # a stretched premise is news for the user, not a Python warning with a source line
+        if issubclass(category, PremiseWarning):
+            print(f"autocable: warning: {message}", file=sys.stderr)
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    with warnings.catch_warnings():
+        shown = warnings.showwarning
+        warnings.showwarning = one_line
+        warnings.simplefilter("default", PremiseWarning)    # once per place and text, every call
+        return _dispatch(args)
+
+
+#: The positional file arguments of the commands (model spec, scene, targets, sweep file).
+_INPUT_ARGUMENTS = ("model", "scene", "targets", "sweep")
+
+
+def _dispatch(args) -> int:
+    """`main` after parsing: the command, its failures mapped to the exit status of `autocable.errors`."""
+    if os.environ.get("AUTOCABLE_DEBUG"):
+        return args.func(args)
+    try:
+        # an input file given as "" would read as the current folder: name the argument instead
+        for arg in _INPUT_ARGUMENTS:
+            if isinstance(getattr(args, arg, None), str) and not getattr(args, arg).strip():
+                raise refuse(arg.upper(), "an empty path; give the file")
+        return args.func(args)
+    except SpecError as exc:
+        print(f"autocable: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    except CacheError as exc:
+        print(f"autocable: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    except ComputationError as exc:
+        print(f"autocable: failed: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    except BrokenPipeError:            # output piped into `head` and cut: not an error
+        return 0
+    except KeyboardInterrupt:
+        print("autocable: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception as exc:  # a failure we did not foresee: one line, never a raw traceback
+        from autocable.codegen.compat import PyDSToolError
+        kind = "PyDSTool" if isinstance(exc, PyDSToolError) else type(exc).__name__
+        first = str(exc).splitlines()[0] if str(exc) else kind
+        print(f"autocable: error ({kind}): {first} (set AUTOCABLE_DEBUG=1 for details)", file=sys.stderr)
+        return 2
+

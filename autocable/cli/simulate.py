@@ -1,0 +1,219 @@
+"""`autocable simulate`: the steady response of eq. (21) (or of its amplitude equations, or of the
+N-mode model, or by shooting) at one (U*, eta*, sigma)."""
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+from autocable.cli.checks import (MAX_TIME_LIMIT, MODES_LIMIT, Q0_LIMIT, check_number, check_out, dumps,
+                                  refuse, response_status)
+from autocable.cli.derivation import derivation
+from autocable.spec import SpecError
+
+def _check_parameters(args) -> None:
+    """U*, eta*, sigma of `simulate` against the premises of eq. (21) (one line each; a stretched
+    premise is a one-line warning on stderr)."""
+    import warnings
+
+    from autocable.model.premises import PremiseWarning, check_parameters
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", PremiseWarning)
+        check_parameters({"U": args.U, "eta": args.eta, "sigma": args.sigma}, "arguments",
+                         {"U": "--U", "eta": "--eta", "sigma": "--sigma"})
+    for w in caught:
+        if issubclass(w.category, PremiseWarning):
+            print(f"autocable: warning: {w.message}", file=sys.stderr)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+
+
+def _check_simulate(args) -> None:
+    """Every numeric option of `simulate`, where it enters, before any work."""
+    _check_parameters(args)
+    if args.q0:
+        for name, v in zip(("Q1", "Q1DOT", "Q2", "Q2DOT"), args.q0):
+            if not (math.isfinite(v) and abs(v) <= Q0_LIMIT):
+                raise refuse("--q0", f"{name}: expected a finite number with |{name}| <= {Q0_LIMIT:g} "
+                                      f"(beyond it the response has already diverged), got {v!r}")
+    check_number("--max-time", args.max_time, 0.0, MAX_TIME_LIMIT, lo_open=True)
+    check_number("--modes", args.modes, 1, MODES_LIMIT, integer=True)
+    check_out("--csv", args.csv)
+    if args.csv and Path(args.csv).is_dir():       # found before the integration, not after it
+        raise refuse("--csv", f"{args.csv} is a folder; give a file name for the time history")
+
+
+def cmd_simulate(args) -> int:
+    from autocable.methods.integration.ode21 import DEFAULT_Q0, Ode21Integrator
+    _check_simulate(args)
+    d = derivation(args.model)
+    q0 = tuple(args.q0) if args.q0 else DEFAULT_Q0
+    show = not (args.quiet or args.json)
+
+    def progress(t, amps):
+        if show:
+            print(f"\r  t = {t:9.1f}   a1 = {amps[0]:.6e}   a2 = {amps[1]:.6e}", end="", file=sys.stderr)
+
+    if getattr(args, "modes", None) is not None:
+        return _simulate_nmode(args, d, q0, show, progress)
+    if args.method == "ame":
+        return _simulate_ame(args, d, q0, show, progress)
+    if args.method == "shooting":
+        return _simulate_shooting(args, d, q0)
+    integ = Ode21Integrator(d.ode)
+    r = integ.simulate(args.U, args.eta, args.sigma, q0, max_time=args.max_time,
+                       keep_history=bool(args.csv), progress=progress)
+    if show:
+        print(file=sys.stderr)
+    if args.csv:
+        _write_history(Path(args.csv), r)
+    out = {"status": response_status(r.a1, r.steady),
+           "a1": r.a1, "a2": r.a2, "steady": r.steady, "periodic": r.periodic, "t_end": r.t_end,
+           "U": r.U, "eta": r.eta, "sigma": r.sigma, "Omega": r.Omega,
+           "a1_min": r.a1_min, "a1_max": r.a1_max, "a2_min": r.a2_min, "a2_max": r.a2_max,
+           "amplitude_convention": "a_k = half the peak-to-peak of q_k over the last 20 forcing "
+                                   "periods (peak modal amplitude = peak displacement / l)",
+           "message": r.message, "method": "ode21", "wall_seconds": r.wall_seconds}
+    _print_simulation(args, r, out)
+    return 0
+
+
+def _simulate_shooting(args, d, q0) -> int:
+    """`autocable simulate --method shooting`: the steady response of eq. (21) by Newton on the
+    stroboscopic map, with its Floquet multipliers and class."""
+    from autocable.methods.integration.shooting import ShootingSolver, response_json
+    if args.csv:
+        raise SpecError("--csv", "", "--method shooting computes no time history; use --method ode21 "
+                        "for --csv")
+    r = ShootingSolver(d.ode).steady(args.U, args.eta, args.sigma, q0, max_time=args.max_time)
+    out = {"status": response_status(r.a1, r.steady), **response_json(r)}
+    if args.json:
+        print(dumps(out, indent=1))
+        return 0
+    print(f"U* = {r.U:g}  eta* = {r.eta:g}  sigma = {r.sigma:g}  (Omega = {r.Omega:.6g})  method shooting")
+    print(f"response: {r.response}   a1 = {r.a1:.9e}   a2 = {r.a2:.9e}   ({r.message})")
+    if r.response == "period-2" or r.response == "quasi-periodic":
+        print(f"envelope: a1 in [{r.a1_min:.6e}, {r.a1_max:.6e}], a2 in [{r.a2_min:.6e}, {r.a2_max:.6e}]")
+    if len(r.multipliers):
+        print("Floquet multipliers: " + "  ".join(f"{m.real:+.9f}{m.imag:+.9f}i" for m in r.multipliers)
+              + f"   (max |mu| = {r.max_modulus:.9f})")
+    print(f"transient {r.transient_periods} forcing periods, {r.newton_iterations} Newton steps, "
+          f"{r.wall_seconds * 1e3:.1f} ms")
+    return 0
+
+
+def _simulate_ame(args, d, q0, show, progress) -> int:
+    """`autocable simulate --method ame`: the Cartesian AME (24) from the same start as eq. (21)."""
+    from autocable.methods.integration.ame import AmeIntegrator
+    from autocable.model.ame_cache import derive_ame
+    r = AmeIntegrator(derive_ame(d).ame).simulate(args.U, args.eta, args.sigma, q0,
+                                                  max_time=args.max_time, keep_history=bool(args.csv),
+                                                  progress=progress)
+    if show:
+        print(file=sys.stderr)
+    if args.csv:
+        from autocable._store import atomic_write_text
+        # A diverged response keeps what was computed up to the divergence (possibly nothing).
+        t, r1, s1, r2, s2 = r.history or ((),) * 5
+        rows = ["t,r1,s1,r2,s2"] + [f"{a:.10g},{b:.10e},{c:.10e},{e:.10e},{f:.10e}"
+                                    for a, b, c, e, f in zip(t, r1, s1, r2, s2)]
+        atomic_write_text(Path(args.csv), "\n".join(rows) + "\n")
+    eq = r.equilibrium
+
+    def finite(x):
+        return x if math.isfinite(x) else None
+
+    out = {"status": response_status(r.a1, r.steady),
+           "a1": finite(r.a1), "a2": finite(r.a2), "steady": r.steady, "periodic": r.periodic,
+           "t_end": r.t_end, "U": r.U, "eta": r.eta, "sigma": r.sigma, "Omega": r.Omega,
+           "a1_min": finite(r.a1_min), "a1_max": finite(r.a1_max),
+           "a2_min": finite(r.a2_min), "a2_max": finite(r.a2_max),
+           "amplitude_convention": "a_k = sqrt(r_k^2 + s_k^2) at the AME equilibrium (peak modal "
+                                   "amplitude = peak displacement / l, first order); without an "
+                                   "equilibrium, half the peak-to-peak of the first-order q_k over "
+                                   "the last 20 forcing periods",
+           "periodic_meaning": "the AME reached a stable equilibrium (period-1 motion of q)",
+           "final_state": {"r1": r.final_state[0], "s1": r.final_state[1],
+                           "r2": r.final_state[2], "s2": r.final_state[3]},
+           "message": r.message, "method": "ame", "wall_seconds": r.wall_seconds}
+    if eq is not None:
+        out["equilibrium"] = {"stable": eq.stable, "residual": eq.residual,
+                              "max_real_eigenvalue": eq.max_real,
+                              "eigenvalues": [[e.real, e.imag] for e in eq.eigenvalues]}
+    _print_simulation(args, r, out)
+    return 0
+
+
+def _simulate_nmode(args, d, q0, show, progress) -> int:
+    """`autocable simulate --modes N`: eq. (21) with N in-plane and N out-of-plane modes."""
+    from autocable.methods.integration.nmode import NModeIntegrator
+    if args.method != "ode21":
+        raise SpecError("--modes", "", "--modes integrates the N-mode equations directly; "
+                        f"drop --method {args.method}")
+    integ = NModeIntegrator(d, args.modes, args.modes)
+    x0 = None
+    if args.q0:
+        # --q0 sets the first in-plane and out-of-plane modes, as for eq. (21); the others start at rest.
+        ode, x = integ.ode, [0.0] * (2 * integ.ode.n)
+        x[integ._i1], x[ode.n + integ._i1], x[integ._i2], x[ode.n + integ._i2] = q0
+        x0 = tuple(x)
+    r = integ.simulate(args.U, args.eta, args.sigma, x0, max_time=args.max_time,
+                       keep_history=bool(args.csv), progress=progress)
+    if show:
+        print(file=sys.stderr)
+    if args.csv:
+        from autocable._store import atomic_write_text
+        t, ys = r.history or ((), ())
+        rows = [",".join(("t",) + integ.ode.state_names)]
+        rows += [f"{a:.10g}," + ",".join(f"{v:.10e}" for v in y) for a, y in zip(t, ys)]
+        atomic_write_text(Path(args.csv), "\n".join(rows) + "\n")
+
+    def finite(x):
+        return x if math.isfinite(x) else None
+
+    out = {"status": response_status(r.a1, r.steady),
+           "a1": finite(r.a1), "a2": finite(r.a2), "amplitudes": {k: finite(v) for k, v in r.amplitudes.items()},
+           "omegas": dict(zip(integ.ode.names, integ.ode.omegas)), "steady": r.steady,
+           "periodic": r.periodic, "diverged": r.diverged, "t_end": r.t_end, "U": r.U, "eta": r.eta,
+           "sigma": r.sigma, "Omega": r.Omega,
+           "amplitude_convention": "a_k = half the peak-to-peak of each modal coordinate over the last 20 "
+                                   "forcing periods; a1 = first in-plane (v1), a2 = first out-of-plane (w1)",
+           "message": r.message, "method": "nmode", "modes_per_plane": args.modes,
+           "wall_seconds": r.wall_seconds}
+    if args.json:
+        print(dumps(out, indent=1))
+    else:
+        print(f"U* = {r.U:g}  eta* = {r.eta:g}  sigma = {r.sigma:g}  (Omega = {r.Omega:.6g})  "
+              f"method nmode ({args.modes} in-plane + {args.modes} out-of-plane modes)")
+        print(f"a1 = {r.a1:.9e}   a2 = {r.a2:.9e}   ({r.message}; "
+              f"{'periodic' if r.periodic else 'not period-1'}; t_end = {r.t_end:.1f})")
+        print("modal amplitudes: " + "  ".join(f"{k} = {v:.6e}" for k, v in r.amplitudes.items()))
+    return 0
+
+
+def _print_simulation(args, r, out) -> None:
+    if args.json:
+        print(dumps(out, indent=1))
+    else:
+        print(f"U* = {r.U:g}  eta* = {r.eta:g}  sigma = {r.sigma:g}  (Omega = {r.Omega:.6g})  "
+              f"method {out['method']}")
+        if out["status"] == "diverged":
+            print(f"diverged: no bounded steady state ({r.message}; t_end = {r.t_end:.6g})")
+            return
+        print(f"a1 = {r.a1:.9e}   a2 = {r.a2:.9e}   ({r.message}; "
+              f"{'periodic' if r.periodic else 'not period-1'}; t_end = {r.t_end:.1f})")
+        if not r.periodic:
+            print(f"envelope: a1 in [{r.a1_min:.6e}, {r.a1_max:.6e}], a2 in [{r.a2_min:.6e}, {r.a2_max:.6e}]")
+        if "equilibrium" in out:
+            e = out["equilibrium"]
+            print(f"AME equilibrium: {'stable' if e['stable'] else 'unstable'}, "
+                  f"max Re(eigenvalue) = {e['max_real_eigenvalue']:.6e}, residual {e['residual']:.1e}")
+
+
+def _write_history(path: Path, r) -> None:
+    from autocable._store import atomic_write_text
+    rows = ["t,q1,q2,q1dot,q2dot"]
+    # A diverged response keeps the rows up to the divergence (none when it diverged at once).
+    t, q1, q2, v1, v2 = r.history or ((),) * 5
+    rows += [f"{a:.10g},{b:.10e},{c:.10e},{d:.10e},{e:.10e}" for a, b, c, d, e in zip(t, q1, q2, v1, v2)]
+    atomic_write_text(path, "\n".join(rows) + "\n")

@@ -1,0 +1,111 @@
+"""`autocable bench`, `autocable advise`, `autocable failure-map`, `autocable calibrate`: the
+benchmarks and studies."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from autocable.cli.checks import REPEATS_LIMIT, WORKERS_LIMIT, check_number, check_out, dumps, strict
+from autocable.spec import SpecError, load_model
+
+def cmd_work_precision(args) -> int:
+    """`autocable bench --out DIR` without a subcommand: the method ladder's work-precision bench."""
+    from autocable.studies.work_precision import run_bench as run_work_precision
+    if args.out is None:
+        raise SpecError("bench", "--out", "the work-precision bench writes files: give --out DIR "
+                        "(or name a subcommand: derive, ame-vs-ode, continuation, auto, ...)")
+    result = run_work_precision(args.out, scenes=args.scene or None, quick=args.quick,
+                                repeats=max(args.repeats, 0),
+                                log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
+    print(dumps({"summary": result["summary"], "notes": result["notes"],
+                      "wall_seconds": result["wall_seconds"],
+                      "files": [str(Path(args.out) / f) for f in ("bench.json", "work_precision.png",
+                                                                  "work_precision.md")]}, indent=1))
+    return 0
+
+
+def cmd_advise(args) -> int:
+    from autocable.studies.advise import cmd_advise
+    return cmd_advise(args)
+
+
+def cmd_bench(args) -> int:
+    check_number("--repeats", args.repeats, 0, REPEATS_LIMIT, integer=True)
+    check_out("--out", args.out)
+    if args.what is None:
+        return cmd_work_precision(args)
+    if args.what == "fuzz":
+        return cmd_fuzz(args)
+    if args.what == "kill":
+        from autocable.bench.kill import run_kill_bench as run_bench
+    else:
+        from autocable.bench.commands import run_bench
+    result = run_bench(args.what, args.model, repeats=args.repeats,
+                       log=None if args.quiet else (lambda s: print(s, file=sys.stderr)),
+                       out=args.out)
+    if args.out:
+        from autocable._store import atomic_write_json
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        atomic_write_json(out / f"bench_{args.what}.json", strict(result))
+    print(dumps(result, indent=1))
+    return 0
+
+
+def cmd_fuzz(args) -> int:
+    """`autocable bench fuzz`: hostile specs, scenes and arguments through this command line;
+    exit 1 when any case shows a problem."""
+    from autocable.bench.fuzz import run_fuzz
+    from autocable.cli import main          # the whole command line is what the fuzz cases run
+    result = run_fuzz(main, specs=args.specs, scenes=args.scenes, args=args.args, seed=args.seed,
+                      out=args.out, real_runs=args.runs,
+                      log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
+    if args.out:
+        from autocable._store import atomic_write_json
+        atomic_write_json(Path(args.out) / "bench_fuzz.json", result)
+    print(json.dumps(result, indent=1))
+    return 1 if result["problem_count"] else 0
+
+
+def cmd_failure_map(args) -> int:
+    """`autocable failure-map`: where the AME and the integrators fail."""
+    import time
+    from autocable.studies.failure_map import run_failure_map
+    from autocable.studies.failure_map_report import write_failure_map
+    check_out("--out", args.out)
+    say = None if args.quiet else (lambda s: print(s, file=sys.stderr))
+    t0 = time.perf_counter()
+    result = run_failure_map(args.model, quick=args.quick, log=say)
+    command = "autocable failure-map --out DIR" + (" --quick" if args.quick else "")
+    files = write_failure_map(result, args.out, command)
+    print("\n".join(result["statement"]))
+    print(f"wrote {', '.join(str(f) for f in files)} in {time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+# ------------------------------------------------------------------------------------------------
+# autocable run
+# ------------------------------------------------------------------------------------------------
+
+
+def cmd_calibrate(args) -> int:
+    """`autocable calibrate MODEL TARGETS --out DIR` (autocable.paper.calibration)."""
+    from dataclasses import replace as _replace
+
+    from autocable.paper import calibration as study
+    check_out("--out", args.out)
+    check_number("--jobs", args.jobs, 1, WORKERS_LIMIT, integer=True)
+    check_number("--full", args.full, 0, 10**6, integer=True)
+    space_path = Path(args.space) if args.space else Path(args.model).with_suffix("").with_suffix(".search.toml")
+    if args.space or space_path.is_file():
+        space = study.load_space(space_path)
+    else:
+        space = study.SearchSpace()
+    if args.full is not None:
+        space = _replace(space, full=max(0, args.full))
+    load_model(args.model)                  # bad files: one line before any work
+    study.tg.load_targets(args.targets)
+    stats = study.calibrate(args.model, args.targets, args.out, space=space, jobs=args.jobs, quiet=args.quiet)
+    print(dumps(stats))
+    return 0
