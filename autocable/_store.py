@@ -33,6 +33,7 @@ __all__ = [
     "cache_dir",
     "canonical_json",
     "content_hash",
+    "atomic_write_bytes",
     "atomic_write_text",
     "atomic_write_json",
     "read_json",
@@ -158,31 +159,36 @@ def file_mode() -> int:
     return 0o666 & ~_umask()
 
 
-def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
-    """Write ``text`` to ``path`` so readers see either the old file or the complete new one.
+def atomic_write_bytes(path: str | os.PathLike, data: bytes, *, fsync: bool = True) -> Path:
+    """Write ``data`` to ``path`` so readers see either the old file or the complete new one.
 
-    Writes a temporary file in the same folder (same filesystem), fsyncs it, then ``os.replace``s
-    it onto ``path``. Creates the parent folder. The file's mode follows the umask (`file_mode`).
-    Returns the path.
+    Writes a temporary file in the same folder (same filesystem; named ``.<name>.<8 characters>.tmp``,
+    which the next run into an output folder recognises as a leftover), fsyncs it unless ``fsync``
+    is False (a file that is cheap to recompute), then ``os.replace``s it onto ``path``. Creates the
+    parent folder. The file's mode follows the umask (`file_mode`). Returns the path.
     """
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
     mode = file_mode()
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            os.fchmod(fh.fileno(), mode)
-            fh.write(text)
+        with os.fdopen(fd, "wb") as fh:
+            os.fchmod(fh.fileno(), mode)    # mkstemp's 0o600 would survive the replace
+            fh.write(data)
             fh.flush()
-            os.fsync(fh.fileno())
+            if fsync:
+                os.fsync(fh.fileno())
         os.replace(tmp, target)
     except BaseException:
-        try:
+        with contextlib.suppress(OSError):
             os.unlink(tmp)
-        except OSError:
-            pass
         raise
     return target
+
+
+def atomic_write_text(path: str | os.PathLike, text: str, *, fsync: bool = True) -> Path:
+    """`atomic_write_bytes` of ``text`` as UTF-8."""
+    return atomic_write_bytes(path, text.encode("utf-8"), fsync=fsync)
 
 
 def atomic_write_json(path: str | os.PathLike, obj: Any) -> Path:
@@ -193,29 +199,11 @@ def atomic_write_json(path: str | os.PathLike, obj: Any) -> Path:
 
 
 def cache_write_bytes(path: str | os.PathLike, blob: bytes) -> Path:
-    """Write ``blob`` atomically to a file in the cache (mode from the umask); a failed write
-    raises `CacheError`."""
-    target = Path(path)
+    """`atomic_write_bytes` of ``blob`` into the cache; a failed write raises `CacheError`."""
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+        return atomic_write_bytes(path, blob)
     except OSError as exc:
-        raise cache_error(target, exc) from None
-    try:
-        os.fchmod(fd, file_mode())
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(blob)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, target)
-    except OSError as exc:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise cache_error(target, exc) from None
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-    return target
+        raise cache_error(path, exc) from None
 
 
 def require_writable(folder: str | os.PathLike) -> None:

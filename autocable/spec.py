@@ -148,7 +148,9 @@ NAME_RULE = ('a label of 1 to 64 characters, on one line, without "/", "\\" or c
 _BAD_NAME = re.compile(r"[/\\\x00-\x1f\x7f]")
 
 
-def _number(value, path, field, expected):
+def finite_number(value, path, field, expected="a finite number") -> float:
+    """``value`` as a finite float, or a one-line `SpecError` naming ``path`` and ``field`` (a bool,
+    a string, NaN, an infinity, an integer beyond the float range). Shared by every file schema."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise SpecError(path, field, f"expected {expected}, got {show(value)}")
     try:
@@ -157,7 +159,7 @@ def _number(value, path, field, expected):
         raise SpecError(path, field, f"expected {expected}, got an integer of {len(str(abs(value)))} "
                                      f"digits") from None
     if not math.isfinite(value):
-        raise SpecError(path, field, f"expected {expected}, got {value!r}")
+        raise SpecError(path, field, f"expected {expected}, got {show(value)}")
     return value
 
 
@@ -170,7 +172,7 @@ def _check(value, rule, path, field):
     if kind == "coeffs":
         if not isinstance(value, list) or len(value) != 4:
             raise SpecError(path, field, f"expected {expected}, got {show(value)}")
-        out = tuple(_number(v, path, field, expected) for v in value)
+        out = tuple(finite_number(v, path, field, expected) for v in value)
         for k, x in enumerate(out):
             if not bounds[0] <= x <= bounds[1]:
                 raise SpecError(path, f"{field}[{k}]", f"expected {expected}, got {x:g}")
@@ -178,11 +180,11 @@ def _check(value, rule, path, field):
     if kind == "angle_or_cal":
         if value == CALIBRATE:
             return None
-        x = _number(value, path, field, expected)
+        x = finite_number(value, path, field, expected)
         if not bounds[0] <= x <= bounds[1]:
             raise SpecError(path, field, f"expected {expected}, got {x:g}")
         return x
-    x = _number(value, path, field, expected)
+    x = finite_number(value, path, field, expected)
     if kind == "pos" and not x > 0:
         raise SpecError(path, field, f"expected {expected}, got {x:g}")
     if kind == "range" and not bounds[0] < x < bounds[1]:

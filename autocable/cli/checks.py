@@ -11,8 +11,6 @@ import math
 from autocable.spec import SpecError
 
 #: Accepted ranges of the numeric options that premises.check_parameters does not cover.
-#: |q0| beyond `ode21.DIVERGED` (a tenth of the cable length) is already a diverged response.
-Q0_LIMIT = 0.1
 #: Time limit of `simulate` (t* units): the default 60000 reaches every steady state of the
 #: sample cable; a million is about half an hour of integration.
 MAX_TIME_LIMIT = 1e6

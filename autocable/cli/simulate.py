@@ -6,9 +6,10 @@ import math
 import sys
 from pathlib import Path
 
-from autocable.cli.checks import (MAX_TIME_LIMIT, MODES_LIMIT, Q0_LIMIT, check_number, check_out, dumps,
+from autocable.cli.checks import (MAX_TIME_LIMIT, MODES_LIMIT, check_number, check_out, dumps,
                                   refuse, response_status)
 from autocable.cli.derivation import derivation
+from autocable.model.premises import MAX_AMPLITUDE
 from autocable.spec import SpecError
 
 def _check_parameters(args) -> None:
@@ -33,8 +34,8 @@ def _check_simulate(args) -> None:
     _check_parameters(args)
     if args.q0:
         for name, v in zip(("Q1", "Q1DOT", "Q2", "Q2DOT"), args.q0):
-            if not (math.isfinite(v) and abs(v) <= Q0_LIMIT):
-                raise refuse("--q0", f"{name}: expected a finite number with |{name}| <= {Q0_LIMIT:g} "
+            if not (math.isfinite(v) and abs(v) <= MAX_AMPLITUDE):
+                raise refuse("--q0", f"{name}: expected a finite number with |{name}| <= {MAX_AMPLITUDE:g} "
                                       f"(beyond it the response has already diverged), got {v!r}")
     check_number("--max-time", args.max_time, 0.0, MAX_TIME_LIMIT, lo_open=True)
     check_number("--modes", args.modes, 1, MODES_LIMIT, integer=True)

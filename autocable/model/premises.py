@@ -15,12 +15,18 @@ from typing import Mapping
 from autocable.model.statics import cable_statics
 from autocable.spec import ModelSpec, SpecError, show
 
-__all__ = ["PremiseWarning", "PARAMETER_RANGES", "CABLE_LIMITS", "check_parameters", "check_model"]
+__all__ = ["PremiseWarning", "MAX_AMPLITUDE", "PARAMETER_RANGES", "CABLE_LIMITS", "check_parameters", "check_model"]
 
 
 class PremiseWarning(UserWarning):
     """A value where the model is stretched but still computed; ``str`` is one line naming it."""
 
+
+#: The largest |q_k| (or |q_k'|, a_k) a start may have: eq. (21)'s coordinates are fractions of the
+#: cable length, and beyond 0.1 (12 m on the sample cable) its small-amplitude expansions cannot
+#: apply (the paper's responses are below 1e-2); integration calls a response past it diverged
+#: (`autocable.methods.integration.ode21.DIVERGED`).
+MAX_AMPLITUDE = 0.1
 
 #: name -> (error below, error above, warn above |value|, what it is). U* = U/U_c, eta* = eta/l,
 #: sigma = Omega - omega1 (nondimensional time of eq. 21).

@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 import multiprocessing
 import os
-import shutil
 import sys
 import time
 import traceback
@@ -98,13 +97,8 @@ def _collect(name: str, scene_out: Path, out: Path) -> list[str]:
 
 def _copy_atomic(src: Path, dst: Path) -> None:
     """Copy through a temporary file and a rename: a kill never leaves half a figure at ``dst``."""
-    tmp = dst.with_name(f".{dst.name}.{os.getpid()}.tmp")
-    try:
-        shutil.copyfile(src, tmp)
-        os.replace(tmp, dst)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    from autocable._store import atomic_write_bytes
+    atomic_write_bytes(dst, src.read_bytes(), fsync=False)
 
 
 def _worker(scene_path: str, scene_out: str, conn, engine: str | None = None) -> None:

@@ -102,8 +102,8 @@ from typing import Any, Callable, Mapping
 # that a scene parses without loading either and cannot disagree with the engines.
 from autocable.methods.continuation.settings import ENGINES, INTEGER_STEP_KEYS, STEP_KEYS as _STEP_KEYS
 from autocable.model.orderings import ORDERINGS
-from autocable.model.premises import check_parameters
-from autocable.spec import SpecError, read_toml, show
+from autocable.model.premises import MAX_AMPLITUDE, check_parameters
+from autocable.spec import SpecError, finite_number, read_toml, show
 
 __all__ = [
     "Scene",
@@ -273,21 +273,7 @@ def _check_keys(table, allowed, path, where) -> None:
 
 
 def _num(value, path, where, what="a number") -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise SpecError(path, where, f"expected {what}, got {show(value)}")
-    try:
-        x = float(value)
-    except OverflowError:       # an integer beyond the float range
-        raise SpecError(path, where, f"expected {what}, got an integer of {len(str(abs(value)))} digits") from None
-    if not math.isfinite(x):
-        raise SpecError(path, where, f"expected {what}, got {show(value)}")
-    return x
-
-
-#: The largest start amplitude (a_k, or a state component) a scene may give: amplitudes of eq. (21)
-#: are fractions of the cable length, and beyond 0.1 (12 m on the sample cable) its small-amplitude
-#: expansions cannot apply (the paper's responses are below 1e-2).
-MAX_AMPLITUDE = 0.1
+    return finite_number(value, path, where, what)
 
 
 def _amplitudes(values, path, where) -> None:

@@ -29,8 +29,8 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from autocable.model.premises import check_parameters
-from autocable.spec import SpecError, read_toml, show
+from autocable.model.premises import MAX_AMPLITUDE, check_parameters
+from autocable.spec import SpecError, finite_number, read_toml, show
 
 #: The methods a sweep can use at every point.
 SWEEP_METHODS = ("ode21", "shooting", "ame")
@@ -41,9 +41,6 @@ AXES = ("U", "eta", "sigma")
 DEFAULT_Q0 = (0.0, 0.0, 1e-6, 0.0)
 #: A grid larger than this is almost certainly a typo in ``num``.
 MAX_POINTS = 10_000_000
-#: The largest |q| or |q'| of a start: eq. (21)'s coordinates are fractions of the cable length, and
-#: beyond 0.1 its small-amplitude premises cannot hold (as `autocable.scene.schema.MAX_AMPLITUDE`).
-MAX_START = 0.1
 
 _TOP_KEYS = {"title", "model", "method", "q0", "max_time", "grid", "follow", "direction"}
 DIRECTIONS = ("up", "down")
@@ -111,16 +108,7 @@ class SweepSpec:
 
 
 def _num(value, path, field) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise SpecError(path, field, f"expected a finite number, got {show(value)}")
-    try:
-        x = float(value)
-    except OverflowError:       # an integer beyond the float range
-        raise SpecError(path, field, f"expected a finite number, got an integer of {len(str(abs(value)))} "
-                                     f"digits") from None
-    if not math.isfinite(x):
-        raise SpecError(path, field, f"expected a finite number, got {show(value)}")
-    return x
+    return finite_number(value, path, field)
 
 
 def _axis(value, path, name) -> tuple:
@@ -160,8 +148,8 @@ def _start(value, path, field) -> tuple:
         raise SpecError(path, field, f"a start is [q1, q1dot, q2, q2dot] (four numbers), got {show(value)}")
     out = tuple(_num(v, path, f"{field}[{k}]") for k, v in enumerate(value))
     for k, v in enumerate(out):
-        if abs(v) > MAX_START:
-            raise SpecError(path, f"{field}[{k}]", f"expected a value in [-{MAX_START:g}, {MAX_START:g}] (eq. 21's "
+        if abs(v) > MAX_AMPLITUDE:
+            raise SpecError(path, f"{field}[{k}]", f"expected a value in [-{MAX_AMPLITUDE:g}, {MAX_AMPLITUDE:g}] (eq. 21's "
                                                    f"coordinates are fractions of the cable length), got {v:g}")
     return out
 

@@ -35,13 +35,12 @@ import functools
 import json
 import math
 import os
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-from autocable._store import atomic_write_json, content_hash, file_mode
+from autocable._store import atomic_write_json, atomic_write_text, content_hash
 from autocable.scene.sweep_schema import AXES, SweepSpec
 
 #: Bump when a point record changes meaning (part of every point key).
@@ -253,20 +252,9 @@ def _plan(spec: SweepSpec, shash: str, folder: Path):
 
 
 def _write_point(folder: Path, key: str, rec: dict) -> None:
-    """One point file, atomically (temporary file + rename, no fsync: a crash loses at most the
-    point being written, which a rerun computes again)."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{key}.", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            os.fchmod(fh.fileno(), file_mode())    # mkstemp's 0o600 would survive the replace
-            json.dump(rec, fh, allow_nan=False)
-        os.replace(tmp, folder / f"{key}.json")
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    """One point file, atomically (no fsync: a crash loses at most the point being written, which a
+    rerun computes again)."""
+    atomic_write_text(folder / f"{key}.json", json.dumps(rec, allow_nan=False), fsync=False)
 
 
 def _read_point(path: Path):

@@ -71,7 +71,7 @@ def periodic_orbit(system: System, values: Mapping[str, float], x0, *, scale: fl
                     hint="raise orbit_seconds in the run's steps, or start from other amplitudes")
 
     def run(t0: float, t1: float, dt: float):
-        budget.spend(0, at=f"(t = {t0:.6g})")
+        budget.check(at=f"(t = {t0:.6g})")
         r = ci.run(y, sample_grid(t0, t1, dt), p, rtol=rtol, atol=atol, bound=bound, n_bound=system.dimension,
                    max_steps=max_steps)
         if r.status == "step_budget":
