@@ -18,7 +18,7 @@ import numpy as np
 
 from autocable.codegen.compat import PyDSToolError
 from autocable.errors import ComputationError
-from autocable.methods.integration.ode21 import DIVERGED, half_range
+from autocable.methods.integration.ode21 import DIVERGED, first_divergence, half_range
 from autocable.model.derive_n import derive_nmode
 from autocable.model.modes_n import IN_PLANE, OUT_OF_PLANE, SYMMETRIC
 from autocable.model.multimode import NModeODE, first_order_rhs_n
@@ -225,13 +225,8 @@ class NModeIntegrator:
                 y, t = tuple(ys[-1]) if len(ys) else y, float(tt[-1]) if len(tt) else t
                 return result(None, False, False, True, f"the response diverged between t = {t:g} and "
                               f"{t1:g} (no bounded steady state): {why}")
-            finite = np.all(np.isfinite(ys), axis=1)
-            grown = np.max(np.abs(np.where(finite[:, None], ys[:, :n], 0.0)), axis=1) > DIVERGED
-            if grown.any() or not finite.all():
-                stop = int(np.argmax(grown | ~finite))
-                if not grown[:stop + 1].any():
-                    raise ComputationError(f"eq. (21) with {n} modes reached a non-finite state at "
-                                           f"t = {tt[stop]:.6g} from a bounded one")
+            stop = first_divergence(tt, ys, n)
+            if stop is not None:
                 if keep_history and stop > 0:
                     history.append((tt[:stop], ys[:stop]))
                 y, t = tuple(ys[stop]), float(tt[stop])

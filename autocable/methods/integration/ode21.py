@@ -50,6 +50,22 @@ class IntegrationError(RuntimeError):
     failure (`ComputationError`) by where the state was when it stopped."""
 
 
+def first_divergence(tt, ys, n: int) -> int | None:
+    """The index of the first sample whose modal coordinates (the first ``n`` columns of ``ys``)
+    pass `DIVERGED`, or None when every sample stays within it. A non-finite sample before any
+    such growth is a numerical failure, not a divergence: `ComputationError`."""
+    finite = np.all(np.isfinite(ys), axis=1)
+    grown = np.max(np.abs(np.where(finite[:, None], ys[:, :n], 0.0)), axis=1) > DIVERGED
+    if not (grown.any() or not finite.all()):
+        return None
+    stop = int(np.argmax(grown | ~finite))
+    if not grown[:stop + 1].any():
+        raise ComputationError(f"eq. (21) reached a non-finite state at t = {tt[stop]:.6g} from a bounded "
+                               f"one (|q_k| <= {DIVERGED:g}): a numerical failure; check the parameters "
+                               "or loosen the tolerances")
+    return stop
+
+
 def _failed(t0: float, t1: float, reason: str) -> ComputationError:
     """The integrator failed while |q_k| stayed within `DIVERGED`: a numerical failure, not growth."""
     return ComputationError(f"eq. (21) could not be integrated from t = {t0:g} to {t1:g} while the "
@@ -297,13 +313,9 @@ class Ode21Integrator:
                                           r.t_reached, None, f"the response diverged between t = {t:g} "
                                           f"and {t1:g} (no bounded steady state): {_stopped(r, t, t1)}; "
                                           f"{self.engine}: {why}", start, tuple(r.y_reached), history)
-            finite = np.all(np.isfinite(ys), axis=1)
-            grown = np.max(np.abs(np.where(finite[:, None], ys[:, :2], 0.0)), axis=1) > DIVERGED
-            if grown.any() or not finite.all():
-                # Keep the samples up to the first one beyond the bound (or not finite).
-                stop = int(np.argmax(grown | ~finite))
-                if not grown[:stop + 1].any():
-                    raise _failed(t, t1, f"a non-finite state at t = {tt[stop]:.6g}")
+            stop = first_divergence(tt, ys, 2)
+            if stop is not None:
+                # Keep the samples up to the first one beyond the bound.
                 if keep_history and stop > 0:
                     history.append((tt[:stop], ys[:stop]))
                 return self._response(U, eta, sigma, Omega, (math.inf, math.inf), False, False,
