@@ -584,10 +584,11 @@ def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path
         return proc, {x["name"]: x for x in summary.get("scenes", [])}
 
     proc, listed = figures()
-    # The scenes' starting points are tuned to the sample model (a Newton start on Fig. 4a's island,
-    # an orbit integrated at Figs. 8 and 10); on another model such a run can fail and take its
-    # whole scene with it. Drop the run whose start failed and run the scene again (at most twice),
-    # so that the scene's other statements are still decided; the drops are recorded.
+    # Isolas and disconnected branches start from a search (Newton from a fixed grid), not from a
+    # state tuned to the sample; the orbits of Figs. 8 and 10's P still start from amplitudes chosen
+    # on the sample, and on another model such a run can fail and take its whole scene with it.
+    # Drop the run whose start failed and run the scene again (at most twice), so that the
+    # scene's other statements are still decided; the drops are recorded.
     dropped = []
     for _ in range(2):
         retry = []

@@ -81,6 +81,7 @@ class _Run:
     say: Callable[[str], None]
     path: Path
     where: str
+    known: tuple = ()             # the scene's branches computed before this run (search starts)
 
     def from_label(self):
         """The labelled point of an earlier run, in this run's problem (its parameter and range)."""
@@ -155,10 +156,77 @@ def run_equilibria(r: _Run):
         r.say(f"  integrating the AME from a = {amps[:n_modes]} to a steady state")
         x0 = C.settle(system, r.values, y0, scale=r.scale, engine=r.engine,
                       seconds=r.settings.settle_seconds, evaluations=r.settings.settle_evaluations)
+    elif start.kind == "search":
+        return run_search(r)
     else:
         x0 = r.start_state
     return C.continue_equilibria(r.problem, r.settings, x0, name=r.run.name, directions=r.run.directions,
                                  progress=r.say, engine=r.engine)
+
+
+def on_known_branch(branches, parameter: str, value: float, state, rel_tol: float = 1e-2) -> str:
+    """The name of the first equilibrium branch (continued in ``parameter``) that passes through
+    ``state`` at ``parameter = value``: a chord between two of its points within ``rel_tol`` of
+    |state| of it, or of its mirror image (r_k, s_k) -> -(r_k, s_k) for k >= 2 (the out-of-plane
+    mode's sign, a symmetry of the AME without wind); else "". Two coexisting branches can lie a
+    few per cent apart in (a1, a2) (Fig. 7 at sigma = -0.03: 4.49e-3 / 2.64e-3 and 4.43e-3 /
+    2.58e-3, both stable), so states are compared, not amplitudes."""
+    import numpy as np
+
+    x = np.asarray(state, float)
+    mirror = x.copy()
+    mirror[2:] = -mirror[2:]
+    tol = rel_tol * float(np.linalg.norm(x)) + 1e-12
+    for b in branches:
+        if b.kind != "equilibrium" or b.parameter != parameter or not len(b):
+            continue
+        P = np.asarray(b.table[parameter], float)
+        X = np.column_stack([np.asarray(b.table[v], float) for v in b.variables])
+        if X.shape[1] != x.size:
+            continue
+        for i in range(len(P) - 1):
+            if (P[i] - value) * (P[i + 1] - value) > 0:
+                continue
+            span = P[i + 1] - P[i]
+            t = 0.5 if span == 0 else (value - P[i]) / span
+            y = X[i] + t * (X[i + 1] - X[i])
+            if min(np.linalg.norm(y - x), np.linalg.norm(y - mirror)) <= tol:
+                return b.name
+    return ""
+
+
+def run_search(r: _Run) -> list:
+    """``start = { search = [v1, ...] }``: at each value in turn, every equilibrium Newton finds from
+    the fixed grid (`autocable.methods.continuation.search`); every stable one on no branch of the
+    scene so far (the earlier runs' and those this search has continued) starts a branch: the first
+    is named after the run, the next ``NAME_2``, ``NAME_3``, ... Nothing found: an empty list (the
+    scene goes on; run.json says what was searched)."""
+    from autocable.codegen.ckernel import compiled_kernel
+    from autocable.methods import continuation as C
+    from autocable.methods.continuation.search import find_equilibria
+    from autocable.model.premises import MAX_AMPLITUDE
+
+    if r.system.dimension % 2:
+        raise SpecError(r.path, f"{r.where}.start", '{ search = [...] } needs the Cartesian AME (ame = "2dof" '
+                                                    'or "1dof")')
+    rhs = compiled_kernel(r.system) if r.engine == "compiled" else None
+    p_name = r.run.parameter
+    out: list = []
+    for v in r.run.start.values:
+        eqs = find_equilibria(r.system, {**r.values, p_name: v}, scale=r.scale, rhs=rhs,
+                              max_amplitude=MAX_AMPLITUDE)
+        stable = [e for e in eqs if e.stable]
+        r.say(f"  search at {p_name} = {v:g}: {len(eqs)} equilibria, {len(stable)} stable")
+        for e in stable:
+            known = tuple(r.known) + tuple(res.branch for res in out)
+            if on_known_branch(known, p_name, v, e.state):
+                continue
+            name = r.run.name if not out else f"{r.run.name}_{len(out) + 1}"
+            r.say(f"  {name} from a = {', '.join(f'{a:.4g}' for a in e.amplitudes)} at {p_name} = {v:g}")
+            out.append(C.continue_equilibria(r.problem.at(**{p_name: v}), r.settings, list(e.state),
+                                             name=name, directions=r.run.directions, progress=r.say,
+                                             engine=r.engine))
+    return out
 
 
 #: The run kinds of a scene ("orbit": a cycles run started from an integrated orbit).
@@ -284,6 +352,7 @@ def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolut
     branches = []
     run_times: dict[str, Any] = {}
     failed: dict[str, str] = {}      # run -> why it has no branch (a budget spent, a numerical failure)
+    not_found: set[str] = set()      # search runs that found no new branch (a finding, not a failure)
     path = scene.path
 
     def check_values(values, where):
@@ -320,6 +389,10 @@ def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolut
         source = None
         if run.start.kind == "label":
             src_name, label = run.start.label.split(":")
+            if src_name in not_found:
+                say(f"run {run.name} skipped: its start {run.start.label} is on run {src_name}, whose search "
+                    f"found no branch")
+                continue
             if src_name in failed:
                 failed[run.name] = f"its start {run.start.label} is on run {src_name}, which failed"
                 say(f"run {run.name} skipped: {failed[run.name]}")
@@ -370,7 +443,7 @@ def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolut
         kind = "orbit" if run.kind == "cycles" and run.start.kind == "orbit" else run.kind
         try:
             result = RUN_KINDS[kind](_Run(run, problem, settings, system, values, scale, source, start_state,
-                                          scene.engine, say, path, where))
+                                          scene.engine, say, path, where, tuple(branches)))
         except (C.StartError, C.SymmetryError) as exc:
             raise SpecError(path, f"{where}.start", str(exc)) from None
         except ComputationError as exc:
@@ -378,6 +451,19 @@ def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolut
             # computed and written, and the scene ends with the failure (exit status 3).
             failed[run.name] = f"{where}.start: {exc}"
             say(f"run {run.name} failed: {exc}")
+            continue
+        if isinstance(result, list):
+            # a search: every new branch it continued (none: a finding about the model, not a failure)
+            for extra in result[1:]:
+                add(extra)
+            result = result[0] if result else None
+        if result is None:
+            searched = ", ".join(f"{v:g}" for v in run.start.values)
+            say(f"run {run.name}: no stable equilibrium off the earlier branches at {run.parameter} = {searched}")
+            run_times[run.name] = {"wall_s": time.perf_counter() - t_run,
+                                   "search": f"no stable equilibrium on no earlier branch at {run.parameter} = "
+                                             f"{searched}"}
+            not_found.add(run.name)
             continue
         add(result)
         follow = {"cycles": 0, "switch": 0}

@@ -40,6 +40,10 @@ at most 0.1, and step controls have bounded values (`_STEP_BOUNDS`).
     range = [-0.05, 0.05]
     start = "trivial"                 # "trivial" | { integrate = [a1, a2] } | { state = [r1, s1, r2, s2] } | "RUN:LABEL"
                                       # | { orbit = [a1, a2] } (cycles runs)
+                                      # | { search = [v1, v2, ...] }: at the first of these values
+                                      # of the parameter where Newton from a fixed grid finds a
+                                      # stable equilibrium on no earlier branch (an isola, a
+                                      # disconnected branch); none found: the run has no branch
     at = -0.05                        # the parameter's start value (default: range[0], or the label's)
     directions = "both"               # "both" | "forward" | "backward" (curves: forward = increasing parameter2)
     parameter2 = "eta"                # curves only: the second parameter, and its range
@@ -155,8 +159,12 @@ _STATE_SIZE = {"2dof": 4, "1dof": 2, "1dof-amplitude": 1}
 @dataclass(frozen=True)
 class StartSpec:
     """Where a run starts: ``kind`` is "trivial", "integrate" (amplitudes a_k, phases 0), "state"
-    (a state vector refined by Newton), "label" (``label`` = "RUN:LABEL") or "orbit" (amplitudes
-    a_k, phases 0: the periodic orbit the AME settles on from there, for a cycles run)."""
+    (a state vector refined by Newton), "label" (``label`` = "RUN:LABEL"), "orbit" (amplitudes
+    a_k, phases 0: the periodic orbit the AME settles on from there, for a cycles run) or "search"
+    (``values``: values of the run's parameter; at the first of them where Newton from a fixed grid
+    of starts finds a stable equilibrium on no earlier branch of the scene, the run starts there:
+    an isola or a disconnected branch without a start tuned to one model,
+    `autocable.methods.continuation.search`)."""
 
     kind: str
     values: tuple[float, ...] = ()
@@ -312,24 +320,26 @@ def _start(value, path, where) -> StartSpec:
     if isinstance(value, str):
         if not _LABEL.match(value):
             raise SpecError(path, where, f'expected "trivial", "RUN:LABEL" (e.g. "I:H1"), '
-                                         f'{{integrate = [a1, a2]}}, {{state = [...]}} or {{orbit = [a1, a2]}}, '
-                                         f'got {value!r}')
+                                         f'{{integrate = [a1, a2]}}, {{state = [...]}}, {{orbit = [a1, a2]}} or '
+                                         f'{{search = [values]}}, got {value!r}')
         return StartSpec("label", label=value)
     if isinstance(value, dict):
-        _check_keys(value, ("integrate", "state", "orbit"), path, where)
+        _check_keys(value, ("integrate", "state", "orbit", "search"), path, where)
         if len(value) != 1:
-            raise SpecError(path, where, "give exactly one of integrate = [a1, a2], state = [r1, s1, ...] "
-                                         "or orbit = [a1, a2]")
+            raise SpecError(path, where, "give exactly one of integrate = [a1, a2], state = [r1, s1, ...], "
+                                         "orbit = [a1, a2] or search = [values of the parameter]")
         (kind, vals), = value.items()
         if not isinstance(vals, list) or not vals:
             raise SpecError(path, f"{where}.{kind}", f"expected a list of numbers, got {vals!r}")
         nums = tuple(_num(v, path, f"{where}.{kind}") for v in vals)
+        if kind == "search":
+            return StartSpec(kind, nums)      # checked against the run's range by the run's parser
         if kind in ("integrate", "orbit") and any(v < 0 for v in nums):
             raise SpecError(path, f"{where}.{kind}", "amplitudes must be >= 0")
         _amplitudes(nums, path, f"{where}.{kind}")
         return StartSpec(kind, nums)
     raise SpecError(path, where, f'expected "trivial", "RUN:LABEL", {{integrate = [...]}}, '
-                                 f'{{state = [...]}} or {{orbit = [...]}}, got {value!r}')
+                                 f'{{state = [...]}}, {{orbit = [...]}} or {{search = [...]}}, got {value!r}')
 
 
 #: The accepted values of the step controls (lo, hi, what). Steps are in chart units (the range
@@ -463,6 +473,16 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
         if start.kind == "state" and ame in _STATE_SIZE and len(start.values) != _STATE_SIZE[ame]:
             raise SpecError(path, f"{where}.start.state", f'ame = "{ame}" has {_STATE_SIZE[ame]} state '
                                                           f"variables, got {len(start.values)} numbers")
+        if start.kind == "search":
+            if kind != "equilibria":
+                raise SpecError(path, f"{where}.start", '{ search = [...] } starts an "equilibria" run')
+            if "at" in r:
+                raise SpecError(path, f"{where}.at", "not allowed with start = { search = [...] }: the "
+                                                     "search values say where the run may start")
+            for v in start.values:
+                if not lo <= v <= hi:
+                    raise SpecError(path, f"{where}.start.search", f"{parameter} = {v:g} is outside the run's "
+                                                                   f"range [{lo:g}, {hi:g}]")
         if start.kind == "label":
             src = start.label.split(":")[0]
             earlier = names - {name}
