@@ -113,6 +113,15 @@ def test_readings_agree_without_wind(spec):
             assert got[k] == pytest.approx(v, rel=1e-12, abs=1e-300), (kw, k)
 
 
+def test_no_wind_difference_over_the_space_is_round_off(spec):
+    """The premise of the calibration's no-wind ceiling, as the study measures it: eq. (21)'s
+    non-aerodynamic terms over every reading of the sample's declared space (16: both twist ends,
+    load axes, angle senses and load lengths) differ by round-off only."""
+    space = study.load_space("models/luongo_zulli_2012.search.toml")
+    assert len(space.readings()) == 16
+    assert study.no_wind_difference(spec, space) < 1e-12
+
+
 def test_twisted_axes_linear_term_is_the_mean_load():
     """On the twisted axes b2' = cos(theta) b2 + sin(theta) b3, so d b2'/d theta at rest is
     d b2 / d theta + b3(0) and d b3'/d theta = d b3 / d theta - b2(0): the mean load of eq. (11)

@@ -120,3 +120,43 @@ def test_statement_decided_by_the_report_code():
     assert [f for f in feats if f[0].startswith("in-plane mono-modal")][0][1] == "no"
     nums = tg.scene_numbers(planar)
     assert nums["omega1"] == 1.004005 and math.isnan(nums["U_onset"])
+
+
+def _with_hopf(d: SceneData, sigmas) -> SceneData:
+    d.specials = [{"branch": "I", "type": "H", "label": f"H{k + 1}", "parameter": "sigma", "sigma": str(s),
+                   "origin": "autocable", "a1": "3e-4", "a2": "0"} for k, s in enumerate(sigmas)]
+    return d
+
+
+@pytest.mark.parametrize("ref_hopf", [(), (0.01,)])
+@pytest.mark.parametrize("wind_hopf", [(), (-0.01,), (-0.01, 0.02)])
+def test_hopf_moved_never_exceeds_its_no_wind_ceiling(ref_hopf, wind_hopf):
+    """"Wind moves the Hopf points" is at best "partly" when the no-wind scene has no Hopf point,
+    whatever the wind scene shows (the calibration's ceiling rests on this)."""
+    from autocable.paper.report import _hopf_moved, hopf_moved_ceiling
+    order = {"no": 0, "partly": 1, "yes": 2}
+    ref = _with_hopf(_scene("fig05b", 0.0), ref_hopf)
+    wind = _with_hopf(_scene("fig07", 0.1), wind_hopf)
+    shown = _hopf_moved(wind, ref)[1]
+    best = hopf_moved_ceiling(ref)
+    assert best == ("yes" if ref_hopf else "partly")
+    assert order[shown] <= order[best]
+    if ref_hopf and wind_hopf:
+        assert shown == "yes"          # the ceiling is reached: it is not a bound that cannot be met
+    assert hopf_moved_ceiling(None) == "no"
+
+
+def test_no_wind_ceiling_caps_the_no_wind_statements():
+    """Statements of a no-wind scene keep that scene's verdict for every candidate; "wind moves the
+    Hopf points" against a no-wind scene without Hopf points is capped at "partly"."""
+    from autocable.paper.calibration import no_wind_ceiling
+    ts = tg.load_targets(TARGETS)
+    scenes = {"fig05a": _scene("fig05a", 0.5), "fig05b": _scene("fig05b", 0.0)}
+    capped = {c["id"]: c for c in no_wind_ceiling(ts, scenes)}
+    # fig05a with a2 = a1/2 is not mono-modal: capped at its own verdict "no"
+    assert capped["fig05a.mono"]["best"] == "no" and "no-wind scene fig05a" in capped["fig05a.mono"]["why"]
+    assert "fig05b.mono" not in capped                           # "yes" is no cap
+    assert capped["fig07.hopf_moved"]["best"] == "partly" and capped["fig08.hopf_moved"]["best"] == "partly"
+    assert "fig09.hopf_moved" not in capped                      # fig06 not run: nothing known
+    scenes["fig05b"] = _with_hopf(scenes["fig05b"], (0.01,))
+    assert "fig07.hopf_moved" not in {c["id"] for c in no_wind_ceiling(ts, scenes)}

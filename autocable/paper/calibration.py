@@ -259,6 +259,71 @@ def fast_ode(spec: ModelSpec):
 
 
 # ================================================================================================
+# the no-wind ceiling: what no candidate can show
+# ================================================================================================
+def no_wind_difference(spec: ModelSpec, space: "SearchSpace") -> float:
+    """The largest relative difference between the non-aerodynamic terms of eq. (21) (eq. 21 at
+    U = 0) of every reading of ``space`` and those of ``spec``: round-off when the premise of
+    `no_wind_ceiling` holds (no reading changes the cable without wind)."""
+    def terms(s):
+        return {(t.equation, t.powers, t.forcing, t.u_power): t.coefficient for t in fast_ode(s).terms
+                if t.origin != "aerodynamic"}
+    ref = terms(candidate_spec(spec, space.readings()[0], 0.0, 0.0))
+    worst = 0.0
+    for r in space.readings():
+        got = terms(candidate_spec(spec, r, 0.0, 0.0))
+        if got.keys() != ref.keys():
+            return math.inf
+        for k, v in ref.items():
+            worst = max(worst, abs(got[k] - v) / max(abs(v), 1e-300))
+    return worst
+
+
+def no_wind_ceiling(targets, scenes: dict) -> list[dict]:
+    """The statements no candidate of the search space can show, from the no-wind scenes alone.
+
+    A scene whose every row has U* = 0 is the same for every candidate: eq. (21) without wind does
+    not depend on any input the search varies (`no_wind_difference`; the full evaluation runs the
+    scenes with their own orderings). So a statement of such a scene has its verdict there for
+    every candidate, and "wind moves the Hopf points" of Figs. 7-10 cannot be "yes" when the
+    no-wind scene it is measured against has no Hopf point (`report.hopf_moved_ceiling`). Returns
+    one dict per statement capped below "yes": id, says, best (its best possible verdict), why."""
+    from autocable.paper.report import WIND_REFERENCE, hopf_moved_ceiling
+    no_wind = {n for n, d in scenes.items() if d.ok and d.fixed().get("U") == 0.0}
+    stmts = [t for t in targets if t.kind == "statement"]
+    decided = {v.id: v for v in tg.decide_statements([t for t in stmts if t.scene in no_wind], scenes)}
+    out = []
+    for t in stmts:
+        if t.id in decided and decided[t.id].shown != "yes":
+            v = decided[t.id]
+            out.append({"id": t.id, "says": t.says, "best": v.shown,
+                        "why": f"decided by the no-wind scene {t.scene} alone: {v.evidence}"})
+        elif t.says.startswith("wind moves the Hopf points") and WIND_REFERENCE.get(t.scene) in no_wind:
+            ref = scenes[WIND_REFERENCE[t.scene]]
+            best = hopf_moved_ceiling(ref)
+            if best != "yes":
+                out.append({"id": t.id, "says": t.says, "best": best,
+                            "why": f"measured against the no-wind scene {ref.name}, which has no Hopf point: "
+                                   f"the wind can create Hopf points there, not move them"})
+    return out
+
+
+def no_wind_signature(scenes: dict) -> str:
+    """The no-wind scenes' statements and special points, as text: equal for two candidates when
+    their no-wind scenes gave the same results (rounded to 8 digits)."""
+    parts = []
+    for n in sorted(scenes):
+        d = scenes[n]
+        if not (d.ok and d.fixed().get("U") == 0.0):
+            continue
+        feats = [(f[0], f[1]) for f in tg.scene_statements(d, scenes)]
+        sps = sorted((s.get("branch", ""), s.get("label", ""), f"{float(s.get(s.get('parameter', 'sigma'), 'nan')):.8g}")
+                     for s in d.specials)
+        parts.append(f"{n}: {feats} {sps}")
+    return "\n".join(parts)
+
+
+# ================================================================================================
 # generic compiled integrators: coefficients are parameters, one build for the whole search
 # ================================================================================================
 def _monomials(nvars: int, max_degree: int, min_degree: int = 0):
@@ -698,7 +763,40 @@ def _maps(cands: list[dict], out: Path, space: SearchSpace) -> list[Path]:
     return files
 
 
-def _markdown(cands, full, target_ids, targets, space, stats, maps, failed) -> str:
+def _ceiling(model_path: Path, targets, space, full: list, out: Path) -> dict:
+    """`no_wind_ceiling` from the fully evaluated candidates' no-wind scenes, with its two
+    premises measured: eq. (21) without wind equal for every reading (`no_wind_difference`) and
+    the no-wind scenes' results equal in every fully evaluated candidate (`no_wind_signature`)."""
+    from autocable.paper.report import load_scene_data
+    sigs, first = {}, None
+    for c in full:
+        folder = out / "full" / candidate_name(c) / "out"
+        scenes = {f.name: load_scene_data(f) for f in sorted(folder.glob("fig*")) if f.is_dir()}
+        sigs.setdefault(no_wind_signature(scenes), []).append(candidate_name(c))
+        first = first or scenes
+    capped = no_wind_ceiling(targets, first or {})
+    n_stmt = sum(1 for t in targets if t.kind in ("statement", "number"))
+    return {"capped": capped, "statements": n_stmt, "at_most_yes": n_stmt - len(capped),
+            "no_wind_difference": no_wind_difference(load_model(model_path), space),
+            "same_no_wind_results": len(sigs) == 1, "candidates_compared": len(full)}
+
+
+def _ceiling_lines(ceiling: dict, space) -> list[str]:
+    lines = ["", "## What no candidate can show (the no-wind ceiling)", "",
+             f"Eq. (21) without wind is the same for every reading of the space: the largest relative "
+             f"difference of its non-aerodynamic coefficients over the {len(space.readings())} readings is "
+             f"{ceiling['no_wind_difference']:.1e}; the yaw and Theta0 enter only the wind load. The full "
+             f"evaluation runs every scene with its own ordering, so the no-wind scenes (Figs. 5a, 5b, 6) give "
+             f"the same results for every candidate: "
+             + ("checked, identical in all " if ceiling["same_no_wind_results"] else "**not identical** in the ")
+             + f"{ceiling['candidates_compared']} fully evaluated candidates. Hence these statements have, for "
+             f"every candidate of the space, at best the verdict below, and no candidate can show more than "
+             f"**{ceiling['at_most_yes']} of {ceiling['statements']}** statements and numbers:", ""]
+    lines += [f"- **{c['id']}** ({c['says']}): at best {c['best']}; {c['why'][:300]}" for c in ceiling["capped"]]
+    return lines
+
+
+def _markdown(cands, full, target_ids, targets, space, stats, maps, failed, ceiling=None) -> str:
     by_id = {t.id: t for t in targets}
     lines = ["# Calibration of the unknown inputs against Sect. 5", "",
              f"Search space: twist_ends {list(space.twist_ends)}, load_axes {list(space.load_axes)}, "
@@ -766,6 +864,8 @@ def _markdown(cands, full, target_ids, targets, space, stats, maps, failed) -> s
             ev = "; ".join(f"{candidate_name(c)}: {c['full']['verdicts'][tid]['shown']} ({c['full']['verdicts'][tid]['evidence'][:240]})"
                            for c in full if tid in c["full"]["verdicts"])
             lines.append(f"- **{tid}** ({by_id[tid].says}): {ev}")
+    if ceiling is not None:
+        lines += _ceiling_lines(ceiling, space)
     never = [tid for tid in screen_ids if not any(c["verdicts"].get(tid, {}).get("shown") == "yes" for c in cands)]
     lines += ["", "## Screen targets no candidate meets", ""]
     lines += [f"- **{tid}** ({by_id[tid].says}): best value "
@@ -873,6 +973,7 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
             say(f"FAILED full evaluation of {candidate_name(c)}: {type(exc).__name__}: {' '.join(str(exc).split())[:300]}")
             continue
         full.append(c)
+    ceiling = _ceiling(model_path, targets, space, full, out) if full else None
     target_ids = [t.id for t in targets]
     rows = _csv_rows(cands, target_ids)
     if rows:
@@ -883,7 +984,11 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     maps = _maps(cands, out, space)
     stats = {"points": len(results), "computed": len(tasks), "reused": reused, "screen_s": screen_s, "jobs": jobs,
              "candidates": len(cands), "full": len(full), "wall_s": time.perf_counter() - t_all}
-    (out / "calibration.md").write_text(_markdown(cands, full, target_ids, targets, space, stats, maps, failed))
+    if ceiling is not None:
+        stats["ceiling"] = {k: v for k, v in ceiling.items() if k != "capped"}
+        stats["ceiling"]["capped"] = [c["id"] for c in ceiling["capped"]]
+    (out / "calibration.md").write_text(_markdown(cands, full, target_ids, targets, space, stats, maps, failed,
+                                                  ceiling))
     (out / "calibration.json").write_text(json.dumps(stats, indent=2))
     say(f"calibrate: {stats['candidates']} candidates from {stats['points']} points; {len(full)} fully evaluated; "
         f"{stats['wall_s']:.1f} s; {out / 'calibration.md'}")
