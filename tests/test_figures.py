@@ -231,3 +231,27 @@ def test_blas_threads_are_shared_out_among_the_scene_processes():
     kept = blas_thread_env(2, 2, {"OMP_NUM_THREADS": "2"}, False)
     assert "OMP_NUM_THREADS" not in kept and kept["OPENBLAS_NUM_THREADS"] == "1"
     assert blas_thread_env(2, 2, {}, True) == {} and blas_thread_env(1, 2, {}, False) == {}
+
+
+def test_figures_on_another_model(tmp_path):
+    """``--model`` runs the scenes on another spec (e.g. a calibration candidate): run.json names it
+    (here the sample cable under another name, so the branch must equal the sample's to round-off),
+    and ``--targets`` names the file report.md decides; a bad --model or --targets is exit 2."""
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    (runs / "figt2.toml").write_text(SMALL)
+    other = tmp_path / "other.toml"
+    other.write_text(Path(MODEL).read_text().replace('name = "luongo_zulli_2012"', 'name = "other_cable"'))
+    targets = Path(MODEL).with_suffix("").with_suffix(".targets.toml")
+    assert main(["figures", "--out", str(tmp_path / "a"), "--runs", str(runs), "--quiet"]) == 0
+    assert main(["figures", "--out", str(tmp_path / "b"), "--runs", str(runs), "--quiet", "--model", str(other),
+                 "--targets", str(targets)]) == 0
+    run_b = json.loads((tmp_path / "b" / "figt2" / "run.json").read_text())
+    assert run_b["provenance"]["model"] == str(other.resolve()) and run_b["provenance"]["model_name"] == "other_cable"
+    # the same cable under another name: the same branch to round-off
+    a1 = [float(r["a1"]) for r in _csv(tmp_path / "a" / "figt2" / "branches.csv")]
+    b1 = [float(r["a1"]) for r in _csv(tmp_path / "b" / "figt2" / "branches.csv")]
+    assert a1 == pytest.approx(b1, rel=1e-12)
+    assert f"statements of {targets.name}" in (tmp_path / "b" / "report.md").read_text()
+    assert main(["figures", "--out", str(tmp_path / "c"), "--runs", str(runs), "--model", str(tmp_path / "nope.toml")]) == 2
+    assert main(["figures", "--out", str(tmp_path / "c"), "--runs", str(runs), "--targets", str(tmp_path / "nope.toml")]) == 2

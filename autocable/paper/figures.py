@@ -101,12 +101,18 @@ def _copy_atomic(src: Path, dst: Path) -> None:
     atomic_write_bytes(dst, src.read_bytes(), fsync=False)
 
 
-def _worker(scene_path: str, scene_out: str, conn, engine: str | None = None) -> None:
-    """Child process: run one scene; send (status, one-line error, traceback) back."""
+def _worker(scene_path: str, scene_out: str, conn, engine: str | None = None, model: str | None = None) -> None:
+    """Child process: run one scene (on ``model`` instead of the scene's own, if given); send
+    (status, one-line error, traceback) back."""
     try:
+        from dataclasses import replace
+
         from autocable.scene.runner import load_scene, run_scene
         from autocable.studies.advise import choose_ame
-        run_scene(load_scene(scene_path), scene_out, progress=None, engine=engine, choose_ame=choose_ame)
+        scene = load_scene(scene_path)
+        if model is not None:
+            scene = replace(scene, model=Path(model))
+        run_scene(scene, scene_out, progress=None, engine=engine, choose_ame=choose_ame)
         conn.send(("ok", "", ""))
     except BaseException as exc:   # everything: the parent must learn why, and go on
         conn.send(("failed", _one_line(exc), traceback.format_exc()))
@@ -188,12 +194,13 @@ def _error_file(folder: Path, error: str, detail: str) -> None:
 
 def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None = None,
                 timeout: float | None = None, say: Say | None = None,
-                engine: str | None = None) -> list[SceneOutcome]:
+                engine: str | None = None, model: str | Path | None = None) -> list[SceneOutcome]:
     """Run ``scenes`` in at most ``jobs`` processes at a time (default: every core), each into
     ``out_dir/<scene>/``, the most expensive first (`expected_cost`); copy the figures to
     ``out_dir``; write ``figures.json`` (in the order of ``scenes``). A scene still
     running after ``timeout`` seconds is stopped and reported failed. ``engine`` overrides every
-    scene's continuation engine ("pycont" | "compiled", `autocable.scene.runner.run_scene`)."""
+    scene's continuation engine ("pycont" | "compiled", `autocable.scene.runner.run_scene`);
+    ``model`` runs every scene on that model spec instead of the one the scene names."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     jobs = max(1, int(jobs or os.cpu_count() or 1))
@@ -235,7 +242,9 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
             # at the end (`autocable.run_folder.output_folder`); the error file is ours to clear.
             (folder / ERROR_TXT).unlink(missing_ok=True)
             recv, send = ctx.Pipe(duplex=False)
-            proc = ctx.Process(target=_worker, args=(str(path), str(folder), send, engine), daemon=True)
+            proc = ctx.Process(target=_worker, args=(str(path), str(folder), send, engine,
+                                                     None if model is None else str(Path(model).resolve())),
+                               daemon=True)
             t0 = time.perf_counter()
             proc.start()
             send.close()
@@ -294,6 +303,10 @@ def add_figures_parser(subparsers) -> None:
     f.add_argument("--jobs", type=int, help="processes at a time (default: the number of cores)")
     f.add_argument("--timeout", type=float, help="stop a scene after this many seconds (default: none)")
     f.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    f.add_argument("--model", help="run every scene on this model spec instead of the one each scene names "
+                                   "(e.g. a candidate of `autocable calibrate`)")
+    f.add_argument("--targets", help="the targets file report.md decides (default: <model>.targets.toml "
+                                     "beside the scenes' model)")
     f.add_argument("--engine", choices=("pycont", "compiled"),
                    help="override every scene's engine of equilibria, switching and cycles from Hopf points")
     f.set_defaults(func=cmd_figures)
@@ -332,13 +345,21 @@ def cmd_figures(args) -> int:
         raise SpecError("--out", "", "an empty path; give the output folder")
     only = [s.strip() for s in args.only.split(",") if s.strip()] if args.only else []
     scenes = discover(Path(args.runs) if args.runs else default_runs_dir(), only, args.quick)
+    model = getattr(args, "model", None)
+    targets = getattr(args, "targets", None)
+    if model is not None:
+        from autocable.spec import load_model
+        load_model(model)                   # a bad model: one line before any scene starts
+    if targets is not None:
+        from autocable.paper.targets import load_targets
+        load_targets(targets)
     out = Path(args.out)
     say = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
     t0 = time.perf_counter()
     outcomes = run_figures(scenes, out, jobs=args.jobs, timeout=args.timeout, say=say,
-                           engine=getattr(args, "engine", None))
+                           engine=getattr(args, "engine", None), model=model)
     wall = time.perf_counter() - t0
-    report = write_report(out)
+    report = write_report(out, targets)
     failed = [o for o in outcomes if o.status != "ok"]
     if not args.quiet:
         print(f"{len(outcomes) - len(failed)} of {len(outcomes)} scenes done in {wall:.1f} s "

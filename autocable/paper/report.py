@@ -1011,9 +1011,12 @@ def _validity_table(scenes: dict) -> list[str]:
             "|---|---|---|---|---|---|"] + rows
 
 
-def targets_file(scenes: dict) -> Path | None:
-    """The targets file of the model the scenes used: ``<model>.targets.toml`` beside the model
-    file named in run.json's provenance (None if there is none)."""
+def targets_file(scenes: dict, given: str | Path | None = None) -> Path | None:
+    """The targets file of the model the scenes used: ``given`` (``autocable figures --targets``),
+    else ``<model>.targets.toml`` beside the model file named in run.json's provenance (None if
+    there is none)."""
+    if given is not None:
+        return Path(given)
     for d in scenes.values():
         model = d.provenance().get("model") if d.ok else None
         if model:
@@ -1022,10 +1025,10 @@ def targets_file(scenes: dict) -> Path | None:
     return None
 
 
-def _targets_summary(scenes: dict) -> list[str]:
+def _targets_summary(scenes: dict, targets: str | Path | None = None) -> list[str]:
     """The statements of the targets file decided by `autocable.paper.targets` (the code the
     calibration uses too), and the paper's printed numbers against the model."""
-    path = targets_file(scenes)
+    path = targets_file(scenes, targets)
     if path is None:
         return []
     targets = targets_mod.load_targets(path)
@@ -1044,8 +1047,9 @@ def _targets_summary(scenes: dict) -> list[str]:
     return lines
 
 
-def build_report(out_dir: str | Path) -> str:
-    """The text of report.md for the figures in ``out_dir`` (see the module docstring)."""
+def build_report(out_dir: str | Path, targets: str | Path | None = None) -> str:
+    """The text of report.md for the figures in ``out_dir`` (see the module docstring); ``targets``:
+    the targets file to decide (default: the one beside the scenes' model, `targets_file`)."""
     out = Path(out_dir)
     summary = _read_json(out / "figures.json") or {}
     listed = {s["name"]: s for s in summary.get("scenes", []) if isinstance(s, dict) and "name" in s}
@@ -1077,7 +1081,7 @@ def build_report(out_dir: str | Path) -> str:
                   + ", ".join(absent) + "."]
     lines += ["", "## The main result: wind cuts the out-of-plane amplitude (Fig. 10 against Fig. 6)", ""]
     lines += _main_result(scenes)
-    lines += _targets_summary(scenes)
+    lines += _targets_summary(scenes, targets)
     lines += ["", "## Figures", "",
               "For each figure: what Sect. 5 states (docs/model.md, F), whether autocable shows it "
               "(yes / partly / no), where and with what numbers; where not, why."]
@@ -1118,9 +1122,9 @@ def build_report(out_dir: str | Path) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_report(out_dir: str | Path) -> Path:
+def write_report(out_dir: str | Path, targets: str | Path | None = None) -> Path:
     """Write ``out_dir/report.md``; return its path."""
     from autocable._store import atomic_write_text
     path = Path(out_dir) / REPORT_MD
-    atomic_write_text(path, build_report(out_dir))
+    atomic_write_text(path, build_report(out_dir, targets))
     return path
