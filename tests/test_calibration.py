@@ -353,3 +353,23 @@ def test_full_evaluation_drops_a_run_whose_tuned_start_failed(tmp_path):
     after = load_scene(path)
     assert [r.name for r in before.runs] == ["I", "II", "P"] and [r.name for r in after.runs] == ["I", "II"]
     assert after.overlay == before.overlay and after.plot == before.plot and after.fixed == before.fixed
+
+
+def test_fig06_branch_ii_is_not_an_isola(tmp_path):
+    """The no-wind ceiling's reason for Fig. 6's "island II": continued past the figure's range (to
+    sigma = 0.3, where the expansions are stretched but the branch is still the AME's), both ends
+    of II run on to the range's end; it never closes on itself."""
+    import json
+    import warnings
+
+    from autocable.scene.runner import load_scene, run_scene
+    text = open("runs/fig06.toml").read().replace('"../models/', f'"{__import__("os").getcwd()}/models/')
+    text = text.replace("range = [-0.05, 0.05]", "range = [-0.05, 0.3]").split("[overlay]")[0]
+    f = tmp_path / "fig06w.toml"
+    f.write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")          # sigma beyond 0.2: the premise warning
+        run_scene(load_scene(f), tmp_path / "out", plot=False, resolution="coarse")
+    branches = {b["name"]: b for b in json.loads((tmp_path / "out" / "run.json").read_text())["branches"]}
+    ends = branches["II"]["ends"]
+    assert [e["reason"] for e in ends] == ["range", "range"] and all(e["value"] == 0.3 for e in ends)

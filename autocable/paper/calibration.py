@@ -775,7 +775,7 @@ def _ceiling(model_path: Path, targets, space, full: list, out: Path) -> dict:
         sigs.setdefault(no_wind_signature(scenes), []).append(candidate_name(c))
         first = first or scenes
     capped = no_wind_ceiling(targets, first or {})
-    n_stmt = sum(1 for t in targets if t.kind in ("statement", "number"))
+    n_stmt = sum(1 for t in targets if t.kind == "statement")
     return {"capped": capped, "statements": n_stmt, "at_most_yes": n_stmt - len(capped),
             "no_wind_difference": no_wind_difference(load_model(model_path), space),
             "same_no_wind_results": len(sigs) == 1, "candidates_compared": len(full)}
@@ -791,7 +791,7 @@ def _ceiling_lines(ceiling: dict, space) -> list[str]:
              + ("checked, identical in all " if ceiling["same_no_wind_results"] else "**not identical** in the ")
              + f"{ceiling['candidates_compared']} fully evaluated candidates. Hence these statements have, for "
              f"every candidate of the space, at best the verdict below, and no candidate can show more than "
-             f"**{ceiling['at_most_yes']} of {ceiling['statements']}** statements and numbers:", ""]
+             f"**{ceiling['at_most_yes']} of {ceiling['statements']}** statements:", ""]
     lines += [f"- **{c['id']}** ({c['says']}): at best {c['best']}; {c['why'][:300]}" for c in ceiling["capped"]]
     return lines
 
