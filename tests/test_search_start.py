@@ -111,7 +111,7 @@ def test_a_search_that_finds_nothing_new_is_not_a_failure(tmp_path):
     assert [b["name"] for b in run["branches"]] == ["I"]
     assert run["status"] == "complete"
     timing = run["provenance"]["stages"]["runs"]["II"]
-    assert "no stable equilibrium on no earlier branch at sigma = 0, 0.02" in timing["search"]
+    assert "no stable equilibrium off the earlier branches at sigma = 0, 0.02" in timing["search"]
 
 
 def test_search_finds_fig4a_island_that_the_tuned_start_found():

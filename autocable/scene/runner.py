@@ -200,7 +200,8 @@ def run_search(r: _Run) -> list:
     the fixed grid (`autocable.methods.continuation.search`); every stable one on no branch of the
     scene so far (the earlier runs' and those this search has continued) starts a branch: the first
     is named after the run, the next ``NAME_2``, ``NAME_3``, ... Nothing found: an empty list (the
-    scene goes on; run.json says what was searched)."""
+    scene goes on; run.json says what was searched). A branch whose continuation fails is skipped
+    with a message, and the search goes on: the branches already continued are kept."""
     from autocable.codegen.ckernel import compiled_kernel
     from autocable.methods import continuation as C
     from autocable.methods.continuation.search import find_equilibria
@@ -222,10 +223,14 @@ def run_search(r: _Run) -> list:
             if on_known_branch(known, p_name, v, e.state):
                 continue
             name = r.run.name if not out else f"{r.run.name}_{len(out) + 1}"
-            r.say(f"  {name} from a = {', '.join(f'{a:.4g}' for a in e.amplitudes)} at {p_name} = {v:g}")
-            out.append(C.continue_equilibria(r.problem.at(**{p_name: v}), r.settings, list(e.state),
-                                             name=name, directions=r.run.directions, progress=r.say,
-                                             engine=r.engine))
+            amps = ", ".join(f"{a:.4g}" for a in e.amplitudes)
+            r.say(f"  {name} from a = {amps} at {p_name} = {v:g}")
+            try:
+                out.append(C.continue_equilibria(r.problem.at(**{p_name: v}), r.settings, list(e.state),
+                                                 name=name, directions=r.run.directions, progress=r.say,
+                                                 engine=r.engine))
+            except (C.StartError, ComputationError) as exc:
+                r.say(f"  the branch from a = {amps} at {p_name} = {v:g} failed, skipped: {exc}")
     return out
 
 
@@ -452,20 +457,21 @@ def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolut
             failed[run.name] = f"{where}.start: {exc}"
             say(f"run {run.name} failed: {exc}")
             continue
+        extras = []
         if isinstance(result, list):
             # a search: every new branch it continued (none: a finding about the model, not a failure)
-            for extra in result[1:]:
-                add(extra)
-            result = result[0] if result else None
+            result, extras = (result[0], result[1:]) if result else (None, [])
         if result is None:
             searched = ", ".join(f"{v:g}" for v in run.start.values)
             say(f"run {run.name}: no stable equilibrium off the earlier branches at {run.parameter} = {searched}")
             run_times[run.name] = {"wall_s": time.perf_counter() - t_run,
-                                   "search": f"no stable equilibrium on no earlier branch at {run.parameter} = "
-                                             f"{searched}"}
+                                   "search": f"no stable equilibrium off the earlier branches at "
+                                             f"{run.parameter} = {searched}"}
             not_found.add(run.name)
             continue
         add(result)
+        for extra in extras:
+            add(extra)
         follow = {"cycles": 0, "switch": 0}
         if run.kind != "cycles" and run.cycles:
             for h in results[run.name].branch.of_type("H"):

@@ -40,10 +40,10 @@ at most 0.1, and step controls have bounded values (`_STEP_BOUNDS`).
     range = [-0.05, 0.05]
     start = "trivial"                 # "trivial" | { integrate = [a1, a2] } | { state = [r1, s1, r2, s2] } | "RUN:LABEL"
                                       # | { orbit = [a1, a2] } (cycles runs)
-                                      # | { search = [v1, v2, ...] }: at the first of these values
-                                      # of the parameter where Newton from a fixed grid finds a
-                                      # stable equilibrium on no earlier branch (an isola, a
-                                      # disconnected branch); none found: the run has no branch
+                                      # | { search = [v1, v2, ...] }: at each of these values of the
+                                      # parameter, every stable equilibrium that Newton finds from a
+                                      # fixed grid off the earlier branches starts a branch (NAME,
+                                      # NAME_2, ...: isolas, disconnected branches); none: no branch
     at = -0.05                        # the parameter's start value (default: range[0], or the label's)
     directions = "both"               # "both" | "forward" | "backward" (curves: forward = increasing parameter2)
     parameter2 = "eta"                # curves only: the second parameter, and its range
@@ -161,10 +161,9 @@ class StartSpec:
     """Where a run starts: ``kind`` is "trivial", "integrate" (amplitudes a_k, phases 0), "state"
     (a state vector refined by Newton), "label" (``label`` = "RUN:LABEL"), "orbit" (amplitudes
     a_k, phases 0: the periodic orbit the AME settles on from there, for a cycles run) or "search"
-    (``values``: values of the run's parameter; at the first of them where Newton from a fixed grid
-    of starts finds a stable equilibrium on no earlier branch of the scene, the run starts there:
-    an isola or a disconnected branch without a start tuned to one model,
-    `autocable.methods.continuation.search`)."""
+    (``values``: values of the run's parameter; at each, every stable equilibrium that Newton finds
+    from a fixed grid of starts off every branch of the scene so far starts a branch: isolas and
+    disconnected branches without a start tuned to one model, `autocable.scene.runner.run_search`)."""
 
     kind: str
     values: tuple[float, ...] = ()
