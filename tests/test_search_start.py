@@ -53,6 +53,18 @@ def test_one_response_away_from_the_fold_and_the_grid_is_deterministic():
     assert again == eqs
 
 
+def test_batched_evaluation_equals_the_pointwise_one():
+    """`System.f_many` / `jac_many` (one call for all the starts) equal `f` / `jac` row by row, also
+    for a field with constant entries, which do not broadcast (the row-by-row fallback)."""
+    x, y, a = sp.symbols("x y a")
+    linear = System("lin", ("x", "y"), (-x + a, 2 * y), {"a": 0.5})
+    for system in (_duffing(), linear):
+        X = np.random.default_rng(1).normal(size=(7, 2))
+        p = system.parameter_vector({})
+        assert system.f_many(X, p) == pytest.approx(np.array([system.f(r, p) for r in X]), rel=1e-14)
+        assert system.jac_many(X, p) == pytest.approx(np.array([system.jac(r, p) for r in X]), rel=1e-14)
+
+
 def test_on_known_branch_tells_two_nearby_branches_apart():
     """States are compared, not amplitudes: at Fig. 7's sigma = -0.03 two stable bi-modal
     equilibria lie 1-2 % apart in (a1, a2) but on different branches."""
@@ -118,7 +130,6 @@ def test_search_finds_fig4a_island_that_the_tuned_start_found():
     """The island II of Fig. 4a (U* in [0.6495, 0.8806], folds and Hopf points) from the search at
     U* = 0.85 is the branch that Newton from the state tuned by hand (6.243296e-4, 4.957535e-3,
     5.318726e-6, -1.455669e-4) reaches: Newton on the sample's AME from both starts gives one state."""
-    from autocable.codegen.ckernel import compiled_kernel
     from autocable.methods.continuation import ame_system
     from autocable.methods.continuation.equilibrium_analysis import equilibrium_near
     from autocable.model.ame_cache import derive_ame
@@ -128,7 +139,7 @@ def test_search_finds_fig4a_island_that_the_tuned_start_found():
     ame = derive_ame(derive(load_model(MODEL)), ordering="natural").ame
     system = ame_system(ame, "2dof", wind=True)
     values = {"U": 0.85, "sigma": 0.01, "eta": 1.6e-4}
-    eqs = find_equilibria(system, values, scale=0.005, rhs=compiled_kernel(system))
+    eqs = find_equilibria(system, values, scale=0.005)
     tuned, ok, _ = equilibrium_near(system, [6.243296e-4, 4.957535e-3, 5.318726e-6, -1.455669e-4],
                                     system.parameter_vector(values), scale=0.005)
     assert ok

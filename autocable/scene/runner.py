@@ -202,7 +202,6 @@ def run_search(r: _Run) -> list:
     is named after the run, the next ``NAME_2``, ``NAME_3``, ... Nothing found: an empty list (the
     scene goes on; run.json says what was searched). A branch whose continuation fails is skipped
     with a message, and the search goes on: the branches already continued are kept."""
-    from autocable.codegen.ckernel import compiled_kernel
     from autocable.methods import continuation as C
     from autocable.methods.continuation.search import find_equilibria
     from autocable.model.premises import MAX_AMPLITUDE
@@ -210,12 +209,10 @@ def run_search(r: _Run) -> list:
     if r.system.dimension % 2:
         raise SpecError(r.path, f"{r.where}.start", '{ search = [...] } needs the Cartesian AME (ame = "2dof" '
                                                     'or "1dof")')
-    rhs = compiled_kernel(r.system) if r.engine == "compiled" else None
     p_name = r.run.parameter
     out: list = []
     for v in r.run.start.values:
-        eqs = find_equilibria(r.system, {**r.values, p_name: v}, scale=r.scale, rhs=rhs,
-                              max_amplitude=MAX_AMPLITUDE)
+        eqs = find_equilibria(r.system, {**r.values, p_name: v}, scale=r.scale, max_amplitude=MAX_AMPLITUDE)
         stable = [e for e in eqs if e.stable]
         r.say(f"  search at {p_name} = {v:g}: {len(eqs)} equilibria, {len(stable)} stable")
         for e in stable:

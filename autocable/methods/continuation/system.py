@@ -145,6 +145,31 @@ class System:
         return np.broadcast_to(np.asarray(self._numeric[1](np.asarray(x, float), np.asarray(p, float)),
                                           dtype=float), (n, n)).copy()
 
+    def f_many(self, X, p) -> np.ndarray:
+        """f at every row of ``X`` (N x n) at one parameter vector: an N x n array, in one call of
+        the numpy function when its entries broadcast, else row by row."""
+        X = np.asarray(X, float)
+        n, N = self.dimension, len(X)
+        try:
+            out = np.asarray(self._numeric[0](X.T, np.asarray(p, float)), dtype=float)
+            if out.size == n * N:
+                return out.reshape(n, N).T.copy()
+        except (ValueError, TypeError):
+            pass                     # a constant entry does not broadcast: one row at a time
+        return np.array([self.f(x, p) for x in X]).reshape(N, n)
+
+    def jac_many(self, X, p) -> np.ndarray:
+        """The Jacobian at every row of ``X``: an N x n x n array (as `f_many`)."""
+        X = np.asarray(X, float)
+        n, N = self.dimension, len(X)
+        try:
+            out = np.asarray(self._numeric[1](X.T, np.asarray(p, float)), dtype=float)
+            if out.size == n * n * N:
+                return out.reshape(n, n, N).transpose(2, 0, 1).copy()
+        except (ValueError, TypeError):
+            pass
+        return np.array([self.jac(x, p) for x in X]).reshape(N, n, n)
+
     def jac_p(self, x, p) -> np.ndarray:
         n, m = self.dimension, len(self.parameters)
         return np.broadcast_to(np.asarray(self._numeric[2](np.asarray(x, float), np.asarray(p, float)),
