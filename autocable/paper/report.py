@@ -48,14 +48,16 @@ REASONS = {
                   "blow up in finite time (README, 'Known limit'; docs/ame_vs_ode21.md); the AME with the "
                   "natural ordering diverges there too (Fig. 8: at every sigma), the paper-ordering AME "
                   "does not (docs/ordering.md); the calibration (docs/calibration/calibration.md) finds "
-                  "readings where eq. (21) stays bounded (twist restrained at the anchorages), none of "
-                  "which shows more of Sect. 5 than the sample",
+                  "readings where eq. (21) stays bounded (twist restrained at the anchorages; natural "
+                  "twist with twisted load axes and a large yaw), none of which shows more of Sect. 5 "
+                  "than the sample",
     "inputs": "unknown paper inputs: the yaw beta, the rivulet angle Theta0 and the air density are "
               "not printed; the sample model calibrates Theta0 to U_c = 36 m/s on one member of a "
               "one-parameter family (models/luongo_zulli_2012.toml; docs/model.md, U1-U4), so the "
               "aerodynamic coefficients, and with them Hopf points and islands under wind, need not "
-              "be the paper's; `autocable calibrate` searched 2016 candidates against Sect. 5 and "
-              "found none better than the sample (docs/calibration/calibration.md)",
+              "be the paper's; `autocable calibrate` screened 2016 candidates against Sect. 5 and ran 40 "
+              "on every figure: none that keeps the paper's U_c shows more of it than the sample "
+              "(docs/calibration/calibration.md)",
     "missing": "the scene did not run, failed or has no results (see its error)",
     "reduction": "modelling choice: the scene uses the A2 = 0 (1-dof) AME; the study's bound is the 2-dof "
                  "AME's, and on large responses the reduction adds its own error (on Fig. 4c's island "
