@@ -16,6 +16,16 @@ SAMPLE = REPO / "models" / "luongo_zulli_2012.toml"
 RUNS = REPO / "runs"
 
 
+def two_run_scene(second_start: str, extra: str = "", *, engine: str = "pycont", title: str = "two runs") -> str:
+    """The text of a small scene at Fig. 5a's setting (U = 0, eta* = 8.2e-5, the sample cable): run I
+    from the trivial state and run II from ``second_start`` (TOML), then ``extra`` (more keys of II,
+    more tables)."""
+    return (f'title = "{title}"\nmodel = "{SAMPLE.as_posix()}"\name = "2dof"\nengine = "{engine}"\n'
+            '[fixed]\nU = 0.0\neta = 8.2e-5\n'
+            '[[run]]\nname = "I"\nparameter = "sigma"\nrange = [-0.05, 0.05]\nstart = "trivial"\n'
+            f'[[run]]\nname = "II"\nparameter = "sigma"\nrange = [-0.05, 0.05]\nstart = {second_start}\n{extra}\n')
+
+
 @pytest.fixture(scope="session")
 def sample_spec():
     """The sample cable's `ModelSpec`."""

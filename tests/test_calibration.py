@@ -373,3 +373,16 @@ def test_fig06_branch_ii_is_not_an_isola(tmp_path):
     branches = {b["name"]: b for b in json.loads((tmp_path / "out" / "run.json").read_text())["branches"]}
     ends = branches["II"]["ends"]
     assert [e["reason"] for e in ends] == ["range", "range"] and all(e["value"] == 0.3 for e in ends)
+
+
+def test_no_ceiling_is_claimed_when_its_premises_fail():
+    """If the no-wind scenes differed between candidates, calibration.md says so and states no
+    bound (the ceiling rests on them being the same for every candidate)."""
+    base = {"capped": [], "statements": 48, "at_most_yes": None, "premises_hold": False,
+            "no_wind_difference": 0.0, "same_no_wind_results": False, "candidates_compared": 3,
+            "no_wind_scenes": ["fig05a", "fig06"]}
+    text = "\n".join(study._ceiling_lines(base, study.SearchSpace()))
+    assert "**not identical** in the 3" in text and "no ceiling follows" in text and "can show more" not in text
+    ok = dict(base, premises_hold=True, same_no_wind_results=True, at_most_yes=42)
+    text = "\n".join(study._ceiling_lines(ok, study.SearchSpace()))
+    assert "identical in all 3" in text and "more than **42 of 48**" in text and "(fig05a, fig06)" in text

@@ -14,7 +14,7 @@ import pytest
 
 from autocable.cli import main
 from autocable.errors import BudgetExceeded, ComputationError
-from conftest import SAMPLE
+from conftest import SAMPLE, two_run_scene
 
 #: Fig. 10's carets: above U_c eq. (21) grows past |q| = 0.1 (tests/test_compiled_integration.py).
 DIVERGING = ["--U", "1.3", "--eta", "1.4e-3", "--sigma", "0.03"]
@@ -190,27 +190,7 @@ def test_ame_integration_has_a_budget(sample_ame):
 # -- budgets: a start that would integrate without end stops, the other runs are kept --------------
 def _scene(tmp_path, second_start: str, steps: str = "") -> str:
     path = tmp_path / "budget.toml"
-    path.write_text(f'''title = "budget"
-model = "{SAMPLE.as_posix()}"
-ame = "2dof"
-[fixed]
-U = 0.0
-eta = 8.2e-5
-[[run]]
-name = "I"
-parameter = "sigma"
-range = [-0.05, 0.05]
-start = "trivial"
-[[run]]
-name = "II"
-parameter = "sigma"
-range = [-0.05, 0.05]
-start = {second_start}
-{steps}
-[plot]
-x = "sigma"
-y = ["a1"]
-''')
+    path.write_text(two_run_scene(second_start, f'{steps}\n[plot]\nx = "sigma"\ny = ["a1"]', title="budget"))
     return str(path)
 
 

@@ -14,6 +14,7 @@ from autocable.methods.continuation.search import find_equilibria, search_grid
 from autocable.scene.runner import on_known_branch
 from autocable.scene.schema import load_scene
 from autocable.spec import SpecError
+from conftest import two_run_scene
 
 REPO = Path(__file__).resolve().parents[1]
 MODEL = REPO / "models" / "luongo_zulli_2012.toml"
@@ -87,28 +88,6 @@ def test_on_known_branch_tells_two_nearby_branches_apart():
     assert on_known_branch([b], "sigma", 0.0, [-4.36e-3, 7.9e-4, 2.57e-3, -1.8e-4]) == ""
 
 
-SCENE = """
-title = "search test"
-model = "{model}"
-ame = "2dof"
-engine = "compiled"
-[fixed]
-U = 0.0
-eta = 8.2e-5
-[[run]]
-name = "I"
-parameter = "sigma"
-range = [-0.05, 0.05]
-start = "trivial"
-[[run]]
-name = "II"
-parameter = "sigma"
-range = [-0.05, 0.05]
-start = {{ search = [0.0, 0.02] }}
-{extra}
-"""
-
-
 def test_a_search_that_finds_nothing_new_is_not_a_failure(tmp_path):
     """Fig. 5a's setting (U = 0, eta* = 8.2e-5) has one mono-modal response at each sigma, on I:
     the search run has no branch, a run starting from it is skipped, the scene is complete and
@@ -117,7 +96,7 @@ def test_a_search_that_finds_nothing_new_is_not_a_failure(tmp_path):
 
     extra = '[[run]]\nname = "II-H"\nkind = "cycles"\nparameter = "sigma"\nrange = [-0.05, 0.05]\nstart = "II:H1"\n'
     f = tmp_path / "s.toml"
-    f.write_text(SCENE.format(model=MODEL, extra=extra))
+    f.write_text(two_run_scene("{ search = [0.0, 0.02] }", extra, engine="compiled", title="search test"))
     run_scene(load_scene(f), tmp_path / "out", plot=False, resolution="coarse")
     run = json.loads((tmp_path / "out" / "run.json").read_text())
     assert [b["name"] for b in run["branches"]] == ["I"]

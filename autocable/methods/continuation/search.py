@@ -138,18 +138,17 @@ def find_equilibria(system: System, values: Mapping[str, float], *, scale: float
     starts = np.array(search_grid(system.dimension, scale))
     converged = _newton_all(system, starts, p, scale, bound=10.0 * max_amplitude * math.sqrt(system.dimension))
     found: list[Equilibrium] = []
+
+    def seen(x) -> bool:
+        return any(float(np.linalg.norm(np.asarray(e.state) - x)) <= 1e-6 * (float(np.linalg.norm(x)) + scale)
+                   for e in found)
+
     for x0 in converged:
-        if any(float(np.linalg.norm(np.asarray(e.state) - x0)) <= 1e-6 * (float(np.linalg.norm(x0)) + scale)
-               for e in found):
+        if seen(x0):                       # most starts converge to a root already polished
             continue
         x, ok, res = equilibrium_near(system, x0, p, scale=scale)
-        if not ok:
-            continue
         amps = tuple(float(a) for a in system.amplitude_values(x))
-        if max(amps, default=0.0) > max_amplitude:
-            continue
-        tol = 1e-6 * (float(np.linalg.norm(x)) + scale)
-        if any(float(np.linalg.norm(np.asarray(e.state) - x)) <= tol for e in found):
+        if not ok or max(amps, default=0.0) > max_amplitude or seen(x):
             continue
         stable = bool(np.max(np.linalg.eigvals(system.jac(x, p)).real) < 0)
         found.append(Equilibrium(tuple(float(v) for v in x), amps, stable, float(res)))
