@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from autocable.codegen.cintegrate import compiled_integrator, sample_grid
+from autocable.codegen.cintegrate import Repeated, compiled_integrator, sample_grid
 from autocable.codegen.ckernel import KernelBuildError
 
 X, V, W, Z, T = sp.symbols("x v w z t")
@@ -101,6 +101,25 @@ def test_stops_bound_and_budget(oscillator):
     assert np.max(np.abs(r.y[:, 0] - forced_undamped(r.t, 1.3))) < 1e-8
     r = oscillator.run([1.0, 0.0], g, [1.3, 0.0], rtol=1e-10, atol=1e-13, max_steps=5)
     assert r.status == "step_budget" and r.accepted == 5 and not r.ok
+
+
+def test_repeated_runs_equal_run_bit_for_bit(oscillator):
+    """`Repeated` (checks and buffers once, for Newton loops) calls the same C function: its samples
+    equal `run`'s exactly, from several starts and tolerances in turn; a stopped run is None."""
+    g = np.array([0.0, 3.0, 7.5, 12.0])
+    rep = Repeated(oscillator, g, [1.3, 0.05], max_step=1.0, bound=5.0, n_bound=1)
+    for y0, rtol in (([1.0, 0.0], 1e-8), ([0.2, -0.4], 1e-11), ([1.0, 0.0], 1e-6)):
+        got = rep(y0, rtol, rtol * 1e-3).copy()
+        ref = oscillator.run(y0, g, [1.3, 0.05], rtol=rtol, atol=rtol * 1e-3, max_step=1.0, bound=5.0,
+                             n_bound=1)
+        assert ref.ok and np.array_equal(got, ref.y)
+    assert rep([6.0, 0.0], 1e-8, 1e-11) is None             # starts beyond the bound: stopped
+    with pytest.raises(ValueError, match="tolerances must be positive"):
+        rep([1.0, 0.0], 0.0, 1e-12)
+    with pytest.raises(ValueError, match="increasing"):
+        Repeated(oscillator, [0.0, 0.0], [1.3, 0.05])
+    with pytest.raises(ValueError, match="2 parameters"):
+        Repeated(oscillator, g, [1.3])
 
 
 def test_bad_input_is_one_line():

@@ -15,6 +15,8 @@ jobs than about Dask.
 """
 from __future__ import annotations
 
+import contextlib
+import gc
 import math
 import os
 import tempfile
@@ -35,6 +37,19 @@ def _rel(a, b) -> float:
     return abs(a - b)
 
 
+@contextlib.contextmanager
+def _no_gc():
+    """The garbage collector off while a block is timed, as `timeit` does: its passes fall at the
+    same allocation counts in every repeat, so best-of-n would not filter them out, and a 3 ms
+    pass charged to a 1 ms point says nothing about the method."""
+    gc.collect()
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.enable()
+
+
 def bench_shooting(model_path: str, repeats: int = 3, log=None) -> dict:
     from autocable.methods.integration.ode21 import Ode21Integrator
     from autocable.methods.integration.shooting import ShootingSolver
@@ -50,28 +65,40 @@ def bench_shooting(model_path: str, repeats: int = 3, log=None) -> dict:
     transient.simulate(0.0, 8.2e-5, 0.0)
     rows, tot_s, tot_t = [], 0.0, 0.0
     for U, eta in CASES:
-        for sigma in SIGMAS:
-            ts, tt = [], []
-            for _ in range(max(repeats, 1)):
-                t0 = time.perf_counter()
-                r = solver.steady(U, eta, sigma)
-                ts.append(time.perf_counter() - t0)
-                t0 = time.perf_counter()
-                q = transient.simulate(U, eta, sigma)
-                tt.append(time.perf_counter() - t0)
+        # Each method runs a case's detunings as a block, the blocks alternating (shooting,
+        # transient, shooting, ...) so that a change of the machine's load falls on both alike.
+        # Timing point by point, each method right after the other, made each pay for the caches
+        # the other had just filled (about 20 % for shooting, a sweep of one method does not).
+        ts = {float(sg): [] for sg in SIGMAS}
+        tt = {float(sg): [] for sg in SIGMAS}
+        shot, trans = {}, {}
+        for _ in range(max(repeats, 1)):
+            with _no_gc():
+                for sigma in ts:
+                    t0 = time.perf_counter()
+                    shot[sigma] = solver.steady(U, eta, sigma)
+                    ts[sigma].append(time.perf_counter() - t0)
+            with _no_gc():
+                for sigma in tt:
+                    t0 = time.perf_counter()
+                    trans[sigma] = transient.simulate(U, eta, sigma)
+                    tt[sigma].append(time.perf_counter() - t0)
+        for sigma in ts:
+            r, q = shot[sigma], trans[sigma]
             ref = reference.simulate(U, eta, sigma, steady_tol=1e-11)
             size = max(ref.a1, ref.a2) if math.isfinite(ref.a1) else 1.0
             ok_ref = ref.steady and ref.periodic
             err_s = max(_rel(r.a1, ref.a1), _rel(r.a2, ref.a2)) / size if ok_ref else None
             err_t = max(_rel(q.a1, ref.a1), _rel(q.a2, ref.a2)) / size if ok_ref else None
-            row = {"U": U, "eta": eta, "sigma": float(sigma), "response": r.response,
+            row = {"U": U, "eta": eta, "sigma": sigma, "response": r.response,
                    "transient_periodic": bool(q.periodic), "transient_diverged": not math.isfinite(q.a1),
-                   "shooting_ms": 1e3 * min(ts), "transient_ms": 1e3 * min(tt),
-                   "speedup": min(tt) / min(ts), "shooting_rel_error": err_s, "transient_rel_error": err_t,
-                   "fallback": r.fallback, "transient_periods_before_shooting": r.transient_periods}
+                   "shooting_ms": 1e3 * min(ts[sigma]), "transient_ms": 1e3 * min(tt[sigma]),
+                   "speedup": min(tt[sigma]) / min(ts[sigma]), "shooting_rel_error": err_s,
+                   "transient_rel_error": err_t, "fallback": r.fallback,
+                   "transient_periods_before_shooting": r.transient_periods}
             rows.append(row)
-            tot_s += min(ts)
-            tot_t += min(tt)
+            tot_s += min(ts[sigma])
+            tot_t += min(tt[sigma])
             say(f"U={U:g} eta={eta:g} sigma={sigma:+.3f}: {r.response:14s} shooting {row['shooting_ms']:7.2f} ms, "
                 f"transient {row['transient_ms']:7.2f} ms ({row['speedup']:.1f}x); errors "
                 f"{err_s if err_s is None else f'{err_s:.1e}'} / {err_t if err_t is None else f'{err_t:.1e}'}")

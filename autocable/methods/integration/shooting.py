@@ -15,7 +15,11 @@ How. The 20 equations (state and Phi) are written from the same sympy right-hand
 integrator of eq. (21) (`autocable.model.symbolic.first_order_rhs` and its exact Jacobian) and
 compiled into the DOP853 integrator of `autocable.codegen.cintegrate` (content-hashed cache, build
 lock): one C call per Newton step. `floquet21` does the same in Python (scipy's DOP853 over
-lambdified functions, ~20 ms a period); here a period costs well under a millisecond.
+lambdified functions, ~20 ms a period); here a period costs well under a millisecond. Newton's
+first steps integrate the 20 equations at a coarse rtol; once the residual is below 1e-3 it goes
+on by chord steps (the last monodromy kept) on the four state equations at the full rtol, and one
+variational flow at the fixed point gives its monodromy. Every compiled run is prepared once per
+(U*, eta*, Omega) and reused (`cintegrate.Repeated`): a point costs about as much in C as in Python.
 
 Where Newton starts. From a short transient: the compiled `Ode21Integrator` integrates whole
 forcing periods from the start state (rest with the q2 seed of `ode21.DEFAULT_Q0` unless told
@@ -51,6 +55,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from autocable.codegen.cintegrate import Repeated, sample_grid
 from autocable.errors import ComputationError
 from autocable.methods.integration.floquet21 import STABILITY_MARGIN, multipliers_of
 from autocable.methods.integration.ode21 import (DEFAULT_Q0, DIVERGED, Ode21Integrator, half_range,
@@ -65,17 +70,27 @@ RESPONSE_CODES = {name: k for k, name in enumerate(RESPONSE_CLASSES)}
 #: start's distance to the response by ~e^-0.75 and 60 by ~e^-1.5: enough for Newton's basin away
 #: from bifurcations (eq. (21) is weakly nonlinear at these amplitudes); the later stages serve slow
 #: approaches (near folds and pitchforks). The stages integrate at STAGE_RTOL: they only carry the
-#: start into an orbit's basin; the judge and the orbit itself use the full tolerances.
+#: start into an orbit's basin (Newton, not the stage, fixes the orbit to the solver's rtol).
 TRANSIENT_STAGES = (30, 30, 60, 120, 120, 240, 480, 1000)  # each >= 3
-STAGE_RTOL = 1e-8
+STAGE_RTOL = 1e-6
+#: The loosest rtol of the judge (`ShootingSolver._attracts`), used when the distance it judges is
+#: a good part of the orbit's size; closer starts are judged at tighter tolerances.
+JUDGE_RTOL = 1e-5
 #: Samples per forcing period for the amplitudes (the same as `Ode21Integrator.simulate`).
 SAMPLES_PER_PERIOD = 64
 #: Newton's first steps integrate the variational equations at this rtol, down to a residual of
-#: COARSE_SWITCH; then at the solver's rtol (1e-11), which alone decides convergence.
+#: COARSE_SWITCH; then chord steps on the state alone at the solver's rtol (1e-11), which alone
+#: decides convergence (`ShootingSolver._chord`).
 COARSE_RTOL = 1e-8
-COARSE_SWITCH = 1e-5
+COARSE_SWITCH = 1e-3
+_EYE4 = np.eye(4).ravel()
+_EYE4.flags.writeable = False
+#: The monodromy returned with a fixed point (its Floquet multipliers) is integrated at this rtol:
+#: its entries are O(1), so they carry about ten digits, two more than the stability test and the
+#: multipliers reported need; the fixed point itself is at the solver's rtol.
+MONODROMY_RTOL = 1e-10
 #: Version of the shooting algorithm (part of a sweep's provenance).
-SHOOTING_VERSION = "1"
+SHOOTING_VERSION = "2"
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,6 +140,11 @@ class SteadyResponse:
         return float(np.abs(self.multipliers[0])) if len(self.multipliers) else math.nan
 
 
+def _norm(v) -> float:
+    """The 2-norm of a short vector (np.linalg.norm's checks cost more than the sum here)."""
+    return math.sqrt(float(v @ v))
+
+
 def periodic_half_range(x: np.ndarray) -> float:
     """Half the peak-to-peak of one turn of a periodic signal sampled uniformly (the last sample
     one step before the first repeats), each extreme refined by the parabola through it and its
@@ -140,6 +160,15 @@ def periodic_half_range(x: np.ndarray) -> float:
     return 0.5 * (peak(x) + peak(-x))
 
 
+@dataclass(frozen=True, eq=False)
+class _Stage:
+    """A transient stage that ran to its end: the samples (as `CRun`, whose other fields only a
+    stopped run needs)."""
+
+    y: np.ndarray
+    ok: bool = True
+
+
 class ShootingSolver:
     """Shooting for eq. (21) of one `TwoModeODE`: the compiled integrators are built once (cached
     across processes by content hash) and reused for every point."""
@@ -149,9 +178,10 @@ class ShootingSolver:
         self.ode = ode
         self.rtol = float(rtol)
         self.integrator = Ode21Integrator(ode, engine="compiled", rtol=transient_rtol, atol=transient_atol)
-        self._stage = self.integrator.with_tolerances(max(STAGE_RTOL, transient_rtol),
-                                                      max(STAGE_RTOL, transient_rtol) * 1e-3)
         self._var = None
+        # Repeated runs per (kind, U, eta, Omega, length): a point's Newton steps, judge and
+        # stages reuse them, and a sweep's next point builds its own (oldest dropped).
+        self._runs: dict = {}
 
     # -- the compiled variational system -------------------------------------------------------
     def _variational(self):
@@ -174,22 +204,29 @@ class ShootingSolver:
         pars = parameter_values(U, eta, Omega)
         return [pars[p.name] for p in PARAMETERS]
 
+    def _repeated(self, key, make):
+        r = self._runs.get(key)
+        if r is None:
+            if len(self._runs) >= 64:
+                self._runs.pop(next(iter(self._runs)))
+            r = self._runs[key] = make()
+        return r
+
     def flow(self, U: float, eta: float, Omega: float, y0, periods: int = 1, rtol: float | None = None):
         """(y(kT), Phi(kT)) from y(0) = ``y0`` over k = ``periods`` forcing periods, or None when
         the orbit leaves |q_k| <= `ode21.DIVERGED` (or the integration fails); ``rtol`` defaults
         to the solver's."""
         rtol = self.rtol if rtol is None else float(rtol)
         y0 = np.asarray(y0, dtype=float)
-        period = 2 * math.pi / Omega
-        z0 = np.concatenate([y0, np.eye(4).ravel()])
-        scale = max(float(np.max(np.abs(y0))), 1e-9)
-        r = self._variational().run(z0, np.array([0.0, periods * period]),
-                                    self._parameters(U, eta, Omega), rtol=rtol,
-                                    atol=rtol * 1e-2 * scale, max_step=1.0,
-                                    max_steps=200_000 * periods, bound=DIVERGED, n_bound=2)
-        if not r.ok:
+        run = self._repeated(("flow", U, eta, Omega, periods), lambda: Repeated(
+            self._variational(), [0.0, periods * 2 * math.pi / Omega], self._parameters(U, eta, Omega),
+            max_step=1.0, max_steps=200_000 * periods, bound=DIVERGED, n_bound=2))
+        z0 = np.concatenate([y0, _EYE4])
+        scale = max(float(np.abs(y0).max()), 1e-9)
+        ys = run(z0, rtol, rtol * 1e-2 * scale)
+        if ys is None:
             return None
-        z = r.y[-1]
+        z = ys[-1]
         return z[:4].copy(), z[4:].reshape(4, 4).copy()
 
     def newton(self, U: float, eta: float, Omega: float, guess, periods: int = 1, *,
@@ -209,7 +246,7 @@ class ShootingSolver:
         fine = rt == self.rtol
 
         def residual(y_, got_):
-            return float(np.linalg.norm(got_[0] - y_)) / max(float(np.linalg.norm(y_)), floor)
+            return _norm(got_[0] - y_) / max(_norm(y_), floor)
 
         got = self.flow(U, eta, Omega, y, periods, rt)
         if got is None:
@@ -218,6 +255,9 @@ class ShootingSolver:
         res = residual(y, got)
         for it in range(1, max_iter + 1):
             if not fine and res < COARSE_SWITCH:
+                done = self._chord(U, eta, Omega, y, yT, M, periods, tol, floor, it, max_iter)
+                if done is not None:
+                    return done
                 rt, fine = self.rtol, True
                 got = self.flow(U, eta, Omega, y, periods, rt)
                 if got is None:
@@ -227,7 +267,7 @@ class ShootingSolver:
             if fine and res < tol:
                 return y, M, res, it - 1, True
             try:
-                step = np.linalg.solve(M - np.eye(4), yT - y)
+                step = np.linalg.solve(M - _EYE4.reshape(4, 4), yT - y)
             except np.linalg.LinAlgError:
                 return y, M, res, it, False
             lam = 1.0
@@ -244,6 +284,46 @@ class ShootingSolver:
             y, (yT, M), res = y_new, got, res_new
         return y, M, res, max_iter, fine and res < tol
 
+    def _state_flow(self, U: float, eta: float, Omega: float, y0, periods: int):
+        """y(kT) from y(0) = ``y0`` at the solver's rtol, the four equations of eq. (21) alone (the
+        tolerances of `flow`), or None when the run stopped early."""
+        run = self._repeated(("state", U, eta, Omega, periods), lambda: Repeated(
+            self.integrator._c_integrator(), [0.0, periods * 2 * math.pi / Omega],
+            self._parameters(U, eta, Omega), max_step=1.0, max_steps=200_000 * periods, bound=DIVERGED,
+            n_bound=2))
+        scale = max(float(np.abs(y0).max()), 1e-9)
+        ys = run(y0, self.rtol, self.rtol * 1e-2 * scale)
+        return None if ys is None else ys[-1].copy()
+
+    def _chord(self, U, eta, Omega, y, yT, M, periods, tol, floor, it, max_iter):
+        """Newton's last steps, once the residual is below COARSE_SWITCH: the chord method with the
+        coarse monodromy ``M`` (within about COARSE_RTOL of the true one, so each step gains about
+        seven digits) on flows of the state alone, a fifth of the work of a variational flow, then
+        one variational flow at the fixed point for its monodromy (the Floquet multipliers). The
+        same fixed point as Newton at the solver's rtol, whose residual decides: (y, M, residual,
+        iterations, True), or None when a step does not halve the residual (Newton takes over)."""
+        try:
+            # one inverse for every step: the chord's matrix does not change
+            A_inv = np.linalg.inv(M - _EYE4.reshape(4, 4))
+            y = y - A_inv @ (yT - y)
+            last = math.inf
+            for k in range(it, max_iter + 1):
+                yT = self._state_flow(U, eta, Omega, y, periods)
+                if yT is None:
+                    return None
+                d = yT - y
+                res = _norm(d) / max(_norm(y), floor)
+                if res < tol:
+                    got = self.flow(U, eta, Omega, y, periods, max(MONODROMY_RTOL, self.rtol))
+                    return None if got is None else (y, got[1], res, k, True)
+                if not res < 0.5 * last:
+                    return None
+                last = res
+                y = y - A_inv @ d
+        except np.linalg.LinAlgError:
+            return None
+        return None
+
     # -- orbit measurements --------------------------------------------------------------------
     def orbit_amplitudes(self, U: float, eta: float, Omega: float, y0, periods: int):
         """(a1, a2, envelope) of the period-k orbit through ``y0`` (k = ``periods``): the half
@@ -253,12 +333,24 @@ class ShootingSolver:
         of the same over each of the two forcing periods."""
         n = SAMPLES_PER_PERIOD
         period = 2 * math.pi / Omega
-        pars = parameter_values(U, eta, Omega)
-        r = self.integrator.run_compiled(tuple(y0), 0.0, periods * period, period / n, pars)
-        if not r.ok or len(r.t) != periods * n + 1:
+        ig = self.integrator
+
+        def make():
+            # the grid, budget and bound of `Ode21Integrator.run_compiled`, checked once
+            grid = sample_grid(0.0, periods * period, period / n)
+            if len(grid) != periods * n + 1:
+                raise ComputationError(f"the sample grid over {periods} period(s) has {len(grid)} times, "
+                                       f"expected {periods * n + 1}")
+            return Repeated(ig._c_integrator(), grid, self._parameters(U, eta, Omega), max_step=1.0,
+                            max_steps=ig._budget(0.0, periods * period, len(grid)), n_bound=2)
+
+        ys = self._repeated(("orbit", U, eta, Omega, periods), make)(np.asarray(y0, float), ig.rtol, ig.atol)
+        if ys is None:
+            pars = parameter_values(U, eta, Omega)
+            r = ig.run_compiled(tuple(y0), 0.0, periods * period, period / n, pars)
             raise ComputationError("eq. (21) could not be integrated over the orbit found by shooting "
                                    f"({_stopped(r, 0.0, periods * period)})")
-        w = r.y[:-1, :2]
+        w = ys[:-1, :2].copy()
         amps = (periodic_half_range(w[:, 0]), periodic_half_range(w[:, 1]))
         if periods == 1:
             return amps, [(a, a) for a in amps]
@@ -269,23 +361,32 @@ class ShootingSolver:
         return amps, [(min(p), max(p)) for p in per]
 
     def _attracts(self, U, eta, Omega, y_star, y_tr, periods: int, mu_max: float) -> bool:
-        """The judge: integrating on from the transient's state ``y_tr`` (at STAGE_RTOL), its
+        """The judge: integrating on from the transient's state ``y_tr``, its
         distance to the fixed point ``y_star`` of the period-k map has shrunk by a quarter after
         as many periods as the slowest multiplier ``mu_max`` needs to halve it (at least 4, at
         most 200 turns; the margin allows for the non-normal start of the approach): it is in the
         orbit's basin, not only in Newton's. A coexisting stable
         orbit that Newton reached from a state integration carries elsewhere (the other side of a
         resonance's hysteresis) fails: its distance grows."""
-        d0 = float(np.linalg.norm(np.asarray(y_tr) - y_star))
-        if d0 <= 1e-6 * max(float(np.linalg.norm(y_star)), 1e-12):
+        d0 = _norm(np.asarray(y_tr) - y_star)
+        size = max(_norm(y_star), 1e-12)
+        if d0 <= 1e-6 * size:
             return True
         turns = 200 if not 0.0 < mu_max < 1.0 else min(200, max(4, math.ceil(math.log(0.5) / math.log(mu_max))))
         period = 2 * math.pi / Omega
         n = turns * periods
-        r = self._stage_run(np.asarray(y_tr, float), max(n, 3), period, parameter_values(U, eta, Omega))
+        # The integration error must stay far below the quarter of d0 that decides. Each period
+        # adds about rtol |y*| or less (measured: 1.2e-3 |y*| after 28 periods at rtol 1e-5 with
+        # the step free, Fig. 5a's setting), so rtol = 1e-3 d0 / (n |y*|) keeps the total to a
+        # few per cent of that quarter: JUDGE_RTOL for a fresh transient (d0 a good part of |y*|),
+        # tighter for a start already near the orbit (a neighbouring point's). The step is left to
+        # the error control (up to half a period): the judge samples only period ends.
+        rtol = min(JUDGE_RTOL, 1e-3 * d0 / (max(n, 3) * size))
+        r = self._stage_run(np.asarray(y_tr, float), max(n, 3), period, parameter_values(U, eta, Omega), rtol,
+                            rtol * 1e-2 * float(np.abs(y_star).max()) or None, max_step=period / 2)
         if not r.ok:
             return False
-        return bool(float(np.linalg.norm(r.y[-1] - y_star)) < 0.75 * d0)
+        return bool(_norm(r.y[-1] - y_star) < 0.75 * d0)
 
     # -- the steady response -------------------------------------------------------------------
     def steady(self, U: float, eta: float, sigma: float, q0=DEFAULT_Q0, *, guess=None,
@@ -374,8 +475,8 @@ class ShootingSolver:
             y = r.y[-1]
             done += n
             # how far the last period ends are from repeating with period 1 and with period 2
-            d1 = float(np.linalg.norm(r.y[-1] - r.y[-2]))
-            d2 = float(np.linalg.norm(r.y[-1] - r.y[-3]))
+            d1 = _norm(r.y[-1] - r.y[-2])
+            d2 = _norm(r.y[-1] - r.y[-3])
             if left is not None and np.linalg.norm(y - left) < 0.5 * np.linalg.norm(left):
                 # still on the way out from the unstable orbit just left: Newton would go back to it
                 continue
@@ -409,15 +510,26 @@ class ShootingSolver:
                 break
         return self._fallback(U, eta, sigma, y, done, period, max_time, result, attempt)
 
-    def _stage_run(self, y, n: int, period: float, pars: dict):
-        """A transient stage: n forcing periods from ``y`` at STAGE_RTOL, stopping beyond
-        `ode21.DIVERGED`, sampled only at the last three period ends."""
-        grid = np.array([0.0, (n - 2) * period, (n - 1) * period, n * period])
+    def _stage_run(self, y, n: int, period: float, pars: dict, rtol: float = STAGE_RTOL,
+                   atol: float | None = None, max_step: float = 1.0):
+        """A transient stage: n forcing periods from ``y`` at ``rtol`` (not below the transient
+        integrator's; ``atol`` defaults to rtol / 1000), stopping beyond `ode21.DIVERGED`, sampled
+        only at the last three period ends: a `CRun`, or when it ran to the end only its ``ok``
+        and samples ``y`` (the common case, kept cheap)."""
         p = [pars[q.name] for q in PARAMETERS]
-        st = self._stage
-        return st._c_integrator().run(np.asarray(y, float), grid, p, rtol=st.rtol, atol=st.atol, max_step=1.0,
-                                      max_steps=st._budget(0.0, n * period, len(grid)), bound=DIVERGED,
-                                      n_bound=2)
+        st = self.integrator
+        grid = (0.0, (n - 2) * period, (n - 1) * period, n * period)
+        budget = st._budget(0.0, n * period, len(grid))
+        run = self._repeated(("stage", period, n, max_step, *p), lambda: Repeated(
+            st._c_integrator(), grid, p, max_step=max_step, max_steps=budget, bound=DIVERGED, n_bound=2))
+        rtol = max(float(rtol), st.rtol)
+        atol = max(rtol * 1e-3 if atol is None else float(atol), st.atol)
+        ys = run(np.asarray(y, float), rtol, atol)
+        if ys is not None:
+            return _Stage(ys.copy())
+        # stopped early: the same run again, with its status and where it stopped
+        return st._c_integrator().run(np.asarray(y, float), np.array(grid), p, rtol=rtol, atol=atol,
+                                      max_step=max_step, max_steps=budget, bound=DIVERGED, n_bound=2)
 
     @staticmethod
     def _escape(y, y_star, M, tried, size: float = 0.1):
