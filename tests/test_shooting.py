@@ -85,6 +85,20 @@ def test_chord_steps_land_on_the_fixed_point_of_the_variational_flow(solver, U, 
     assert np.linalg.norm(z - y) < 1e-10 * np.linalg.norm(y)
 
 
+def test_long_transient_that_diverges_past_a_stable_orbit(solver, transient):
+    """U* = 0.96, eta* = 5.7e-4, sigma = 0.01 (a point of the (U, eta) map): integration from rest
+    wanders for about 26000 time units past a stable period-1 orbit (Newton finds it at every
+    stage, the judge refuses it) and then diverges, at rtol 1e-10 and 1e-12 alike. Shooting's
+    stages must follow it there: with its later stages at rtol 1e-6 it once reported the orbit."""
+    U, eta = 0.1 + 1.4 * 24 / 39, 6e-4 * 37 / 39
+    q = transient.simulate(U, eta, 0.01)
+    assert not math.isfinite(q.a1) and 26000 < q.t_end < 27000
+    r = solver.steady(U, eta, 0.01)
+    assert r.response == "diverged"
+    assert abs(r.t_end - q.t_end) < 0.01 * q.t_end
+    assert any(a.get("not_attracting") for a in r.details["attempts"])
+
+
 def test_bimodal_response_of_fig6(solver):
     """Fig. 6 at sigma = -0.02 (U = 0, eta* = 1.4e-3) is bi-modal: both modes respond at the size of
     a few 1e-3 (the AME branches III-V of Fig. 6), not the planar orbit the transient passes by."""
