@@ -386,3 +386,38 @@ def test_no_ceiling_is_claimed_when_its_premises_fail():
     ok = dict(base, premises_hold=True, same_no_wind_results=True, at_most_yes=42)
     text = "\n".join(study._ceiling_lines(ok, study.SearchSpace()))
     assert "identical in all 3" in text and "more than **42 of 48**" in text and "(fig05a, fig06)" in text
+
+
+def test_full_evaluation_tables_and_statement_map(tmp_path):
+    """calibration.md's full-evaluation part on three made-up candidates: rows most statements
+    first, each statement's yes/partly/no counted over the candidates, the statements nobody shows
+    listed with the best verdict, and the candidates x statements picture written."""
+    from autocable.paper import targets as tg
+    targets = tg.load_targets(TARGETS)
+    stmts = [t.id for t in targets if t.kind == "statement"]
+
+    def cand(yaw, shown):
+        v = {tid: {"shown": shown.get(tid, "no"), "evidence": f"because {tid}"} for tid in stmts}
+        v["U_c"] = {"shown": "yes" if yaw else "no"}
+        return {"readings": {"twist_ends": "natural", "load_axes": "reference", "angle_convention": "reversed",
+                             "load_length": "diameter", "air_density_kg_m3": 1.25},
+                "yaw_deg": yaw, "rivulet_angle_deg": 10.0, "theta0_rule": "calibrate", "ordering": "paper",
+                "full": {"verdicts": v, "boxes": {"fig08": {"points": 22, "within": 3}}, "dropped_runs": []}}
+
+    a, b, c = stmts[0], stmts[1], stmts[2]
+    full = [cand(0.0, {a: "yes", b: "yes"}),            # 2 yes, misses U_c
+            cand(5.0, {a: "yes", b: "partly"}),         # 1 yes
+            cand(10.0, {a: "partly", c: "partly"})]     # 0 yes
+    text = "\n".join(study._full_lines(full, targets))
+    rows = [line for line in text.splitlines() if line.startswith("| natural-")]
+    assert [r.split(" | ")[1:4] for r in rows] == [["2", "0", str(len(stmts) - 2)],
+                                                    ["1", "1", str(len(stmts) - 2)],
+                                                    ["0", "2", str(len(stmts) - 2)]]
+    assert "beta+0.00" in rows[0] and "| 3 of 22 / — |" in rows[0]
+    assert f"Most statements shown: 2 of {len(stmts)}**" in text
+    assert "meet U_c = 36 m/s: 1 (" in text and "2: 1, 1: 1, 0: 1" in text
+    assert f"| {a} | " in text and f"| 2 | 1 | 0 |" in text          # statement a: yes, yes, partly
+    nobody = text.split("### Statements no fully evaluated candidate shows")[1]
+    assert f"**{b}**" not in nobody and f"**{c}** (" in nobody and "best verdict partly" in nobody
+    png = study._statement_map(full, targets, tmp_path, ceiling_yes=42)
+    assert png.is_file() and png.stat().st_size > 10_000

@@ -809,7 +809,126 @@ def _ceiling_lines(ceiling: dict, space) -> list[str]:
     return lines
 
 
-def _markdown(cands, full, target_ids, targets, space, stats, maps, failed, ceiling=None) -> str:
+def _statement_counts(c: dict, by_id: dict) -> dict[str, int]:
+    fv = c["full"]["verdicts"]
+    return tg.count_shown([tg.Verdict(k, x["shown"]) for k, x in fv.items()
+                           if k in by_id and by_id[k].kind == "statement"])
+
+
+def _full_ranked(full: list, by_id: dict) -> list:
+    """The fully evaluated candidates, most statements shown first (then fewest "no")."""
+    return sorted(full, key=lambda c: (_statement_counts(c, by_id)["yes"], -_statement_counts(c, by_id)["no"]),
+                  reverse=True)
+
+
+def _full_lines(full: list, targets, statement_map: Path | None = None) -> list[str]:
+    """calibration.md's full-evaluation part: one row per candidate (most statements first), one
+    row per statement (how many candidates show it), and for each statement no candidate shows, the
+    verdicts' spread and the best candidate's evidence."""
+    by_id = {t.id: t for t in targets}
+    ranked = _full_ranked(full, by_id)
+    stmt_ids = [t.id for t in targets if t.kind == "statement"]
+    yes = [_statement_counts(c, by_id)["yes"] for c in ranked]
+    with_uc = [c for c in ranked if c["full"]["verdicts"].get("U_c", {}).get("shown") == "yes"]
+    hist = {}
+    for n in yes:
+        hist[n] = hist.get(n, 0) + 1
+    lines = ["", "## Full evaluation (every figure scene)", "",
+             "Each candidate's inputs written as a model file and every fig*.toml scene run on it "
+             "(`autocable figures`, the scenes' own Multiple Scales orderings), then every target "
+             "decided from the output folders by the report's code.", "",
+             f"**{len(full)} candidates fully evaluated. Most statements shown: {yes[0]} of {len(stmt_ids)}** "
+             f"({candidate_name(ranked[0])}); among those that also meet U_c = 36 m/s: "
+             + (f"{_statement_counts(with_uc[0], by_id)['yes']} ({candidate_name(with_uc[0])})" if with_uc else "none")
+             + ". Statements shown per candidate (count of candidates): "
+             + ", ".join(f"{n}: {hist[n]}" for n in sorted(hist, reverse=True)) + "."]
+    if statement_map is not None:
+        lines += ["", f"![statements shown per candidate]({statement_map.name})"]
+    lines += ["", "| candidate | yes | partly | no | numbers (U_c, omega1, rho) | eq. (21) boxes within the bound, "
+              "Figs. 8 / 10 | runs dropped |", "|---|---|---|---|---|---|---|"]
+    for c in ranked:
+        k = _statement_counts(c, by_id)
+        fv = c["full"]["verdicts"]
+        nums = ", ".join(("yes" if fv.get(t, {}).get("shown") == "yes" else "no") for t in ("U_c", "omega1", "rho"))
+        bx = c["full"].get("boxes") or {}
+        box = " / ".join(f"{bx[f]['within']} of {bx[f]['points']}" if f in bx else "—" for f in ("fig08", "fig10"))
+        lines.append(f"| {candidate_name(c)} | {k['yes']} | {k['partly']} | {k['no']} | {nums} | {box} | "
+                     f"{len(c['full'].get('dropped_runs') or [])} |")
+    lines += ["", "### Each statement over the fully evaluated candidates", "",
+              "| statement | says | yes | partly | no |", "|---|---|---|---|---|"]
+    nobody = []
+    for tid in stmt_ids:
+        got = [c["full"]["verdicts"].get(tid, {}).get("shown", "no") for c in full]
+        n = {v: got.count(v) for v in ("yes", "partly", "no")}
+        if not n["yes"]:
+            nobody.append(tid)
+        lines.append(f"| {tid} | {by_id[tid].says} | {n['yes']} | {n['partly']} | {n['no']} |")
+    lines += ["", "### Statements no fully evaluated candidate shows", ""]
+    for tid in nobody:
+        best = next((c for c in ranked if c["full"]["verdicts"].get(tid, {}).get("shown") == "partly"), ranked[0])
+        v = best["full"]["verdicts"].get(tid, {})
+        ev = " ".join(str(v.get("evidence", "")).split())
+        lines.append(f"- **{tid}** ({by_id[tid].says}): best verdict {v.get('shown', 'no')}, e.g. "
+                     f"{candidate_name(best)}: {ev[:400]}{'...' if len(ev) > 400 else ''}")
+    if not nobody:
+        lines.append("None.")
+    return lines
+
+
+def _statement_map(full: list, targets, out: Path, ceiling_yes: int | None = None,
+                   capped=()) -> Path | None:
+    """A picture of the full evaluation: candidates (rows, most statements shown first) against the
+    statements of Sect. 5 (columns, by figure), yes / partly / no; beside it, how many candidates
+    show how many statements, with the goal (40) and the no-wind ceiling (``ceiling_yes``; the
+    statements it caps, ``capped``, marked with a dagger)."""
+    if not full:
+        return None
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+    by_id = {t.id: t for t in targets}
+    ranked = _full_ranked(full, by_id)
+    stmt_ids = [t.id for t in targets if t.kind == "statement"]
+    code = {"no": 0, "partly": 1, "yes": 2}
+    grid = np.array([[code.get(c["full"]["verdicts"].get(tid, {}).get("shown", "no"), 0) for tid in stmt_ids]
+                     for c in ranked])
+    yes = [_statement_counts(c, by_id)["yes"] for c in ranked]
+    fig, (ax, axh) = plt.subplots(1, 2, figsize=(13, 3 + 0.09 * len(ranked)),
+                                  gridspec_kw={"width_ratios": [3.2, 1]})
+    ax.imshow(grid, aspect="auto", interpolation="nearest", vmin=0, vmax=2,
+              cmap=ListedColormap(["#d7301f", "#fdcc8a", "#31a354"]))
+    ax.set_xticks(range(len(stmt_ids)))
+    ax.set_xticklabels([tid + (" \u2020" if tid in capped else "") for tid in stmt_ids], rotation=90, fontsize=6)
+    ax.set_yticks(range(len(ranked)))
+    ax.set_yticklabels([f"{n:2d}  {candidate_name(c)[:58]}" for n, c in zip(yes, ranked)], fontsize=4.5)
+    # figure boundaries between the columns
+    figs = [tid.split(".")[0] for tid in stmt_ids]
+    for j in range(1, len(figs)):
+        if figs[j] != figs[j - 1]:
+            ax.axvline(j - 0.5, color="k", lw=0.4)
+    ax.set_title("Sect. 5 statements per fully evaluated candidate: green yes, amber partly, red no "
+                 "(rows: statements shown, most first)"
+                 + ("; \u2020 capped for every candidate by the no-wind ceiling" if capped else ""), fontsize=8)
+    bins = np.arange(min(yes) - 0.5, len(stmt_ids) + 1.5)
+    axh.hist(yes, bins=bins, orientation="horizontal", color="#3182bd")
+    axh.axhline(40, color="k", ls="--", lw=1, label="goal: 40 of 48")
+    if ceiling_yes is not None:
+        axh.axhline(ceiling_yes, color="#d7301f", ls=":", lw=1.2,
+                    label=f"no-wind ceiling: {ceiling_yes} (no candidate above)")
+    axh.set_ylim(min(yes) - 1, len(stmt_ids) + 0.5)
+    axh.set_xlabel("candidates")
+    axh.set_ylabel("statements shown yes")
+    axh.legend(fontsize=7, loc="upper right")
+    fig.tight_layout()
+    f = out / "full_statements.png"
+    fig.savefig(f, dpi=130)
+    plt.close(fig)
+    return f
+
+
+def _markdown(cands, full, target_ids, targets, space, stats, maps, failed, ceiling=None,
+              statement_map: Path | None = None) -> str:
     by_id = {t.id: t for t in targets}
     lines = ["# Calibration of the unknown inputs against Sect. 5", "",
              f"Search space: twist_ends {list(space.twist_ends)}, load_axes {list(space.load_axes)}, "
@@ -858,25 +977,7 @@ def _markdown(cands, full, target_ids, targets, space, stats, maps, failed, ceil
         lines.append(f"| {candidate_name(c)} | {screen_score(c)[0]} of {len(v)} | {c['zeta8']:.4g} | {c['xi11_bar']:.4g} | "
                      f"{_fmt(v.get('a2_ratio_ame', {}).get('value'))} | {_fmt(v.get('a2_ratio_21', {}).get('value'))} |")
     if full:
-        lines += ["", "## Full evaluation (every figure scene)", "",
-                  "Each candidate's inputs written as a model file and every fig*.toml scene run on it "
-                  "(`autocable figures`, the scenes' own Multiple Scales orderings), then every target "
-                  "decided from the output folders by the report's code.", ""]
-        for c in full:
-            fv = c["full"]["verdicts"]
-            cnt = tg.count_shown([tg.Verdict(k, x["shown"]) for k, x in fv.items() if by_id[k].kind == "statement"])
-            lines.append(f"- {candidate_name(c)}: statements {cnt['yes']} yes, {cnt['partly']} partly, {cnt['no']} no; "
-                         f"numbers {sum(fv[k]['shown'] == 'yes' for k in fv if by_id[k].kind == 'number')} of 3; "
-                         f"boxes {c['full'].get('boxes')}; wall {c['full']['wall_s']:.0f} s"
-                         + (f"; runs dropped after their tuned start failed: {'; '.join(c['full']['dropped_runs'])}"
-                            if c["full"].get("dropped_runs") else ""))
-        stmt_ids = [t.id for t in targets if t.kind == "statement"]
-        nobody = [tid for tid in stmt_ids if not any(c["full"]["verdicts"].get(tid, {}).get("shown") == "yes" for c in full)]
-        lines += ["", "### Statements no fully evaluated candidate shows", ""]
-        for tid in nobody:
-            ev = "; ".join(f"{candidate_name(c)}: {c['full']['verdicts'][tid]['shown']} ({c['full']['verdicts'][tid]['evidence'][:240]})"
-                           for c in full if tid in c["full"]["verdicts"])
-            lines.append(f"- **{tid}** ({by_id[tid].says}): {ev}")
+        lines += _full_lines(full, targets, statement_map)
     if ceiling is not None:
         lines += _ceiling_lines(ceiling, space)
     never = [tid for tid in screen_ids if not any(c["verdicts"].get(tid, {}).get("shown") == "yes" for c in cands)]
@@ -1000,8 +1101,11 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     if ceiling is not None:
         stats["ceiling"] = {k: v for k, v in ceiling.items() if k != "capped"}
         stats["ceiling"]["capped"] = [c["id"] for c in ceiling["capped"]]
+    ceiling_yes = ceiling.get("at_most_yes") if ceiling and ceiling.get("premises_hold") else None
+    smap = _statement_map(full, targets, out, ceiling_yes,
+                          [c["id"] for c in ceiling["capped"]] if ceiling_yes is not None else ())
     (out / "calibration.md").write_text(_markdown(cands, full, target_ids, targets, space, stats, maps, failed,
-                                                  ceiling))
+                                                  ceiling, smap))
     (out / "calibration.json").write_text(json.dumps(stats, indent=2))
     say(f"calibrate: {stats['candidates']} candidates from {stats['points']} points; {len(full)} fully evaluated; "
         f"{stats['wall_s']:.1f} s; {out / 'calibration.md'}")
