@@ -267,3 +267,15 @@ def test_neighbour_sweep_at_fig9_follows_integration_into_bimodal_motion():
         assert abs(rec["a1"] - p.a1) <= 1e-6 * size and abs(rec["a2"] - p.a2) <= 1e-6 * size, \
             (sigma, rec["a1"], rec["a2"], p.a1, p.a2)
     assert ref[-1].a2 > 1e-3        # the point where the two orbits coexist is bi-modal
+
+
+def test_threads_sharing_a_solver_get_the_serial_results(solver):
+    """The compiled runs reuse their buffers (`cintegrate.Repeated`); each thread has its own, so
+    four threads shooting on one solver at once (ctypes lets the C calls run in parallel) report
+    exactly what one thread does."""
+    from concurrent.futures import ThreadPoolExecutor
+    sigmas = [-0.03, -0.01, 0.0, 0.01, 0.02, 0.04] * 2
+    serial = [solver.steady(0.0, 4.1e-4, s).state0 for s in sigmas]
+    with ThreadPoolExecutor(4) as pool:
+        threaded = list(pool.map(lambda s: solver.steady(0.0, 4.1e-4, s).state0, sigmas))
+    assert threaded == serial

@@ -50,6 +50,7 @@ window, so both report the same number for the same orbit.
 from __future__ import annotations
 
 import math
+import threading
 import time
 from dataclasses import dataclass, field, replace
 
@@ -185,8 +186,10 @@ class ShootingSolver:
         self.integrator = Ode21Integrator(ode, engine="compiled", rtol=transient_rtol, atol=transient_atol)
         self._var = None
         # Repeated runs per (kind, U, eta, Omega, length): a point's Newton steps, judge and
-        # stages reuse them, and a sweep's next point builds its own (oldest dropped).
-        self._runs: dict = {}
+        # stages reuse them, and a sweep's next point builds its own (oldest dropped). Their
+        # buffers are written by every call, so each thread has its own (a Dask worker on an
+        # existing scheduler may run several tasks on one solver at once).
+        self._local = threading.local()
 
     # -- the compiled variational system -------------------------------------------------------
     def _variational(self):
@@ -210,11 +213,14 @@ class ShootingSolver:
         return [pars[p.name] for p in PARAMETERS]
 
     def _repeated(self, key, make):
-        r = self._runs.get(key)
+        runs = getattr(self._local, "runs", None)
+        if runs is None:
+            runs = self._local.runs = {}
+        r = runs.get(key)
         if r is None:
-            if len(self._runs) >= 64:
-                self._runs.pop(next(iter(self._runs)))
-            r = self._runs[key] = make()
+            if len(runs) >= 64:
+                runs.pop(next(iter(runs)))
+            r = runs[key] = make()
         return r
 
     def flow(self, U: float, eta: float, Omega: float, y0, periods: int = 1, rtol: float | None = None):
