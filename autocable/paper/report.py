@@ -49,8 +49,9 @@ REASONS = {
                   "natural ordering diverges there too (Fig. 8: at every sigma), the paper-ordering AME "
                   "does not (docs/ordering.md); the calibration (docs/calibration/calibration.md) finds "
                   "readings where eq. (21) stays bounded (twist restrained at the anchorages; natural "
-                  "twist with twisted load axes and a large yaw), none of which shows more of Sect. 5 "
-                  "than the sample",
+                  "twist with twisted load axes and a large yaw); of the candidates it evaluated on "
+                  "every scene, none that keeps the paper's U_c = 36 m/s shows more of Sect. 5 than the "
+                  "sample, and those that show more miss U_c",
     "inputs": "unknown paper inputs: the yaw beta, the rivulet angle Theta0 and the air density are "
               "not printed; the sample model calibrates Theta0 to U_c = 36 m/s on one member of a "
               "one-parameter family (models/luongo_zulli_2012.toml; docs/model.md, U1-U4), so the "
