@@ -116,6 +116,8 @@ def test_repeated_runs_equal_run_bit_for_bit(oscillator):
     assert rep([6.0, 0.0], 1e-8, 1e-11) is None             # starts beyond the bound: stopped
     with pytest.raises(ValueError, match="tolerances must be positive"):
         rep([1.0, 0.0], 0.0, 1e-12)
+    with pytest.raises(ValueError, match="takes 2 states"):
+        rep([1.0, 0.0, 0.0], 1e-8, 1e-11)
     with pytest.raises(ValueError, match="increasing"):
         Repeated(oscillator, [0.0, 0.0], [1.3, 0.05])
     with pytest.raises(ValueError, match="2 parameters"):

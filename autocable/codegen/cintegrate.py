@@ -387,7 +387,8 @@ class Repeated:
     `CIntegrator.run` checks and allocates on every call, which costs about as much as a short
     run of the four equations of eq. (21); here the checks and the buffers are done once and a call
     only copies the start and the two tolerances in. The same C function with the same inputs:
-    the results are bit for bit those of `run`."""
+    the results are bit for bit those of `run`. Every call writes the same buffers, so one
+    `Repeated` serves one thread at a time (`ShootingSolver` keeps one set per thread)."""
 
     def __init__(self, integrator: CIntegrator, grid, p, *, max_step: float = math.inf,
                  max_steps: int = 10**9, bound: float = math.inf, n_bound: int = 0):
@@ -414,7 +415,10 @@ class Repeated:
         when the run stopped early (any status but "done")."""
         if not (rtol > 0 and atol > 0):
             raise ValueError(f"tolerances must be positive, got rtol={rtol}, atol={atol}")
-        self.y0[:] = y0
+        try:
+            self.y0[:] = y0
+        except ValueError:
+            raise ValueError(f"the compiled integrator takes {self.n} states, got {np.shape(y0)}") from None
         self.opt[0] = rtol
         self.opt[1] = atol
         self._call(*self._args)

@@ -845,15 +845,16 @@ def _full_lines(full: list, targets, statement_map: Path | None = None) -> list[
     if statement_map is not None:
         lines += ["", f"![statements shown per candidate]({statement_map.name})"]
     lines += ["", "| candidate | yes | partly | no | numbers (U_c, omega1, rho) | eq. (21) boxes within the bound, "
-              "Figs. 8 / 10 | runs dropped |", "|---|---|---|---|---|---|---|"]
+              "Figs. 8 / 10 | runs dropped (their start, tuned to the sample, failed) |", "|---|---|---|---|---|---|---|"]
     for c in ranked:
         k = _statement_counts(c, by_id)
         fv = c["full"]["verdicts"]
         nums = ", ".join(("yes" if fv.get(t, {}).get("shown") == "yes" else "no") for t in ("U_c", "omega1", "rho"))
         bx = c["full"].get("boxes") or {}
         box = " / ".join(f"{bx[f]['within']} of {bx[f]['points']}" if f in bx else "—" for f in ("fig08", "fig10"))
+        dropped = [d.split(" (")[0] for d in c["full"].get("dropped_runs") or []]
         lines.append(f"| {candidate_name(c)} | {k['yes']} | {k['partly']} | {k['no']} | {nums} | {box} | "
-                     f"{len(c['full'].get('dropped_runs') or [])} |")
+                     f"{', '.join(dropped) or '—'} |")
     lines += ["", "### Each statement over the fully evaluated candidates", "",
               "| statement | says | yes | partly | no |", "|---|---|---|---|---|"]
     nobody = []
