@@ -26,6 +26,18 @@ def two_run_scene(second_start: str, extra: str = "", *, engine: str = "pycont",
             f'[[run]]\nname = "II"\nparameter = "sigma"\nrange = [-0.05, 0.05]\nstart = {second_start}\n{extra}\n')
 
 
+def scene_error(path, text: str):
+    """Write a scene file of ``text`` at ``path``, load it, and return the `SpecError` it raises,
+    checked to be one line (the message a user sees names the file, the field and the fix)."""
+    from autocable.scene.schema import load_scene
+    from autocable.spec import SpecError
+    path.write_text(text)
+    with pytest.raises(SpecError) as err:
+        load_scene(path)
+    assert "\n" not in str(err.value)
+    return err.value
+
+
 @pytest.fixture(scope="session")
 def sample_spec():
     """The sample cable's `ModelSpec`."""

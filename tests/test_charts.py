@@ -35,6 +35,7 @@ from autocable.model.ame_cache import derive_ame
 from autocable.model.derive import derive
 from autocable.scene.runner import load_scene, run_scene
 from autocable.spec import SpecError, load_model
+from conftest import scene_error
 
 REPO = Path(__file__).resolve().parents[1]
 MODEL = REPO / "models" / "luongo_zulli_2012.toml"
@@ -392,13 +393,11 @@ def test_agreement_counts_matching_classes():
     ('[chart]\nstarts = [1, 2]\n', "chart.starts", "[a1, a2] pairs"),
 ])
 def test_chart_schema_errors_are_one_line(tmp_path, body, field, words):
-    path = tmp_path / "bad.toml"
-    path.write_text(f'model = "{MODEL}"\n[fixed]\neta = 1.4e-3\n[[run]]\nname = "I"\nparameter = "sigma"\n'
-                    f'range = [-0.05, 0.05]\n[[run]]\nname = "B"\nkind = "curve"\nstart = "I:BP1"\n'
-                    f'parameter = "sigma"\nrange = [-0.05, 0.05]\nparameter2 = "eta"\nrange2 = [0, 2e-3]\n' + body)
-    with pytest.raises(SpecError) as err:
-        load_scene(path)
-    assert "\n" not in str(err.value) and err.value.field == field and words in str(err.value)
+    err = scene_error(tmp_path / "bad.toml",
+                      f'model = "{MODEL}"\n[fixed]\neta = 1.4e-3\n[[run]]\nname = "I"\nparameter = "sigma"\n'
+                      f'range = [-0.05, 0.05]\n[[run]]\nname = "B"\nkind = "curve"\nstart = "I:BP1"\n'
+                      f'parameter = "sigma"\nrange = [-0.05, 0.05]\nparameter2 = "eta"\nrange2 = [0, 2e-3]\n' + body)
+    assert err.field == field and words in str(err)
 
 
 def test_chart_command_needs_a_chart_table(tmp_path):

@@ -13,8 +13,7 @@ from autocable.methods.continuation import System
 from autocable.methods.continuation.search import find_equilibria, search_grid
 from autocable.scene.runner import on_known_branch
 from autocable.scene.schema import load_scene
-from autocable.spec import SpecError
-from conftest import two_run_scene
+from conftest import scene_error, two_run_scene
 
 REPO = Path(__file__).resolve().parents[1]
 MODEL = REPO / "models" / "luongo_zulli_2012.toml"
@@ -135,10 +134,6 @@ def test_search_finds_fig4a_island_that_the_tuned_start_found():
     ('start = { search = [] }', "run[0].start.search", "list of numbers"),
 ])
 def test_bad_search_start_is_one_line(tmp_path, run, field, fix):
-    f = tmp_path / "bad.toml"
-    f.write_text(f'model = "{MODEL}"\nengine = "compiled"\n[fixed]\nU = 0.0\neta = 1e-4\n[[run]]\nname = "A"\n'
-                 f'parameter = "sigma"\nrange = [-0.05, 0.05]\n{run}\n')
-    with pytest.raises(SpecError) as exc:
-        load_scene(f)
-    msg = str(exc.value)
-    assert field in msg and fix in msg and "\n" not in msg
+    err = scene_error(tmp_path / "bad.toml", f'model = "{MODEL}"\nengine = "compiled"\n[fixed]\nU = 0.0\neta = 1e-4\n'
+                      f'[[run]]\nname = "A"\nparameter = "sigma"\nrange = [-0.05, 0.05]\n{run}\n')
+    assert err.field == field and fix in str(err) and "bad.toml" in str(err)
