@@ -137,3 +137,11 @@ def test_bad_search_start_is_one_line(tmp_path, run, field, fix):
     err = scene_error(tmp_path / "bad.toml", f'model = "{MODEL}"\nengine = "compiled"\n[fixed]\nU = 0.0\neta = 1e-4\n'
                       f'[[run]]\nname = "A"\nparameter = "sigma"\nrange = [-0.05, 0.05]\n{run}\n')
     assert err.field == field and fix in str(err) and "bad.toml" in str(err)
+
+
+def test_search_needs_the_cartesian_ame(tmp_path):
+    """The amplitude-only AME (Fig. 3's) has no phases to search over: refused when the file is read."""
+    err = scene_error(tmp_path / "amp.toml", f'model = "{MODEL}"\name = "1dof-amplitude"\n[fixed]\neta = 0.0\n'
+                      'sigma = 0.0\n[[run]]\nname = "A"\nparameter = "U"\nrange = [0.5, 1.5]\n'
+                      'start = { search = [1.2] }\n')
+    assert err.field == "run[0].start" and 'ame = "2dof"' in str(err)

@@ -56,7 +56,7 @@ REASONS = {
               "not printed; the sample model calibrates Theta0 to U_c = 36 m/s on one member of a "
               "one-parameter family (models/luongo_zulli_2012.toml; docs/model.md, U1-U4), so the "
               "aerodynamic coefficients, and with them Hopf points and islands under wind, need not "
-              "be the paper's; `autocable calibrate` screened 2016 candidates against Sect. 5 and ran 40 "
+              "be the paper's; `autocable calibrate` screened them against Sect. 5 and ran the best-ranked "
               "on every figure: none that keeps the paper's U_c shows more of it than the sample "
               "(docs/calibration/calibration.md)",
     "missing": "the scene did not run, failed or has no results (see its error)",

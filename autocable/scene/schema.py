@@ -475,6 +475,9 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
         if start.kind == "search":
             if kind != "equilibria":
                 raise SpecError(path, f"{where}.start", '{ search = [...] } starts an "equilibria" run')
+            if ame == "1dof-amplitude":
+                raise SpecError(path, f"{where}.start", '{ search = [...] } needs the Cartesian AME: use ame = '
+                                                        '"2dof" or "1dof" (or give a { state = [...] } start)')
             if "at" in r:
                 raise SpecError(path, f"{where}.at", "not allowed with start = { search = [...] }: the "
                                                      "search values say where the run may start")
