@@ -39,3 +39,26 @@ def test_sweep_rejects_bad_input(derivation):
         sweep(integ, "omega", [0.0], {})
     with pytest.raises(ValueError, match="unknown fixed"):
         sweep(integ, "sigma", [0.0], {"rho": 1.0})
+
+
+def test_a_point_the_integrator_cannot_carry_is_kept_and_the_sweep_goes_on(derivation):
+    """A `ComputationError` at one overlay point (e.g. eq. (21)'s step size collapsing while the
+    response stays bounded, seen on a calibration candidate's Fig. 9) used to end the whole scene
+    and lose its continuation results. Now the point is kept, with nan amplitudes, not steady, and
+    the reason; the next point restarts from the default start, so it equals a fresh run there."""
+    from autocable.errors import ComputationError
+
+    class Failing(Ode21Integrator):
+        def simulate(self, U, eta, sigma, *args, **kw):
+            if abs(sigma) < 1e-12:
+                raise ComputationError("the step size collapsed at t = 12 (integrating from t = 0 to 50)")
+            return super().simulate(U, eta, sigma, *args, **kw)
+
+    fixed = {"U": 0.0, "eta": 4.1e-4}
+    pts = sweep(Failing(derivation.ode), "sigma", [-0.01, 0.0, 0.01], fixed, directions=("up",))
+    assert [p.value for p in pts] == [-0.01, 0.0, 0.01]
+    bad = pts[1]
+    assert not bad.steady and not bad.periodic and np.isnan(bad.a1) and np.isnan(bad.a2)
+    assert bad.message.startswith("integration failed: the step size collapsed at t = 12")
+    fresh = sweep(Ode21Integrator(derivation.ode), "sigma", [0.01], fixed, directions=("up",))[0]
+    assert pts[2].steady and pts[2].a1 == pytest.approx(fresh.a1, rel=1e-12)

@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from autocable.errors import ComputationError
 from autocable.methods.integration.ode21 import DEFAULT_Q0, Ode21Integrator
 
 PARAMETERS = ("sigma", "U", "eta")
@@ -71,19 +72,29 @@ def sweep(integrator, parameter: str, values, fixed: dict, *, directions=("up", 
         carried = None
         for value in (values if direction == "up" else values[::-1]):
             point = dict(base, **{parameter: value})
-            if is_ode21:
-                start = q0 if carried is None else tuple(c + d for c, d in zip(carried, q0))
-                r = integrator.simulate(point["U"], point["eta"], point["sigma"], start, **options)
-                ok = r.steady and math.isfinite(r.a1)
-                # simulate takes (q1, q1', q2, q2'); its final state is (q1, q2, q1', q2').
-                carried = (r.final_state[0], r.final_state[2], r.final_state[1], r.final_state[3]) if ok else None
-            else:
-                if carried is None:
-                    r = integrator.simulate(point["U"], point["eta"], point["sigma"], q0, **options)
+            try:
+                if is_ode21:
+                    start = q0 if carried is None else tuple(c + d for c, d in zip(carried, q0))
+                    r = integrator.simulate(point["U"], point["eta"], point["sigma"], start, **options)
+                    ok = r.steady and math.isfinite(r.a1)
+                    # simulate takes (q1, q1', q2, q2'); its final state is (q1, q2, q1', q2').
+                    carried = (r.final_state[0], r.final_state[2], r.final_state[1], r.final_state[3]) if ok else None
                 else:
-                    r = integrator.simulate(point["U"], point["eta"], point["sigma"], y0=carried, **options)
-                ok = r.steady and math.isfinite(r.a1)
-                carried = tuple(r.final_state) if ok else None
+                    if carried is None:
+                        r = integrator.simulate(point["U"], point["eta"], point["sigma"], q0, **options)
+                    else:
+                        r = integrator.simulate(point["U"], point["eta"], point["sigma"], y0=carried, **options)
+                    ok = r.steady and math.isfinite(r.a1)
+                    carried = tuple(r.final_state) if ok else None
+            except ComputationError as exc:
+                # One point the integrator cannot carry (its step size collapses, a budget runs out)
+                # is that point's result, kept with the reason; it must not take the sweep's other
+                # points, nor the scene's continuation results, with it.
+                carried = None
+                out.append(_failed_point(parameter, value, direction, method, str(exc)))
+                if progress:
+                    progress(out[-1])
+                continue
             out.append(SweepPoint(parameter=parameter, value=value, direction=direction, method=method,
                                   a1=r.a1, a2=r.a2, a1_min=r.a1_min, a1_max=r.a1_max,
                                   a2_min=r.a2_min, a2_max=r.a2_max, steady=r.steady,
@@ -92,6 +103,14 @@ def sweep(integrator, parameter: str, values, fixed: dict, *, directions=("up", 
             if progress:
                 progress(out[-1])
     return tuple(out)
+
+
+def _failed_point(parameter, value, direction, method, why: str) -> SweepPoint:
+    """A point whose integration failed: no amplitude (nan), not steady, the reason as its message."""
+    nan = math.nan
+    return SweepPoint(parameter=parameter, value=value, direction=direction, method=method, a1=nan, a2=nan,
+                      a1_min=nan, a1_max=nan, a2_min=nan, a2_max=nan, steady=False, periodic=False,
+                      message="integration failed: " + " ".join(why.split()), wall_seconds=nan)
 
 
 def to_rows(points) -> list[dict]:
