@@ -126,6 +126,10 @@ def build_parser() -> argparse.ArgumentParser:
                                      "it exists, else the built-in space)")
     cal.add_argument("--jobs", type=int, default=2, help="processes (default 2)")
     cal.add_argument("--full", type=int, help="candidates evaluated on every figure scene (overrides the space's)")
+    cal.add_argument("--bound", action="store_true",
+                     help="then ask of every candidate whether it can reach the targets file's [goal] (branch "
+                          "and bound: its wind scenes one at a time until its upper bound is below the goal); "
+                          "writes bound.csv and bound.png")
     cal.add_argument("--quiet", action="store_true", help="no progress lines")
     cal.set_defaults(func=cmd_calibrate)
 

@@ -106,6 +106,10 @@ def cmd_calibrate(args) -> int:
         space = _replace(space, full=max(0, args.full))
     load_model(args.model)                  # bad files: one line before any work
     study.tg.load_targets(args.targets)
-    stats = study.calibrate(args.model, args.targets, args.out, space=space, jobs=args.jobs, quiet=args.quiet)
+    if args.bound and study.tg.load_goal(args.targets) is None:
+        raise study.tg.TargetsError(args.targets, "goal", "--bound needs a [goal] table "
+                                                          "(statements_yes, boxes_share, boxes_scenes)")
+    stats = study.calibrate(args.model, args.targets, args.out, space=space, jobs=args.jobs, quiet=args.quiet,
+                            bound=args.bound)
     print(dumps(stats))
     return 0

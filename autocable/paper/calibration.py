@@ -27,8 +27,13 @@ Stage 2, the full evaluation (the best few). The candidate's inputs are written 
 every figure scene of ``runs/`` is run on it (`autocable figures`), then all targets are decided from
 the output folders by the same code as report.md.
 
+Stage 3, the bound (``--bound``, `autocable.paper.bound`): every candidate, its wind scenes run one at
+a time until an upper bound on the statements it can show falls below the targets file's ``[goal]``;
+the answer to "can any candidate of the space get there?".
+
 Resumable: each finished (readings, beta) point is one JSON file under ``DIR/screen/``, each fully
-evaluated candidate one folder under ``DIR/full/``; a rerun reads them and recomputes none. A point
+evaluated candidate one folder under ``DIR/full/`` (a candidate stopped part-way reuses its finished
+scenes); a rerun reads them and recomputes none. A point
 that fails prints one line and the search goes on. Parallel over a process pool (``jobs``).
 
 Output: ``calibration.csv`` (one row per candidate: inputs, each target's value and verdict),
@@ -633,6 +638,8 @@ def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path
     """Every figure scene on the candidate's model (`autocable figures`), then every target decided
     from the output folders by the report's code. Resumable: ``folder/verdicts.json``."""
     import subprocess
+
+    from autocable._store import atomic_write_json
     done = folder / "verdicts.json"
     if done.is_file():
         return json.loads(done.read_text())
@@ -640,8 +647,11 @@ def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path
     scene_dir = folder / "runs"
     scene_dir.mkdir(parents=True, exist_ok=True)
     for f in sorted(runs.glob("fig*.toml")):
-        text = f.read_text().replace('model = "../models/luongo_zulli_2012.toml"', f'model = "{model}"')
-        (scene_dir / f.name).write_text(text)
+        # A resumed evaluation keeps the copies it made, with the runs it dropped (below), so that
+        # the scenes already computed from them are reused.
+        if not (scene_dir / f.name).is_file():
+            text = f.read_text().replace('model = "../models/luongo_zulli_2012.toml"', f'model = "{model}"')
+            (scene_dir / f.name).write_text(text)
     t0 = time.perf_counter()
 
     def figures(only=None):
@@ -654,19 +664,26 @@ def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path
             summary = {}
         return proc, {x["name"]: x for x in summary.get("scenes", [])}
 
-    proc, listed = figures()
+    names = [f.stem for f in sorted(scene_dir.glob("fig*.toml"))]
+    listed = {n: {"name": n, "status": "ok", "error": ""} for n in names
+              if scene_complete(folder / "out" / n, scene_dir / f"{n}.toml")}
+    proc = None
+    if len(listed) < len(names):
+        proc, got = figures([n for n in names if n not in listed] if listed else None)
+        listed.update(got)
     # Isolas and disconnected branches start from a search (Newton from a fixed grid), not from a
     # state tuned to the sample; the orbits of Figs. 8 and 10's P still start from amplitudes chosen
     # on the sample, and on another model such a run can fail and take its whole scene with it.
     # Drop the run whose start failed and run the scene again (at most twice), so that the
     # scene's other statements are still decided; the drops are recorded.
-    dropped = []
+    dropped = _recorded_drops(folder)
     for _ in range(2):
         retry = []
         for name, x in listed.items():
             k = _failed_start(x.get("error", ""))
             if x.get("status") != "ok" and k is not None and _drop_run(scene_dir / f"{name}.toml", k):
                 dropped.append(f"{name}: run[{k}] ({x['error'].split(': ', 2)[-1][:160]})")
+                atomic_write_json(folder / "dropped.json", dropped)
                 retry.append(name)
         if not retry:
             break
@@ -684,12 +701,30 @@ def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path
             s = overlay_summary(scenes[n])
             boxes[n] = {"points": s["points"], "within": s["within"], "at_rest": s["at_rest"],
                         "not_steady": s["not_steady"]}
-    res = {"name": candidate_name(c), "wall_s": wall, "returncode": proc.returncode, "dropped_runs": dropped,
-           "stderr_tail": proc.stderr[-500:], "verdicts": {v.id: asdict(v) for v in verdicts}, "boxes": boxes}
-    from autocable._store import atomic_write_json
+    res = {"name": candidate_name(c), "wall_s": wall, "returncode": proc.returncode if proc else 0,
+           "dropped_runs": dropped, "stderr_tail": proc.stderr[-500:] if proc else "",
+           "verdicts": {v.id: asdict(v) for v in verdicts}, "boxes": boxes}
     res = _finite(res)
     atomic_write_json(done, res)
     return res
+
+
+def scene_complete(folder: Path, scene_file: Path) -> bool:
+    """The scene's output folder holds a complete run of exactly this scene file (run.json's
+    status and scene text): an evaluation that resumes reuses it instead of computing it again."""
+    try:
+        run = json.loads((folder / "run.json").read_text())
+        return run.get("status") == "complete" and (run.get("provenance") or {}).get("scene_text") == scene_file.read_text()
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+def _recorded_drops(folder: Path) -> list[str]:
+    """The drops an earlier, interrupted evaluation of this candidate made (``dropped.json``)."""
+    try:
+        return list(json.loads((folder / "dropped.json").read_text()))
+    except (OSError, ValueError, TypeError):
+        return []
 
 
 def _failed_start(error: str):
@@ -990,6 +1025,29 @@ def _markdown(cands, full, target_ids, targets, space, stats, maps, failed, ceil
     return "\n".join(lines) + "\n"
 
 
+def _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, jobs, say, stats) -> list[str]:
+    """`autocable.paper.bound` over every candidate; writes bound.csv and bound.png, returns the
+    markdown lines and puts the summary in ``stats``."""
+    from autocable.paper import bound as bd
+    if not full or not ceiling or not ceiling.get("premises_hold"):
+        why = ("no candidate was fully evaluated (--full 1 at least): the no-wind scenes come from one"
+               if not full else "the no-wind ceiling's premises do not hold: the no-wind scenes are not shared")
+        say(f"bound: not run: {why}")
+        stats["bound"] = {"not_run": why}
+        return ["", "## Can any candidate reach the goal?", "", f"Not run: {why}."]
+    reference = out / "full" / candidate_name(full[0]) / "out"
+    capped = {c["id"] for c in ceiling["capped"]}
+    t0 = time.perf_counter()
+    records = bd.run_bound(model_path, targets, goal, cands, full, out, runs, reference, capped, jobs, say)
+    wall = time.perf_counter() - t0
+    bd.write_csv(records, out / "bound.csv")
+    n_stmt = sum(1 for t in targets if t.kind == "statement")
+    pic = bd.draw_map(records, goal, ceiling["at_most_yes"], out / "bound.png") if records else None
+    stats["bound"] = {k: v for k, v in bd.summary(records, goal).items() if k != "lowered_by"}
+    stats["bound"]["wall_s"] = wall
+    return bd.markdown(records, goal, ceiling["at_most_yes"], n_stmt, wall, jobs, pic, "bound.csv")
+
+
 def _theta0_text(space: SearchSpace) -> str:
     vals = space.theta0_values()
     if all(isinstance(v, str) for v in vals):
@@ -1010,11 +1068,16 @@ def _fmt(x) -> str:
 
 
 def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = None, jobs: int = 2,
-              runs: Path | None = None, quiet: bool = False) -> dict:
-    """The whole study (module docstring). Returns counts and the output paths."""
+              runs: Path | None = None, quiet: bool = False, bound: bool = False) -> dict:
+    """The whole study (module docstring). Returns counts and the output paths. ``bound``: then ask
+    of every candidate whether it can reach the targets file's ``[goal]`` (`autocable.paper.bound`)."""
     model_path, targets_path, out = Path(model_path).resolve(), Path(targets_path).resolve(), Path(out_dir)
     load_model(model_path)                  # a bad model file: one line before any work
     targets = tg.load_targets(targets_path)
+    goal = tg.load_goal(targets_path)
+    if bound and goal is None:
+        raise tg.TargetsError(targets_path, "goal", "the bound stage needs a [goal] table "
+                                                    "(statements_yes, boxes_share, boxes_scenes)")
     space = space or SearchSpace()
     say = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     (out / "screen").mkdir(parents=True, exist_ok=True)
@@ -1105,8 +1168,11 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     ceiling_yes = ceiling.get("at_most_yes") if ceiling and ceiling.get("premises_hold") else None
     smap = _statement_map(full, targets, out, ceiling_yes,
                           [c["id"] for c in ceiling["capped"]] if ceiling_yes is not None else ())
+    bound_lines = []
+    if bound:
+        bound_lines = _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, jobs, say, stats)
     (out / "calibration.md").write_text(_markdown(cands, full, target_ids, targets, space, stats, maps, failed,
-                                                  ceiling, smap))
+                                                  ceiling, smap) + "\n".join(bound_lines) + ("\n" if bound_lines else ""))
     (out / "calibration.json").write_text(json.dumps(stats, indent=2))
     say(f"calibrate: {stats['candidates']} candidates from {stats['points']} points; {len(full)} fully evaluated; "
         f"{stats['wall_s']:.1f} s; {out / 'calibration.md'}")

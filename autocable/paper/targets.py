@@ -87,8 +87,9 @@ def _typed(value, kind, path, where):
 def parse_targets(data: dict, path="<targets>") -> tuple[Target, ...]:
     """Validate a parsed targets document (module docstring)."""
     for key in data:
-        if key not in KINDS:
-            raise TargetsError(path, key, f"unknown entry kind; allowed: {', '.join(f'[[{k}]]' for k in KINDS)}")
+        if key not in KINDS and key != "goal":
+            raise TargetsError(path, key, f"unknown entry kind; allowed: {', '.join(f'[[{k}]]' for k in KINDS)}"
+                                          ", [goal]")
     out, seen = [], set()
     for kind in KINDS:
         entries = data.get(kind, [])
@@ -141,6 +142,50 @@ def parse_targets(data: dict, path="<targets>") -> tuple[Target, ...]:
     if not out:
         raise TargetsError(path, "", "no targets: add [[statement]], [[number]] or [[screen]] entries")
     return tuple(out)
+
+
+@dataclass(frozen=True)
+class Goal:
+    """What a calibrated model must show (the targets file's ``[goal]``): at least ``statements_yes``
+    statements "yes", and eq. (21)'s boxes within the AME-vs-(21) study's bound at a share of at
+    least ``boxes_share`` of the overlay points of ``boxes_scenes`` taken together."""
+
+    statements_yes: int
+    boxes_share: float
+    boxes_scenes: tuple
+
+
+def parse_goal(data: dict, path="<targets>") -> Goal | None:
+    """The ``[goal]`` table of a parsed targets document, or None without one; one-line errors."""
+    g = data.get("goal")
+    if g is None:
+        return None
+    if not isinstance(g, dict):
+        raise TargetsError(path, "goal", "expected a table [goal]")
+    allowed = ("statements_yes", "boxes_share", "boxes_scenes")
+    for key in g:
+        if key not in allowed:
+            raise TargetsError(path, f"goal.{key}", f"unknown field; allowed: {', '.join(allowed)}")
+    for key in allowed:
+        if key not in g:
+            raise TargetsError(path, f"goal.{key}", "missing")
+    n, share, scenes = g["statements_yes"], g["boxes_share"], g["boxes_scenes"]
+    if isinstance(n, bool) or not isinstance(n, int) or n < 0:
+        raise TargetsError(path, "goal.statements_yes", f"expected a whole number >= 0, got {n!r}")
+    if isinstance(share, bool) or not isinstance(share, (int, float)) or not 0 <= share <= 1:
+        raise TargetsError(path, "goal.boxes_share", f"expected a share between 0 and 1, got {share!r}")
+    if not isinstance(scenes, list) or not all(isinstance(x, str) and x for x in scenes):
+        raise TargetsError(path, "goal.boxes_scenes", f"expected a list of scene names, got {scenes!r}")
+    return Goal(n, float(share), tuple(scenes))
+
+
+def load_goal(path) -> Goal | None:
+    """The ``[goal]`` of a targets file (None without one); a bad one raises a one-line `TargetsError`."""
+    try:
+        data, _ = read_toml(path)
+    except SpecError as exc:
+        raise TargetsError(path, exc.field, str(exc).split(": ", 2)[-1]) from None
+    return parse_goal(data, Path(path))
 
 
 def load_targets(path) -> tuple[Target, ...]:

@@ -1,0 +1,427 @@
+"""`autocable calibrate --bound`: can any candidate of the space reach the goal? (branch and bound)
+
+The full evaluation (`calibration.full_evaluation`) runs every figure scene on a few candidates. To
+say of the whole declared space that no candidate reaches the targets file's ``[goal]`` (at least
+N statements of Sect. 5 "yes", and eq. (21)'s boxes of Figs. 8 and 10 within the AME-vs-(21) study's
+bound at a share of their points), every candidate must be looked at, which the full evaluation
+cannot afford. This stage does it by branch and bound:
+
+* Each candidate model starts from the no-wind ceiling's upper bound (`calibration.no_wind_ceiling`:
+  the statements every candidate shows at best "partly"). The no-wind scenes (Figs. 5a, 5b, 6) are
+  the same for every candidate (the ceiling's premises, measured), so they are run once and their
+  statements decided once, for all.
+* Its wind scenes then run one at a time, cheapest and most decisive first (`ORDER`). After each,
+  that scene's statements are decided by the report's code (`targets.decide_statements`, the same
+  as report.md and the full evaluation); every one decided other than "yes" lowers the bound by one.
+* The candidate stops as soon as its bound is below the goal, or as soon as the boxes of the goal's
+  scenes are known to fall short of the goal's share. A candidate that is never stopped has run every
+  scene: its bound is then its count of statements shown.
+
+The bound is an upper bound, never an estimate: a statement not decided yet counts as "yes", and so
+do the statements whose "no" would say more about the tool than about the model (`NOT_USED_TO_PRUNE`):
+a statement of a scene that failed, the cycle statements of a scene whose orbit-started run had to be
+dropped (its start was chosen on the sample model, `IF_DROPPED`), and Fig. 3's boxes, which cannot
+be "yes" for any model today because the autonomous galloping cycles at eta* = 0 never pass the
+overlay's steady test and the study has no bound at eta* = 0.
+
+Resumable: one ``bound.json`` per candidate model under ``DIR/bound/``; the scene folders of a
+candidate stopped part-way are reused (`calibration.scene_complete`). Parallel: at most ``jobs`` scene
+processes at a time, over candidates.
+"""
+from __future__ import annotations
+
+import json
+import math
+import multiprocessing
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from autocable.paper import targets as tg
+
+#: The wind scenes in the order they are run: the cheapest and the most often decisive first
+#: (measured on the fully evaluated candidates: Fig. 3 about 3 s and Fig. 11 about 2 s stop most
+#: candidates; Figs. 4b and 4c, about 25 s each, run last).
+ORDER = ("fig03", "fig11", "fig08", "fig10", "fig09", "fig07", "fig04a", "fig04b", "fig04c")
+#: The scenes the no-wind reference provides (the same for every candidate).
+NO_WIND = ("fig05a", "fig05b", "fig06")
+#: The scenes whose output a scene's statements read besides its own (report._features).
+NEEDS = {"fig04c": ("fig04a", "fig04b"), "fig07": ("fig05b",), "fig08": ("fig05b",),
+         "fig09": ("fig06",), "fig10": ("fig06",)}
+#: Statements never used to lower a bound, and why.
+NOT_USED_TO_PRUNE = {
+    "fig03.boxes": "no model can show it today: the overlay's steady test and the study's bound are "
+                   "made for forced responses, not the autonomous galloping cycles of eta* = 0",
+}
+#: A scene still running after this is stopped and counted failed (its statements stay undecided):
+#: the longest scene of the fully evaluated candidates took about 35 s.
+SCENE_TIMEOUT_S = 600.0
+#: Statement ids (after the scene name) that a dropped orbit-started run would decide.
+IF_DROPPED = ("periodic_p",)
+
+
+@dataclass
+class Candidate:
+    """One candidate model in the bound stage."""
+
+    key: str
+    c: dict
+    folder: Path
+    todo: list = field(default_factory=list)
+    verdicts: dict = field(default_factory=dict)     # statement id -> {"shown", "evidence"}
+    failed: list = field(default_factory=list)       # scenes that failed (their statements undecided)
+    dropped: list = field(default_factory=list)
+    boxes: dict = field(default_factory=dict)
+    scenes_run: list = field(default_factory=list)
+    computed: int = 0                                # scene runs started by this call (not reused)
+    wall_s: float = 0.0
+
+
+def bound_of(verdicts: dict, statement_ids: list, capped: set, failed=(), dropped_scenes=()) -> tuple[int, list]:
+    """(upper bound on the statements "yes", the ids that lowered it): every statement counts as
+    "yes" unless it is capped by the ceiling or decided other than "yes" and usable to prune."""
+    lowered = []
+    for sid in statement_ids:
+        if sid in capped:
+            continue
+        v = verdicts.get(sid)
+        if v is None or v.get("shown") == "yes" or sid in NOT_USED_TO_PRUNE:
+            continue
+        scene, _, rest = sid.partition(".")
+        if scene in failed or (scene in dropped_scenes and rest in IF_DROPPED):
+            continue
+        lowered.append(sid)
+    return len(statement_ids) - len(capped) - len(lowered), lowered
+
+
+def boxes_short(boxes: dict, goal: tg.Goal) -> bool | None:
+    """True when the goal's boxes are known to fall short of its share, None while a scene is missing.
+    A box counts when eq. (21) is within the bound there, or both are at rest (report.overlay_summary)."""
+    if not goal.boxes_scenes or any(s not in boxes for s in goal.boxes_scenes):
+        return None
+    good = sum(boxes[s]["within"] + boxes[s]["at_rest"] for s in goal.boxes_scenes)
+    points = sum(boxes[s]["points"] for s in goal.boxes_scenes)
+    return points == 0 or good < goal.boxes_share * points
+
+
+def model_key(c: dict) -> str:
+    """One key per candidate model: the orderings share it (the scenes keep their own)."""
+    return json.dumps([c["readings"], c["yaw_deg"], round(c["rivulet_angle_deg"], 9)], sort_keys=True)
+
+
+def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list, out: Path, runs: Path,
+              reference_out: Path, capped: set, jobs: int, say, order: tuple = ORDER) -> list[dict]:
+    """The bound stage over ``cands`` (the screen's candidates); ``full`` are the fully evaluated
+    ones (their verdicts give their bound directly), ``reference_out`` an output folder holding the
+    no-wind scenes, ``capped`` the ceiling's statement ids, ``order`` the wind scenes to run, in order.
+    Returns one record per candidate model."""
+    from autocable._store import atomic_write_json
+    from autocable.paper import calibration as cal
+    from autocable.paper.figures import _preload, _worker
+    from autocable.paper.report import load_scene_data, overlay_summary
+
+    stmt_ids = [t.id for t in targets if t.kind == "statement"]
+    by_scene: dict[str, list] = {}
+    for t in targets:
+        if t.kind == "statement":
+            by_scene.setdefault(t.scene, []).append(t)
+    unknown = sorted(set(by_scene) - set(ORDER) - set(NO_WIND))
+    by_scene = {n: ts for n, ts in by_scene.items() if n in order or n in NO_WIND}
+    if unknown:
+        raise ValueError(f"the bound stage does not know the scenes {unknown} of the targets file")
+    reference = {n: load_scene_data(reference_out / n) for n in NO_WIND}
+    base = {}
+    for v in tg.decide_statements([t for n in NO_WIND for t in by_scene.get(n, [])], reference):
+        base[v.id] = {"shown": v.shown, "evidence": v.evidence}
+    records, seen, todo = [], set(), []
+    full_keys = {model_key(c): c for c in full}
+    for key, c in full_keys.items():
+        fv = c["full"]["verdicts"]
+        dropped_scenes = {d.split(":")[0] for d in c["full"].get("dropped_runs") or []}
+        failed = {sid.split(".")[0] for sid, v in fv.items() if str(v.get("evidence", "")).startswith("scene failed")}
+        b, lowered = bound_of(fv, stmt_ids, capped, failed, dropped_scenes)
+        short = boxes_short(c["full"].get("boxes") or {}, goal)
+        records.append(_record(c, b, lowered, "fully evaluated", sorted(ORDER), c["full"].get("boxes") or {},
+                               sorted(failed), c["full"].get("dropped_runs") or [], c["full"].get("wall_s", 0.0),
+                               goal, short))
+        seen.add(key)
+    for c in sorted(cands, key=cal.screen_score, reverse=True):
+        key = model_key(c)
+        if key in seen:
+            continue
+        seen.add(key)
+        folder = out / "bound" / cal.candidate_name(c)
+        done = folder / "bound.json"
+        if done.is_file():
+            try:
+                records.append(json.loads(done.read_text()))
+                continue
+            except ValueError:
+                pass
+        todo.append(Candidate(key, c, folder, list(order), dict(base)))
+    n_reused = len(records) - len(full_keys)
+    say(f"bound: {len(todo) + len(records)} candidate models, {len(full_keys)} fully evaluated, "
+        f"{n_reused} already on disk, {len(todo)} to bound; goal {goal.statements_yes} statements, boxes "
+        f">= {goal.boxes_share:.0%} of {', '.join(goal.boxes_scenes)}")
+    if not todo:
+        return records
+    for cand in todo:
+        model = cal.write_candidate_model(model_path, cand.c, cand.folder / "model.toml")
+        (cand.folder / "runs").mkdir(parents=True, exist_ok=True)
+        (cand.folder / "out").mkdir(parents=True, exist_ok=True)
+        for n in order:
+            dst = cand.folder / "runs" / f"{n}.toml"
+            if not dst.is_file():
+                text = (runs / f"{n}.toml").read_text()
+                dst.write_text(text.replace('model = "../models/luongo_zulli_2012.toml"', f'model = "{model}"'))
+        cand.dropped = cal._recorded_drops(cand.folder)
+    fork = "fork" in multiprocessing.get_all_start_methods()
+    ctx = multiprocessing.get_context("fork" if fork else "spawn")
+    if fork:
+        _preload()
+    queue = list(todo)          # candidates waiting for their next scene
+    running: dict = {}          # process -> (candidate, scene, pipe, t0)
+    n_done, t_start = 0, time.perf_counter()
+
+    def decide(cand: Candidate, scene: str, ok: bool, error: str) -> None:
+        if not ok:
+            cand.failed.append(scene)
+            for t in by_scene.get(scene, []):
+                cand.verdicts[t.id] = {"shown": "no", "evidence": f"scene failed: {error}"}
+            return
+        have = {n: load_scene_data(cand.folder / "out" / n) for n in cand.scenes_run if n not in cand.failed}
+        have.update(reference)
+        for v in tg.decide_statements(by_scene.get(scene, []), have):
+            cand.verdicts[v.id] = {"shown": v.shown, "evidence": v.evidence}
+        if scene in goal.boxes_scenes:
+            s = overlay_summary(have[scene])
+            cand.boxes[scene] = {"points": s["points"], "within": s["within"], "at_rest": s["at_rest"],
+                                 "not_steady": s["not_steady"]}
+
+    def settle(cand: Candidate) -> bool:
+        """Write the candidate's record when it is stopped or has run everything; True if so."""
+        nonlocal n_done
+        dropped_scenes = {d.split(":")[0] for d in cand.dropped}
+        b, lowered = bound_of(cand.verdicts, stmt_ids, capped, set(cand.failed), dropped_scenes)
+        short = boxes_short(cand.boxes, goal)
+        if b >= goal.statements_yes and not short and cand.todo:
+            return False
+        status = ("stopped: statements" if b < goal.statements_yes else "stopped: boxes" if short
+                  else "every scene run")
+        rec = _record(cand.c, b, lowered, status, cand.scenes_run, cand.boxes, cand.failed, cand.dropped,
+                      cand.wall_s, goal, short)
+        rec["computed_scenes"] = cand.computed
+        atomic_write_json(cand.folder / "bound.json", cal._finite(rec))
+        records.append(rec)
+        n_done += 1
+        rate = n_done / max(time.perf_counter() - t_start, 1e-9) * 60
+        say(f"[{n_done}/{len(todo)}] {cal.candidate_name(cand.c)}: at most {b} yes ({status}; "
+            f"{len(cand.scenes_run)} scenes; {rate:.1f} candidates/min)")
+        return True
+
+    def start_next() -> bool:
+        """Start the next scene of the first waiting candidate (or settle it); False if none waits."""
+        while queue:
+            cand = queue.pop(0)
+            if settle(cand):
+                continue
+            scene = cand.todo.pop(0)
+            path, dst = cand.folder / "runs" / f"{scene}.toml", cand.folder / "out" / scene
+            if cal.scene_complete(dst, path):
+                cand.scenes_run.append(scene)
+                decide(cand, scene, True, "")
+                queue.insert(0, cand)
+                continue
+            recv, send = ctx.Pipe(duplex=False)
+            proc = ctx.Process(target=_worker, args=(str(path), str(dst), send), daemon=True)
+            proc.start()
+            send.close()
+            cand.computed += 1
+            running[proc] = (cand, scene, recv, time.perf_counter())
+            return True
+        return False
+
+    while queue or running:
+        while len(running) < jobs and start_next():
+            pass
+        time.sleep(0.02)
+        for proc, (cand, scene, recv, t0) in list(running.items()):
+            msg = None
+            if recv.poll():
+                try:
+                    msg = recv.recv()
+                except EOFError:
+                    msg = None
+            if msg is None and proc.is_alive():
+                if time.perf_counter() - t0 < SCENE_TIMEOUT_S:
+                    continue
+                proc.terminate()
+                msg = ("failed", f"stopped after the time limit of {SCENE_TIMEOUT_S:g} s", "")
+            proc.join()
+            recv.close()
+            del running[proc]
+            cand.wall_s += time.perf_counter() - t0
+            status, error = (msg[0], msg[1]) if msg else ("failed", f"the scene's process died (exit {proc.exitcode})")
+            k = cal._failed_start(error) if status != "ok" else None
+            path = cand.folder / "runs" / f"{scene}.toml"
+            if k is not None and sum(d.startswith(scene + ":") for d in cand.dropped) < 2 and cal._drop_run(path, k):
+                # as the full evaluation: the run whose sample-tuned start failed goes, the scene reruns
+                cand.dropped.append(f"{scene}: run[{k}] ({error.split(': ', 2)[-1][:160]})")
+                atomic_write_json(cand.folder / "dropped.json", cand.dropped)
+                cand.todo.insert(0, scene)
+            else:
+                cand.scenes_run.append(scene)
+                decide(cand, scene, status == "ok", error)
+            queue.insert(0, cand)
+    return records
+
+
+def _record(c: dict, bound: int, lowered: list, status: str, scenes: list, boxes: dict, failed, dropped,
+            wall: float, goal: tg.Goal, short) -> dict:
+    from autocable.paper.calibration import candidate_name
+    good = sum(boxes[s]["within"] + boxes[s]["at_rest"] for s in goal.boxes_scenes if s in boxes)
+    points = sum(boxes[s]["points"] for s in goal.boxes_scenes if s in boxes)
+    return {"name": candidate_name(c), "readings": c["readings"], "yaw_deg": c["yaw_deg"],
+            "rivulet_angle_deg": c["rivulet_angle_deg"], "bound": bound, "status": status,
+            "lowered_by": lowered, "scenes_run": list(scenes), "failed_scenes": list(failed),
+            "dropped_runs": list(dropped), "boxes": boxes, "boxes_good": good, "boxes_points": points,
+            "boxes_short": short, "reaches_goal": bound >= goal.statements_yes and short is False,
+            "wall_s": wall}
+
+
+def summary(records: list[dict], goal: tg.Goal) -> dict:
+    """Counts over the records: how many were stopped by what, the highest bound, who reaches the goal."""
+    by = {}
+    for r in records:
+        by[r["status"]] = by.get(r["status"], 0) + 1
+    best = max(records, key=lambda r: r["bound"], default=None)
+    lowered = {}
+    for r in records:
+        for sid in r["lowered_by"]:
+            lowered[sid] = lowered.get(sid, 0) + 1
+    return {"models": len(records), "by_status": by, "highest_bound": best["bound"] if best else math.nan,
+            "highest": best["name"] if best else "", "reach_goal": [r["name"] for r in records if r["reaches_goal"]],
+            "could_still_reach": [r["name"] for r in records if r["bound"] >= goal.statements_yes
+                                  and r["boxes_short"] is not True and not r["reaches_goal"]],
+            "lowered_by": dict(sorted(lowered.items(), key=lambda kv: -kv[1]))}
+
+
+# ------------------------------------------------------------------------------------------------
+# what the stage writes
+# ------------------------------------------------------------------------------------------------
+CSV_FIELDS = ("name", "twist_ends", "load_axes", "angle_convention", "load_length", "yaw_deg",
+              "rivulet_angle_deg", "bound", "status", "boxes_good", "boxes_points", "reaches_goal",
+              "scenes_run", "lowered_by", "failed_scenes", "wall_s")
+
+
+def write_csv(records: list[dict], path: Path) -> None:
+    import csv
+    with open(path, "w", newline="", encoding="utf-8") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(CSV_FIELDS))
+        w.writeheader()
+        for r in sorted(records, key=lambda r: (-r["bound"], r["name"])):
+            row = {k: r.get(k, "") for k in CSV_FIELDS}
+            row.update({k: r["readings"][k] for k in ("twist_ends", "load_axes", "angle_convention", "load_length")})
+            row.update({k: " ".join(r[k]) for k in ("scenes_run", "lowered_by", "failed_scenes")})
+            w.writerow(row)
+
+
+def draw_map(records: list[dict], goal: tg.Goal, ceiling_yes: int, path: Path) -> Path:
+    """The bound over the space: one panel per (twist ends, angle sense), bound against yaw, one
+    colour per (load axes, load length), the marker saying what stopped the candidate; the goal and
+    the ceiling drawn across."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    panels = sorted({(r["readings"]["twist_ends"], r["readings"]["angle_convention"]) for r in records})
+    series = sorted({(r["readings"]["load_axes"], r["readings"]["load_length"]) for r in records})
+    colours = dict(zip(series, ("#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e", "#e6ab02")))
+    marks = {"stopped: statements": "o", "stopped: boxes": "s", "every scene run": "D", "fully evaluated": "*"}
+    ncol = 2
+    nrow = max(1, math.ceil(len(panels) / ncol))
+    fig, axes = plt.subplots(nrow, ncol, figsize=(12, 3.4 * nrow), squeeze=False, sharey=True)
+    lo = min((r["bound"] for r in records), default=0)
+    for ax, (te, ac) in zip(axes.flat, panels):
+        mine = [r for r in records if (r["readings"]["twist_ends"], r["readings"]["angle_convention"]) == (te, ac)]
+        for (la, ll) in series:
+            for st, m in marks.items():
+                pts = [r for r in mine if (r["readings"]["load_axes"], r["readings"]["load_length"]) == (la, ll)
+                       and r["status"] == st]
+                if pts:
+                    ax.scatter([r["yaw_deg"] for r in pts], [r["bound"] for r in pts], marker=m, s=22 if m != "*" else 60,
+                               facecolors="none" if m in "os" else colours[(la, ll)], edgecolors=colours[(la, ll)],
+                               linewidths=0.8, alpha=0.8)
+        ax.axhline(goal.statements_yes, color="k", ls="--", lw=1)
+        ax.axhline(ceiling_yes, color="#d7301f", ls=":", lw=1.2)
+        ax.set_title(f"twist ends {te}, angle sense {ac}: {len(mine)} models", fontsize=9)
+        ax.set_xlabel("yaw beta [deg]")
+        ax.set_ylabel("at most this many statements yes")
+        ax.set_ylim(lo - 1, ceiling_yes + 1.5)
+    for ax in list(axes.flat)[len(panels):]:
+        ax.axis("off")
+    handles = [plt.Line2D([], [], color=colours[s], marker="o", ls="", label=f"load axes {s[0]}, length {s[1]}")
+               for s in series]
+    handles += [plt.Line2D([], [], color="0.3", marker=m, ls="", mfc="none" if m in "os" else "0.3", label=st)
+                for st, m in marks.items()]
+    handles += [plt.Line2D([], [], color="k", ls="--", label=f"goal: {goal.statements_yes}"),
+                plt.Line2D([], [], color="#d7301f", ls=":", label=f"no-wind ceiling: {ceiling_yes}")]
+    fig.legend(handles=handles, loc="lower center", ncol=4, fontsize=7, frameon=False)
+    fig.suptitle("Upper bound on the Sect. 5 statements each candidate model can show (branch and bound)",
+                 fontsize=10)
+    fig.tight_layout(rect=(0, 0.07, 1, 0.97))
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def markdown(records: list[dict], goal: tg.Goal, ceiling_yes: int, n_statements: int, wall_s: float,
+             jobs: int, picture: Path | None, csv_name: str) -> list[str]:
+    s = summary(records, goal)
+    stopped = {k: v for k, v in s["by_status"].items()}
+    run = [r for r in records if r["status"] not in ("fully evaluated",)]
+    scenes = sum(len(r["scenes_run"]) for r in run)
+    lines = ["", "## Can any candidate reach the goal? (branch and bound over the whole space)", "",
+             f"Goal (the targets file's `[goal]`): at least **{goal.statements_yes} of {n_statements}** statements "
+             f"yes, and eq. (21)'s boxes within the study's bound at {goal.boxes_share:.0%} or more of the overlay "
+             f"points of {' and '.join(goal.boxes_scenes)} taken together.", "",
+             "Every candidate model of the screen (the orderings share one: the scenes keep theirs) starts "
+             f"from the no-wind ceiling, {ceiling_yes}; its wind scenes run one at a time ({', '.join(ORDER)}), "
+             "each decided by the report's code, and every statement decided other than yes lowers the bound. "
+             "The candidate stops when the bound is below the goal or its boxes cannot reach the goal's share. "
+             "The bound is an upper bound: undecided statements count as yes, and so do "
+             + "; ".join(f"{k} ({v})" for k, v in NOT_USED_TO_PRUNE.items())
+             + f"; the statements of a failed scene; the {', '.join(IF_DROPPED)} statements of a scene whose "
+               "orbit-started run (its start chosen on the sample) had to be dropped.", "",
+             f"**{s['models']} candidate models**: "
+             + ", ".join(f"{v} {k}" for k, v in sorted(stopped.items(), key=lambda kv: -kv[1]))
+             + f". {len(run)} bounded in this stage with {scenes} scene runs "
+               f"({scenes / max(len(run), 1):.2f} per model)"
+             + (f", {wall_s / 60:.1f} min on {jobs} processes in this run." if wall_s > 0 else ".")]
+    verdict = ("**Candidates that reach the goal: " + ", ".join(s["reach_goal"]) + ".**") if s["reach_goal"] else (
+        f"**No candidate model of the space reaches the goal.** The highest upper bound is {s['highest_bound']} "
+        f"({s['highest']})" + (", below the goal." if s["highest_bound"] < goal.statements_yes else "."))
+    if s["could_still_reach"]:
+        verdict += (f" Not settled: {len(s['could_still_reach'])} candidates whose bound is not below the goal "
+                    "but whose boxes are not known (a scene failed).")
+    lines += ["", verdict]
+    if picture is not None:
+        lines += ["", f"![upper bound per candidate model]({picture.name})"]
+    hist = {}
+    for r in records:
+        hist[r["bound"]] = hist.get(r["bound"], 0) + 1
+    lines += ["", "Upper bound (statements yes at most): candidate models", "",
+              "| bound | " + " | ".join(str(k) for k in sorted(hist, reverse=True)) + " |",
+              "|---|" + "---|" * len(hist),
+              "| models | " + " | ".join(str(hist[k]) for k in sorted(hist, reverse=True)) + " |", "",
+              "The statements that lowered the bounds (how many candidate models each stopped or lowered):", "",
+              "| statement | models |", "|---|---|"]
+    lines += [f"| {k} | {v} |" for k, v in list(s["lowered_by"].items())[:20]]
+    top = sorted(records, key=lambda r: (-r["bound"], r["name"]))[:10]
+    lines += ["", "The ten highest bounds:", "", "| candidate model | at most yes | status | scenes run | "
+              "boxes within (Figs. 8 + 10) | lowered by |", "|---|---|---|---|---|---|"]
+    for r in top:
+        box = f"{r['boxes_good']} of {r['boxes_points']}" if r["boxes_points"] else "—"
+        lines.append(f"| {r['name']} | {r['bound']} | {r['status']} | {len(r['scenes_run'])} | {box} | "
+                     f"{', '.join(r['lowered_by'])} |")
+    lines += ["", f"One row per candidate model: [{csv_name}]({csv_name})."]
+    return lines

@@ -1,0 +1,128 @@
+"""The bound stage of `autocable calibrate` (autocable.paper.bound): an upper bound on the
+statements each candidate can show, from its wind scenes run one at a time, and the goal it is
+measured against (the targets file's [goal])."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from autocable.paper import bound as bd
+from autocable.paper import targets as tg
+
+SAMPLE = "models/luongo_zulli_2012.toml"
+TARGETS = "models/luongo_zulli_2012.targets.toml"
+GOAL = tg.Goal(40, 0.8, ("fig08", "fig10"))
+
+
+# ------------------------------------------------------------------------------------------------
+# the goal as data
+# ------------------------------------------------------------------------------------------------
+def test_the_papers_goal_is_read_from_the_targets_file():
+    assert tg.load_goal(TARGETS) == GOAL
+    assert len(tg.load_targets(TARGETS)) == 58          # the [goal] table is not a target
+
+
+@pytest.mark.parametrize("table, field", [
+    ({"statements_yes": -1, "boxes_share": 0.8, "boxes_scenes": ["fig08"]}, "goal.statements_yes"),
+    ({"statements_yes": 40, "boxes_share": 1.5, "boxes_scenes": ["fig08"]}, "goal.boxes_share"),
+    ({"statements_yes": 40, "boxes_share": 0.8, "boxes_scenes": "fig08"}, "goal.boxes_scenes"),
+    ({"statements_yes": 40, "boxes_share": 0.8}, "goal.boxes_scenes"),
+    ({"statements_yes": 40, "boxes_share": 0.8, "boxes_scenes": [], "share": 1}, "goal.share"),
+])
+def test_a_bad_goal_is_one_line_naming_the_file_and_field(tmp_path, table, field):
+    path = tmp_path / "bad.targets.toml"
+    body = "\n".join(f"{k} = {json.dumps(v)}" for k, v in table.items())
+    head, tail = Path(TARGETS).read_text().split("[goal]")
+    path.write_text(head + "[goal]\n" + body + "\n\n[[statement]]" + tail.split("[[statement]]", 1)[1])
+    with pytest.raises(tg.TargetsError) as err:
+        tg.load_goal(path)
+    msg = str(err.value)
+    assert "\n" not in msg and "bad.targets.toml" in msg and field in msg
+
+
+# ------------------------------------------------------------------------------------------------
+# the bound, on cases with a known answer
+# ------------------------------------------------------------------------------------------------
+IDS = ["fig03.galloping", "fig03.boxes", "fig08.periodic_p", "fig08.boxes", "fig09.a2_small", "fig06.island_ii"]
+
+
+def test_bound_counts_undecided_as_yes_and_only_usable_decisions_lower_it():
+    capped = {"fig06.island_ii"}
+    # nothing decided: every statement but the capped one may still be yes
+    assert bd.bound_of({}, IDS, capped) == (5, [])
+    v = {"fig03.galloping": {"shown": "partly"}, "fig03.boxes": {"shown": "partly"},
+         "fig08.periodic_p": {"shown": "no"}, "fig08.boxes": {"shown": "yes"}, "fig09.a2_small": {"shown": "no"},
+         "fig06.island_ii": {"shown": "partly"}}
+    # fig03.boxes is never used (a measurement limit); the capped one is already out of the count
+    assert bd.bound_of(v, IDS, capped) == (2, ["fig03.galloping", "fig08.periodic_p", "fig09.a2_small"])
+    # a dropped orbit run: the cycle statement of that scene no longer lowers the bound
+    assert bd.bound_of(v, IDS, capped, dropped_scenes={"fig08"}) == (3, ["fig03.galloping", "fig09.a2_small"])
+    # a failed scene: none of its statements does
+    assert bd.bound_of(v, IDS, capped, failed={"fig09"}) == (3, ["fig03.galloping", "fig08.periodic_p"])
+
+
+def test_boxes_short_of_the_goal_share():
+    box = {"points": 22, "within": 0, "at_rest": 0}
+    assert bd.boxes_short({"fig08": dict(box, within=22)}, GOAL) is None          # fig10 not run yet
+    # 36 of 44 is 81.8 %: enough; 35 of 44 is 79.5 %: short; at rest in both counts as agreement
+    assert bd.boxes_short({"fig08": dict(box, within=22), "fig10": dict(box, within=14)}, GOAL) is False
+    assert bd.boxes_short({"fig08": dict(box, within=22), "fig10": dict(box, within=13)}, GOAL) is True
+    assert bd.boxes_short({"fig08": dict(box, within=20, at_rest=2), "fig10": dict(box, within=14)}, GOAL) is False
+
+
+# ------------------------------------------------------------------------------------------------
+# the stage, end to end on two candidates and one wind scene
+# ------------------------------------------------------------------------------------------------
+def test_bound_stage_stops_resumes_and_agrees_with_the_report(tmp_path):
+    """Two candidates (the sample's readings at two yaws), the wind scene fig03 only, goal 46 of 48:
+    the bound is 46 less the fig03 and no-wind statements the report's code decides other than yes
+    (fig03.boxes and the capped ones excepted), and such a statement stops the candidate. A rerun
+    reads every record (counted); a candidate whose record was lost reuses its finished scene folder
+    (no scene run, counted)."""
+    from autocable.paper import calibration as cal
+    from autocable.paper.figures import run_figures
+    from autocable.paper.report import load_scene_data
+    root = Path.cwd()
+    runs = root / "runs"
+    targets = tg.load_targets(TARGETS)
+    ref = tmp_path / "ref"
+    outs = run_figures([runs / f"{n}.toml" for n in bd.NO_WIND], ref, jobs=2)
+    assert all(o.status == "ok" for o in outs)
+    spec = __import__("autocable.spec", fromlist=["load_model"]).load_model(SAMPLE)
+    cands = []
+    for beta in (0.0, 5.0):
+        r = cal.Readings("restrained", "reference", "reversed", "diameter", 1.25)
+        roots, _ = cal.theta0_roots(cal.candidate_spec(spec, r, beta, None))
+        cands.append({"readings": cal.asdict(r), "yaw_deg": beta, "rivulet_angle_deg": min(roots, key=abs),
+                      "ordering": "paper", "verdicts": {}})
+    capped = {"fig06.island_ii", "fig06.boxes"}
+    says = []
+    strict = tg.Goal(46, 0.8, ("fig08", "fig10"))
+    recs = bd.run_bound(Path(SAMPLE).resolve(), targets, strict, cands, [], tmp_path / "a", runs, ref, capped, 2,
+                        says.append, order=("fig03",))
+    assert len(recs) == 2 and says[0].startswith("bound: 2 candidate models")
+    for r in recs:
+        # fig03.galloping and fig03.trivial are decided; the bound can only go down from 46
+        folder = tmp_path / "a" / "bound" / r["name"]
+        data = {"fig03": load_scene_data(folder / "out" / "fig03")}
+        data.update({n: load_scene_data(ref / n) for n in bd.NO_WIND})
+        ver = {v.id: v.shown for v in tg.decide_statements(targets, data) if v.id.split(".")[0] in ("fig03",) + bd.NO_WIND}
+        not_yes = [k for k, s in ver.items() if s != "yes" and k not in capped and k not in bd.NOT_USED_TO_PRUNE]
+        assert r["bound"] == 46 - len(not_yes) and sorted(r["lowered_by"]) == sorted(not_yes)
+        assert r["status"] == ("stopped: statements" if not_yes else "every scene run")
+        assert r["scenes_run"] == ["fig03"] and r["computed_scenes"] == 1
+    # a rerun reads the records: nothing computed
+    again = bd.run_bound(Path(SAMPLE).resolve(), targets, strict, cands, [], tmp_path / "a", runs, ref, capped, 2,
+                         says.append, order=("fig03",))
+    assert [r["bound"] for r in again] == [r["bound"] for r in recs]
+    assert says[-1].endswith("2 already on disk, 0 to bound; goal 46 statements, boxes >= 80% of fig08, fig10")
+    # a lost record: the candidate is bounded again from its finished scene folder, no scene rerun
+    lost = tmp_path / "a" / "bound" / recs[0]["name"] / "bound.json"
+    lost.unlink()
+    third = bd.run_bound(Path(SAMPLE).resolve(), targets, strict, cands, [], tmp_path / "a", runs, ref, capped, 2,
+                         says.append, order=("fig03",))
+    redone = json.loads(lost.read_text())
+    assert redone["computed_scenes"] == 0 and redone["bound"] == recs[0]["bound"]
+    assert len(third) == 2
