@@ -160,3 +160,35 @@ def test_no_wind_ceiling_caps_the_no_wind_statements():
     assert "fig09.hopf_moved" not in capped                      # fig06 not run: nothing known
     scenes["fig05b"] = _with_hopf(scenes["fig05b"], (0.01,))
     assert "fig07.hopf_moved" not in {c["id"] for c in no_wind_ceiling(ts, scenes)}
+
+
+def _fig03_scene(galloping_a1) -> SceneData:
+    """Fig. 3 with the trivial solution below and above U = 1 and a run "galloping" over [1.05, 1.3]
+    whose amplitudes are ``galloping_a1(U)``; stability as eq. (25) with a super-critical branch."""
+    rows, branches = [], []
+    for name, us, stable in (("trivial", (0.5, 0.8, 0.99), "1"), ("trivial-above", (1.01, 1.2, 1.3), "0")):
+        rows += [{"branch": name, "kind": "equilibrium", "U": str(u), "sigma": "0", "eta": "0", "a1": "0",
+                  "a2": "0", "stable": stable} for u in us]
+        branches.append({"name": name, "kind": "equilibrium", "parameter": "U", "ends": []})
+    rows += [{"branch": "galloping", "kind": "equilibrium", "U": str(u), "sigma": "0", "eta": "0",
+              "a1": repr(galloping_a1(u)), "a2": "0", "stable": "1"} for u in (1.05, 1.1, 1.2, 1.3)]
+    branches.append({"name": "galloping", "kind": "equilibrium", "parameter": "U", "ends": []})
+    run = {"branches": branches, "provenance": {"title": "fig03", "omega1": 1.004, "omega2": 1.0}}
+    return SceneData(name="fig03", folder=Path("."), status="ok", run=run, rows=rows)
+
+
+def test_fig03_galloping_and_trivial_decided_with_and_without_a_galloping_branch():
+    """Eq. (25): a1^2 / U = c (U - 1) is the super-critical branch born at U = 1: both statements
+    "yes". A galloping run that settled on rest (a1 ~ 1e-95, the model's onset above the run's
+    start) is the trivial solution: galloping "no" (it used to be a "partly" with a fit through
+    round-off), and the trivial statement is still decided from every trivial branch (it used to be
+    missing, hence "no")."""
+    ts = tg.load_targets(TARGETS)
+    good = {x.id: x for x in tg.decide_statements(ts, {"fig03": _fig03_scene(lambda u: math.sqrt(0.01 * u * (u - 1)))})}
+    assert good["fig03.galloping"].shown == "yes" and "U = 1.000000" in good["fig03.galloping"].evidence
+    assert good["fig03.trivial"].shown == "yes"
+    rest = {x.id: x for x in tg.decide_statements(ts, {"fig03": _fig03_scene(lambda u: 1e-95)})}
+    assert rest["fig03.galloping"].shown == "no"
+    assert rest["fig03.galloping"].evidence.startswith("no non-trivial equilibrium branch")
+    # the settled-on-rest run is stable above U = 1 in this example: rest is then not "unstable above"
+    assert rest["fig03.trivial"].shown == "partly" and "3 of 3 trivial points stable below" in rest["fig03.trivial"].evidence

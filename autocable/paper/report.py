@@ -412,12 +412,35 @@ def _reason(*keys: str) -> str:
     return "; ".join(REASONS[k] for k in keys)
 
 
+#: Below this a1 a branch of Fig. 3 is the trivial solution: a galloping run whose start settled on
+#: rest (U below the model's onset) continues a1 ~ 1e-90, not a galloping branch.
+TRIVIAL_A1 = 1e-12
+
+
+def _fig03_trivial(d: SceneData, branches) -> list[Feature]:
+    below = [r for bb in branches for r in d.branch_rows(bb["name"]) if _num(r["U"]) < 1]
+    above = [r for bb in branches for r in d.branch_rows(bb["name"]) if _num(r["U"]) > 1]
+    if not (below or above):
+        return []
+    sb = sum(_stable(r) for r in below)
+    sa = sum(_stable(r) for r in above)
+    ok = below and above and sb == len(below) and sa == 0
+    return [("trivial solution a1 = 0, stable below U = 1 and unstable above", "yes" if ok else "partly",
+             f"{sb} of {len(below)} trivial points stable below U = 1, {sa} of {len(above)} above "
+             f"(max a1 on them {_e(max((_num(r['a1']) for r in below + above), default=_NAN))})")]
+
+
 def _fig03(d: SceneData, all_: dict) -> list[Feature]:
     out: list[Feature] = []
-    gall = [b for b in d.branches() if b.get("kind") == "equilibrium"
-            and max((_num(r["a1"]) for r in d.branch_rows(b["name"])), default=0) > 0]
+    eq = [b for b in d.branches() if b.get("kind") == "equilibrium"]
+    gall = [b for b in eq if max((_num(r["a1"]) for r in d.branch_rows(b["name"])), default=0) > TRIVIAL_A1]
     if not gall:
-        return [("supercritical galloping branch (25) from U = 1", "no", "no non-trivial branch in the results")]
+        # No galloping branch above U = 1 (rest stable up to U = 1.3, or a sub-critical branch the
+        # run's start could not settle on): the statement is decided "no", and the trivial one still is.
+        ends = "; ".join(f"{b['name']}: {_ends(b)}" for b in eq) or "no branch"
+        return [("supercritical galloping at U = 1 (stable branch)", "no",
+                 f"no non-trivial equilibrium branch (a1 above {TRIVIAL_A1:g}) in the results ({ends}); "
+                 f"{_reason('inputs')}")] + _fig03_trivial(d, eq)
     b = max(gall, key=lambda b: len(d.branch_rows(b["name"])))
     rows = [r for r in d.branch_rows(b["name"]) if _num(r["U"]) > 0 and _num(r["a1"]) > 0]
     us = [_num(r["U"]) for r in rows]
@@ -438,17 +461,7 @@ def _fig03(d: SceneData, all_: dict) -> list[Feature]:
                 f"branch {b['name']}: {n} points over U in [{_g(min(us))}, {_g(max(us))}], {share:.0%} stable; "
                 f"a1^2/U is linear in U (eq. 25) to a max relative residual {_e(resid, 1)}, vanishing at "
                 f"U = {onset:.6f}; a1 = {_e(_num(rows[-1]['a1']))} at U = {_g(us[-1])}"))
-    triv = [bb for bb in d.branches() if bb.get("kind") == "equilibrium" and bb is not b]
-    below = [r for bb in triv for r in d.branch_rows(bb["name"]) if _num(r["U"]) < 1]
-    above = [r for bb in triv for r in d.branch_rows(bb["name"]) if _num(r["U"]) > 1]
-    if below or above:
-        sb = sum(_stable(r) for r in below)
-        sa = sum(_stable(r) for r in above)
-        ok = below and above and sb == len(below) and sa == 0
-        out.append(("trivial solution a1 = 0, stable below U = 1 and unstable above", "yes" if ok else "partly",
-                    f"{sb} of {len(below)} trivial points stable below U = 1, {sa} of {len(above)} above "
-                    f"(max a1 on them {_e(max((_num(r['a1']) for r in below + above), default=_NAN))})"))
-    return out
+    return out + _fig03_trivial(d, [bb for bb in eq if bb not in gall])
 
 
 def _mono_features(d: SceneData) -> list[Feature]:

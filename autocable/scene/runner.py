@@ -149,10 +149,14 @@ def run_equilibria(r: _Run):
         x0 = np.array(start.values)
     elif start.kind == "integrate":
         amps = list(start.values)
-        n_modes = system.dimension // 2
-        amps += [0.0] * max(0, n_modes - len(amps))
-        y0 = np.zeros(system.dimension)
-        y0[0::2] = amps[:n_modes]
+        if system.dimension == 1:
+            # the polar amplitude equation of Fig. 3 (ame = "1dof-amplitude"): its state is a1 itself
+            n_modes, y0 = 1, np.array([float(amps[0]) if amps else 0.0])
+        else:
+            n_modes = system.dimension // 2
+            amps += [0.0] * max(0, n_modes - len(amps))
+            y0 = np.zeros(system.dimension)
+            y0[0::2] = amps[:n_modes]
         r.say(f"  integrating the AME from a = {amps[:n_modes]} to a steady state")
         x0 = C.settle(system, r.values, y0, scale=r.scale, engine=r.engine,
                       seconds=r.settings.settle_seconds, evaluations=r.settings.settle_evaluations)
