@@ -100,9 +100,17 @@ def test_bound_stage_stops_resumes_and_agrees_with_the_report(tmp_path):
     capped = {"fig06.island_ii", "fig06.boxes"}
     says = []
     strict = tg.Goal(46, 0.8, ("fig08", "fig10"))
+    # a spent time budget: nothing started, both reported not bounded with the no-wind bound, nothing stored
+    none = bd.run_bound(Path(SAMPLE).resolve(), targets, strict, cands, [], tmp_path / "a", runs, ref, capped, 2,
+                        says.append, order=("fig03",), minutes=0.0)
+    assert [r["status"] for r in none] == [bd.NOT_BOUNDED] * 2 and all(r["scenes_run"] == [] for r in none)
+    assert not list((tmp_path / "a").rglob("bound.json")) and "time budget of 0 min is spent" in says[-1]
+    assert bd.summary(none, strict)["not_bounded"] == [r["name"] for r in none]
     recs = bd.run_bound(Path(SAMPLE).resolve(), targets, strict, cands, [], tmp_path / "a", runs, ref, capped, 2,
                         says.append, order=("fig03",))
     assert len(recs) == 2 and says[0].startswith("bound: 2 candidate models")
+    assert all(r["bound"] <= n["bound"] for r, n in zip(sorted(recs, key=lambda r: r["name"]),
+                                                         sorted(none, key=lambda r: r["name"])))
     for r in recs:
         # fig03.galloping and fig03.trivial are decided; the bound can only go down from 46
         folder = tmp_path / "a" / "bound" / r["name"]

@@ -130,6 +130,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="then ask of every candidate whether it can reach the targets file's [goal] (branch "
                           "and bound: its wind scenes one at a time until its upper bound is below the goal); "
                           "writes bound.csv and bound.png")
+    cal.add_argument("--bound-minutes", type=float, help="start no scene of the bound stage after this many "
+                                                         "minutes; a rerun goes on with the candidates left")
     cal.add_argument("--quiet", action="store_true", help="no progress lines")
     cal.set_defaults(func=cmd_calibrate)
 

@@ -109,7 +109,9 @@ def cmd_calibrate(args) -> int:
     if args.bound and study.tg.load_goal(args.targets) is None:
         raise study.tg.TargetsError(args.targets, "goal", "--bound needs a [goal] table "
                                                           "(statements_yes, boxes_share, boxes_scenes)")
+    if args.bound_minutes is not None:
+        check_number("--bound-minutes", args.bound_minutes, 0, 10**6)
     stats = study.calibrate(args.model, args.targets, args.out, space=space, jobs=args.jobs, quiet=args.quiet,
-                            bound=args.bound)
+                            bound=args.bound or args.bound_minutes is not None, bound_minutes=args.bound_minutes)
     print(dumps(stats))
     return 0

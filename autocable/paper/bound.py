@@ -56,6 +56,8 @@ NOT_USED_TO_PRUNE = {
 #: A scene still running after this is stopped and counted failed (its statements stay undecided):
 #: the longest scene of the fully evaluated candidates took about 35 s.
 SCENE_TIMEOUT_S = 600.0
+#: The status of a candidate the time budget left unbounded.
+NOT_BOUNDED = "not bounded (time budget)"
 #: Statement ids (after the scene name) that a dropped orbit-started run would decide.
 IF_DROPPED = ("periodic_p",)
 
@@ -73,6 +75,7 @@ class Candidate:
     dropped: list = field(default_factory=list)
     boxes: dict = field(default_factory=dict)
     scenes_run: list = field(default_factory=list)
+    prepared: bool = False
     computed: int = 0                                # scene runs started by this call (not reused)
     wall_s: float = 0.0
 
@@ -110,10 +113,13 @@ def model_key(c: dict) -> str:
 
 
 def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list, out: Path, runs: Path,
-              reference_out: Path, capped: set, jobs: int, say, order: tuple = ORDER) -> list[dict]:
+              reference_out: Path, capped: set, jobs: int, say, order: tuple = ORDER,
+              minutes: float | None = None) -> list[dict]:
     """The bound stage over ``cands`` (the screen's candidates); ``full`` are the fully evaluated
     ones (their verdicts give their bound directly), ``reference_out`` an output folder holding the
     no-wind scenes, ``capped`` the ceiling's statement ids, ``order`` the wind scenes to run, in order.
+    ``minutes``: no scene is started after this wall time; the candidates not bounded by then get a
+    record "not bounded (time budget)" with the bound so far (not stored: a rerun goes on with them).
     Returns one record per candidate model."""
     from autocable._store import atomic_write_json
     from autocable.paper import calibration as cal
@@ -165,7 +171,9 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
         f">= {goal.boxes_share:.0%} of {', '.join(goal.boxes_scenes)}")
     if not todo:
         return records
-    for cand in todo:
+
+    def prepare(cand: Candidate) -> None:
+        """The candidate's model file and scene copies (kept: a rerun reuses them with their drops)."""
         model = cal.write_candidate_model(model_path, cand.c, cand.folder / "model.toml")
         (cand.folder / "runs").mkdir(parents=True, exist_ok=True)
         (cand.folder / "out").mkdir(parents=True, exist_ok=True)
@@ -175,6 +183,7 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
                 text = (runs / f"{n}.toml").read_text()
                 dst.write_text(text.replace('model = "../models/luongo_zulli_2012.toml"', f'model = "{model}"'))
         cand.dropped = cal._recorded_drops(cand.folder)
+        cand.prepared = True
     fork = "fork" in multiprocessing.get_all_start_methods()
     ctx = multiprocessing.get_context("fork" if fork else "spawn")
     if fork:
@@ -182,6 +191,9 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
     queue = list(todo)          # candidates waiting for their next scene
     running: dict = {}          # process -> (candidate, scene, pipe, t0)
     n_done, t_start = 0, time.perf_counter()
+
+    def over_budget() -> bool:
+        return minutes is not None and time.perf_counter() - t_start >= 60.0 * minutes
 
     def decide(cand: Candidate, scene: str, ok: bool, error: str) -> None:
         if not ok:
@@ -221,8 +233,10 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
 
     def start_next() -> bool:
         """Start the next scene of the first waiting candidate (or settle it); False if none waits."""
-        while queue:
+        while queue and not over_budget():
             cand = queue.pop(0)
+            if not cand.prepared:
+                prepare(cand)
             if settle(cand):
                 continue
             scene = cand.todo.pop(0)
@@ -241,7 +255,7 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
             return True
         return False
 
-    while queue or running:
+    while running or (queue and not over_budget()):
         while len(running) < jobs and start_next():
             pass
         time.sleep(0.02)
@@ -273,6 +287,18 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
                 cand.scenes_run.append(scene)
                 decide(cand, scene, status == "ok", error)
             queue.insert(0, cand)
+    left = [cand for cand in queue]
+    for cand in left:
+        dropped_scenes = {d.split(":")[0] for d in cand.dropped}
+        b, lowered = bound_of(cand.verdicts, stmt_ids, capped, set(cand.failed), dropped_scenes)
+        if b < goal.statements_yes or boxes_short(cand.boxes, goal) or (cand.prepared and not cand.todo):
+            settle(cand)            # settled by what was decided before the budget ran out
+            continue
+        records.append(_record(cand.c, b, lowered, NOT_BOUNDED, cand.scenes_run, cand.boxes, cand.failed,
+                               cand.dropped, cand.wall_s, goal, boxes_short(cand.boxes, goal)))
+    if left:
+        say(f"bound: the time budget of {minutes:g} min is spent; {sum(r['status'] == NOT_BOUNDED for r in records)} "
+            "candidate models not bounded (a rerun goes on with them)")
     return records
 
 
@@ -290,18 +316,22 @@ def _record(c: dict, bound: int, lowered: list, status: str, scenes: list, boxes
 
 
 def summary(records: list[dict], goal: tg.Goal) -> dict:
-    """Counts over the records: how many were stopped by what, the highest bound, who reaches the goal."""
+    """Counts over the records: how many were stopped by what, the highest bound among the settled
+    ones, who reaches the goal, who is not settled (not bounded within the time budget, or bound not
+    below the goal with the boxes unknown)."""
     by = {}
     for r in records:
         by[r["status"]] = by.get(r["status"], 0) + 1
-    best = max(records, key=lambda r: r["bound"], default=None)
+    settled = [r for r in records if r["status"] != NOT_BOUNDED]
+    best = max(settled, key=lambda r: r["bound"], default=None)
     lowered = {}
     for r in records:
         for sid in r["lowered_by"]:
             lowered[sid] = lowered.get(sid, 0) + 1
     return {"models": len(records), "by_status": by, "highest_bound": best["bound"] if best else math.nan,
             "highest": best["name"] if best else "", "reach_goal": [r["name"] for r in records if r["reaches_goal"]],
-            "could_still_reach": [r["name"] for r in records if r["bound"] >= goal.statements_yes
+            "not_bounded": [r["name"] for r in records if r["status"] == NOT_BOUNDED],
+            "could_still_reach": [r["name"] for r in settled if r["bound"] >= goal.statements_yes
                                   and r["boxes_short"] is not True and not r["reaches_goal"]],
             "lowered_by": dict(sorted(lowered.items(), key=lambda kv: -kv[1]))}
 
@@ -336,25 +366,29 @@ def draw_map(records: list[dict], goal: tg.Goal, ceiling_yes: int, path: Path) -
     panels = sorted({(r["readings"]["twist_ends"], r["readings"]["angle_convention"]) for r in records})
     series = sorted({(r["readings"]["load_axes"], r["readings"]["load_length"]) for r in records})
     colours = dict(zip(series, ("#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e", "#e6ab02")))
-    marks = {"stopped: statements": "o", "stopped: boxes": "s", "every scene run": "D", "fully evaluated": "*"}
+    marks = {"stopped: statements": "o", "stopped: boxes": "s", "every scene run": "D", "fully evaluated": "*",
+             NOT_BOUNDED: "x"}
     ncol = 2
     nrow = max(1, math.ceil(len(panels) / ncol))
     fig, axes = plt.subplots(nrow, ncol, figsize=(12, 3.4 * nrow), squeeze=False, sharey=True)
     lo = min((r["bound"] for r in records), default=0)
     for ax, (te, ac) in zip(axes.flat, panels):
         mine = [r for r in records if (r["readings"]["twist_ends"], r["readings"]["angle_convention"]) == (te, ac)]
-        for (la, ll) in series:
+        for k, (la, ll) in enumerate(series):
+            # the series side by side (at most +-1 deg): at one yaw they would hide each other
+            dx = (k - (len(series) - 1) / 2) * (2.0 / max(len(series), 1))
             for st, m in marks.items():
                 pts = [r for r in mine if (r["readings"]["load_axes"], r["readings"]["load_length"]) == (la, ll)
                        and r["status"] == st]
                 if pts:
-                    ax.scatter([r["yaw_deg"] for r in pts], [r["bound"] for r in pts], marker=m, s=22 if m != "*" else 60,
-                               facecolors="none" if m in "os" else colours[(la, ll)], edgecolors=colours[(la, ll)],
+                    ax.scatter([r["yaw_deg"] + dx for r in pts], [r["bound"] for r in pts], marker=m, s=22 if m != "*" else 60,
+                               facecolors="none" if m in "os" else colours[(la, ll)],
+                               edgecolors=None if m == "x" else colours[(la, ll)],
                                linewidths=0.8, alpha=0.8)
         ax.axhline(goal.statements_yes, color="k", ls="--", lw=1)
         ax.axhline(ceiling_yes, color="#d7301f", ls=":", lw=1.2)
         ax.set_title(f"twist ends {te}, angle sense {ac}: {len(mine)} models", fontsize=9)
-        ax.set_xlabel("yaw beta [deg]")
+        ax.set_xlabel("yaw beta [deg] (series side by side, +-1 deg)")
         ax.set_ylabel("at most this many statements yes")
         ax.set_ylim(lo - 1, ceiling_yes + 1.5)
     for ax in list(axes.flat)[len(panels):]:
@@ -395,14 +429,22 @@ def markdown(records: list[dict], goal: tg.Goal, ceiling_yes: int, n_statements:
              f"**{s['models']} candidate models**: "
              + ", ".join(f"{v} {k}" for k, v in sorted(stopped.items(), key=lambda kv: -kv[1]))
              + f". {len(run)} bounded in this stage with {scenes} scene runs "
-               f"({scenes / max(len(run), 1):.2f} per model)"
-             + (f", {wall_s / 60:.1f} min on {jobs} processes in this run." if wall_s > 0 else ".")]
-    verdict = ("**Candidates that reach the goal: " + ", ".join(s["reach_goal"]) + ".**") if s["reach_goal"] else (
-        f"**No candidate model of the space reaches the goal.** The highest upper bound is {s['highest_bound']} "
-        f"({s['highest']})" + (", below the goal." if s["highest_bound"] < goal.statements_yes else "."))
-    if s["could_still_reach"]:
-        verdict += (f" Not settled: {len(s['could_still_reach'])} candidates whose bound is not below the goal "
-                    "but whose boxes are not known (a scene failed).")
+               f"({scenes / max(len(run), 1):.2f} per model, {sum(r['wall_s'] for r in run) / 3600:.1f} h of scene "
+               f"time summed over the runs, which ran {jobs} at a time)."]
+    if s["reach_goal"]:
+        verdict = "**Candidate models that reach the goal: " + ", ".join(s["reach_goal"]) + ".**"
+    elif not s["not_bounded"] and not s["could_still_reach"]:
+        verdict = (f"**No candidate model of the space reaches the goal.** The highest upper bound is "
+                   f"{s['highest_bound']} ({s['highest']}).")
+    else:
+        verdict = (f"**No candidate model bounded so far reaches the goal** (highest upper bound "
+                   f"{s['highest_bound']}, {s['highest']}); **not settled: {len(s['not_bounded'])} candidate "
+                   "models not bounded within the time budget** (candidates are bounded in the screen's rank "
+                   "order: these come last; `autocable calibrate ... --bound` again goes on with them)")
+        if s["could_still_reach"]:
+            verdict += (f", and {len(s['could_still_reach'])} whose bound is not below the goal but whose boxes "
+                        "are unknown (a scene of the goal's boxes failed)")
+        verdict += "."
     lines += ["", verdict]
     if picture is not None:
         lines += ["", f"![upper bound per candidate model]({picture.name})"]

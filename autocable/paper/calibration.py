@@ -1025,7 +1025,8 @@ def _markdown(cands, full, target_ids, targets, space, stats, maps, failed, ceil
     return "\n".join(lines) + "\n"
 
 
-def _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, jobs, say, stats) -> list[str]:
+def _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, jobs, say, stats,
+                 minutes=None) -> list[str]:
     """`autocable.paper.bound` over every candidate; writes bound.csv and bound.png, returns the
     markdown lines and puts the summary in ``stats``."""
     from autocable.paper import bound as bd
@@ -1038,12 +1039,14 @@ def _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, job
     reference = out / "full" / candidate_name(full[0]) / "out"
     capped = {c["id"] for c in ceiling["capped"]}
     t0 = time.perf_counter()
-    records = bd.run_bound(model_path, targets, goal, cands, full, out, runs, reference, capped, jobs, say)
+    records = bd.run_bound(model_path, targets, goal, cands, full, out, runs, reference, capped, jobs, say,
+                           minutes=minutes)
     wall = time.perf_counter() - t0
     bd.write_csv(records, out / "bound.csv")
     n_stmt = sum(1 for t in targets if t.kind == "statement")
     pic = bd.draw_map(records, goal, ceiling["at_most_yes"], out / "bound.png") if records else None
-    stats["bound"] = {k: v for k, v in bd.summary(records, goal).items() if k != "lowered_by"}
+    stats["bound"] = {k: v for k, v in bd.summary(records, goal).items() if k not in ("lowered_by", "not_bounded")}
+    stats["bound"]["not_bounded"] = sum(r["status"] == bd.NOT_BOUNDED for r in records)
     stats["bound"]["wall_s"] = wall
     return bd.markdown(records, goal, ceiling["at_most_yes"], n_stmt, wall, jobs, pic, "bound.csv")
 
@@ -1068,9 +1071,11 @@ def _fmt(x) -> str:
 
 
 def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = None, jobs: int = 2,
-              runs: Path | None = None, quiet: bool = False, bound: bool = False) -> dict:
+              runs: Path | None = None, quiet: bool = False, bound: bool = False,
+              bound_minutes: float | None = None) -> dict:
     """The whole study (module docstring). Returns counts and the output paths. ``bound``: then ask
-    of every candidate whether it can reach the targets file's ``[goal]`` (`autocable.paper.bound`)."""
+    of every candidate whether it can reach the targets file's ``[goal]`` (`autocable.paper.bound`),
+    starting no scene after ``bound_minutes`` of that stage."""
     model_path, targets_path, out = Path(model_path).resolve(), Path(targets_path).resolve(), Path(out_dir)
     load_model(model_path)                  # a bad model file: one line before any work
     targets = tg.load_targets(targets_path)
@@ -1170,7 +1175,8 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
                           [c["id"] for c in ceiling["capped"]] if ceiling_yes is not None else ())
     bound_lines = []
     if bound:
-        bound_lines = _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, jobs, say, stats)
+        bound_lines = _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, jobs, say, stats,
+                                   bound_minutes)
     (out / "calibration.md").write_text(_markdown(cands, full, target_ids, targets, space, stats, maps, failed,
                                                   ceiling, smap) + "\n".join(bound_lines) + ("\n" if bound_lines else ""))
     (out / "calibration.json").write_text(json.dumps(stats, indent=2))
