@@ -421,3 +421,36 @@ def test_full_evaluation_tables_and_statement_map(tmp_path):
     assert f"**{b}**" not in nobody and f"**{c}** (" in nobody and "best verdict partly" in nobody
     png = study._statement_map(full, targets, tmp_path, ceiling_yes=42)
     assert png.is_file() and png.stat().st_size > 10_000
+
+
+def test_full_evaluation_resumes_scene_by_scene(tmp_path):
+    """A full evaluation stopped part-way (its verdicts not written, one scene's folder lost) reuses
+    every scene whose folder holds a complete run of the same scene file and computes only the lost
+    one; the verdicts are the same. Counted by the scenes `autocable figures` lists as run."""
+    import json
+    import os
+    from pathlib import Path
+    from autocable.paper import targets as tg
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    for n in ("fig03", "fig05a"):
+        (runs / f"{n}.toml").write_text(open(f"runs/{n}.toml").read())
+    targets = tg.load_targets(TARGETS)
+    spec = load_model(SAMPLE)          # the sample's own readings, yaw and calibrated Theta0
+    roots, _ = study.theta0_roots(study.candidate_spec(spec, REVERSED, spec.aero.yaw_deg, None))
+    c = {"readings": dataclasses_asdict(REVERSED), "yaw_deg": spec.aero.yaw_deg,
+         "rivulet_angle_deg": min(roots, key=abs), "theta0_rule": "calibrate", "ordering": "paper"}
+    folder = tmp_path / "cand"
+    first = study.full_evaluation(Path(SAMPLE).resolve(), targets, c, folder, runs, 2, print)
+    ran = [s["name"] for s in json.loads((folder / "out" / "figures.json").read_text())["scenes"]]
+    assert sorted(ran) == ["fig03", "fig05a"]
+    assert study.scene_complete(folder / "out" / "fig03", folder / "runs" / "fig03.toml")
+    assert not study.scene_complete(folder / "out" / "fig03", folder / "runs" / "fig05a.toml")
+    (folder / "verdicts.json").unlink()
+    (folder / "out" / "fig05a" / "run.json").unlink()
+    stamp = os.stat(folder / "out" / "fig03" / "run.json").st_mtime_ns
+    again = study.full_evaluation(Path(SAMPLE).resolve(), targets, c, folder, runs, 2, print)
+    ran = [s["name"] for s in json.loads((folder / "out" / "figures.json").read_text())["scenes"]]
+    assert ran == ["fig05a"] and os.stat(folder / "out" / "fig03" / "run.json").st_mtime_ns == stamp
+    assert {k: v["shown"] for k, v in again["verdicts"].items()} == {k: v["shown"] for k, v in first["verdicts"].items()}
+    assert again["verdicts"]["fig05a.mono"]["shown"] == "yes" and again["verdicts"]["fig03.galloping"]["shown"] == "yes"
