@@ -435,6 +435,36 @@ def test_time_scene_schema_errors(tmp_path):
         assert err.value.field == field and "\n" not in str(err.value), (body, err.value.field)
 
 
+def test_a_time_scene_keeps_an_ame_that_blows_up(tmp_path):
+    """The natural-ordering AME of the sample at U* = 1.3, eta* = 4.1e-4 leaves every bound (its step
+    size collapses near t = 1070): the scene is complete, the AME series ends there with the reason,
+    and eq. (21)'s envelope is still written. (It used to fail the scene and lose both series.)"""
+    scene = tmp_path / "t.toml"
+    scene.write_text(f'title = "t"\nmodel = "{MODEL}"\nordering = "natural"\n[time]\nU = 1.3\neta = 4.1e-4\n'
+                     'sigma = 0.0\nt_end = 3000.0\nstart = "rest"\node21 = true\nsummary_from = 1000.0\n'
+                     'samples_per_period = 6\n')
+    out = tmp_path / "o"
+    run_scene(load_scene(scene), out, plot=False)
+    run = json.loads((out / "run.json").read_text())
+    ame = run["summary"]["ame"]
+    assert run["status"] == "complete" and ame["diverged"] is True
+    assert ame["message"].startswith("the AME integration stopped at t = ") and "of 3000" in ame["message"]
+    t_stop = float(ame["message"].split("t = ")[1].split()[0])
+    assert 1000.0 < t_stop < 3000.0 and ame["t_to"] <= t_stop
+    sources = {line.split(",")[0] for line in (out / "time_series.csv").read_text().splitlines()[1:]}
+    assert sources == {"ame", "ode21"}
+    # Fig. 11's statements on it: no periodic AME solution, and eq. (21)'s envelope, cut where it
+    # diverges (t ~ 850), is not a bounded envelope however finite its samples are
+    from dataclasses import replace as _replace
+    from autocable.paper import targets as tg
+    from autocable.paper.report import load_scene_data
+    assert run["summary"]["ode21"]["diverged"] is True
+    ts = [t for t in tg.load_targets(REPO / "models" / "luongo_zulli_2012.targets.toml") if t.scene == "fig11"]
+    v = {x.id: x for x in tg.decide_statements(ts, {"fig11": _replace(load_scene_data(out), name="fig11")})}
+    assert v["fig11.ame_periodic"].shown == "no" and "leave every bound" in v["fig11.ame_periodic"].evidence
+    assert v["fig11.envelope21"].shown == "partly" and "eq. (21) diverges at t = " in v["fig11.envelope21"].evidence
+
+
 def test_modulation_period_of_a_sampled_signal():
     """Fig. 11's period: mean spacing of the upward mid-level crossings, to the sampling's linear
     interpolation error; none for a flat signal or too few crossings."""

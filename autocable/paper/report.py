@@ -771,7 +771,12 @@ def _fig11(d: SceneData, all_: dict) -> list[Feature]:
             t_from = (summary.get(src) or {}).get("t_from") if isinstance(summary.get(src), dict) else None
             if isinstance(t_from, (int, float)):
                 since[src] = float(t_from)
-    if ame:
+    ame_stop = ((summary.get("ame") or {}).get("message", "") if isinstance(summary, dict)
+                and isinstance(summary.get("ame"), dict) and summary["ame"].get("diverged") else "")
+    if ame and ame_stop:
+        out.append(("a periodic solution of the amplitude equations (time evolution of a1, a2)", "no",
+                    f"the AME leave every bound: {ame_stop}"))
+    elif ame:
         per = _periodicity(ame, since.get("ame"))
         out.append(("a periodic solution of the amplitude equations (time evolution of a1, a2)",
                     "yes" if per["periodic"] else "no",
@@ -785,13 +790,19 @@ def _fig11(d: SceneData, all_: dict) -> list[Feature]:
                     "no AME time series (time_series.csv, source = ame)"))
     ode = by.get("ode21", [])
     if ode:
-        finite = all(math.isfinite(a) and math.isfinite(b) for _, a, b in ode)
+        # The envelope ends where eq. (21) diverges (time_scene): finite samples do not make a
+        # bounded envelope, the run's summary says whether it diverged.
+        ode_diverged = bool(isinstance(summary, dict) and isinstance(summary.get("ode21"), dict)
+                            and summary["ode21"].get("diverged"))
+        finite = all(math.isfinite(a) and math.isfinite(b) for _, a, b in ode) and not ode_diverged
         per = _periodicity(ode, since.get("ode21"))
         out.append(("the amplitude envelope of (21) on the same axes", "yes" if finite else "partly",
                     f"eq. (21) envelope over t in [{_g(ode[0][0])}, {_g(ode[-1][0])}], for t >= {_g(per['t_from'])}: a1 in "
                     f"[{_e(per['a1_min'])}, {_e(per['a1_max'])}], a2 in [{_e(per['a2_min'])}, {_e(per['a2_max'])}]"
                     + (f"; {per['why']}" if per["why"] else f"; period {_g(per['period'], 5)}")
-                    + ("" if finite else f"; not finite throughout: {_reason('divergence')}")))
+                    + ("" if finite else f"; not finite throughout"
+                       + (f" ({summary['ode21'].get('message', '')})" if ode_diverged else "")
+                       + f": {_reason('divergence')}")))
         if ame:
             pa = _periodicity(ame, since.get("ame"))
             agree = pa["periodic"] and per["periodic"] and abs(per["period"] / pa["period"] - 1) < 0.05

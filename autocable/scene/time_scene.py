@@ -39,14 +39,17 @@ def modulation_period(t, a) -> float | None:
 
 def _ame_time_series(system, spec: TimeSpec, Omega: float):
     """Integrate the AME (24) over [0, t_end] (autocable's compiled DOP853, `ame_time_series`);
-    returns t and the amplitudes a1, a2."""
+    returns t, the amplitudes a1, a2 and why the integration stopped early ("" if it did not: a
+    blow-up of the AME ends the series there, it does not fail the scene)."""
     import numpy as np
 
     from autocable.methods.integration.ame import ame_time_series
     y0 = [0.0, 0.0, 1e-6, 0.0] if spec.start is None else [spec.start[0], 0.0, spec.start[1], 0.0]
-    tt, ys = ame_time_series(system, {"U": spec.U, "eta": spec.eta, "sigma": spec.sigma}, y0, spec.t_end,
-                             (2 * math.pi / Omega) / spec.samples_per_period, rtol=1e-10, atol=1e-16)
-    return tt, np.hypot(ys[:, 0], ys[:, 1]), np.hypot(ys[:, 2], ys[:, 3])
+    tt, ys, why = ame_time_series(system, {"U": spec.U, "eta": spec.eta, "sigma": spec.sigma}, y0, spec.t_end,
+                                  (2 * math.pi / Omega) / spec.samples_per_period, rtol=1e-10, atol=1e-16,
+                                  keep_stopped=True)
+    ys = np.asarray(ys, float).reshape(-1, 4)
+    return tt, np.hypot(ys[:, 0], ys[:, 1]), np.hypot(ys[:, 2], ys[:, 3]), why
 
 
 def _ode21_envelope(deriv, spec: TimeSpec, Omega: float):
@@ -106,11 +109,13 @@ def run_time_scene(scene: Scene, out_dir, say, plot: bool, resolution: str):
         f"t in [0, {spec.t_end:g}]")
     t0 = time.perf_counter()
     system = ame_system(ame, "2dof", wind=True)
-    ta, a1, a2 = _ame_time_series(system, spec, Omega)
+    ta, a1, a2, why = _ame_time_series(system, spec, Omega)
     stages["ame_integration_s"] = time.perf_counter() - t0
     series = {"ame": (ta, a1, a2)}
-    summary: dict[str, Any] = {"ame": {**_summary(ta, a1, a2, spec.summary_from), "diverged": False,
-                                       "message": "bounded over [0, t_end]"}}
+    summary: dict[str, Any] = {"ame": {**_summary(ta, a1, a2, spec.summary_from), "diverged": bool(why),
+                                       "message": why or "bounded over [0, t_end]"}}
+    if why:
+        say(f"  {why}")
     say(f"  AME: a1 in [{summary['ame'].get('a1_min', math.nan):.4e}, {summary['ame'].get('a1_max', math.nan):.4e}], "
         f"a2 in [{summary['ame'].get('a2_min', math.nan):.4e}, {summary['ame'].get('a2_max', math.nan):.4e}], "
         f"modulation period {summary['ame'].get('modulation_period')}")

@@ -383,22 +383,27 @@ class AmeIntegrator:
 
 # -- time series (Fig. 11) ----------------------------------------------------------------------------
 def ame_time_series(system, values: dict, y0, t_end: float, dt: float, *, rtol: float = 1e-10,
-                    atol: float = 1e-16) -> tuple[np.ndarray, np.ndarray]:
+                    atol: float = 1e-16, keep_stopped: bool = False):
     """The AME ``system`` (a `autocable.methods.continuation.system.System`, e.g. the Cartesian AME (24) of
     `ame_system`) integrated from ``y0`` over [0, t_end], sampled every ``dt``: (t, states).
 
     One call of autocable's compiled DOP853 (`autocable.codegen.cintegrate`, dense output at the
     sample times) with the parameters ``values`` over the system's defaults. Raises RuntimeError if
-    the integration stops before t_end (a blow-up or a step-size collapse)."""
+    the integration stops before t_end (a blow-up or a step-size collapse); with ``keep_stopped``
+    returns (t, states, message) instead, the samples up to the stop and why it stopped ("" if it
+    did not): a solution that leaves every bound is a result, and what came before it is kept."""
     from autocable.codegen.cintegrate import compiled_integrator, sample_grid
 
     ci = compiled_integrator(f"{system.name}_flow", system.variables, system.parameter_names,
                              system.rhs, None)
     grid = sample_grid(0.0, t_end, dt)
     r = ci.run(np.asarray(y0, float), grid, system.parameter_vector(values), rtol=rtol, atol=atol)
-    if not r.ok:
-        raise RuntimeError(f"the AME integration stopped at t = {r.t_reached:.6g} of {t_end:g} "
+    why = "" if r.ok else (f"the AME integration stopped at t = {r.t_reached:.6g} of {t_end:g} "
                            f"({r.status}): no bounded solution over [0, t_end]")
+    if keep_stopped:
+        return r.t, r.y, why
+    if why:
+        raise RuntimeError(why)
     return r.t, r.y
 
 
