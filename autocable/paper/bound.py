@@ -247,7 +247,8 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
                 queue.insert(0, cand)
                 continue
             recv, send = ctx.Pipe(duplex=False)
-            proc = ctx.Process(target=_worker, args=(str(path), str(dst), send), daemon=True)
+            # no figure: a bound needs the scene's results only (a reader runs the scene to see it)
+            proc = ctx.Process(target=_worker, args=(str(path), str(dst), send, None, None, False), daemon=True)
             proc.start()
             send.close()
             cand.computed += 1

@@ -101,9 +101,10 @@ def _copy_atomic(src: Path, dst: Path) -> None:
     atomic_write_bytes(dst, src.read_bytes(), fsync=False)
 
 
-def _worker(scene_path: str, scene_out: str, conn, engine: str | None = None, model: str | None = None) -> None:
-    """Child process: run one scene (on ``model`` instead of the scene's own, if given); send
-    (status, one-line error, traceback) back."""
+def _worker(scene_path: str, scene_out: str, conn, engine: str | None = None, model: str | None = None,
+            plot: bool = True) -> None:
+    """Child process: run one scene (on ``model`` instead of the scene's own, if given; without its
+    figure if not ``plot``); send (status, one-line error, traceback) back."""
     try:
         from dataclasses import replace
 
@@ -112,7 +113,7 @@ def _worker(scene_path: str, scene_out: str, conn, engine: str | None = None, mo
         scene = load_scene(scene_path)
         if model is not None:
             scene = replace(scene, model=Path(model))
-        run_scene(scene, scene_out, progress=None, engine=engine, choose_ame=choose_ame)
+        run_scene(scene, scene_out, progress=None, engine=engine, choose_ame=choose_ame, plot=plot)
         conn.send(("ok", "", ""))
     except BaseException as exc:   # everything: the parent must learn why, and go on
         conn.send(("failed", _one_line(exc), traceback.format_exc()))
