@@ -123,7 +123,7 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
     Returns one record per candidate model."""
     from autocable._store import atomic_write_json
     from autocable.paper import calibration as cal
-    from autocable.paper.figures import _preload, _worker
+    from autocable.paper.figures import _preload, _worker, receive
     from autocable.paper.report import load_scene_data, overlay_summary
 
     stmt_ids = [t.id for t in targets if t.kind == "statement"]
@@ -261,12 +261,7 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
             pass
         time.sleep(0.02)
         for proc, (cand, scene, recv, t0) in list(running.items()):
-            msg = None
-            if recv.poll():
-                try:
-                    msg = recv.recv()
-                except EOFError:
-                    msg = None
+            msg = receive(recv)
             if msg is None and proc.is_alive():
                 if time.perf_counter() - t0 < SCENE_TIMEOUT_S:
                     continue

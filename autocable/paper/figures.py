@@ -121,6 +121,17 @@ def _worker(scene_path: str, scene_out: str, conn, engine: str | None = None, mo
         conn.close()
 
 
+def receive(recv):
+    """A scene process's message (`_worker`) if it has sent one, else None (also when its end of the
+    pipe closed without one: it died)."""
+    if not recv.poll():
+        return None
+    try:
+        return recv.recv()
+    except EOFError:
+        return None
+
+
 def _preload() -> None:
     """Import in the parent what every scene imports (numpy, scipy, sympy, matplotlib's Agg
     canvas, PyDSTool with PyCont, autocable's layers): a forked child then starts with them, and
@@ -253,12 +264,7 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
             tell(f"{name}: started ({path.name})")
         time.sleep(0.05)
         for name, (proc, recv, path, t0) in list(running.items()):
-            message = None
-            if recv.poll():
-                try:
-                    message = recv.recv()
-                except EOFError:
-                    message = None
+            message = receive(recv)
             if message is None and proc.is_alive():
                 if timeout and time.perf_counter() - t0 > timeout:
                     proc.terminate()
