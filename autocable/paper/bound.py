@@ -447,6 +447,19 @@ def markdown(records: list[dict], goal: tg.Goal, ceiling_yes: int, n_statements:
     hist = {}
     for r in records:
         hist[r["bound"]] = hist.get(r["bound"], 0) + 1
+    readings = sorted({tuple(r["readings"][k] for k in ("twist_ends", "load_axes", "angle_convention", "load_length"))
+                       for r in records})
+    lines += ["", "Per reading (twist ends, load axes, angle sense, load length):", "",
+              "| reading | models | highest bound | stopped by statements | by boxes | fully evaluated | not bounded |",
+              "|---|---|---|---|---|---|---|"]
+    for rd in readings:
+        mine = [r for r in records
+                if tuple(r["readings"][k] for k in ("twist_ends", "load_axes", "angle_convention", "load_length")) == rd]
+        done = [r for r in mine if r["status"] != NOT_BOUNDED]
+        count = (lambda st: sum(r["status"] == st for r in mine))
+        lines.append(f"| {'-'.join(rd)} | {len(mine)} | {max((r['bound'] for r in done), default='—')} | "
+                     f"{count('stopped: statements')} | {count('stopped: boxes')} | {count('fully evaluated')} | "
+                     f"{count(NOT_BOUNDED)} |")
     lines += ["", "Upper bound (statements yes at most): candidate models", "",
               "| bound | " + " | ".join(str(k) for k in sorted(hist, reverse=True)) + " |",
               "|---|" + "---|" * len(hist),
