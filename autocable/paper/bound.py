@@ -467,6 +467,16 @@ def markdown(records: list[dict], goal: tg.Goal, ceiling_yes: int, n_statements:
               "The statements that lowered the bounds (how many candidate models each stopped or lowered):", "",
               "| statement | models |", "|---|---|"]
     lines += [f"| {k} | {v} |" for k, v in list(s["lowered_by"].items())[:20]]
+    if s["lowered_by"]:
+        # The bound is only as strong as the decisions that lowered it: how much rests on the one
+        # that lowered most, were it not counted.
+        top = next(iter(s["lowered_by"]))
+        left = sum(1 for r in records if r["status"] != NOT_BOUNDED
+                   and r["bound"] + (top in r["lowered_by"]) >= goal.statements_yes)
+        lines += ["", f"The conclusion rests on the report's decision of each statement above. Not counting "
+                      f"**{top}** (it lowered the most bounds), {left} candidate models would have a bound "
+                      f"not below the goal and would have to run further scenes before the question is settled "
+                      f"for them."]
     top = sorted(records, key=lambda r: (-r["bound"], r["name"]))[:10]
     lines += ["", "The ten highest bounds:", "", "| candidate model | at most yes | status | scenes run | "
               "boxes within (Figs. 8 + 10) | lowered by |", "|---|---|---|---|---|---|"]

@@ -1177,6 +1177,7 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     if bound:
         bound_lines = _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, jobs, say, stats,
                                    bound_minutes)
+    stats["wall_s"] = time.perf_counter() - t_all          # with the bound stage, if it ran
     (out / "calibration.md").write_text(_markdown(cands, full, target_ids, targets, space, stats, maps, failed,
                                                   ceiling, smap) + "\n".join(bound_lines) + ("\n" if bound_lines else ""))
     (out / "calibration.json").write_text(json.dumps(stats, indent=2))
