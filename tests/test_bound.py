@@ -10,6 +10,7 @@ import pytest
 
 from autocable.paper import bound as bd
 from autocable.paper import targets as tg
+from autocable.spec import load_model
 
 SAMPLE = "models/luongo_zulli_2012.toml"
 TARGETS = "models/luongo_zulli_2012.targets.toml"
@@ -90,7 +91,7 @@ def test_bound_stage_stops_resumes_and_agrees_with_the_report(tmp_path):
     ref = tmp_path / "ref"
     outs = run_figures([runs / f"{n}.toml" for n in bd.NO_WIND], ref, jobs=2)
     assert all(o.status == "ok" for o in outs)
-    spec = __import__("autocable.spec", fromlist=["load_model"]).load_model(SAMPLE)
+    spec = load_model(SAMPLE)
     cands = []
     for beta in (0.0, 5.0):
         r = cal.Readings("restrained", "reference", "reversed", "diameter", 1.25)
@@ -134,3 +135,16 @@ def test_bound_stage_stops_resumes_and_agrees_with_the_report(tmp_path):
     redone = json.loads(lost.read_text())
     assert redone["computed_scenes"] == 0 and redone["bound"] == recs[0]["bound"]
     assert len(third) == 2
+
+
+def test_bound_refuses_a_targets_file_with_scenes_it_does_not_run(tmp_path):
+    """A statement of a scene the stage neither runs nor takes from the no-wind reference: one line
+    naming the targets file and the field, before any work (no traceback from the scheduler)."""
+    from autocable.paper import calibration as cal
+    bad = tmp_path / "other.targets.toml"
+    bad.write_text(Path(TARGETS).read_text().replace('scene = "fig11"', 'scene = "fig12"', 1))
+    assert bd.unknown_scenes(tg.load_targets(bad)) == ["fig12"]
+    with pytest.raises(tg.TargetsError) as err:
+        cal.calibrate(SAMPLE, bad, tmp_path / "out", bound=True, quiet=True)
+    msg = str(err.value)
+    assert "\n" not in msg and "other.targets.toml" in msg and "statement.scene" in msg and "fig12" in msg

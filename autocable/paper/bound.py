@@ -80,6 +80,12 @@ class Candidate:
     wall_s: float = 0.0
 
 
+def unknown_scenes(targets) -> list[str]:
+    """The scenes of the targets' statements that the bound stage neither runs nor takes from the
+    no-wind reference (a targets file for other scenes: refused before any work)."""
+    return sorted({t.scene for t in targets if t.kind == "statement"} - set(ORDER) - set(NO_WIND))
+
+
 def bound_of(verdicts: dict, statement_ids: list, capped: set, failed=(), dropped_scenes=()) -> tuple[int, list]:
     """(upper bound on the statements "yes", the ids that lowered it): every statement counts as
     "yes" unless it is capped by the ceiling or decided other than "yes" and usable to prune."""
@@ -131,7 +137,7 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
     for t in targets:
         if t.kind == "statement":
             by_scene.setdefault(t.scene, []).append(t)
-    unknown = sorted(set(by_scene) - set(ORDER) - set(NO_WIND))
+    unknown = unknown_scenes(targets)
     by_scene = {n: ts for n, ts in by_scene.items() if n in order or n in NO_WIND}
     if unknown:
         raise ValueError(f"the bound stage does not know the scenes {unknown} of the targets file")
@@ -283,7 +289,7 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
                 cand.scenes_run.append(scene)
                 decide(cand, scene, status == "ok", error)
             queue.insert(0, cand)
-    left = [cand for cand in queue]
+    left = list(queue)
     for cand in left:
         dropped_scenes = {d.split(":")[0] for d in cand.dropped}
         b, lowered = bound_of(cand.verdicts, stmt_ids, capped, set(cand.failed), dropped_scenes)

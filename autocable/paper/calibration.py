@@ -912,10 +912,10 @@ def _full_lines(full: list, targets, statement_map: Path | None = None) -> list[
 
 
 def _statement_map(full: list, targets, out: Path, ceiling_yes: int | None = None,
-                   capped=()) -> Path | None:
+                   capped=(), goal: int | None = None) -> Path | None:
     """A picture of the full evaluation: candidates (rows, most statements shown first) against the
     statements of Sect. 5 (columns, by figure), yes / partly / no; beside it, how many candidates
-    show how many statements, with the goal (40) and the no-wind ceiling (``ceiling_yes``; the
+    show how many statements, with the goal (``goal``, the targets file's) and the no-wind ceiling (``ceiling_yes``; the
     statements it caps, ``capped``, marked with a dagger)."""
     if not full:
         return None
@@ -948,7 +948,8 @@ def _statement_map(full: list, targets, out: Path, ceiling_yes: int | None = Non
                  + ("; \u2020 capped for every candidate by the no-wind ceiling" if capped else ""), fontsize=8)
     bins = np.arange(min(yes) - 0.5, len(stmt_ids) + 1.5)
     axh.hist(yes, bins=bins, orientation="horizontal", color="#3182bd")
-    axh.axhline(40, color="k", ls="--", lw=1, label="goal: 40 of 48")
+    if goal is not None:
+        axh.axhline(goal, color="k", ls="--", lw=1, label=f"goal: {goal} of {len(stmt_ids)}")
     if ceiling_yes is not None:
         axh.axhline(ceiling_yes, color="#d7301f", ls=":", lw=1.2,
                     label=f"no-wind ceiling: {ceiling_yes} (no candidate above)")
@@ -1083,6 +1084,13 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     if bound and goal is None:
         raise tg.TargetsError(targets_path, "goal", "the bound stage needs a [goal] table "
                                                     "(statements_yes, boxes_share, boxes_scenes)")
+    if bound:
+        from autocable.paper.bound import NO_WIND, ORDER, unknown_scenes
+        unknown = unknown_scenes(targets)
+        if unknown:
+            raise tg.TargetsError(targets_path, "statement.scene",
+                                  f"{', '.join(unknown)}: not a scene of the bound stage (it runs "
+                                  f"{', '.join(ORDER + NO_WIND)})")
     space = space or SearchSpace()
     say = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     (out / "screen").mkdir(parents=True, exist_ok=True)
@@ -1172,7 +1180,8 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
         stats["ceiling"]["capped"] = [c["id"] for c in ceiling["capped"]]
     ceiling_yes = ceiling.get("at_most_yes") if ceiling and ceiling.get("premises_hold") else None
     smap = _statement_map(full, targets, out, ceiling_yes,
-                          [c["id"] for c in ceiling["capped"]] if ceiling_yes is not None else ())
+                          [c["id"] for c in ceiling["capped"]] if ceiling_yes is not None else (),
+                          goal.statements_yes if goal else None)
     bound_lines = []
     if bound:
         bound_lines = _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, jobs, say, stats,
