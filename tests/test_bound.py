@@ -46,22 +46,39 @@ def test_a_bad_goal_is_one_line_naming_the_file_and_field(tmp_path, table, field
 # ------------------------------------------------------------------------------------------------
 # the bound, on cases with a known answer
 # ------------------------------------------------------------------------------------------------
-IDS = ["fig03.galloping", "fig03.boxes", "fig08.periodic_p", "fig08.boxes", "fig09.a2_small", "fig06.island_ii"]
+IDS = ["fig03.galloping", "fig03.boxes", "fig09.homoclinic", "fig08.boxes", "fig09.a2_small", "fig06.island_ii",
+       "fig11.same_motion", "fig10.periodic_p"]
+
+
+def test_the_statements_the_paper_does_not_print_are_read_from_the_targets_file():
+    """The targets file marks Fig. 11's eq. (21) statements as autocable's checks (the paper's
+    Fig. 11 shows the AME alone) and the P statements as beyond Sect. 5; with Fig. 3's boxes (a
+    measurement limit) these are exactly the statements the bound never uses."""
+    unused = bd.not_used_to_prune(tg.load_targets(TARGETS))
+    assert sorted(unused) == ["fig03.boxes", "fig08.periodic_p", "fig10.periodic_p", "fig11.envelope21",
+                              "fig11.same_motion"]
+    assert unused["fig11.same_motion"] == tg.SOURCES["check"] and unused["fig10.periodic_p"] == tg.SOURCES["beyond"]
 
 
 def test_bound_counts_undecided_as_yes_and_only_usable_decisions_lower_it():
     capped = {"fig06.island_ii"}
+    unused = bd.not_used_to_prune(tg.load_targets(TARGETS))
     # nothing decided: every statement but the capped one may still be yes
-    assert bd.bound_of({}, IDS, capped) == (5, [])
+    assert bd.bound_of({}, IDS, capped, unused) == (7, [])
     v = {"fig03.galloping": {"shown": "partly"}, "fig03.boxes": {"shown": "partly"},
-         "fig08.periodic_p": {"shown": "no"}, "fig08.boxes": {"shown": "yes"}, "fig09.a2_small": {"shown": "no"},
-         "fig06.island_ii": {"shown": "partly"}}
-    # fig03.boxes is never used (a measurement limit); the capped one is already out of the count
-    assert bd.bound_of(v, IDS, capped) == (2, ["fig03.galloping", "fig08.periodic_p", "fig09.a2_small"])
+         "fig09.homoclinic": {"shown": "no"}, "fig08.boxes": {"shown": "yes"}, "fig09.a2_small": {"shown": "no"},
+         "fig06.island_ii": {"shown": "partly"}, "fig11.same_motion": {"shown": "no"},
+         "fig10.periodic_p": {"shown": "no"}}
+    # never used: fig03.boxes (a measurement limit), Fig. 11's eq. (21) check and P (not printed);
+    # the capped one is out of the count
+    assert bd.bound_of(v, IDS, capped, unused) == (4, ["fig03.galloping", "fig09.homoclinic", "fig09.a2_small"])
+    # with nothing marked unused, every decided "not yes" lowers it
+    assert bd.bound_of(v, IDS, capped, {}) == (1, ["fig03.galloping", "fig03.boxes", "fig09.homoclinic",
+                                                   "fig09.a2_small", "fig11.same_motion", "fig10.periodic_p"])
     # a dropped orbit run: the cycle statement of that scene no longer lowers the bound
-    assert bd.bound_of(v, IDS, capped, dropped_scenes={"fig08"}) == (3, ["fig03.galloping", "fig09.a2_small"])
+    assert bd.bound_of(v, IDS, capped, {}, dropped_scenes={"fig10"})[0] == 2
     # a failed scene: none of its statements does
-    assert bd.bound_of(v, IDS, capped, failed={"fig09"}) == (3, ["fig03.galloping", "fig08.periodic_p"])
+    assert bd.bound_of(v, IDS, capped, unused, failed={"fig09"}) == (6, ["fig03.galloping"])
 
 
 def test_boxes_short_of_the_goal_share():
@@ -118,7 +135,8 @@ def test_bound_stage_stops_resumes_and_agrees_with_the_report(tmp_path):
         data = {"fig03": load_scene_data(folder / "out" / "fig03")}
         data.update({n: load_scene_data(ref / n) for n in bd.NO_WIND})
         ver = {v.id: v.shown for v in tg.decide_statements(targets, data) if v.id.split(".")[0] in ("fig03",) + bd.NO_WIND}
-        not_yes = [k for k, s in ver.items() if s != "yes" and k not in capped and k not in bd.NOT_USED_TO_PRUNE]
+        not_yes = [k for k, s in ver.items() if s != "yes" and k not in capped
+                   and k not in bd.not_used_to_prune(targets)]
         assert r["bound"] == 46 - len(not_yes) and sorted(r["lowered_by"]) == sorted(not_yes)
         assert r["status"] == ("stopped: statements" if not_yes else "every scene run")
         assert r["scenes_run"] == ["fig03"] and r["computed_scenes"] == 1
@@ -126,7 +144,21 @@ def test_bound_stage_stops_resumes_and_agrees_with_the_report(tmp_path):
     again = bd.run_bound(Path(SAMPLE).resolve(), targets, strict, cands, [], tmp_path / "a", runs, ref, capped, 2,
                          says.append, order=("fig03",))
     assert [r["bound"] for r in again] == [r["bound"] for r in recs]
-    assert says[-1].endswith("2 already on disk, 0 to bound; goal 46 statements, boxes >= 80% of fig08, fig10")
+    assert says[-1].endswith("2 already on disk, 0 to bound (0 of them stored under another rule: decided "
+                             "again, their finished scenes reused); goal 46 statements, boxes >= 80% of fig08, fig10")
+    # a record made under another rule (here: a stamp that is not this rule's) is decided again
+    # from its finished scene folder, with no scene rerun
+    other = tmp_path / "a" / "bound" / recs[1]["name"] / "bound.json"
+    stale = json.loads(other.read_text())
+    assert stale["rule"] == bd.rule_of([t.id for t in targets if t.kind == "statement"], capped,
+                                       bd.not_used_to_prune(targets), strict)
+    other.write_text(json.dumps(dict(stale, rule="another", bound=0)))
+    bd.run_bound(Path(SAMPLE).resolve(), targets, strict, cands, [], tmp_path / "a", runs, ref, capped, 2,
+                 says.append, order=("fig03",))
+    header = next(m for m in reversed(says) if m.startswith("bound: "))
+    assert "1 already on disk, 1 to bound (1 of them stored under another rule" in header
+    fresh = json.loads(other.read_text())
+    assert fresh["computed_scenes"] == 0 and fresh["bound"] == recs[1]["bound"] and fresh["rule"] == stale["rule"]
     # a lost record: the candidate is bounded again from its finished scene folder, no scene rerun
     lost = tmp_path / "a" / "bound" / recs[0]["name"] / "bound.json"
     lost.unlink()

@@ -34,6 +34,8 @@ def test_the_paper_targets_file():
     ('[[number]]\nid = "x"\nsays = "s"\nquantity = "rho"\nvalue = "a"\ntolerance = 0.1\n', "number[0].value"),
     ('[[statement]]\nid = "x"\nscene = "fig03"\nsays = "s"\nquantity = "q"\n', "statement[0].threshold"),
     ('[[statment]]\nid = "x"\n', "statment"),
+    ('[[statement]]\nid = "x"\nscene = "fig03"\nsays = "s"\nquantity = "q"\nthreshold = "t"\nsource = "printed"\n',
+     "statement[0].source"),
     ('[[number]]\nid = "x"\nsays = "s"\nquantity = "rho"\nvalue = 1.0\ntolerance = 0.1\n'
      '[[number]]\nid = "x"\nsays = "s"\nquantity = "rho"\nvalue = 1.0\ntolerance = 0.1\n', "number[1].id"),
 ])

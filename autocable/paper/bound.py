@@ -18,14 +18,18 @@ cannot afford. This stage does it by branch and bound:
   scene: its bound is then its count of statements shown.
 
 The bound is an upper bound, never an estimate: a statement not decided yet counts as "yes", and so
-do the statements whose "no" would say more about the tool than about the model (`NOT_USED_TO_PRUNE`):
-a statement of a scene that failed, the cycle statements of a scene whose orbit-started run had to be
-dropped (its start was chosen on the sample model, `IF_DROPPED`), and Fig. 3's boxes, which cannot
-be "yes" for any model today because the autonomous galloping cycles at eta* = 0 never pass the
+does every statement the paper does not print (a ``source`` other than "paper" in the targets file:
+autocable's own checks, such as eq. (21) beside Fig. 11, which shows the amplitude equations alone, and
+results beyond Sect. 5), so that a model is ruled out by what Sect. 5 states and nothing else. So do
+the statements whose "no" would say more about the tool than about the model: a statement of a scene
+that failed, the cycle statements of a scene whose orbit-started run had to be dropped (its start was
+chosen on the sample model, `IF_DROPPED`), and Fig. 3's boxes (`NOT_USED_TO_PRUNE`), which cannot be
+"yes" for any model today because the autonomous galloping cycles at eta* = 0 never pass the
 overlay's steady test and the study has no bound at eta* = 0.
 
-Resumable: one ``bound.json`` per candidate model under ``DIR/bound/``; the scene folders of a
-candidate stopped part-way are reused (`calibration.scene_complete`). Parallel: at most ``jobs`` scene
+Resumable: one ``bound.json`` per candidate model under ``DIR/bound/``, stamped with the rule that
+decided it (`rule_of`: a record of another rule, e.g. after the targets file changed, is decided
+again); the scene folders of a candidate are reused (`calibration.scene_complete`). Parallel: at most ``jobs`` scene
 processes at a time, over candidates.
 """
 from __future__ import annotations
@@ -48,7 +52,8 @@ NO_WIND = ("fig05a", "fig05b", "fig06")
 #: The scenes whose output a scene's statements read besides its own (report._features).
 NEEDS = {"fig04c": ("fig04a", "fig04b"), "fig07": ("fig05b",), "fig08": ("fig05b",),
          "fig09": ("fig06",), "fig10": ("fig06",)}
-#: Statements never used to lower a bound, and why.
+#: Statements never used to lower a bound because of a measurement limit, and why (besides these,
+#: every statement whose ``source`` is not "paper": `not_used_to_prune`).
 NOT_USED_TO_PRUNE = {
     "fig03.boxes": "no model can show it today: the overlay's steady test and the study's bound are "
                    "made for forced responses, not the autonomous galloping cycles of eta* = 0",
@@ -86,15 +91,37 @@ def unknown_scenes(targets) -> list[str]:
     return sorted({t.scene for t in targets if t.kind == "statement"} - set(ORDER) - set(NO_WIND))
 
 
-def bound_of(verdicts: dict, statement_ids: list, capped: set, failed=(), dropped_scenes=()) -> tuple[int, list]:
+def not_used_to_prune(targets) -> dict[str, str]:
+    """The statements that never lower a bound, with why: the measurement limits (`NOT_USED_TO_PRUNE`)
+    and every statement the paper does not print (a ``source`` other than "paper" in the targets
+    file: autocable's own checks, results beyond Sect. 5), so that the bound rests on Sect. 5 alone."""
+    out = {sid: why for sid, why in NOT_USED_TO_PRUNE.items()}
+    for t in targets:
+        if t.kind == "statement" and t.source != "paper":
+            out[t.id] = tg.SOURCES[t.source]
+    return out
+
+
+def rule_of(statement_ids, capped, unused, goal: tg.Goal) -> str:
+    """A fingerprint of what decides a bound (the statements, the ceiling's caps, the statements not
+    used, the goal): a stored record made under another rule is decided again (its scenes reused)."""
+    import hashlib
+    doc = json.dumps([list(statement_ids), sorted(capped), sorted(unused), goal.statements_yes,
+                      goal.boxes_share, list(goal.boxes_scenes)])
+    return hashlib.sha256(doc.encode()).hexdigest()[:16]
+
+
+def bound_of(verdicts: dict, statement_ids: list, capped: set, unused, failed=(),
+             dropped_scenes=()) -> tuple[int, list]:
     """(upper bound on the statements "yes", the ids that lowered it): every statement counts as
-    "yes" unless it is capped by the ceiling or decided other than "yes" and usable to prune."""
+    "yes" unless it is capped by the ceiling or decided other than "yes" and usable to prune
+    (``unused``: the ids never used, `not_used_to_prune`)."""
     lowered = []
     for sid in statement_ids:
         if sid in capped:
             continue
         v = verdicts.get(sid)
-        if v is None or v.get("shown") == "yes" or sid in NOT_USED_TO_PRUNE:
+        if v is None or v.get("shown") == "yes" or sid in unused:
             continue
         scene, _, rest = sid.partition(".")
         if scene in failed or (scene in dropped_scenes and rest in IF_DROPPED):
@@ -133,6 +160,8 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
     from autocable.paper.report import load_scene_data, overlay_summary
 
     stmt_ids = [t.id for t in targets if t.kind == "statement"]
+    unused = not_used_to_prune(targets)
+    rule = rule_of(stmt_ids, capped, unused, goal)
     by_scene: dict[str, list] = {}
     for t in targets:
         if t.kind == "statement":
@@ -145,13 +174,13 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
     base = {}
     for v in tg.decide_statements([t for n in NO_WIND for t in by_scene.get(n, [])], reference):
         base[v.id] = {"shown": v.shown, "evidence": v.evidence}
-    records, seen, todo = [], set(), []
+    records, seen, todo, n_redecide = [], set(), [], 0
     full_keys = {model_key(c): c for c in full}
     for key, c in full_keys.items():
         fv = c["full"]["verdicts"]
         dropped_scenes = {d.split(":")[0] for d in c["full"].get("dropped_runs") or []}
         failed = {sid.split(".")[0] for sid, v in fv.items() if str(v.get("evidence", "")).startswith("scene failed")}
-        b, lowered = bound_of(fv, stmt_ids, capped, failed, dropped_scenes)
+        b, lowered = bound_of(fv, stmt_ids, capped, unused, failed, dropped_scenes)
         short = boxes_short(c["full"].get("boxes") or {}, goal)
         records.append(_record(c, b, lowered, "fully evaluated", sorted(ORDER), c["full"].get("boxes") or {},
                                sorted(failed), c["full"].get("dropped_runs") or [], c["full"].get("wall_s", 0.0),
@@ -166,14 +195,19 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
         done = folder / "bound.json"
         if done.is_file():
             try:
-                records.append(json.loads(done.read_text()))
-                continue
+                rec = json.loads(done.read_text())
             except ValueError:
-                pass
+                rec = None
+            if isinstance(rec, dict) and rec.get("rule") == rule:
+                records.append(rec)
+                continue
+            if rec is not None:
+                n_redecide += 1
         todo.append(Candidate(key, c, folder, list(order), dict(base)))
     n_reused = len(records) - len(full_keys)
     say(f"bound: {len(todo) + len(records)} candidate models, {len(full_keys)} fully evaluated, "
-        f"{n_reused} already on disk, {len(todo)} to bound; goal {goal.statements_yes} statements, boxes "
+        f"{n_reused} already on disk, {len(todo)} to bound ({n_redecide} of them stored under another rule: "
+        f"decided again, their finished scenes reused); goal {goal.statements_yes} statements, boxes "
         f">= {goal.boxes_share:.0%} of {', '.join(goal.boxes_scenes)}")
     if not todo:
         return records
@@ -220,7 +254,7 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
         """Write the candidate's record when it is stopped or has run everything; True if so."""
         nonlocal n_done
         dropped_scenes = {d.split(":")[0] for d in cand.dropped}
-        b, lowered = bound_of(cand.verdicts, stmt_ids, capped, set(cand.failed), dropped_scenes)
+        b, lowered = bound_of(cand.verdicts, stmt_ids, capped, unused, set(cand.failed), dropped_scenes)
         short = boxes_short(cand.boxes, goal)
         if b >= goal.statements_yes and not short and cand.todo:
             return False
@@ -229,6 +263,7 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
         rec = _record(cand.c, b, lowered, status, cand.scenes_run, cand.boxes, cand.failed, cand.dropped,
                       cand.wall_s, goal, short)
         rec["computed_scenes"] = cand.computed
+        rec["rule"] = rule
         atomic_write_json(cand.folder / "bound.json", cal._finite(rec))
         records.append(rec)
         n_done += 1
@@ -292,7 +327,7 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
     left = list(queue)
     for cand in left:
         dropped_scenes = {d.split(":")[0] for d in cand.dropped}
-        b, lowered = bound_of(cand.verdicts, stmt_ids, capped, set(cand.failed), dropped_scenes)
+        b, lowered = bound_of(cand.verdicts, stmt_ids, capped, unused, set(cand.failed), dropped_scenes)
         if b < goal.statements_yes or boxes_short(cand.boxes, goal) or (cand.prepared and not cand.todo):
             settle(cand)            # settled by what was decided before the budget ran out
             continue
@@ -411,7 +446,7 @@ def draw_map(records: list[dict], goal: tg.Goal, ceiling_yes: int, path: Path) -
 
 
 def markdown(records: list[dict], goal: tg.Goal, ceiling_yes: int, n_statements: int, wall_s: float,
-             jobs: int, picture: Path | None, csv_name: str) -> list[str]:
+             jobs: int, picture: Path | None, csv_name: str, unused: dict) -> list[str]:
     s = summary(records, goal)
     stopped = {k: v for k, v in s["by_status"].items()}
     run = [r for r in records if r["status"] not in ("fully evaluated",)]
@@ -425,7 +460,7 @@ def markdown(records: list[dict], goal: tg.Goal, ceiling_yes: int, n_statements:
              "each decided by the report's code, and every statement decided other than yes lowers the bound. "
              "The candidate stops when the bound is below the goal or its boxes cannot reach the goal's share. "
              "The bound is an upper bound: undecided statements count as yes, and so do "
-             + "; ".join(f"{k} ({v})" for k, v in NOT_USED_TO_PRUNE.items())
+             + "; ".join(f"{k} ({v})" for k, v in unused.items())
              + f"; the statements of a failed scene; the {', '.join(IF_DROPPED)} statements of a scene whose "
                "orbit-started run (its start chosen on the sample) had to be dropped.", "",
              f"**{s['models']} candidate models**: "

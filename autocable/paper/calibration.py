@@ -1049,7 +1049,8 @@ def _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, job
     stats["bound"] = {k: v for k, v in bd.summary(records, goal).items() if k not in ("lowered_by", "not_bounded")}
     stats["bound"]["not_bounded"] = sum(r["status"] == bd.NOT_BOUNDED for r in records)
     stats["bound"]["wall_s"] = wall
-    return bd.markdown(records, goal, ceiling["at_most_yes"], n_stmt, wall, jobs, pic, "bound.csv")
+    return bd.markdown(records, goal, ceiling["at_most_yes"], n_stmt, wall, jobs, pic, "bound.csv",
+                       bd.not_used_to_prune(targets))
 
 
 def _theta0_text(space: SearchSpace) -> str:

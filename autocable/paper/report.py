@@ -1067,9 +1067,15 @@ def _targets_summary(scenes: dict, targets: str | Path | None = None) -> list[st
     lines = ["", "## The statements of Sect. 5 and the paper's numbers", "",
              f"Decided for the {len(verdicts)} statements of {path.name} (the same code as "
              f"`autocable calibrate`): **{c['yes']} yes**, {c['partly']} partly, {c['no']} no "
-             "(the tables per figure below). The numbers Sect. 5 prints:", "",
-             "| number | paper | here | shown |", "|---|---|---|---|"]
+             "(the tables per figure below)."]
     by_id = {t.id: t for t in targets}
+    shown = {v.id: v.shown for v in verdicts}
+    for src in ("check", "beyond"):
+        ids = [t.id for t in targets if t.kind == "statement" and t.source == src]
+        if ids:
+            # said beside the count: the calibration's bound does not use these (autocable.paper.bound)
+            lines[-1] += f" {', '.join(f'{i} ({shown.get(i, chr(8212))})' for i in ids)}: {targets_mod.SOURCES[src]}."
+    lines += ["", "The numbers Sect. 5 prints:", "", "| number | paper | here | shown |", "|---|---|---|---|"]
     for v in numbers:
         t = by_id[v.id]
         lines.append(f"| {t.id} ({t.quantity}) | {t.value:g} ± {t.tolerance:g} | {_g(v.value, 7)} | {v.shown} |")

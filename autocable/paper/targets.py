@@ -5,7 +5,9 @@ A targets file (``models/luongo_zulli_2012.targets.toml``) lists three kinds of 
 
 * ``[[statement]]``: what Sect. 5 says about one figure, decided from the scene's output folder
   by the report's decision code (`scene_statements`, which `autocable.paper.report` uses for its tables
-  and `autocable calibrate` for its full evaluation: the two cannot disagree);
+  and `autocable calibrate` for its full evaluation: the two cannot disagree); its optional ``source``
+  says whether the paper prints it ("paper", the default), or it is autocable's own check beside a
+  printed figure ("check") or a result beyond Sect. 5 ("beyond") (`SOURCES`);
 * ``[[number]]``: a printed number against the model (U_c through the onset at U* = 1, omega1 =
   1.004, rho = -0.004), from eq. (21) itself (`ode_numbers`) or from the output folders
   (`scene_numbers`), decided by `decide_number`;
@@ -31,6 +33,13 @@ OPS = {"<": lambda a, b: a < b, "<=": lambda a, b: a <= b, ">": lambda a, b: a >
 NUMBER_QUANTITIES = ("U_onset", "omega1", "rho")
 SCREEN_QUANTITIES = ("zeta8", "onset_error_21", "bounded_fraction", "ame_a2_ratio", "ode21_a2_ratio")
 KINDS = ("statement", "number", "screen")
+#: Where a statement comes from (a statement's optional ``source``; "paper" when not given), and what
+#: that means for the calibration's bound (`autocable.paper.bound`), which prunes with "paper" only.
+SOURCES = {
+    "paper": "printed in the paper (Sect. 5 or the figure)",
+    "check": "autocable's own check beside a printed figure, not printed in the paper",
+    "beyond": "beyond Sect. 5: a result the paper's figures do not draw",
+}
 
 
 class TargetsError(SpecError):
@@ -52,6 +61,7 @@ class Target:
     op: str = ""                    # screen
     points: tuple = ()              # screen: ((U*, eta*, sigma), ...)
     sigmas: tuple = ()              # screen: sigma values of the a2 ratios
+    source: str = "paper"           # statements: a key of SOURCES
 
 
 @dataclass(frozen=True)
@@ -66,12 +76,12 @@ class Verdict:
 
 
 _FIELDS = {
-    "statement": {"id": str, "scene": str, "says": str, "quantity": str, "threshold": str},
+    "statement": {"id": str, "scene": str, "says": str, "quantity": str, "threshold": str, "source": str},
     "number": {"id": str, "says": str, "quantity": str, "value": float, "tolerance": float},
     "screen": {"id": str, "scene": str, "says": str, "quantity": str, "op": str, "threshold": float,
                "points": list, "sigmas": list},
 }
-_OPTIONAL = {"screen": {"points", "sigmas", "scene"}, "number": set(), "statement": set()}
+_OPTIONAL = {"screen": {"points", "sigmas", "scene"}, "number": set(), "statement": {"source"}}
 
 
 def _typed(value, kind, path, where):
@@ -114,6 +124,9 @@ def parse_targets(data: dict, path="<targets>") -> tuple[Target, ...]:
             if not tid or tid in seen:
                 raise TargetsError(path, f"{where}.id", f"expected a non-empty id not used before, got {tid!r}")
             seen.add(tid)
+            if kind == "statement" and vals.get("source", "paper") not in SOURCES:
+                raise TargetsError(path, f"{where}.source",
+                                   f"expected one of {', '.join(SOURCES)}, got {vals['source']!r}")
             if kind == "number" and vals["quantity"] not in NUMBER_QUANTITIES:
                 raise TargetsError(path, f"{where}.quantity",
                                    f"expected one of {', '.join(NUMBER_QUANTITIES)}, got {vals['quantity']!r}")
