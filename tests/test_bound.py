@@ -81,6 +81,22 @@ def test_bound_counts_undecided_as_yes_and_only_usable_decisions_lower_it():
     assert bd.bound_of(v, IDS, capped, unused, failed={"fig09"}) == (6, ["fig03.galloping"])
 
 
+def test_the_orbit_runs_a_bound_need_not_pay_for(tmp_path):
+    """Figs. 8 and 10 start their cycle branch P from an integrated orbit; it decides periodic_p
+    only, which the targets file marks beyond Sect. 5: the bound stage drops that run."""
+    from autocable.paper import calibration as cal
+    from autocable.spec import read_toml
+    for n in ("fig08", "fig10"):
+        copy = tmp_path / f"{n}.toml"
+        copy.write_text((Path("runs") / f"{n}.toml").read_text())
+        ks = bd.orbit_runs(copy)
+        names = [r["name"] for r in read_toml(copy)[0]["run"]]
+        assert [names[k] for k in ks] == ["P"]
+        assert cal._drop_run(copy, ks[0]) and bd.orbit_runs(copy) == []
+        assert [r["name"] for r in read_toml(copy)[0]["run"]] == [x for x in names if x != "P"]
+    assert bd.orbit_runs(Path("runs") / "fig03.toml") == []
+
+
 def test_boxes_short_of_the_goal_share():
     box = {"points": 22, "within": 0, "at_rest": 0}
     assert bd.boxes_short({"fig08": dict(box, within=22)}, GOAL) is None          # fig10 not run yet
@@ -159,6 +175,15 @@ def test_bound_stage_stops_resumes_and_agrees_with_the_report(tmp_path):
     assert "1 already on disk, 1 to bound (1 of them stored under another rule" in header
     fresh = json.loads(other.read_text())
     assert fresh["computed_scenes"] == 0 and fresh["bound"] == recs[1]["bound"] and fresh["rule"] == stale["rule"]
+    # the scene time is the scene's own record (run.json), the same whether computed or reused
+    assert fresh["scene_s"] > 0 and fresh["scene_s"] == stale["scene_s"]
+    # a margin is part of the rule: with a margin larger than the goal no statement stops a candidate,
+    # so both run every scene of the order (here fig03, reused: nothing computed) with the same bounds
+    wide = bd.run_bound(Path(SAMPLE).resolve(), targets, strict, cands, [], tmp_path / "a", runs, ref, capped, 2,
+                        says.append, order=("fig03",), margin=47)
+    assert "2 to bound (2 of them stored under another rule" in next(m for m in reversed(says) if m.startswith("bound: "))
+    assert sorted((r["bound"], r["status"], r["computed_scenes"]) for r in wide) == sorted(
+        (r["bound"], "every scene run", 0) for r in recs)
     # a lost record: the candidate is bounded again from its finished scene folder, no scene rerun
     lost = tmp_path / "a" / "bound" / recs[0]["name"] / "bound.json"
     lost.unlink()

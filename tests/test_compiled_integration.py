@@ -294,3 +294,59 @@ def test_max_time_off_the_sample_grid_is_not_steady(eq21, engine):
     r = Ode21Integrator(eq21[0].ode, engine).simulate(0.7, 1.4e-3, 0.01, max_time=1000.0)
     dt = 2 * math.pi / r.Omega / 64
     assert not r.steady and r.message.startswith("not steady") and 1000.0 - dt < r.t_end <= 1000.0
+
+
+# -- growth against failure: a finite-time blow-up of the velocities at bounded q ---------------------
+X1, X2, V1, V2, C = sp.symbols("x1 x2 v1 v2 c")
+
+
+@pytest.fixture(scope="module")
+def cubic_velocity():
+    """x1'' = c x1'^3 (x2 at rest): v1 = v0 / sqrt(1 - 2 c v0^2 t) blows up at t* = 1 / (2 c v0^2)
+    while x1 = (1 - sqrt(1 - 2 c v0^2 t)) / (c v0) stays below 1 / (c v0)."""
+    return compiled_integrator("test_cubic_velocity", ("x1", "x2", "v1", "v2"), ("c",),
+                               (V1, V2, C * V1**3, sp.Integer(0)))
+
+
+def test_a_velocity_blow_up_at_bounded_q_is_growth_not_failure(cubic_velocity):
+    from autocable.methods.integration.ode21 import DIVERGED, VELOCITY_DIVERGED, _stopped, grew
+    v0, c = 0.1, 1000.0
+    t_star, x_star = 1 / (2 * c * v0**2), 1 / (c * v0)
+    assert x_star < DIVERGED                       # the modal coordinate never reaches the bound
+    r = cubic_velocity.run([0.0, 0.0, v0, 0.0], sample_grid(0.0, 1.0, 0.01), [c], rtol=1e-10, atol=1e-14,
+                           bound=DIVERGED, n_bound=2)
+    assert not r.ok and r.status != "bound"
+    # it stops at the closed form's blow-up time (to 1e-6 relative), at x1 just below 1 / (c v0)
+    assert abs(r.t_reached / t_star - 1) < 1e-6 and abs(r.y_reached[0]) < x_star
+    assert abs(r.y_reached[2]) > VELOCITY_DIVERGED and grew(r)
+    assert "the velocities blow up in finite time" in _stopped(r, 0.0, 1.0)
+    # the same law with the sign turned decays: it runs to the end
+    ok = cubic_velocity.run([0.0, 0.0, v0, 0.0], sample_grid(0.0, 1.0, 0.01), [-c], rtol=1e-10, atol=1e-14,
+                            bound=DIVERGED, n_bound=2)
+    assert ok.ok and not grew(ok)
+    # a spent step budget at moderate velocities is a numerical failure, not growth
+    short = cubic_velocity.run([0.0, 0.0, v0, 0.0], sample_grid(0.0, 1.0, 0.01), [-c], rtol=1e-10, atol=1e-14,
+                               bound=DIVERGED, n_bound=2, max_steps=3)
+    assert short.status == "step_budget" and not grew(short)
+
+
+def test_a_candidate_whose_velocities_blow_up_diverges_in_the_envelope_and_the_overlay():
+    """A calibration candidate (natural twist, reference axes, literal sense, beta = 0, Theta0 =
+    60.999 deg) at Fig. 11's point: eq. (21)'s velocities blow up at t of about 30 with |q_k| below
+    0.1. The envelope reports a divergence (it used to fail the scene) and the steady-response
+    integration a diverged response (it used to raise). The time is a regression pin."""
+    from pathlib import Path
+
+    from autocable.methods.integration.ode21 import Ode21Integrator
+    from autocable.model.derive import derive
+    from autocable.paper import calibration as cal
+    from autocable.spec import load_model
+    spec = load_model(Path(__file__).parent.parent / "models" / "luongo_zulli_2012.toml")
+    r = cal.Readings("natural", "reference", "eq12", "diameter", 1.25)
+    d = derive(cal.candidate_spec(spec, r, 0.0, 60.999161043529476))
+    ode = Ode21Integrator(d.ode, engine="compiled")
+    t, a1, a2, message = ode.envelope(1.3, 1.4e-3, -0.042, (0.0, 1e-6, 0.0, 0.0), 200.0)
+    assert message.startswith("eq. (21) diverges at t = 30.3") and "blow up in finite time" in message
+    assert len(t) and np.all(np.isfinite(a1)) and t[-1] < 30.3
+    resp = ode.simulate(1.3, 1.4e-3, -0.042, (0.0, 0.0, 1e-6, 0.0), max_time=200.0)
+    assert math.isinf(resp.a1) and "blow up in finite time" in resp.message

@@ -66,6 +66,8 @@ def test_simulate_refuses_invalid_numbers(capsys, args, option):
     (["sweep", "SWEEP", "--out", "o", "--workers", "-1"], "--workers"),
     (["sweep", "SWEEP", "--out", "o", "--chunk", "0"], "--chunk"),
     (["calibrate", "MODEL", "TARGETS", "--out", "o", "--jobs", "0"], "--jobs"),
+    (["calibrate", "MODEL", "TARGETS", "--out", "o", "--bound-margin", "-1"], "--bound-margin"),
+    (["calibrate", "MODEL", "TARGETS", "--out", "o", "--bound-minutes", "nan"], "--bound-minutes"),
     (["failure-map", "--out", ""], "--out"),
 ])
 def test_other_commands_refuse_bad_options_before_any_work(capsys, tmp_path, monkeypatch, argv, option):

@@ -132,6 +132,10 @@ def build_parser() -> argparse.ArgumentParser:
                           "writes bound.csv and bound.png")
     cal.add_argument("--bound-minutes", type=float, help="start no scene of the bound stage after this many "
                                                          "minutes; a rerun goes on with the candidates left")
+    cal.add_argument("--bound-margin", type=int, default=0,
+                     help="stop a candidate only when its bound is below the goal by more than this many "
+                          "statements (default 0): with N, the conclusion holds even if any N of the decisions "
+                          "that lowered a bound were wrong")
     cal.add_argument("--quiet", action="store_true", help="no progress lines")
     cal.set_defaults(func=cmd_calibrate)
 

@@ -97,6 +97,9 @@ def cmd_calibrate(args) -> int:
     check_out("--out", args.out)
     check_number("--jobs", args.jobs, 1, WORKERS_LIMIT, integer=True)
     check_number("--full", args.full, 0, 10**6, integer=True)
+    check_number("--bound-margin", args.bound_margin, 0, 10**3, integer=True)
+    if args.bound_minutes is not None:
+        check_number("--bound-minutes", args.bound_minutes, 0, 10**6)
     space_path = Path(args.space) if args.space else Path(args.model).with_suffix("").with_suffix(".search.toml")
     if args.space or space_path.is_file():
         space = study.load_space(space_path)
@@ -109,9 +112,8 @@ def cmd_calibrate(args) -> int:
     if args.bound and study.tg.load_goal(args.targets) is None:
         raise study.tg.TargetsError(args.targets, "goal", "--bound needs a [goal] table "
                                                           "(statements_yes, boxes_share, boxes_scenes)")
-    if args.bound_minutes is not None:
-        check_number("--bound-minutes", args.bound_minutes, 0, 10**6)
     stats = study.calibrate(args.model, args.targets, args.out, space=space, jobs=args.jobs, quiet=args.quiet,
-                            bound=args.bound or args.bound_minutes is not None, bound_minutes=args.bound_minutes)
+                            bound=args.bound or args.bound_minutes is not None or args.bound_margin > 0,
+                            bound_minutes=args.bound_minutes, bound_margin=args.bound_margin)
     print(dumps(stats))
     return 0

@@ -1027,7 +1027,7 @@ def _markdown(cands, full, target_ids, targets, space, stats, maps, failed, ceil
 
 
 def _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, jobs, say, stats,
-                 minutes=None) -> list[str]:
+                 minutes=None, margin: int = 0) -> list[str]:
     """`autocable.paper.bound` over every candidate; writes bound.csv and bound.png, returns the
     markdown lines and puts the summary in ``stats``."""
     from autocable.paper import bound as bd
@@ -1041,7 +1041,7 @@ def _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, job
     capped = {c["id"] for c in ceiling["capped"]}
     t0 = time.perf_counter()
     records = bd.run_bound(model_path, targets, goal, cands, full, out, runs, reference, capped, jobs, say,
-                           minutes=minutes)
+                           minutes=minutes, margin=margin)
     wall = time.perf_counter() - t0
     bd.write_csv(records, out / "bound.csv")
     n_stmt = sum(1 for t in targets if t.kind == "statement")
@@ -1049,8 +1049,9 @@ def _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, job
     stats["bound"] = {k: v for k, v in bd.summary(records, goal).items() if k not in ("lowered_by", "not_bounded")}
     stats["bound"]["not_bounded"] = sum(r["status"] == bd.NOT_BOUNDED for r in records)
     stats["bound"]["wall_s"] = wall
+    stats["bound"]["margin"] = margin
     return bd.markdown(records, goal, ceiling["at_most_yes"], n_stmt, wall, jobs, pic, "bound.csv",
-                       bd.not_used_to_prune(targets))
+                       bd.not_used_to_prune(targets), margin)
 
 
 def _theta0_text(space: SearchSpace) -> str:
@@ -1074,10 +1075,11 @@ def _fmt(x) -> str:
 
 def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = None, jobs: int = 2,
               runs: Path | None = None, quiet: bool = False, bound: bool = False,
-              bound_minutes: float | None = None) -> dict:
+              bound_minutes: float | None = None, bound_margin: int = 0) -> dict:
     """The whole study (module docstring). Returns counts and the output paths. ``bound``: then ask
     of every candidate whether it can reach the targets file's ``[goal]`` (`autocable.paper.bound`),
-    starting no scene after ``bound_minutes`` of that stage."""
+    starting no scene after ``bound_minutes`` of that stage, stopping a candidate when its bound is
+    below the goal by more than ``bound_margin``."""
     model_path, targets_path, out = Path(model_path).resolve(), Path(targets_path).resolve(), Path(out_dir)
     load_model(model_path)                  # a bad model file: one line before any work
     targets = tg.load_targets(targets_path)
@@ -1186,7 +1188,7 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     bound_lines = []
     if bound:
         bound_lines = _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, jobs, say, stats,
-                                   bound_minutes)
+                                   bound_minutes, bound_margin)
     stats["wall_s"] = time.perf_counter() - t_all          # with the bound stage, if it ran
     (out / "calibration.md").write_text(_markdown(cands, full, target_ids, targets, space, stats, maps, failed,
                                                   ceiling, smap) + "\n".join(bound_lines) + ("\n" if bound_lines else ""))

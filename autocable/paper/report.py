@@ -794,16 +794,20 @@ def _fig11(d: SceneData, all_: dict) -> list[Feature]:
     if ode:
         # The envelope ends where eq. (21) diverges (time_scene): finite samples do not make a
         # bounded envelope, the run's summary says whether it diverged.
-        ode_diverged = bool(isinstance(summary, dict) and isinstance(summary.get("ode21"), dict)
-                            and summary["ode21"].get("diverged"))
-        finite = all(math.isfinite(a) and math.isfinite(b) for _, a, b in ode) and not ode_diverged
+        o21 = summary.get("ode21") if isinstance(summary, dict) and isinstance(summary.get("ode21"), dict) else {}
+        ode_diverged, ode_failed = bool(o21.get("diverged")), bool(o21.get("failed"))
+        finite = (all(math.isfinite(a) and math.isfinite(b) for _, a, b in ode) and not ode_diverged
+                  and not ode_failed)
         per = _periodicity(ode, since.get("ode21"))
         out.append(("the amplitude envelope of (21) on the same axes", "yes" if finite else "partly",
                     f"eq. (21) envelope over t in [{_g(ode[0][0])}, {_g(ode[-1][0])}], for t >= {_g(per['t_from'])}: a1 in "
                     f"[{_e(per['a1_min'])}, {_e(per['a1_max'])}], a2 in [{_e(per['a2_min'])}, {_e(per['a2_max'])}]"
                     + (f"; {per['why']}" if per["why"] else f"; period {_g(per['period'], 5)}")
-                    + ("" if finite else f"; not finite throughout"
-                       + (f" ({summary['ode21'].get('message', '')})" if ode_diverged else "")
+                    + ("" if finite else
+                       f"; the integration stops before t_end ({o21.get('message', '')}): a numerical failure "
+                       "of the integrator while eq. (21) stayed bounded, not growth" if ode_failed else
+                       f"; not finite throughout"
+                       + (f" ({o21.get('message', '')})" if ode_diverged else "")
                        + f": {_reason('divergence')}")))
         if ame:
             pa = _periodicity(ame, since.get("ame"))

@@ -55,12 +55,15 @@ def _ame_time_series(system, spec: TimeSpec, Omega: float):
 def _ode21_envelope(deriv, spec: TimeSpec, Omega: float):
     """Integrate eq. (21) from the same start (q_k = a_k, q_k' = 0: r_k = a_k, s_k = 0 at t = 0) and
     take the half peak-to-peak of q1, q2 over each forcing period, at the period's mid time
-    (`Ode21Integrator.envelope`). Returns (t, a1, a2, message); a divergence ends the arrays where
-    it happens."""
+    (`Ode21Integrator.envelope`). Returns (t, a1, a2, message); a divergence, or a failure of the
+    integrator at a bounded state, ends the arrays where it happens (the message says which)."""
     from autocable.methods.integration.ode21 import SCENE_ENGINE, Ode21Integrator
     q = (0.0, 1e-6, 0.0, 0.0) if spec.start is None else (spec.start[0], spec.start[1], 0.0, 0.0)
+    # keep_failed: an integrator failure at a bounded state ends the envelope with its reason and
+    # keeps the AME's series (the figure's own content) rather than failing the scene
     return Ode21Integrator(deriv.ode, engine=SCENE_ENGINE).envelope(
-        spec.U, spec.eta, spec.sigma, q, spec.t_end, samples_per_period=64, Omega=Omega)
+        spec.U, spec.eta, spec.sigma, q, spec.t_end, samples_per_period=64, Omega=Omega,
+        keep_failed=SCENE_ENGINE == "compiled")
 
 
 def _summary(t, a1, a2, since: float) -> dict:
@@ -125,8 +128,9 @@ def run_time_scene(scene: Scene, out_dir, say, plot: bool, resolution: str):
         stages["ode21_integration_s"] = time.perf_counter() - t0
         series["ode21"] = (te, e1, e2)
         diverged = message.startswith("eq. (21) diverges")
+        failed = message.startswith("eq. (21) could not be integrated")
         summary["ode21"] = {**_summary(te, e1, e2, spec.summary_from), "diverged": diverged,
-                            "message": message}
+                            "failed": failed, "message": message}
         say(f"  eq. (21): {message}; envelope a1 in [{summary['ode21'].get('a1_min', math.nan):.4e}, "
             f"{summary['ode21'].get('a1_max', math.nan):.4e}], a2 in [{summary['ode21'].get('a2_min', math.nan):.4e}, "
             f"{summary['ode21'].get('a2_max', math.nan):.4e}]")

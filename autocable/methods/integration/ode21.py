@@ -35,6 +35,12 @@ DEFAULT_Q0 = (0.0, 0.0, 1e-6, 0.0)   # order (q1, q1', q2, q2') as on the comman
 #: A modal amplitude this large (a tenth of the cable length) is far outside the model's validity:
 #: the response is reported as diverged.
 DIVERGED = 0.1
+#: A modal velocity this large where the integrator stopped (its step size collapsing, a spent step
+#: budget, a non-finite state) means the velocities blew up in finite time at bounded q_k, driven by
+#: the cubic loads in q_k' (eq. 2); a bounded motion with |q_k| <= DIVERGED at frequencies near 1
+#: has |q_k'| of the same order, a hundred times smaller. Measured on a calibration candidate: q' was
+#: 3e5 at |q| = 0.06 when the step reached 6e-14 (t = 30.3, U* = 1.3).
+VELOCITY_DIVERGED = 100 * DIVERGED
 #: Accepted integration steps per unit time beyond which a chunk is taken as blowing up (see run).
 STEPS_PER_TIME_UNIT_CAP = 400
 #: The engines of `Ode21Integrator` (module docstring).
@@ -113,7 +119,22 @@ def _stopped(r, t0: float, t1: float) -> str:
     why = {"bound": f"|q_k| > {DIVERGED:g}", "not_finite": "a non-finite state",
            "step_budget": f"more than {r.accepted:,} integration steps",
            "step_too_small": "the step size collapsed"}.get(r.status, r.status)
+    if r.status != "bound" and grew(r):
+        y = np.asarray(r.y_reached, float)
+        why += (f" with |q_k'| = {np.max(np.abs(y[2:])):.3g} at |q_k| = {np.max(np.abs(y[:2])):.3g} "
+                "(the velocities blow up in finite time)")
     return f"{why} at t = {r.t_reached:.6g} (integrating from t = {t0:g} to {t1:g})"
+
+
+def grew(r) -> bool:
+    """Whether a compiled run (`CRun`) that stopped early stopped because eq. (21)'s state grew: past
+    `DIVERGED` in q_k, or with the integrator stopping (step size collapsing, step budget, non-finite
+    state) at a velocity beyond `VELOCITY_DIVERGED` or a non-finite one (a finite-time blow-up of the
+    velocities while |q_k| <= DIVERGED). Any other early stop is a numerical failure."""
+    if r.status == "bound":
+        return True
+    y = np.asarray(r.y_reached, float)
+    return r.status != "done" and bool(not np.all(np.isfinite(y)) or np.max(np.abs(y[2:]), initial=0.0) > VELOCITY_DIVERGED)
 
 
 def half_ranges(w: np.ndarray) -> np.ndarray:
@@ -244,7 +265,7 @@ class Ode21Integrator:
         stopping at |q_k| > `DIVERGED`. Returns its run when the response grows past the bound (a
         divergence, the samples up to it included); raises `ComputationError` otherwise."""
         r = self.run_compiled(y, t0, t1, dt, pars, bound=DIVERGED)
-        if r.status == "bound":
+        if grew(r):
             return r
         raise _failed(t0, t1, reason)
 
@@ -287,9 +308,10 @@ class Ode21Integrator:
                 r = self.run_compiled(y, t, t1, dt, pars, bound=DIVERGED,
                                       last=None if keep_history else keep)
                 if not r.ok:
-                    # Growth past the bound is the physics (a result); any other stop happened
-                    # with |q_k| <= DIVERGED (checked after every step): the integrator failed.
-                    if r.status != "bound":
+                    # Growth past the bound, or a finite-time blow-up of the velocities, is the
+                    # physics (a result); any other stop happened with |q_k| <= DIVERGED (checked
+                    # after every step) at moderate velocities: the integrator failed.
+                    if not grew(r):
                         raise _failed(t, t1, _stopped(r, t, t1))
                     if keep_history and len(r.t):
                         history.append((r.t, r.y))
@@ -347,13 +369,16 @@ class Ode21Integrator:
                               history, samples_per_period)
 
     def envelope(self, U: float, eta: float, sigma: float, y0, t_end: float, *,
-                 samples_per_period: int = 64, chunk_periods: int = 200, Omega: float | None = None):
+                 samples_per_period: int = 64, chunk_periods: int = 200, Omega: float | None = None,
+                 keep_failed: bool = False):
         """The amplitude envelope of eq. (21) from ``y0`` = (q1, q2, q1', q2') over [0, t_end]
         (Fig. 11): the half peak-to-peak of q1, q2 over each forcing period (``samples_per_period``
         samples, parabolic peaks), at the period's mid time. Returns (t, a1, a2, message); a
         divergence (|q_k| > `DIVERGED`, or a non-finite sample) ends the arrays
         at the last whole period before it; an integrator failure at a bounded state raises
-        `ComputationError`. ``Omega`` overrides omega1 + sigma."""
+        `ComputationError`, or with ``keep_failed`` (compiled engine) ends the arrays at the last
+        whole period before it, the message starting "eq. (21) could not be integrated".
+        ``Omega`` overrides omega1 + sigma."""
         Om = self.ode.omega1 + sigma if Omega is None else float(Omega)
         if not Om > 0:
             raise ValueError(f"sigma = {sigma} gives a non-positive forcing frequency Omega = {Om}")
@@ -365,14 +390,16 @@ class Ode21Integrator:
         while t < t_end - 1e-9:
             t1 = min(t + chunk_periods * period, t_end)
             t1 = t + max(1, int(round((t1 - t) / period))) * period
-            stop = ""
+            stop, blowup = "", ""
             if self.engine == "compiled":
                 r = self.run_compiled(q, t, t1, period / n, pars, bound=DIVERGED)
                 tt, ys = r.t, r.y
                 if not r.ok:
-                    if r.status != "bound":
+                    if not grew(r) and not keep_failed:
                         raise _failed(t, t1, _stopped(r, t, t1))
-                    stop = "bound"
+                    stop = "bound" if grew(r) else str(_failed(t, t1, _stopped(r, t, t1)))
+                    if r.status != "bound" and grew(r):
+                        blowup = f"eq. (21) diverges at t = {r.t_reached:.6g} ({_stopped(r, t, t1).split(' at t = ')[0]})"
             else:
                 try:
                     tt, ys = self.run(q, t, t1, period / n, pars)
@@ -390,7 +417,12 @@ class Ode21Integrator:
             a2s.append(half_ranges(w[:good, :, 1]))
             if good < m or stop == "bound":
                 # the first period with a sample beyond the bound, or the one the integration stopped in
-                message = f"eq. (21) diverges at t = {tt[good * n]:.6g} (|q| > {DIVERGED:g})"
+                message = (blowup if good == m and blowup else
+                           f"eq. (21) diverges at t = {tt[good * n]:.6g} (|q| > {DIVERGED:g})")
+                break
+            if stop:
+                # a failure at a bounded state (keep_failed): the envelope ends with the last whole period
+                message = stop
                 break
             q, t = tuple(ys[m * n]), float(tt[m * n])
         cat = (lambda parts: np.concatenate(parts) if parts else np.empty(0))

@@ -59,7 +59,7 @@ import numpy as np
 from autocable.codegen.cintegrate import Repeated, sample_grid
 from autocable.errors import ComputationError
 from autocable.methods.integration.floquet21 import STABILITY_MARGIN, multipliers_of
-from autocable.methods.integration.ode21 import (DEFAULT_Q0, DIVERGED, Ode21Integrator, half_range,
+from autocable.methods.integration.ode21 import (DEFAULT_Q0, DIVERGED, Ode21Integrator, grew, half_range,
                                                  _stopped)
 from autocable.model.symbolic import PARAMETERS, STATE, T, first_order_rhs, parameter_values
 
@@ -474,8 +474,9 @@ class ShootingSolver:
                 break
             r = self._stage_run(y, n, period, pars, FIRST_STAGE_RTOL if done == 0 else STAGE_RTOL)
             if not r.ok:
-                if r.status != "bound":
-                    # stopped while |q_k| <= DIVERGED: the integrator failed, the response did not grow
+                if not grew(r):
+                    # stopped while |q_k| <= DIVERGED at moderate velocities: the integrator failed,
+                    # the response did not grow
                     raise ComputationError(
                         f"eq. (21) could not be integrated in the transient from t = {t0:.6g} while the "
                         f"response stayed bounded (|q_k| <= {DIVERGED:g}): "
