@@ -530,8 +530,9 @@ def markdown(records: list[dict], goal: tg.Goal, ceiling_yes: int, n_statements:
              + f". {len(run)} bounded in this stage with {scenes} scenes decided "
                f"({scenes / max(len(run), 1):.2f} per model; {sum(r.get('scene_s', 0.0) for r in run) / 3600:.1f} h of "
                "scene time as the scenes' run.json record it, summed; "
-               f"{sum(r.get('computed_scenes', 0) for r in run)} of the scenes were computed by the last call, "
-               f"{jobs} at a time, in {wall_s / 60:.1f} min, the others reused from disk)."]
+               f"{sum(r.get('computed_scenes', 0) for r in run)} of the scenes were computed by the calls that "
+               "wrote the records, the others reused from earlier calls' folders; this call took "
+               f"{wall_s / 60:.1f} min with {jobs} processes)."]
     if s["reach_goal"]:
         verdict = "**Candidate models that reach the goal: " + ", ".join(s["reach_goal"]) + ".**"
     elif not s["not_bounded"] and not s["could_still_reach"]:
@@ -574,17 +575,21 @@ def markdown(records: list[dict], goal: tg.Goal, ceiling_yes: int, n_statements:
     lines += [f"| {k} | {v} |" for k, v in list(s["lowered_by"].items())[:20]]
     if s["lowered_by"]:
         # The bound is only as strong as the decisions that lowered it: how much rests on each one,
-        # were it not counted (the one that lowered most, and the worst of all).
+        # were it not counted (the one that lowered most, and the worst of all). A model whose boxes
+        # fall short is out whatever its statements.
         def unsettled_without(sid):
-            return sum(1 for r in records if r["status"] != NOT_BOUNDED
+            return sum(1 for r in records if r["status"] != NOT_BOUNDED and r.get("boxes_short") is not True
                        and r["bound"] + (sid in r["lowered_by"]) >= goal.statements_yes)
         top = next(iter(s["lowered_by"]))
         worst = max(s["lowered_by"], key=unsettled_without)
         lines += ["", f"The conclusion rests on the report's decision of each statement above. Not counting "
                       f"**{top}** (it lowered the most bounds), {unsettled_without(top)} candidate models would "
                       f"have a bound not below the goal and would have to run further scenes before the question "
-                      f"is settled for them; not counting any one statement, at most {unsettled_without(worst)} "
-                      f"({worst})."]
+                      "is settled for them; "
+                  + (f"not counting any one statement, at most {unsettled_without(worst)} ({worst})."
+                     if unsettled_without(worst) else
+                     "the same holds for every statement: with any one decision not counted, every model is still "
+                     "below the goal or short of its boxes.")]
         # A check of that decision by other code: the screen's targets, computed from eq. (21) and
         # the AME directly (closed forms and integrations), on the models it lowered.
         mine = [r for r in records if top in r["lowered_by"] and "screen_not_met" in r]
