@@ -76,7 +76,7 @@ def test_bound_counts_undecided_as_yes_and_only_usable_decisions_lower_it():
     assert bd.bound_of(v, IDS, capped, {}) == (1, ["fig03.galloping", "fig03.boxes", "fig09.homoclinic",
                                                    "fig09.a2_small", "fig11.same_motion", "fig10.periodic_p"])
     # a dropped orbit run: the cycle statement of that scene no longer lowers the bound
-    assert bd.bound_of(v, IDS, capped, {}, dropped_scenes={"fig10"})[0] == 2
+    assert bd.bound_of(v, IDS, capped, {}, dropped=["fig10: run[2] (no periodic orbit)"])[0] == 2
     # a failed scene: none of its statements does
     assert bd.bound_of(v, IDS, capped, unused, failed={"fig09"}) == (6, ["fig03.galloping"])
 
@@ -205,3 +205,24 @@ def test_bound_refuses_a_targets_file_with_scenes_it_does_not_run(tmp_path):
         cal.calibrate(SAMPLE, bad, tmp_path / "out", bound=True, quiet=True)
     msg = str(err.value)
     assert "\n" not in msg and "other.targets.toml" in msg and "statement.scene" in msg and "fig12" in msg
+
+
+def test_the_markdown_says_what_the_conclusion_rests_on():
+    """Four records with a known answer (goal 40): without s1, model A (39, lowered by s1) would
+    reach the goal, so one model rests on s1; without s2 none does (B drops to 39 only, C is short
+    of its boxes whatever its statements). The screen's table counts the models each lowered."""
+    def rec(name, b, lowered, status="stopped: statements", short=None, screen=()):
+        return {"name": name, "readings": {"twist_ends": "natural", "load_axes": "reference",
+                                           "angle_convention": "reversed", "load_length": "diameter"},
+                "bound": b, "status": status, "lowered_by": list(lowered), "scenes_run": ["fig03"],
+                "boxes_good": 0, "boxes_points": 0, "boxes_short": short, "reaches_goal": False,
+                "wall_s": 1.0, "scene_s": 2.0, "computed_scenes": 1, "screen_not_met": list(screen)}
+    records = [rec("A", 39, ["s1"], screen=["U_c"]), rec("B", 38, ["s1", "s2"], screen=["U_c", "supercritical"]),
+               rec("C", 39, ["s2"], "stopped: boxes", True), rec("D", 30, ["s1"])]
+    text = "\n".join(bd.markdown(records, tg.Goal(40, 0.8, ("fig08", "fig10")), 42, 48, 60.0, 2, None, "b.csv",
+                                 {"fig03.boxes": "a limit"}, margin=0))
+    assert "Not counting **s1** (it lowered the most bounds), 1 candidate models" in text
+    assert "not counting any one statement, at most 1 (s1)." in text
+    assert "| s1 | 3 | 2 | U_c 2, supercritical 1 |" in text and "| s2 | 2 | 1 | U_c 1, supercritical 1 |" in text
+    assert "4 bounded in this stage with 4 scenes decided (1.00 per model; 0.0 h" in text
+    assert "4 of the scenes were computed by the calls that wrote the records" in text

@@ -191,6 +191,36 @@ def test_envelope_reports_divergence(eq21):
     assert np.all(a1 < 0.1) and t[-1] < 5000.0
 
 
+def test_envelope_keeps_what_it_had_when_the_integrator_fails_at_a_bounded_state(eq21, monkeypatch):
+    """An integrator failure at moderate velocities (injected: the second chunk stops half-way with
+    the step size collapsing) raises without ``keep_failed``; with it (Fig. 11's scene), the
+    envelope ends at the last whole period before the failure, equal to the uninjected envelope
+    there, and the message says it could not be integrated (not that it diverged)."""
+    import dataclasses
+
+    from autocable.errors import ComputationError
+    _, _, compiled = eq21
+    args = (1.3, 1.4e-3, -0.042, (0.0, 1e-6, 0.0, 0.0), 600.0)
+    t0, a0, _, _ = compiled.envelope(*args, chunk_periods=20)
+    real, calls = compiled.run_compiled, []
+
+    def failing(*a, **k):
+        r = real(*a, **k)
+        calls.append(1)
+        if len(calls) != 2:
+            return r
+        half = len(r.t) // 2
+        return dataclasses.replace(r, t=r.t[:half], y=r.y[:half], status="step_too_small",
+                                   t_reached=float(r.t[half - 1]), y_reached=r.y[half - 1])
+    monkeypatch.setattr(compiled, "run_compiled", failing)
+    with pytest.raises(ComputationError, match="could not be integrated"):
+        compiled.envelope(*args, chunk_periods=20)
+    calls.clear()
+    t, a1, _, msg = compiled.envelope(*args, chunk_periods=20, keep_failed=True)
+    assert msg.startswith("eq. (21) could not be integrated") and "velocities" not in msg
+    assert 20 < len(t) < 40 and np.array_equal(t, t0[:len(t)]) and np.array_equal(a1, a0[:len(t)])
+
+
 # -- Fig. 11: the AME time series ---------------------------------------------------------------------
 def test_fig11_ame_series_statistics(eq21):
     """Fig. 11: the AME (24) at eta = 1.4e-3, sigma = -0.042, U = 1.3 from rest (q2 = 1e-6) over

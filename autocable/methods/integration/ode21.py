@@ -395,11 +395,15 @@ class Ode21Integrator:
                 r = self.run_compiled(q, t, t1, period / n, pars, bound=DIVERGED)
                 tt, ys = r.t, r.y
                 if not r.ok:
-                    if not grew(r) and not keep_failed:
-                        raise _failed(t, t1, _stopped(r, t, t1))
-                    stop = "bound" if grew(r) else str(_failed(t, t1, _stopped(r, t, t1)))
-                    if r.status != "bound" and grew(r):
-                        blowup = f"eq. (21) diverges at t = {r.t_reached:.6g} ({_stopped(r, t, t1).split(' at t = ')[0]})"
+                    why = _stopped(r, t, t1)
+                    if grew(r):
+                        stop = "bound"
+                        if r.status != "bound":
+                            blowup = f"eq. (21) diverges at t = {r.t_reached:.6g} ({why.split(' at t = ')[0]})"
+                    elif keep_failed:
+                        stop = str(_failed(t, t1, why))
+                    else:
+                        raise _failed(t, t1, why)
             else:
                 try:
                     tt, ys = self.run(q, t, t1, period / n, pars)
