@@ -96,7 +96,7 @@ class SearchSpace:
 
     twist_ends: tuple = ("natural", "restrained")
     load_axes: tuple = ("reference", "twisted")
-    angle_convention: tuple = ("eq12", "reversed")
+    angle_convention: tuple = ("eq12", "mirrored")
     load_length: tuple = ("diameter",)
     air_density_kg_m3: tuple = (1.25,)
     ordering: tuple = ORDERINGS
@@ -118,7 +118,7 @@ class SearchSpace:
 
 
 _CHOICES = {"twist_ends": ("natural", "restrained"), "load_axes": ("reference", "twisted"),
-            "angle_convention": ("eq12", "reversed"), "load_length": ("diameter", "radius"),
+            "angle_convention": ("eq12", "mirrored", "reversed"), "load_length": ("diameter", "radius"),
             "ordering": ORDERINGS}
 
 
@@ -455,7 +455,7 @@ def _no_wind_reference(spec: ModelSpec, sigmas: tuple, ordering: str) -> tuple[f
     """(largest a2 of eq. 21, largest a2 of the AME) from rest at U = 0, eta* = 1.4e-3 over the
     sigmas: Fig. 6. Eq. (21) at U = 0 is the same for every reading (tests/test_calibration.py)."""
     from autocable.model import multiscale
-    ode = fast_ode(candidate_spec(spec, Readings("natural", "reference", "reversed", "diameter", 1.25), 0.0, 0.0))
+    ode = fast_ode(candidate_spec(spec, Readings("natural", "reference", "eq12", "diameter", 1.25), 0.0, 0.0))
     ame = multiscale.derive(ode, ordering, omega="exact")
     a21 = max(integrate_ode(ode, 0.0, RATIO_ETA, s)["a2"] for s in sigmas)
     aam = max(integrate_ame(ame, 0.0, RATIO_ETA, s)["a2"] for s in sigmas)
