@@ -223,24 +223,29 @@ def point_key(shash: str, U, eta, sigma, q0, after: str | None = None) -> str:
 
 
 def _plan(spec: SweepSpec, shash: str, folder: Path):
-    """(grid, units, resumed): grid rows (idx, key, U, eta, sigma, q0) for the dataset; the units
-    still to compute (see `compute_chunk`): single points, or with ``follow`` the runs of
-    unfinished consecutive points of each line, started from the finished point before the run."""
+    """(grid, units, resumed, damaged): grid rows (idx, key, U, eta, sigma, q0) for the dataset;
+    the units still to compute (see `compute_chunk`): single points, or with ``follow`` the runs
+    of unfinished consecutive points of each line, started from the finished point before the run.
+    A point file that is not a valid record of its own point (emptied, truncated, edited, copied
+    from another point) is removed and its point computed again (``damaged`` counts them)."""
     have = {p.stem for p in folder.glob("*.json")}
-    grid, units, resumed = [], [], 0
+    grid, units, resumed, damaged = [], [], 0, 0
     for line in spec.lines():
         prev_key, run, carried = None, [], None
         for idx in line:
             U, eta, sigma, q0 = spec.point(idx)
             key = point_key(shash, U, eta, sigma, q0, prev_key if spec.follow else None)
             grid.append((idx, key, U, eta, sigma, q0))
-            if key in have:
+            rec = read_valid_point(folder / f"{key}.json", U, eta, sigma, q0) if key in have else None
+            if key in have and rec is None:
+                damaged += 1
+                (folder / f"{key}.json").unlink(missing_ok=True)
+            if rec is not None:
                 resumed += 1
                 if run:
                     units.append((carried, run))
                     run = []
-                rec = _read_point(folder / f"{key}.json") if spec.follow else None
-                carried = carry_from(rec) if rec else None
+                carried = carry_from(rec) if spec.follow else None
             else:
                 run.append((key, U, eta, sigma, q0))
             prev_key = key
@@ -248,7 +253,7 @@ def _plan(spec: SweepSpec, shash: str, folder: Path):
             units.append((carried, run))
     order = {idx: k for k, idx in enumerate(spec.points_order())}
     grid.sort(key=lambda row: order[row[0]])
-    return grid, units, resumed
+    return grid, units, resumed, damaged
 
 
 def _write_point(folder: Path, key: str, rec: dict) -> None:
@@ -263,6 +268,49 @@ def _read_point(path: Path):
             return json.load(fh)
     except (OSError, ValueError):
         return None
+
+
+def _is_number(v, *, optional: bool = True) -> bool:
+    if v is None:
+        return optional
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def valid_point(rec, U, eta, sigma, q0) -> bool:
+    """Whether ``rec`` is a complete record (as `_record` writes it) of the point (U, eta, sigma,
+    q0): every field present with its type, finite numbers or None where a value may be missing,
+    and the point's own parameters (a file copied under another point's name is not its record)."""
+    if not isinstance(rec, dict) or rec.get("response") not in RESPONSE_CLASSES:
+        return False
+    if not all(_is_number(rec.get(k, 0.0)) and k in rec
+               for k in ("a1", "a2", "a1_min", "a1_max", "a2_min", "a2_max", "t_end")):
+        return False
+    if not _is_number(rec.get("wall_seconds"), optional=False):
+        return False
+    periods = rec.get("periods")
+    if isinstance(periods, bool) or not isinstance(periods, int) or not 0 <= periods <= 127:
+        return False
+    if not all(isinstance(rec.get(k), bool) for k in ("steady", "fallback")):
+        return False
+    mu = rec.get("multipliers")
+    if not isinstance(mu, list) or not all(isinstance(m, list) and len(m) == 2
+                                           and all(_is_number(v, optional=False) for v in m) for m in mu):
+        return False
+    state = rec.get("state0")
+    if not isinstance(state, list) or len(state) not in (0, 4) or not all(_is_number(v) for v in state):
+        return False
+    if not isinstance(rec.get("message", ""), str):
+        return False
+    given = [rec.get("U"), rec.get("eta"), rec.get("sigma")] + list(rec.get("q0") or [])
+    wanted = [U, eta, sigma] + list(q0)
+    return (len(given) == len(wanted) and all(_is_number(v, optional=False) for v in given)
+            and all(float(a) == float(b) for a, b in zip(given, wanted)))
+
+
+def read_valid_point(path: Path, U, eta, sigma, q0):
+    """The record in ``path`` when it is a valid record of this point (`valid_point`), else None."""
+    rec = _read_point(path)
+    return rec if valid_point(rec, U, eta, sigma, q0) else None
 
 
 class _Progress:
@@ -317,12 +365,13 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
     for done in ("sweep.json", "sweep.nc"):
         (out / done).unlink(missing_ok=True)
     shash = sweep_hash(spec, model)
-    grid, todo, resumed = _plan(spec, shash, folder)
+    grid, todo, resumed, damaged = _plan(spec, shash, folder)
     progress = _Progress(len(grid), resumed, log)
     if log:
         log(f"sweep {spec.path.name}: {len(grid)} points, method {spec.method}"
             + (f", following {spec.follow} {spec.direction}" if spec.follow else "")
-            + f"; {resumed} already computed (resumed), {len(grid) - resumed} to compute")
+            + f"; {resumed} already computed (resumed), {len(grid) - resumed} to compute"
+            + (f" ({damaged} damaged point files removed and computed again)" if damaged else ""))
     t0 = time.perf_counter()
     where = {"mode": "serial"}
     sink = _Sink(folder, progress, log)
@@ -347,7 +396,7 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
     os.replace(tmp, out / "sweep.nc")
     counts = {name: int(np.sum(ds["response"].values == k)) for k, name in enumerate(RESPONSE_CLASSES)}
     summary = {"sweep": str(spec.path), "method": spec.method, "points": len(grid), "resumed": resumed,
-               "computed": computed, "missing": int(np.sum(ds["response"].values == NOT_COMPUTED)),
+               "computed": computed, "damaged": damaged, "missing": int(np.sum(ds["response"].values == NOT_COMPUTED)),
                "failed": sink.failed,
                "wall_seconds": wall, "points_per_second": computed / wall if wall > 0 and computed else None,
                "responses": counts, "where": where, "sweep_hash": shash,
@@ -423,8 +472,8 @@ def assemble(spec: SweepSpec, model, grid, folder: Path, shash: str):
     fallback = np.zeros(shape, dtype=np.int8)
     mre = np.full(shape + (4,), np.nan)
     mim = np.full(shape + (4,), np.nan)
-    for idx, key, *_ in grid:
-        rec = _read_point(folder / f"{key}.json")
+    for idx, key, U, eta, sigma, q0 in grid:
+        rec = read_valid_point(folder / f"{key}.json", U, eta, sigma, q0)
         if rec is None:
             continue
         for k in f:

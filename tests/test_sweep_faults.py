@@ -1,0 +1,54 @@
+"""Hostile conditions around `autocable sweep` (issue: damaged point files, interrupted follow
+lines, concurrent sweeps, the grid's size before any axis is built, option checks)."""
+import json
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from autocable.scene.sweep_schema import load_sweep
+from autocable.studies.sweep import RESPONSE_CLASSES, run_sweep
+
+REPO = Path(__file__).resolve().parents[1]
+MODEL = REPO / "models" / "luongo_zulli_2012.toml"
+
+xr = pytest.importorskip("xarray")
+
+# Three cheap points of Fig. 5a's setting (period-1 responses by shooting).
+SMALL = 'method = "shooting"\n[grid]\neta = 8.2e-5\nsigma = [-0.01, 0.0, 0.01]\n'
+
+
+def write_sweep(folder: Path, body: str, name="s.toml") -> Path:
+    path = folder / name
+    path.write_text(f'model = "{MODEL}"\n' + textwrap.dedent(body))
+    return path
+
+
+def numbers(out: Path) -> dict:
+    with xr.open_dataset(out / "sweep.nc", engine="scipy") as ds:
+        return {k: ds[k].values.copy() for k in ("a1", "a2", "response")}
+
+
+def test_damaged_point_files_are_computed_again(tmp_path):
+    """A finished sweep whose point files were emptied, replaced by ``{}`` or by another point's
+    record: the rerun removes them, computes those points again (damaged 3, computed 3, missing 0)
+    and the dataset equals the first run's; a third run resumes everything."""
+    spec = load_sweep(write_sweep(tmp_path, SMALL))
+    out = tmp_path / "o"
+    first = run_sweep(spec, out, workers=0)
+    assert first["computed"] == 3 and first["missing"] == 0
+    ref = numbers(out)
+    files = sorted((out / "points").glob("*.json"), key=lambda p: json.loads(p.read_text())["sigma"])
+    other = files[2].read_text()
+    files[0].write_text("")
+    files[1].write_text("{}")
+    files[2].write_text(other.replace('"sigma": 0.01', '"sigma": 0.02'))   # a record of another point
+    again = run_sweep(spec, out, workers=0)
+    assert (again["damaged"], again["resumed"], again["computed"], again["missing"]) == (3, 0, 3, 0)
+    got = numbers(out)
+    for k in ref:
+        assert np.array_equal(ref[k], got[k]), k
+    assert (got["response"] == RESPONSE_CLASSES.index("period-1")).all()
+    third = run_sweep(spec, out, workers=0)
+    assert (third["damaged"], third["resumed"], third["computed"]) == (0, 3, 0)
