@@ -52,3 +52,46 @@ def test_damaged_point_files_are_computed_again(tmp_path):
     assert (got["response"] == RESPONSE_CLASSES.index("period-1")).all()
     third = run_sweep(spec, out, workers=0)
     assert (third["damaged"], third["resumed"], third["computed"]) == (0, 3, 0)
+
+
+def test_interrupted_follow_line_keeps_its_finished_points(tmp_path, monkeypatch):
+    """A followed line interrupted (Ctrl-C) at its fourth point keeps the three finished points as
+    files (each handed to the sink as it finishes, not with the line); the rerun resumes them and
+    computes the rest from the third point's state, as the uninterrupted line would."""
+    from autocable.studies import sweep as sw
+    body = 'method = "shooting"\nfollow = "sigma"\n[grid]\neta = 8.2e-5\nsigma = [-0.02, -0.01, 0.0, 0.01, 0.02]\n'
+    spec = load_sweep(write_sweep(tmp_path, body))
+    ref = run_sweep(spec, tmp_path / "ref", workers=0)
+    assert ref["computed"] == 5
+    real, calls = sw.compute_point, []
+
+    def interrupted(*args, **kwargs):
+        calls.append(args[4])
+        if len(calls) == 4:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(sw, "compute_point", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(spec, tmp_path / "o", workers=0)
+    assert len(list((tmp_path / "o" / "points").glob("*.json"))) == 3
+    monkeypatch.setattr(sw, "compute_point", real)
+    again = run_sweep(spec, tmp_path / "o", workers=0)
+    assert (again["resumed"], again["computed"]) == (3, 2)
+    a, b = numbers(tmp_path / "ref"), numbers(tmp_path / "o")
+    for k in a:
+        assert np.array_equal(a[k], b[k]), k
+
+
+def test_follow_line_on_dask_is_one_task_per_point(tmp_path):
+    """On Dask a followed line is a chain of one-point tasks (each point's file is written as its
+    task returns), and the chain gives the serial line's numbers bit for bit."""
+    pytest.importorskip("dask.distributed")
+    body = 'method = "ode21"\nfollow = "sigma"\nmax_time = 3000.0\n[grid]\neta = 8.2e-5\nsigma = [-0.02, 0.0, 0.02]\n'
+    spec = load_sweep(write_sweep(tmp_path, body))
+    serial = run_sweep(spec, tmp_path / "serial", workers=0)
+    dask = run_sweep(spec, tmp_path / "dask", workers=1)
+    assert dask["where"]["tasks"] == 3 and dask["computed"] == serial["computed"] == 3
+    a, b = numbers(tmp_path / "serial"), numbers(tmp_path / "dask")
+    for k in a:
+        assert np.array_equal(a[k], b[k], equal_nan=True), k

@@ -39,9 +39,9 @@ def add_sweep_parser(subparsers) -> None:
                    help="LocalCluster worker processes (default: one per core; 0: serial, without Dask)")
     w.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler, e.g. tcp://host:8786 "
                    "(its workers need autocable installed)")
-    w.add_argument("--chunk", type=int, help="grid points (with follow: lines) per Dask task (default: about 8 "
-                   "tasks per worker, "
-                   "at most 16 points)")
+    w.add_argument("--chunk", type=int, help="grid points per Dask task (default: about 8 tasks per worker, "
+                   "at most 16 points; with follow: consecutive points of a line, default 1, each task "
+                   "starting from the one before)")
     w.add_argument("--quiet", action="store_true", help="no progress")
     w.set_defaults(func=cmd_sweep)
 

@@ -10,7 +10,9 @@ Cartesian AME (24) integrated to its steady state; no Floquet multipliers).
 With ``follow = AXIS`` (and ``direction``) each line of the grid along that axis is swept in
 order, every point starting from its neighbour's response (shooting: Newton from the neighbour's
 orbit, judged by integration from it; ode21: integration from its end state plus q0, exactly as
-`methods.integration.sweeps`): the two sides of a hysteresis loop, and fewer transients.
+`methods.integration.sweeps`): the two sides of a hysteresis loop, and fewer transients. A line
+is a chain of one-point tasks (``chunk`` points each), each depending on the one before, so every
+point reaches its file as it finishes: an interrupted line keeps its finished points.
 
 Where. Points are grouped into small tasks and run on a ``dask.distributed`` cluster: a
 `LocalCluster` of one single-threaded worker process per core by default (``workers``), or an
@@ -160,10 +162,12 @@ def carry_from(rec: dict):
     return tuple(st)
 
 
-def compute_chunk(model, method: str, max_time: float, units, follow: bool = False) -> list:
+def compute_chunk(model, method: str, max_time: float, units, follow: bool = False, emit=None) -> list:
     """[(key, record)] of a list of units, one Dask task. A unit is (carried, points): points
     (key, U, eta, sigma, q0) computed in order; with ``follow`` each starts from the previous one's
-    response (the first from ``carried``, a finished neighbour's state, or from q0 when None)."""
+    response (the first from ``carried``, a finished neighbour's state, or from q0 when None).
+    ``emit(key, record)``: called as each point finishes (the serial sweep's sink, so that an
+    interrupted line keeps its finished points)."""
     out = []
     for carried, points in units:
         for key, U, eta, sigma, q0 in points:
@@ -174,9 +178,21 @@ def compute_chunk(model, method: str, max_time: float, units, follow: bool = Fal
                 rec = {"error": f"{type(exc).__name__}: {text[0] if text else ''}"[:300]}
             rec.update({"U": U, "eta": eta, "sigma": sigma, "q0": list(q0), "pid": os.getpid()})
             out.append((key, rec))
+            if emit is not None:
+                emit(key, rec)
             if follow:
                 carried = carry_from(rec)
     return out
+
+
+def compute_segment(model, method: str, max_time: float, points, previous=None, carried=None) -> list:
+    """[(key, record)] of consecutive points of a followed line, one Dask task: started from
+    ``previous`` (the result of the segment before it, a Dask dependency resolved on the workers)
+    or, for a line's first segment, from ``carried``. A line is a chain of such tasks, so each
+    segment reaches the client (and its point files) as soon as it finishes, not with the line."""
+    if previous:
+        carried = carry_from(previous[-1][1])
+    return compute_chunk(model, method, max_time, [(carried, points)], True)
 
 
 class _Sink:
@@ -381,8 +397,7 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
         t_tasks, cpu0 = time.perf_counter(), time.process_time()
         progress.start()
         for unit in todo:
-            for k, rec in compute_chunk(model, spec.method, spec.max_time, [unit], bool(spec.follow)):
-                sink.take(k, rec)
+            compute_chunk(model, spec.method, spec.max_time, [unit], bool(spec.follow), emit=sink.take)
         where["compute_seconds"] = time.perf_counter() - t_tasks
         where["cpu_seconds"] = time.process_time() - cpu0
         where["compute_points_per_second"] = (sink.computed + len(sink.failed)) / where["compute_seconds"]
@@ -423,7 +438,7 @@ def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs
     try:
         nw = max(len(client.scheduler_info().get("workers", {})), 1)
         # units per task: single points (about 8 tasks per worker, at most 16 points each), or
-        # with follow one line (its points depend on each other) unless ``chunk`` says more
+        # with follow ``chunk`` consecutive points of a line (default 1), chained line by line
         size = chunk or (1 if spec.follow else max(1, min(16, math.ceil(len(todo) / (8 * nw)))))
         where["chunk"] = size
         # Every worker derives the model and loads the compiled integrators before the clock of
@@ -433,9 +448,18 @@ def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs
         cpu0 = client.run(time.process_time)
         t_tasks, own0 = time.perf_counter(), time.process_time()
         sink.progress.start()
-        futures = [client.submit(compute_chunk, model, spec.method, spec.max_time, part, bool(spec.follow),
-                                 pure=False)
-                   for part in _chunks(todo, size)]
+        if spec.follow:
+            futures = []
+            for carried, points in todo:
+                previous = None
+                for k in range(0, len(points), size):
+                    previous = client.submit(compute_segment, model, spec.method, spec.max_time,
+                                             points[k:k + size], previous, carried, pure=False)
+                    futures.append(previous)
+        else:
+            futures = [client.submit(compute_chunk, model, spec.method, spec.max_time, part, False, pure=False)
+                       for part in _chunks(todo, size)]
+        where["tasks"] = len(futures)
         if on_client is not None:
             on_client(client)
         for fut in as_completed(futures):
