@@ -177,22 +177,22 @@ def _check(value, rule, path, field):
         out = tuple(finite_number(v, path, field, expected) for v in value)
         for k, x in enumerate(out):
             if not bounds[0] <= x <= bounds[1]:
-                raise SpecError(path, f"{field}[{k}]", f"expected {expected}, got {x:g}")
+                raise SpecError(path, f"{field}[{k}]", f"expected {expected}, got {x!r}")
         return out
     if kind == "angle_or_cal":
         if value == CALIBRATE:
             return None
         x = finite_number(value, path, field, expected)
         if not bounds[0] <= x <= bounds[1]:
-            raise SpecError(path, field, f"expected {expected}, got {x:g}")
+            raise SpecError(path, field, f"expected {expected}, got {x!r}")
         return x
     x = finite_number(value, path, field, expected)
     if kind == "pos" and not x > 0:
-        raise SpecError(path, field, f"expected {expected}, got {x:g}")
+        raise SpecError(path, field, f"expected {expected}, got {x!r}")
     if kind == "range" and not bounds[0] < x < bounds[1]:
-        raise SpecError(path, field, f"expected {expected}, got {x:g}")
+        raise SpecError(path, field, f"expected {expected}, got {x!r}")
     if kind == "bounded" and not bounds[0] < x <= bounds[1]:
-        raise SpecError(path, field, f"expected {expected}, got {x:g}")
+        raise SpecError(path, field, f"expected {expected}, got {x!r}")
     return x
 
 

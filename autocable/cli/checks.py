@@ -8,12 +8,12 @@ from __future__ import annotations
 import json
 import math
 
+from autocable.model.premises import MAX_INTEGRATION_TIME
 from autocable.spec import SpecError
 
 #: Accepted ranges of the numeric options that premises.check_parameters does not cover.
-#: Time limit of `simulate` (t* units): the default 60000 reaches every steady state of the
-#: sample cable; a million is about half an hour of integration.
-MAX_TIME_LIMIT = 1e6
+#: Time limit of `simulate` (t* units): `autocable.model.premises.MAX_INTEGRATION_TIME`.
+MAX_TIME_LIMIT = MAX_INTEGRATION_TIME
 #: Modes per plane of `simulate --modes`: the symbolic N-mode derivation grows as N^4.
 MODES_LIMIT = 6
 

@@ -48,6 +48,11 @@ def cmd_simulate(args) -> int:
     from autocable.methods.integration.ode21 import DEFAULT_Q0, Ode21Integrator
     _check_simulate(args)
     d = derivation(args.model)
+    period = 2 * math.pi / (d.ode.omega1 + args.sigma)
+    if args.max_time < period:
+        # a shorter run integrates nothing: no amplitude to report (and none is "diverged")
+        raise refuse("--max-time", f"expected at least one forcing period, 2 pi/Omega = {period:.6g} at "
+                                   f"sigma = {args.sigma:g}, got {args.max_time!r}")
     q0 = tuple(args.q0) if args.q0 else DEFAULT_Q0
     show = not (args.quiet or args.json)
 

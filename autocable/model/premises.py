@@ -28,6 +28,13 @@ class PremiseWarning(UserWarning):
 #: (`autocable.methods.integration.ode21.DIVERGED`).
 MAX_AMPLITUDE = 0.1
 
+#: The longest integration any input may ask for (t* units: ``simulate --max-time``, a sweep's
+#: ``max_time``, a scene's ``chart.t_end``, ``overlay.max_time`` and ``time.t_end``). The default
+#: 60000 reaches every steady state of the sample cable; a million is about half an hour of
+#: eq. (21) per point, and bounds every single compiled call (a chart's AME run to 1e6 takes well
+#: under a second), so that Ctrl-C is answered at once.
+MAX_INTEGRATION_TIME = 1e6
+
 #: name -> (error below, error above, warn above |value|, what it is). U* = U/U_c, eta* = eta/l,
 #: sigma = Omega - omega1 (nondimensional time of eq. 21).
 PARAMETER_RANGES: dict[str, tuple[float, float, float, str]] = {
@@ -56,7 +63,7 @@ def check_parameters(values: Mapping[str, float], where: str = "arguments",
             raise SpecError(where, label, f"expected a finite number, {what}, got {value!r}")
         if not lo <= x <= hi:
             raise SpecError(where, label, f"{what} must lie in [{lo:g}, {hi:g}] for eq. (21) to apply, "
-                                          f"got {x:g}")
+                                          f"got {x!r}")
         if abs(x) > warn:
             warnings.warn(PremiseWarning(f"{where}: {label} = {x:g}: {what} beyond {warn:g}, where the "
                                          f"small-amplitude expansions of Sect. 4 are stretched"),

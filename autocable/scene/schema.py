@@ -106,7 +106,7 @@ from typing import Any, Callable, Mapping
 # that a scene parses without loading either and cannot disagree with the engines.
 from autocable.methods.continuation.settings import ENGINES, INTEGER_STEP_KEYS, STEP_KEYS as _STEP_KEYS
 from autocable.model.orderings import ORDERINGS
-from autocable.model.premises import MAX_AMPLITUDE, check_parameters
+from autocable.model.premises import MAX_AMPLITUDE, MAX_INTEGRATION_TIME, check_parameters
 from autocable.spec import SpecError, finite_number, read_toml, show
 
 __all__ = [
@@ -287,7 +287,7 @@ def _amplitudes(values, path, where) -> None:
     for v in values:
         if abs(v) > MAX_AMPLITUDE:
             raise SpecError(path, where, f"amplitudes must lie in [-{MAX_AMPLITUDE:g}, {MAX_AMPLITUDE:g}] "
-                                         f"(fractions of the cable length), got {v:g}")
+                                         f"(fractions of the cable length), got {v!r}")
 
 
 def _premises(values: Mapping[str, float], path, fields: Mapping[str, str]) -> None:
@@ -386,7 +386,7 @@ def _steps(table, path, where) -> dict[str, float]:
         x = _num(v, path, f"{where}.{k}", what)
         inside = lo < x <= hi if lo == 0.0 or k == "max_period_ratio" else lo <= x <= hi
         if not inside:
-            raise SpecError(path, f"{where}.{k}", f"expected {what}, got {x:g}")
+            raise SpecError(path, f"{where}.{k}", f"expected {what}, got {x!r}")
         out[k] = x
     try:
         ContinuationSettings(**out)
@@ -648,8 +648,7 @@ def _chart(table, path: Path, plane, runs, fixed) -> ChartSpec:
                                                                and 2 <= g <= 400 for g in grid)):
         raise SpecError(path, "chart.grid", f"expected two whole numbers from 2 to 400 (points in x, y), got {grid!r}")
     t_end = _num(table.get("t_end", 30000.0), path, "chart.t_end")
-    if not t_end > 0:
-        raise SpecError(path, "chart.t_end", "expected a positive time (t* units)")
+    _duration(t_end, path, "chart.t_end")
     starts = table.get("starts", [[0.0, 1e-6], [5e-3, 1e-6]])
     if not (isinstance(starts, list) and starts and all(isinstance(a, list) and len(a) == 2 for a in starts)):
         raise SpecError(path, "chart.starts", f"expected a list of [a1, a2] pairs, got {starts!r}")
@@ -662,6 +661,13 @@ def _chart(table, path: Path, plane, runs, fixed) -> ChartSpec:
             raise SpecError(path, "chart.map", "expected the path of a sweep.nc (relative to the scene)")
         map_path = (path.parent / table["map"]).resolve()
     return ChartSpec(x, y, xr, yr, (int(grid[0]), int(grid[1])), float(t_end), starts, map_path)
+
+
+def _duration(value: float, path, field: str) -> None:
+    """An integration length: positive and at most `MAX_INTEGRATION_TIME` (every compiled call
+    then returns within about a second, and a typo like 1e300 is not a run that never ends)."""
+    if not 0 < value <= MAX_INTEGRATION_TIME:
+        raise SpecError(path, field, f"expected a time in (0, {MAX_INTEGRATION_TIME:g}] (t* units), got {value!r}")
 
 
 def _overlay(table, path, x: str, runs) -> OverlaySpec:
@@ -693,8 +699,7 @@ def _overlay(table, path, x: str, runs) -> OverlaySpec:
     if not (isinstance(directions, list) and directions and set(directions) <= {"up", "down"}):
         raise SpecError(path, "overlay.directions", f'expected a list of "up" and/or "down", got {directions!r}')
     max_time = _num(table.get("max_time", 30000.0), path, "overlay.max_time")
-    if max_time <= 0:
-        raise SpecError(path, "overlay.max_time", "expected a positive time (t* units)")
+    _duration(max_time, path, "overlay.max_time")
     return OverlaySpec(method, parameter, (lo, hi), points, tuple(directions), max_time)
 
 
@@ -716,8 +721,7 @@ def _time_scene(data, path: Path, text: str, model: Path, ame: str, scale) -> Sc
         # One vector field for the time scenes: the AME with its wind rows (1/U powers).
         raise SpecError(path, "time.U", "a [time] scene needs wind, U > 0 (the aerodynamic terms carry 1/U)")
     t_end = _num(t["t_end"], path, "time.t_end")
-    if t_end <= 0:
-        raise SpecError(path, "time.t_end", f"expected a positive time (t* units), got {t_end}")
+    _duration(t_end, path, "time.t_end")
     start = t.get("start", "rest")
     if start == "rest":
         start = None
@@ -731,7 +735,7 @@ def _time_scene(data, path: Path, text: str, model: Path, ame: str, scale) -> Sc
         raise SpecError(path, "time.start", f'expected "rest" or {{amplitudes = [a1, a2]}}, got {start!r}')
     summary_from = _num(t.get("summary_from", t_end / 2), path, "time.summary_from")
     if not 0 <= summary_from < t_end:
-        raise SpecError(path, "time.summary_from", f"expected a time in [0, t_end = {t_end:g}), got {summary_from:g}")
+        raise SpecError(path, "time.summary_from", f"expected a time in [0, t_end = {t_end:g}), got {summary_from!r}")
     spp = t.get("samples_per_period", 2)
     if isinstance(spp, bool) or not isinstance(spp, int) or not 1 <= spp <= 64:
         raise SpecError(path, "time.samples_per_period", f"expected a whole number from 1 to 64, got {spp!r}")

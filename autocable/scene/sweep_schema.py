@@ -29,7 +29,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from autocable.model.premises import MAX_AMPLITUDE, check_parameters
+from autocable.model.premises import MAX_AMPLITUDE, MAX_INTEGRATION_TIME, check_parameters
 from autocable.spec import SpecError, finite_number, read_toml, show
 
 #: The methods a sweep can use at every point.
@@ -150,7 +150,7 @@ def _start(value, path, field) -> tuple:
     for k, v in enumerate(out):
         if abs(v) > MAX_AMPLITUDE:
             raise SpecError(path, f"{field}[{k}]", f"expected a value in [-{MAX_AMPLITUDE:g}, {MAX_AMPLITUDE:g}] (eq. 21's "
-                                                   f"coordinates are fractions of the cable length), got {v:g}")
+                                                   f"coordinates are fractions of the cable length), got {v!r}")
     return out
 
 
@@ -177,8 +177,9 @@ def parse_sweep(data: dict, path, text: str = "") -> SweepSpec:
     if not isinstance(title, str):
         raise SpecError(path, "title", f"expected text, got {title!r}")
     max_time = _num(data.get("max_time", 60000.0), path, "max_time")
-    if max_time <= 0:
-        raise SpecError(path, "max_time", f"expected a positive time, got {max_time!r}")
+    if not 0 < max_time <= MAX_INTEGRATION_TIME:
+        raise SpecError(path, "max_time", f"expected a time in (0, {MAX_INTEGRATION_TIME:g}] (t* units), "
+                                          f"got {max_time!r}")
     q0 = _start(data["q0"], path, "q0") if "q0" in data else DEFAULT_Q0
     grid = data.get("grid", {})
     if not isinstance(grid, dict):
@@ -207,6 +208,12 @@ def parse_sweep(data: dict, path, text: str = "") -> SweepSpec:
         raise SpecError(path, "direction", f"expected \"up\" or \"down\", got {direction!r}")
     if "direction" in data and follow is None:
         raise SpecError(path, "direction", "only with follow (the axis swept up or down)")
+    # At least one forcing period at every point (omega1 >= 1 in t* units, so 2 pi/(1 + sigma) is
+    # the longest period): a shorter run integrates nothing and would pass an empty window for a result.
+    longest = 2 * math.pi / (1 + min(axes["sigma"]))
+    if max_time < longest:
+        raise SpecError(path, "max_time", f"expected at least one forcing period, 2 pi/(1 + sigma) = {longest:.4g} "
+                                          f"at sigma = {min(axes['sigma']):g}, got {max_time!r}")
     spec = SweepSpec(path=path, title=title, model=model, method=method, starts=starts,
                      start_axis=start_axis, max_time=max_time, text=text, follow=follow,
                      direction=direction, **axes)
