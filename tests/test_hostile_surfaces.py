@@ -70,3 +70,67 @@ def test_refusal_quotes_the_value_it_refuses(capsys):
 def test_simulate_shorter_than_a_forcing_period_is_refused_not_diverged(capsys, max_time):
     code, out, err = run_cli(capsys, "simulate", MODEL, "--eta", "8.2e-5", "--max-time", max_time, "--json")
     assert code == 2 and out == "" and "--max-time: expected at least one forcing period" in err
+
+
+# -- 4, 5: a --map is checked against the chart, and a file that is no map names --map ------------
+CHART = REPO / "runs" / "chart_U_eta.toml"         # U in [0.1, 1.5], eta in [0, 6e-4], sigma = 0.01
+
+
+def chart_map(path: Path, *, U=(0.2, 0.8, 1.4), sigma=0.01, model_hash=None, codes=None):
+    """A map in `autocable sweep`'s format for runs/chart_U_eta.toml (or, with the keywords, not)."""
+    import json
+
+    import numpy as np
+    import xarray as xr
+
+    from autocable.spec import load_model
+    eta = np.array([1e-4, 3e-4])
+    resp = np.ones((len(U), len(eta), 1), dtype=np.int8) if codes is None else codes
+    ds = xr.Dataset({"response": (("U", "eta", "sigma"), resp,
+                                  {"legend": json.dumps(["rest", "period-1", "period-2", "quasi-periodic",
+                                                         "diverged"])})},
+                    coords={"U": np.array(U, float), "eta": eta, "sigma": np.array([sigma])},
+                    attrs={"model_hash": model_hash or load_model(MODEL).content_hash()})
+    ds.to_netcdf(path, engine="scipy")
+    return path
+
+
+def test_a_map_of_the_chart_is_read_and_points_off_it_are_counted(tmp_path):
+    from autocable.scene.runner import _read_map
+    from autocable.scene.schema import load_scene
+    m = _read_map(load_scene(CHART), chart_map(tmp_path / "m.nc", U=(0.2, 0.8, 2.5)))
+    assert len(m["x"]) == 4 and m["outside"] == 2 and set(m["response"]) == {"period-1"}
+
+
+@pytest.mark.parametrize("kind,words", [
+    ("off the chart", "no point of the map lies on the chart"),
+    ("another model", ": model_hash: the map was computed for another model"),
+    ("another sigma", ": sigma: the map's nearest sigma is 0.03, the chart is at sigma = 0.01"),
+    ("float codes", ": response: float class codes"),
+    ("text", "not a readable netCDF file"),
+    ("truncated", "not a readable netCDF file"),
+    ("empty", "not a readable netCDF file"),
+])
+def test_a_map_that_is_not_of_the_chart_is_refused_naming_map(tmp_path, capsys, kind, words):
+    import numpy as np
+    path = tmp_path / "m.nc"
+    if kind == "off the chart":
+        chart_map(path, U=(2.5, 2.75, 3.0))
+    elif kind == "another model":
+        chart_map(path, model_hash="0" * 64)
+    elif kind == "another sigma":
+        chart_map(path, sigma=0.03)
+    elif kind == "float codes":
+        chart_map(path, codes=np.full((3, 2, 1), 1.5))
+    elif kind == "text":
+        path.write_text("U,eta,response\n0.5,1e-4,period-1\n")
+    elif kind == "truncated":
+        data = chart_map(tmp_path / "whole.nc").read_bytes()
+        path.write_bytes(data[: len(data) // 2])
+    else:
+        path.write_bytes(b"")
+    code, out, err = run_cli(capsys, "chart", CHART, "--out", tmp_path / "o", "--map", path, "--quiet")
+    assert code == 2 and out == ""
+    assert err.startswith(f"autocable: error: --map {path}: ") and words in err, err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())

@@ -131,8 +131,10 @@ def cmd_chart(args) -> int:
     if scene.chart is None:
         raise SpecError(scene.path, "chart", "missing; `autocable chart` draws a scene with a [chart] table "
                                              "(runs/chart_U_eta.toml is one); use `autocable run` for others")
+    check_out("--map", args.map)
     if args.map and not Path(args.map).is_file():
-        raise SpecError("--map", "", f"no such file: {args.map}; give the sweep.nc that `autocable sweep` wrote")
+        raise SpecError("arguments", "--map", f"no such file: {args.map}; give the sweep.nc that "
+                                              "`autocable sweep` wrote")
     out = Path(args.out) if args.out else Path("out") / scene.name
     try:
         out.mkdir(parents=True, exist_ok=True)

@@ -618,6 +618,7 @@ def _read_map(scene: Scene, response_map) -> dict | None:
     """The brute-force map (``response_map`` or the table's ``map``) in the chart's plane, read
     before anything is computed (a bad map is refused at once, not after the runs)."""
     from autocable.plotting.chart import read_response_map
+    from autocable.scene.map_checks import check_map
 
     ch = scene.chart
     path = Path(response_map) if response_map is not None else ch.map
@@ -625,7 +626,10 @@ def _read_map(scene: Scene, response_map) -> dict | None:
         return None
     values = {p: 0.0 for p in PARAMETERS}
     values.update(scene.fixed)
-    rmap = read_response_map(path, ch.x, ch.y, {k: v for k, v in values.items() if k not in (ch.x, ch.y)})
+    # checked against this chart (model, third parameter, ranges, class codes), naming where it came from
+    where = "--map" if response_map is not None else f"{scene.path}: chart.map"
+    rmap = check_map(path, where, load_model(scene.model).content_hash(), ch.x, ch.y, ch.x_range, ch.y_range,
+                     {k: v for k, v in values.items() if k not in (ch.x, ch.y)}, read_response_map)
     return dict(rmap, path=str(path))
 
 
@@ -641,7 +645,8 @@ def _score_map(scene: Scene, chart_out: dict, out: Path, rmap, say) -> dict | No
     score = agreement(chart_out["rows"], ch.x, ch.y, rmap)
     say(f"  map {rmap['path']}: {score['points']} points, the AME's class predicts eq. (21)'s at {score['agree']}")
     data = json.loads((out / "regions.json").read_text())
-    data["map"] = {"path": rmap["path"], "fixed": rmap["fixed"], **score}
+    data["map"] = {"path": rmap["path"], "fixed": rmap["fixed"], **score,
+                   "outside_chart": rmap.get("outside", 0)}
     (out / "regions.json").write_text(json.dumps(data, indent=1))
     return rmap
 
