@@ -134,3 +134,72 @@ def test_a_map_that_is_not_of_the_chart_is_refused_naming_map(tmp_path, capsys, 
     assert err.startswith(f"autocable: error: --map {path}: ") and words in err, err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
+
+
+# -- 6: --scheduler is checked with short timeouts, before any work ---------------------------
+def _server(mode: str):
+    """A local TCP service that is not Dask: "silent" accepts and never answers, "garbage" answers
+    with text; returns (address, closer)."""
+    import socket
+    import threading
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(4)
+    held = []
+
+    def serve():
+        while True:
+            try:
+                conn, _ = srv.accept()
+            except OSError:
+                return
+            held.append(conn)
+            if mode == "garbage":
+                conn.sendall(b"HTTP/1.1 200 OK\r\n" * 64)
+
+    threading.Thread(target=serve, daemon=True).start()
+
+    def close():
+        srv.close()
+        for c in held:
+            c.close()
+    return f"tcp://127.0.0.1:{srv.getsockname()[1]}", close
+
+
+def _refused_port() -> str:
+    import socket
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    return f"tcp://127.0.0.1:{port}"
+
+
+@pytest.mark.parametrize("kind,words", [
+    ("empty", "an empty address"),
+    ("malformed", "expected host:port"),
+    ("refused", "cannot connect to"),
+    ("silent", "did not answer as a Dask scheduler within 1 s"),
+    ("garbage", "is not a Dask scheduler"),
+])
+def test_scheduler_that_is_not_dask_is_refused_at_once_naming_the_option(tmp_path, capsys, monkeypatch,
+                                                                         kind, words):
+    import time
+
+    from autocable.studies import sweep as sw
+    monkeypatch.setattr(sw, "SCHEDULER_TIMEOUT", 1.0)
+    close = None
+    if kind in ("silent", "garbage"):
+        address, close = _server(kind)
+    else:
+        address = {"empty": "", "malformed": "tcp://nohost", "refused": _refused_port()}[kind]
+    path = write_sweep(tmp_path, '[grid]\neta = 8.2e-5\n')
+    t0 = time.perf_counter()
+    try:
+        code, out, err = run_cli(capsys, "sweep", path, "--out", tmp_path / "o", "--scheduler", address, "--quiet")
+    finally:
+        if close:
+            close()
+    assert time.perf_counter() - t0 < 5.0
+    assert code == 2 and out == "" and "arguments: --scheduler: " in err and words in err, err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "o").exists()

@@ -6,7 +6,7 @@ import math
 import sys
 from pathlib import Path
 
-from autocable.cli.checks import WORKERS_LIMIT, check_number, check_out, dumps
+from autocable.cli.checks import WORKERS_LIMIT, check_number, check_out, dumps, refuse
 from autocable.scene.schema import ENGINES, RESOLUTIONS, load_scene
 from autocable.spec import SpecError
 
@@ -17,6 +17,8 @@ def cmd_sweep(args) -> int:
     check_out("--out", args.out)
     check_number("--workers", args.workers, 0, WORKERS_LIMIT, integer=True)   # 0: serial, no Dask
     check_number("--chunk", args.chunk, 1, 10**6, integer=True)
+    if args.scheduler is not None and not args.scheduler.strip():
+        raise refuse("--scheduler", "an empty address; give one like tcp://host:8786 (or leave --scheduler out)")
     spec = load_sweep(args.sweep)
     summary = run_sweep(spec, args.out, workers=args.workers, scheduler=args.scheduler, chunk=args.chunk,
                         log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))

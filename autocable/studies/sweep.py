@@ -372,6 +372,8 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
     tasks per worker, at most 16 points each; with ``follow`` one line per task);
     ``on_client``: called with the Dask client once the tasks are submitted (tests)."""
     from autocable.spec import load_model
+    if scheduler is not None:
+        check_scheduler(scheduler)          # before any work: a dead or foreign address is named at once
     model = load_model(spec.model)
     out = Path(out_dir)
     folder = out / "points"
@@ -420,6 +422,58 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
     return summary
 
 
+#: Seconds to reach a Dask scheduler and hear it answer (`check_scheduler`): a refused port, a
+#: service that is not Dask or a peer that never answers is named at once, not after minutes.
+SCHEDULER_TIMEOUT = 10.0
+
+
+def check_scheduler(address: str, timeout: float | None = None) -> None:
+    """Refuse (`SpecError` naming ``--scheduler``) an address where no Dask scheduler answers
+    within ``timeout`` seconds (default `SCHEDULER_TIMEOUT`): an empty or malformed address, a
+    refused port (found at once), a service that never answers, or one that answers with other
+    bytes (Dask would read its first bytes as a frame length and try to allocate exabytes)."""
+    import asyncio
+    import socket
+
+    from autocable.spec import SpecError
+    timeout = SCHEDULER_TIMEOUT if timeout is None else timeout
+
+    def refuse(why: str):
+        return SpecError("arguments", "--scheduler", f"{why}; give the address of a running Dask scheduler, "
+                                                     "e.g. tcp://host:8786 (or leave --scheduler out)")
+
+    if not isinstance(address, str) or not address.strip() or any(c.isspace() for c in address):
+        raise refuse(f"expected an address like tcp://host:8786, got {address!r}")
+    if "://" not in address or address.startswith("tcp://"):
+        hostport = address.split("://", 1)[-1]
+        host, _, port = hostport.rpartition(":")
+        if not host or not port.isdigit() or not 0 < int(port) < 65536:
+            raise refuse(f"expected host:port, got {address!r}")
+        try:
+            socket.create_connection((host.strip("[]"), int(port)), timeout=timeout).close()
+        except OSError as exc:
+            raise refuse(f"cannot connect to {address}: {exc.strerror or exc}") from None
+
+    async def identity():
+        from distributed.comm import connect
+        comm = await connect(address, timeout=timeout)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    try:
+        reply = asyncio.run(asyncio.wait_for(identity(), timeout))
+    except (asyncio.TimeoutError, TimeoutError):
+        raise refuse(f"{address} did not answer as a Dask scheduler within {timeout:g} s") from None
+    except Exception as exc:  # noqa: BLE001 - whatever the peer sent, it is not a Dask scheduler
+        first = (str(exc).strip().splitlines() or [""])[0][:100]
+        raise refuse(f"{address} is not a Dask scheduler ({type(exc).__name__}: {first})") from None
+    if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+        raise refuse(f"{address} answered, but not as a Dask scheduler")
+
+
 def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs, on_client):
     import logging
 
@@ -427,7 +481,7 @@ def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs
     cluster = None
     t_start = time.perf_counter()
     if scheduler:
-        client = Client(scheduler)
+        client = Client(scheduler, timeout=SCHEDULER_TIMEOUT)
         where = {"mode": "scheduler", "address": scheduler}
     else:
         n = workers if workers else (os.cpu_count() or 1)
