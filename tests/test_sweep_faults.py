@@ -95,3 +95,48 @@ def test_follow_line_on_dask_is_one_task_per_point(tmp_path):
     a, b = numbers(tmp_path / "serial"), numbers(tmp_path / "dask")
     for k in a:
         assert np.array_equal(a[k], b[k], equal_nan=True), k
+
+
+@pytest.mark.parametrize("grid,field", [
+    ("U = { from = 0.0, to = 1.0, num = 10000000 }", "grid.U.num"),
+    ("U = { from = 0.0, to = 1.0, num = 1000 }\neta = { from = 0.0, to = 1e-3, num = 1000 }\n"
+     "sigma = { from = -0.1, to = 0.1, num = 1000 }", "grid"),
+])
+def test_grid_size_is_checked_from_the_nums_before_any_axis_is_built(tmp_path, grid, field):
+    """10^9 points (three axes of 1000) are refused from the nums in milliseconds and without
+    building an axis (tracemalloc: under 1 MB allocated)."""
+    import time
+    import tracemalloc
+
+    from autocable.scene.sweep_schema import MAX_POINTS
+    from autocable.spec import SpecError
+    path = write_sweep(tmp_path, f"[grid]\n{grid}\n")
+    tracemalloc.start()
+    t0 = time.perf_counter()
+    with pytest.raises(SpecError, match=f": {field}: .*{MAX_POINTS:,}"):
+        load_sweep(path)
+    elapsed = time.perf_counter() - t0
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert elapsed < 0.5 and peak < 1e6
+
+
+def test_a_large_sweep_states_its_cost_and_refuses_a_disk_too_small(tmp_path, monkeypatch):
+    """Above ESTIMATE_ABOVE points the sweep logs its least CPU time and disk before planning; with
+    less free space than the point files need it is refused naming --out, before any file."""
+    import shutil
+    from collections import namedtuple
+
+    from autocable.spec import SpecError
+    from autocable.studies import sweep as sw
+    monkeypatch.setattr(sw, "ESTIMATE_ABOVE", 2)
+    spec = load_sweep(write_sweep(tmp_path, SMALL))
+    lines = []
+    run_sweep(spec, tmp_path / "o", workers=0, log=lines.append)
+    expected = 3 / sw.FASTEST_RATE / 3600
+    assert any(f"3 points: at least {expected:.3g} hours" in line for line in lines), lines
+    usage = namedtuple("usage", "total used free")
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(10**9, 10**9 - 100, 100))
+    with pytest.raises(SpecError, match="--out: 3 points need up to .* GB of point files"):
+        run_sweep(spec, tmp_path / "p", workers=0)
+    assert not (tmp_path / "p" / "sweep.json").exists()

@@ -39,8 +39,10 @@ AXES = ("U", "eta", "sigma")
 #: The default start, rest with a tiny out-of-plane seed (`ode21.DEFAULT_Q0`, repeated here so the
 #: schema stays light; tests/test_sweep.py checks they agree).
 DEFAULT_Q0 = (0.0, 0.0, 1e-6, 0.0)
-#: A grid larger than this is almost certainly a typo in ``num``.
-MAX_POINTS = 10_000_000
+#: A grid larger than this is almost certainly a typo in ``num``: planning a million points takes
+#: about 15 s and 0.7 GB (a key hashed per point), and computing them days of CPU; ten million
+#: would not fit in memory. Checked from the ``num``s and list lengths before any axis is built.
+MAX_POINTS = 1_000_000
 
 _TOP_KEYS = {"title", "model", "method", "q0", "max_time", "grid", "follow", "direction"}
 DIRECTIONS = ("up", "down")
@@ -109,6 +111,18 @@ class SweepSpec:
 
 def _num(value, path, field) -> float:
     return finite_number(value, path, field)
+
+
+def _count(value, path, name) -> int:
+    """How many values the axis will have, read from ``num`` or the list's length without building
+    it (a typo like num = 1e7 on three axes is refused before any memory is spent)."""
+    if isinstance(value, dict) and "num" in value:
+        num = value["num"]
+        if isinstance(num, bool) or not isinstance(num, int) or not 1 <= num <= MAX_POINTS:
+            raise SpecError(path, f"grid.{name}.num", f"expected a whole number from 1 to {MAX_POINTS:,}, "
+                                                      f"got {show(num)}")
+        return num
+    return len(value) if isinstance(value, list) else 1
 
 
 def _axis(value, path, name) -> tuple:
@@ -188,6 +202,11 @@ def parse_sweep(data: dict, path, text: str = "") -> SweepSpec:
     if unknown:
         raise SpecError(path, f"grid.{sorted(unknown)[0]}", f"unknown axis; the axes are {', '.join(AXES)} "
                         "and start")
+    counts = [_count(grid.get(name, 0.0), path, name) for name in AXES]
+    if isinstance(grid.get("start"), list):
+        counts.append(len(grid["start"]))
+    if math.prod(counts) > MAX_POINTS:
+        raise SpecError(path, "grid", f"{math.prod(counts):,} points is more than {MAX_POINTS:,}; check num")
     axes = {name: _axis(grid.get(name, 0.0), path, name) for name in AXES}
     start_axis = "start" in grid
     if start_axis:

@@ -53,6 +53,13 @@ RESPONSE_CLASSES = ("rest", "period-1", "period-2", "quasi-periodic", "diverged"
 NOT_COMPUTED = -1
 #: Below this amplitude a steady response is the rest state (`ode21`'s rest floor, 1e3 x atol).
 REST_FLOOR = 1e-10
+#: Above this many points a sweep states what it will cost before it starts (`estimate`).
+ESTIMATE_ABOVE = 100_000
+#: Points per second and worker of the easiest sweeps: shooting over runs/sweep_U_eta.toml
+#: measured 165-185 points/s on 2 workers (docs/benchmarks.md); harder points cost seconds.
+FASTEST_RATE = 90.0
+#: A point file's bytes (about 700) rounded up to what a filesystem gives the smallest file.
+POINT_FILE_BYTES = 1024
 
 
 # -- one point ----------------------------------------------------------------------------------
@@ -361,6 +368,19 @@ def _chunks(items: list, size: int) -> list:
     return [items[k::n] for k in range(n)]
 
 
+def estimate(points: int, workers: int, folder: Path) -> dict:
+    """What ``points`` still to compute will cost at least: CPU hours at `FASTEST_RATE` per worker,
+    and the disk of their point files (one filesystem block each, at least `POINT_FILE_BYTES`)
+    against the space free under ``folder``."""
+    import shutil
+    try:
+        block = max(POINT_FILE_BYTES, os.statvfs(folder).f_bsize)
+    except (OSError, AttributeError):
+        block = 4096
+    return {"points": points, "hours_at_least": points / (FASTEST_RATE * max(workers, 1)) / 3600,
+            "disk_bytes": points * block, "free_bytes": shutil.disk_usage(folder).free}
+
+
 def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler: str | None = None,
               chunk: int | None = None, log=None, cluster_kwargs: dict | None = None,
               on_client=None) -> dict:
@@ -383,6 +403,19 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
     for done in ("sweep.json", "sweep.nc"):
         (out / done).unlink(missing_ok=True)
     shash = sweep_hash(spec, model)
+    if spec.size > ESTIMATE_ABOVE:
+        n_workers = 1 if workers == 0 and scheduler is None else workers or (os.cpu_count() or 1)
+        cost = estimate(spec.size, n_workers, folder)
+        if cost["disk_bytes"] > cost["free_bytes"]:
+            from autocable.spec import SpecError
+            raise SpecError("arguments", "--out", f"{spec.size:,} points need up to {cost['disk_bytes'] / 1e9:.3g} GB "
+                            f"of point files and {out} has {cost['free_bytes'] / 1e9:.3g} GB free; give a folder "
+                            "with more space or a smaller grid")
+        if log:
+            log(f"sweep: {spec.size:,} points: at least {cost['hours_at_least']:.3g} hours on "
+                f"{n_workers} workers (at the fastest rate measured, {FASTEST_RATE:g} "
+                f"points/s a worker), up to {cost['disk_bytes'] / 1e9:.3g} GB of point files; planning the "
+                f"grid first (about 15 s a million points)")
     grid, todo, resumed, damaged = _plan(spec, shash, folder)
     progress = _Progress(len(grid), resumed, log)
     if log:
