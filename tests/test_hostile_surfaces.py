@@ -203,3 +203,61 @@ def test_scheduler_that_is_not_dask_is_refused_at_once_naming_the_option(tmp_pat
     assert time.perf_counter() - t0 < 5.0
     assert code == 2 and out == "" and "arguments: --scheduler: " in err and words in err, err
     assert len(err.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
+# -- 9: targets and search-space files validated where they are read ---------------------------
+TARGETS = REPO / "models" / "luongo_zulli_2012.targets.toml"
+
+
+def targets_with(tmp_path: Path, old: str, new: str) -> Path:
+    text = TARGETS.read_text()
+    assert old in text, old
+    path = tmp_path / "t.targets.toml"
+    path.write_text(text.replace(old, new, 1))
+    return path
+
+
+def first_screen_points() -> str:
+    m = re.search(r"points = \[\[[^\n]*", TARGETS.read_text())
+    assert m
+    return m.group(0)
+
+
+@pytest.mark.parametrize("triple,name", [("[50.0, 8e-5, 0.0]", "U"), ("[0.5, 0.9, 0.0]", "eta"),
+                                         ("[0.5, 8e-5, 9.0]", "sigma")])
+def test_screen_points_outside_the_model_are_refused(tmp_path, triple, name):
+    from autocable.paper import targets as tg
+    path = targets_with(tmp_path, first_screen_points(), f"points = [{triple}]")
+    with pytest.raises(SpecError, match=re.escape(f"points[0] ({name}):") + ".*must lie in"):
+        tg.load_targets(path)
+
+
+@pytest.mark.parametrize("scene,field,words", [
+    ("../../etc/passwd", "scene", "expected a scene name"),
+    ("fig99", "scene", "no scene 'fig99'"),
+])
+def test_statement_scenes_must_be_scenes_without_bound(tmp_path, capsys, scene, field, words):
+    path = targets_with(tmp_path, 'scene = "fig11"', f'scene = "{scene}"')
+    code, out, err = run_cli(capsys, "calibrate", MODEL, path, "--out", tmp_path / "o", "--quiet")
+    assert code == 2 and out == "" and f".{field}: " in err and words in err and str(path) in err, err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "o" / "screen").exists()
+
+
+def test_goal_boxes_scene_must_exist_with_bound(tmp_path, capsys):
+    path = targets_with(tmp_path, 'boxes_scenes = ["fig08", "fig10"]', 'boxes_scenes = ["fig08", "fig99"]')
+    code, _, err = run_cli(capsys, "calibrate", MODEL, path, "--out", tmp_path / "o", "--bound", "--quiet")
+    assert code == 2 and "goal.boxes_scenes[1]: no scene 'fig99'" in err and not (tmp_path / "o" / "screen").exists()
+
+
+@pytest.mark.parametrize("density", ["inf", "nan", "1e300", "0.0", "-1.25", "11.0"])
+def test_air_density_must_be_finite_positive_and_air(tmp_path, capsys, density):
+    space = tmp_path / "s.search.toml"
+    space.write_text(f"air_density_kg_m3 = [{density}]\n")
+    code, out, err = run_cli(capsys, "calibrate", MODEL, TARGETS, "--out", tmp_path / "o", "--space", space)
+    assert code == 2 and out == "" and "air_density_kg_m3: expected a non-empty list of densities in (0, 10]" in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_empty_space_path_is_refused_not_the_default_study(tmp_path, capsys):
+    code, out, err = run_cli(capsys, "calibrate", MODEL, TARGETS, "--out", tmp_path / "o", "--space", "")
+    assert code == 2 and out == "" and "--space: an empty path" in err and not (tmp_path / "o").exists()

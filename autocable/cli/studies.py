@@ -6,7 +6,7 @@ import json
 import sys
 from pathlib import Path
 
-from autocable.cli.checks import REPEATS_LIMIT, WORKERS_LIMIT, check_number, check_out, dumps, strict
+from autocable.cli.checks import REPEATS_LIMIT, WORKERS_LIMIT, check_number, check_out, dumps, refuse, strict
 from autocable.spec import SpecError, load_model
 
 def cmd_work_precision(args) -> int:
@@ -100,6 +100,9 @@ def cmd_calibrate(args) -> int:
     check_number("--bound-margin", args.bound_margin, 0, 10**3, integer=True)
     if args.bound_minutes is not None:
         check_number("--bound-minutes", args.bound_minutes, 0, 10**6)
+    if args.space is not None and not args.space.strip():
+        raise refuse("--space", "an empty path; give the search-space file (or leave --space out for the "
+                                "default beside the model)")
     space_path = Path(args.space) if args.space else Path(args.model).with_suffix("").with_suffix(".search.toml")
     if args.space or space_path.is_file():
         space = study.load_space(space_path)

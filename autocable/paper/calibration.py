@@ -154,9 +154,10 @@ def parse_space(data: dict, path="<space>") -> SearchSpace:
                                            f"got {value!r}")
             vals[key] = tuple(dict.fromkeys(value))
         elif key == "air_density_kg_m3":
+            # air at any height and temperature a cable meets: 0.5-1.5 kg/m^3; beyond 10 it is not air
             if not isinstance(value, list) or not value or any(
-                    isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0 for v in value):
-                raise SpecError(path, key, f"expected a non-empty list of positive densities in kg/m^3, got {value!r}")
+                    isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v <= 10 for v in value):
+                raise SpecError(path, key, f"expected a non-empty list of densities in (0, 10] kg/m^3, got {value!r}")
             vals[key] = tuple(float(v) for v in value)
         elif key == "yaw_deg":
             vals[key] = _angles(value, path, key, -90.0, 90.0)
@@ -1094,6 +1095,8 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
             raise tg.TargetsError(targets_path, "statement.scene",
                                   f"{', '.join(unknown)}: not a scene of the bound stage (it runs "
                                   f"{', '.join(ORDER + NO_WIND)})")
+    runs = runs or Path(__file__).resolve().parents[2] / "runs"
+    tg.check_scenes(targets, goal, runs, targets_path)
     space = space or SearchSpace()
     say = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     (out / "screen").mkdir(parents=True, exist_ok=True)

@@ -21,9 +21,11 @@ and what is accepted.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from autocable.model.premises import check_parameters
 from autocable.spec import SpecError, read_toml
 
 #: Verdicts, best first (the report's words).
@@ -40,6 +42,10 @@ SOURCES = {
     "check": "autocable's own check beside a printed figure, not printed in the paper",
     "beyond": "beyond Sect. 5: a result the paper's figures do not draw",
 }
+
+
+#: A scene is named by its file's stem: no folders, no dots (a name never leaves runs/).
+_SCENE_NAME = re.compile(r"[A-Za-z0-9_-]{1,64}")
 
 
 class TargetsError(SpecError):
@@ -124,6 +130,9 @@ def parse_targets(data: dict, path="<targets>") -> tuple[Target, ...]:
             if not tid or tid in seen:
                 raise TargetsError(path, f"{where}.id", f"expected a non-empty id not used before, got {tid!r}")
             seen.add(tid)
+            if "scene" in vals and not _SCENE_NAME.fullmatch(vals["scene"]):
+                raise TargetsError(path, f"{where}.scene", f"expected a scene name (the stem of a runs/fig*.toml "
+                                                           f"file, e.g. fig06), got {vals['scene']!r}")
             if kind == "statement" and vals.get("source", "paper") not in SOURCES:
                 raise TargetsError(path, f"{where}.source",
                                    f"expected one of {', '.join(SOURCES)}, got {vals['source']!r}")
@@ -146,11 +155,16 @@ def parse_targets(data: dict, path="<targets>") -> tuple[Target, ...]:
                         raise TargetsError(path, f"{where}.points[{j}]", f"expected [U*, eta*, sigma], got {p!r}")
                     for x in p:
                         _typed(x, float, path, f"{where}.points[{j}]")
+                    # every point where eq. (21) applies (the premises the command line applies)
+                    check_parameters(dict(zip(("U", "eta", "sigma"), p)), str(path),
+                                     {k: f"{where}.points[{j}] ({k})" for k in ("U", "eta", "sigma")})
                 vals["points"] = tuple(tuple(float(x) for x in p) for p in pts)
                 sig = vals.get("sigmas", [])
                 if vals["quantity"] in ("ame_a2_ratio", "ode21_a2_ratio") and not sig:
                     raise TargetsError(path, f"{where}.sigmas", "expected a non-empty list of sigma values")
                 vals["sigmas"] = tuple(_typed(x, float, path, f"{where}.sigmas") for x in sig)
+                for j, x in enumerate(vals["sigmas"]):
+                    check_parameters({"sigma": x}, str(path), {"sigma": f"{where}.sigmas[{j}]"})
             out.append(Target(kind=kind, **vals))
     if not out:
         raise TargetsError(path, "", "no targets: add [[statement]], [[number]] or [[screen]] entries")
@@ -187,9 +201,27 @@ def parse_goal(data: dict, path="<targets>") -> Goal | None:
         raise TargetsError(path, "goal.statements_yes", f"expected a whole number >= 0, got {n!r}")
     if isinstance(share, bool) or not isinstance(share, (int, float)) or not 0 <= share <= 1:
         raise TargetsError(path, "goal.boxes_share", f"expected a share between 0 and 1, got {share!r}")
-    if not isinstance(scenes, list) or not all(isinstance(x, str) and x for x in scenes):
+    if not isinstance(scenes, list) or not all(isinstance(x, str) and _SCENE_NAME.fullmatch(x) for x in scenes):
         raise TargetsError(path, "goal.boxes_scenes", f"expected a list of scene names, got {scenes!r}")
     return Goal(n, float(share), tuple(scenes))
+
+
+def check_scenes(targets, goal: Goal | None, runs_dir, path) -> None:
+    """Refuse (`TargetsError` naming the entry) a statement's scene or a ``goal.boxes_scenes`` entry
+    that is not a scene file ``<name>.toml`` of ``runs_dir``: a typo (fig99) would otherwise be
+    decided "no" after hours of computation."""
+    have = {p.stem for p in Path(runs_dir).glob("fig*.toml")}
+    index = {k: 0 for k in KINDS}
+    for t in targets:
+        i = index[t.kind]
+        index[t.kind] += 1
+        if t.kind == "statement" and t.scene not in have:
+            raise TargetsError(path, f"statement[{i}].scene", f"no scene {t.scene!r} in {runs_dir} (it has "
+                                                              f"{', '.join(sorted(have))})")
+    for j, name in enumerate(goal.boxes_scenes if goal else ()):
+        if name not in have:
+            raise TargetsError(path, f"goal.boxes_scenes[{j}]", f"no scene {name!r} in {runs_dir} (it has "
+                                                                f"{', '.join(sorted(have))})")
 
 
 def load_goal(path) -> Goal | None:
