@@ -9,6 +9,7 @@ says what a reader can rely on.
 """
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -150,6 +151,9 @@ def _publish(staging: Path, out: Path, name: str, status: str, reason: str = "")
 def _reason(exc: BaseException) -> str:
     if isinstance(exc, KeyboardInterrupt):
         return "interrupted"
+    if isinstance(exc, OSError) and exc.strerror and exc.filename:
+        m = _TEMP.match(Path(os.fsdecode(exc.filename)).name)
+        return f"{exc.strerror}: {m['name'] if m else Path(os.fsdecode(exc.filename)).name}"
     text = str(exc).strip().splitlines()
     first = text[0] if text else ""
     return first if isinstance(exc, SpecError) else f"{type(exc).__name__}: {first}".rstrip(": ")
@@ -174,7 +178,44 @@ def output_folder(out_dir: str | Path, name: str, inputs: Sequence = ()) -> Iter
         status = "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed"
         try:
             _publish(staging, out, name, status, _reason(exc))
-        except Exception:   # noqa: BLE001 - the run's own error matters; run.json still says "running"
-            pass
+        except Exception:   # noqa: BLE001 - the run's own error matters (e.g. a full disk)
+            _mark_in_place(out, name, status, _reason(exc))
         raise
-    _publish(staging, out, name, STATUS_COMPLETE)
+    try:
+        _publish(staging, out, name, STATUS_COMPLETE)
+    except BaseException as exc:   # the disk filled (or Ctrl-C) while publishing: not a result
+        _mark_in_place(out, name, "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed",
+                       f"publishing the results: {_reason(exc)}")
+        raise
+
+
+def _mark_in_place(out: Path, name: str, status: str, reason: str) -> None:
+    """run.json says ``status`` (never "running" with a dead pid) when the atomic write cannot:
+    on a full disk its temporary file cannot be made, while the marker's own bytes can be
+    rewritten in place (no new block: the text is cut to the blocks the marker holds). A reader that meets
+    the file half-rewritten reads it as not complete, which it is not."""
+    path = out / RUN_JSON
+    meta = read_json(path)
+    files = meta.get("files") if isinstance(meta, dict) and isinstance(meta.get("files"), list) else []
+    try:
+        st = path.stat()
+    except OSError:
+        return
+    # the bytes up to the end of the file's last block are already the file's: no new block
+    block = getattr(st, "st_blksize", 4096) or 4096
+    size = max(st.st_size, -(-st.st_size // block) * block)
+    doc = {"format": "autocable.run/1", "name": name, "status": status, "reason": reason, "files": files}
+    text = json.dumps(doc)
+    while len(text.encode()) > size and (doc["files"] or doc["reason"]):
+        # keep the status: the file list (a reader then owns nothing) and the reason go first
+        if doc["files"]:
+            doc["files"] = []
+        else:
+            doc["reason"] = doc["reason"][: max(0, len(doc["reason"]) - (len(text.encode()) - size) - 3)]
+        text = json.dumps(doc)
+    try:
+        with open(path, "r+b") as fh:
+            fh.write(text.encode())
+            fh.truncate()
+    except OSError:
+        pass

@@ -10,6 +10,7 @@ One module per group of commands: `derivation`, `simulate`, `runs` (run, chart, 
 from __future__ import annotations
 
 import argparse
+import errno
 import os
 import sys
 
@@ -190,6 +191,16 @@ def _dispatch(args) -> int:
         return EXIT_FAILED
     except BrokenPipeError:            # output piped into `head` and cut: not an error
         return 0
+    except OSError as exc:             # a file that cannot be written or read mid-run: named, not raw
+        from autocable.cli.checks import os_error
+        if not (exc.filename or exc.filename2) and exc.errno not in (errno.ENOSPC, errno.EDQUOT, errno.EIO):
+            first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            print(f"autocable: error ({type(exc).__name__}): {first} (set AUTOCABLE_DEBUG=1 for details)",
+                  file=sys.stderr)
+            return EXIT_INPUT
+        message, status = os_error(exc, args)
+        print(f"autocable: {'failed' if status == EXIT_FAILED else 'error'}: {message}", file=sys.stderr)
+        return status
     except KeyboardInterrupt:
         print("autocable: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

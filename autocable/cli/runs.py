@@ -6,7 +6,8 @@ import math
 import sys
 from pathlib import Path
 
-from autocable.cli.checks import WORKERS_LIMIT, check_number, check_out, dumps, refuse
+from autocable.cli.checks import WORKERS_LIMIT, check_folder, check_number, check_out, dumps, refuse
+from autocable.errors import EXIT_FAILED
 from autocable.scene.schema import ENGINES, RESOLUTIONS, load_scene
 from autocable.spec import SpecError
 
@@ -20,6 +21,7 @@ def cmd_sweep(args) -> int:
     if args.scheduler is not None and not args.scheduler.strip():
         raise refuse("--scheduler", "an empty address; give one like tcp://host:8786 (or leave --scheduler out)")
     spec = load_sweep(args.sweep)
+    check_folder("--out", args.out)
     summary = run_sweep(spec, args.out, workers=args.workers, scheduler=args.scheduler, chunk=args.chunk,
                         log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
     print(dumps(summary, indent=1))
@@ -28,7 +30,7 @@ def cmd_sweep(args) -> int:
         print(f"autocable: sweep: {len(summary['failed'])} point(s) failed (kept out of sweep.nc as not computed; "
               f"a rerun tries them again), first at U={first['U']:g} eta={first['eta']:g} "
               f"sigma={first['sigma']:g}: {first['error']}", file=sys.stderr)
-        return 1
+        return EXIT_FAILED
     return 0
 
 

@@ -6,8 +6,8 @@ import math
 import sys
 from pathlib import Path
 
-from autocable.cli.checks import (MAX_TIME_LIMIT, MODES_LIMIT, check_number, check_out, dumps,
-                                  refuse, response_status)
+from autocable.cli.checks import (MAX_TIME_LIMIT, MODES_LIMIT, check_file_target, check_number, check_out,
+                                  dumps, refuse, response_status)
 from autocable.cli.derivation import derivation
 from autocable.model.premises import MAX_AMPLITUDE
 from autocable.spec import SpecError
@@ -42,6 +42,7 @@ def _check_simulate(args) -> None:
     check_out("--csv", args.csv)
     if args.csv and Path(args.csv).is_dir():       # found before the integration, not after it
         raise refuse("--csv", f"{args.csv} is a folder; give a file name for the time history")
+    check_file_target("--csv", args.csv)
 
 
 def cmd_simulate(args) -> int:

@@ -6,7 +6,8 @@ import json
 import sys
 from pathlib import Path
 
-from autocable.cli.checks import REPEATS_LIMIT, WORKERS_LIMIT, check_number, check_out, dumps, refuse, strict
+from autocable.cli.checks import (REPEATS_LIMIT, WORKERS_LIMIT, check_folder, check_number, check_out, dumps,
+                                  refuse, strict)
 from autocable.spec import SpecError, load_model
 
 def cmd_work_precision(args) -> int:
@@ -33,6 +34,7 @@ def cmd_advise(args) -> int:
 def cmd_bench(args) -> int:
     check_number("--repeats", args.repeats, 0, REPEATS_LIMIT, integer=True)
     check_out("--out", args.out)
+    check_folder("--out", args.out)
     if args.what is None:
         return cmd_work_precision(args)
     if args.what == "fuzz":
@@ -74,6 +76,7 @@ def cmd_failure_map(args) -> int:
     from autocable.studies.failure_map import run_failure_map
     from autocable.studies.failure_map_report import write_failure_map
     check_out("--out", args.out)
+    check_folder("--out", args.out)
     say = None if args.quiet else (lambda s: print(s, file=sys.stderr))
     t0 = time.perf_counter()
     result = run_failure_map(args.model, quick=args.quick, log=say)
@@ -115,6 +118,7 @@ def cmd_calibrate(args) -> int:
     if args.bound and study.tg.load_goal(args.targets) is None:
         raise study.tg.TargetsError(args.targets, "goal", "--bound needs a [goal] table "
                                                           "(statements_yes, boxes_share, boxes_scenes)")
+    check_folder("--out", args.out)
     stats = study.calibrate(args.model, args.targets, args.out, space=space, jobs=args.jobs, quiet=args.quiet,
                             bound=args.bound or args.bound_minutes is not None or args.bound_margin > 0,
                             bound_minutes=args.bound_minutes, bound_margin=args.bound_margin)

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 from autocable._paths import RUNS_DIR
+from autocable.errors import EXIT_FAILED
 from autocable.spec import SpecError
 
 __all__ = ["QUICK", "SceneOutcome", "default_runs_dir", "discover", "expected_cost", "run_figures",
@@ -339,7 +340,8 @@ def blas_thread_env(jobs: int, cores: int, environ, numpy_loaded: bool) -> dict[
 
 
 def cmd_figures(args) -> int:
-    """Run the scenes, write report.md, print the summary; exit status 1 if any scene failed."""
+    """Run the scenes, write report.md, print the summary; exit status 3 (`EXIT_FAILED`: what was
+    computed is kept) if any scene failed."""
     if args.jobs is not None and args.jobs < 1:
         raise SpecError("--jobs", "", f"expected a whole number >= 1, got {args.jobs}")
     # Before anything imports numpy: this process forks the scene processes after loading it.
@@ -361,6 +363,14 @@ def cmd_figures(args) -> int:
         from autocable.paper.targets import load_targets
         load_targets(targets)
     out = Path(args.out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SpecError("arguments", "--out", f"cannot make the folder {out}: {exc.strerror or exc}; give a "
+                                              "folder that can be created") from None
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise SpecError("arguments", "--out", f"cannot write into {out} (read-only or not permitted); give a "
+                                              "writable folder")
     say = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
     t0 = time.perf_counter()
     outcomes = run_figures(scenes, out, jobs=args.jobs, timeout=args.timeout, say=say,
@@ -377,4 +387,4 @@ def cmd_figures(args) -> int:
     else:
         for o in failed:
             print(f"autocable: {o.name} failed: {o.error}", file=sys.stderr)
-    return 1 if failed else 0
+    return EXIT_FAILED if failed else 0
