@@ -140,3 +140,33 @@ def test_a_large_sweep_states_its_cost_and_refuses_a_disk_too_small(tmp_path, mo
     with pytest.raises(SpecError, match="--out: 3 points need up to .* GB of point files"):
         run_sweep(spec, tmp_path / "p", workers=0)
     assert not (tmp_path / "p" / "sweep.json").exists()
+
+
+def test_a_folder_a_live_sweep_holds_is_refused_and_freed_when_it_ends(tmp_path):
+    """A second sweep into the folder of a running one is refused naming --out and the process
+    (the lock is held here by this process through `folder_lock`, as a running sweep holds it);
+    once the holder is gone the folder is free, with no stale lock to clean."""
+    import os
+    import subprocess
+    import sys
+
+    from autocable.spec import SpecError
+    from autocable.studies.sweep import folder_lock
+    spec = load_sweep(write_sweep(tmp_path, SMALL))
+    out = tmp_path / "o"
+    holder = subprocess.Popen([sys.executable, "-c", "import sys, time\nfrom pathlib import Path\n"
+                               "from autocable.studies.sweep import folder_lock\n"
+                               f"with folder_lock(Path({str(out)!r})):\n    print('held', flush=True)\n"
+                               "    time.sleep(60)\n"],
+                              stdout=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONPATH=str(REPO)))
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        with pytest.raises(SpecError, match=rf"--out: another autocable sweep \(process {holder.pid}\)"):
+            run_sweep(spec, out, workers=0)
+        assert not (out / "points").exists()
+    finally:
+        holder.kill()
+        holder.wait()
+    with folder_lock(out):            # the killed holder's lock went with it
+        pass
+    assert run_sweep(spec, out, workers=0)["computed"] == 3

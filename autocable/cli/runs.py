@@ -21,6 +21,9 @@ def cmd_sweep(args) -> int:
     if args.scheduler is not None and not args.scheduler.strip():
         raise refuse("--scheduler", "an empty address; give one like tcp://host:8786 (or leave --scheduler out)")
     spec = load_sweep(args.sweep)
+    if args.scheduler is not None:
+        from autocable.studies.sweep import check_scheduler
+        check_scheduler(args.scheduler)      # before the folder is made
     check_folder("--out", args.out)
     summary = run_sweep(spec, args.out, workers=args.workers, scheduler=args.scheduler, chunk=args.chunk,
                         log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))

@@ -45,7 +45,8 @@ import numpy as np
 import sympy as sp
 
 from autocable import _store as cache
-from autocable.codegen.ckernel import CFLAGS, KernelBuildError, _block, _compile, _Printer, cached_library
+from autocable.codegen.ckernel import (CFLAGS, KernelBuildError, _block, _compile, _Printer, cached_library,
+                                      load_private)
 
 __all__ = ["INTEGRATOR_VERSION", "STATUS", "CIntegrator", "CRun", "Repeated", "compiled_integrator",
            "integrator_source", "sample_grid"]
@@ -436,7 +437,7 @@ def _key(name, variables, parameters, time_symbol, rhs, cc) -> str:
 
 def _load(path: Path, n: int, m: int, timings) -> CIntegrator:
     try:
-        lib = ctypes.CDLL(str(path))
+        lib = load_private(path)
     except OSError as exc:
         raise KernelBuildError(f"C integrator {path.name}: could not be loaded ({exc}); delete "
                                f"{path.parent} to rebuild it") from None

@@ -689,9 +689,29 @@ def _c(a) -> np.ndarray:
     return np.ascontiguousarray(a, float)
 
 
+def load_private(path: Path) -> ctypes.CDLL:
+    """The library at ``path`` loaded from a private copy beside it, unlinked once loaded.
+
+    autocable replaces cache files by rename only (`_compile`, `autocable._store.atomic_write_bytes`:
+    a new inode, so a process that mapped the old library keeps it whole). A library rewritten in
+    place by anything else (``cp`` over it) would otherwise crash every process that mapped it with
+    SIGBUS at its next call; the copy's mapping never changes. In a read-only cache the library is
+    loaded where it is."""
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".load.", suffix=".so", dir=path.parent)
+    except OSError:
+        return ctypes.CDLL(str(path))
+    try:
+        with os.fdopen(fd, "wb") as dst, open(path, "rb") as src:
+            shutil.copyfileobj(src, dst)
+        return ctypes.CDLL(tmp)
+    finally:
+        os.unlink(tmp)
+
+
 def _load(path: Path, n: int, m: int, timings) -> CKernel:
     try:
-        lib = ctypes.CDLL(str(path))
+        lib = load_private(path)
     except OSError as exc:
         raise KernelBuildError(f"C kernel {path.name}: could not be loaded ({exc}); delete "
                                f"{path.parent} to rebuild it") from None

@@ -33,6 +33,7 @@ dim ``multiplier``), provenance in the attributes. ``DIR/sweep.json`` holds the 
 """
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import math
@@ -381,9 +382,51 @@ def estimate(points: int, workers: int, folder: Path) -> dict:
             "disk_bytes": points * block, "free_bytes": shutil.disk_usage(folder).free}
 
 
-def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler: str | None = None,
-              chunk: int | None = None, log=None, cluster_kwargs: dict | None = None,
-              on_client=None) -> dict:
+#: The lock a running sweep holds on its output folder (an advisory ``flock``: released by the
+#: kernel when the process ends, however it ends).
+LOCK_NAME = ".autocable-sweep.lock"
+
+
+@contextlib.contextmanager
+def folder_lock(out: Path):
+    """Hold the sweep lock of ``out`` (made if needed); a folder another live sweep holds is
+    refused (`SpecError` naming ``--out`` and that process): two sweeps into one folder would
+    each remove the other's sweep.nc and mix their summaries."""
+    import fcntl
+
+    from autocable.spec import SpecError
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        fd = os.open(out / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as exc:
+        raise SpecError("arguments", "--out", f"cannot use {out}: {exc.strerror or exc}; give a folder "
+                                              "that can be written") from None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 32, 0).decode("ascii", "replace").strip() or "another process"
+            raise SpecError("arguments", "--out", f"another autocable sweep (process {holder}) is writing into "
+                                                  f"{out}; wait for it or give another folder") from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, str(os.getpid()).encode(), 0)
+        yield
+    finally:
+        os.close(fd)
+
+
+def run_sweep(spec: SweepSpec, out_dir, **kwargs) -> dict:
+    """Run a sweep into ``out_dir`` (points/, sweep.nc, sweep.json) under the folder's lock
+    (`folder_lock`); returns the summary. Keywords: `run_sweep_unlocked`'s."""
+    if kwargs.get("scheduler") is not None:
+        check_scheduler(kwargs["scheduler"])   # before any work: a dead or foreign address is named at once
+    with folder_lock(Path(out_dir)):
+        return run_sweep_unlocked(spec, out_dir, **kwargs)
+
+
+def run_sweep_unlocked(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler: str | None = None,
+                       chunk: int | None = None, log=None, cluster_kwargs: dict | None = None,
+                       on_client=None) -> dict:
     """Run a sweep into ``out_dir`` (points/, sweep.nc, sweep.json); returns the summary.
 
     ``workers``: LocalCluster worker processes (default: one per core; 0: serial in this process);
@@ -392,8 +435,6 @@ def run_sweep(spec: SweepSpec, out_dir, *, workers: int | None = None, scheduler
     tasks per worker, at most 16 points each; with ``follow`` one line per task);
     ``on_client``: called with the Dask client once the tasks are submitted (tests)."""
     from autocable.spec import load_model
-    if scheduler is not None:
-        check_scheduler(scheduler)          # before any work: a dead or foreign address is named at once
     model = load_model(spec.model)
     out = Path(out_dir)
     folder = out / "points"
