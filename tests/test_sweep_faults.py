@@ -170,3 +170,31 @@ def test_a_folder_a_live_sweep_holds_is_refused_and_freed_when_it_ends(tmp_path)
     with folder_lock(out):            # the killed holder's lock went with it
         pass
     assert run_sweep(spec, out, workers=0)["computed"] == 3
+
+
+def test_dask_scratch_space_is_inside_the_cache(tmp_path, monkeypatch):
+    """A LocalCluster sweep writes its Dask scratch space under $AUTOCABLE_CACHE/dask-scratch and
+    nothing into the system temporary folder (TMPDIR pointed at an empty folder here)."""
+    import tempfile
+    pytest.importorskip("dask.distributed")
+    from autocable._store import cache_root
+    tmp = tmp_path / "systmp"
+    tmp.mkdir()
+    monkeypatch.setenv("TMPDIR", str(tmp))
+    monkeypatch.setattr(tempfile, "tempdir", None)
+    spec = load_sweep(write_sweep(tmp_path, 'method = "ame"\n[grid]\neta = 8.2e-5\nsigma = [0.0, 0.01]\n'))
+    summary = run_sweep(spec, tmp_path / "o", workers=1)
+    assert summary["computed"] == 2
+    assert (cache_root() / "dask-scratch").is_dir() and any((cache_root() / "dask-scratch").iterdir())
+    assert not any(p.name.startswith("dask") for p in tmp.rglob("*")), sorted(tmp.rglob("*"))
+
+
+def test_workers_beyond_twice_the_cores_are_refused(tmp_path, capsys):
+    import os
+
+    from autocable.cli import main
+    n = 2 * (os.cpu_count() or 1) + 1
+    code = main(["sweep", str(write_sweep(tmp_path, SMALL)), "--out", str(tmp_path / "o"), "--workers", str(n)])
+    err = capsys.readouterr().err
+    assert code == 2 and f"--workers: {n} worker processes on {os.cpu_count()} cores" in err
+    assert not (tmp_path / "o").exists()

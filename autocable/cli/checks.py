@@ -27,6 +27,18 @@ REPEATS_LIMIT = 100
 WORKERS_LIMIT = 1024
 
 
+def check_workers(option: str, value) -> None:
+    """Worker processes: at most twice the cores (each is a process of its own; more than the
+    cores only share them, and a thousand start for minutes before the first point)."""
+    if value is None:
+        return
+    cores = os.cpu_count() or 1
+    check_number(option, value, 0, WORKERS_LIMIT, integer=True)
+    if value > 2 * cores:
+        raise refuse(option, f"{value} worker processes on {cores} cores; give at most {2 * cores} "
+                             f"(twice the cores)")
+
+
 def refuse(option: str, message: str):
     """The one-line input error for a command-line option (exit 2)."""
     return SpecError("arguments", option, message)

@@ -6,7 +6,7 @@ import math
 import sys
 from pathlib import Path
 
-from autocable.cli.checks import WORKERS_LIMIT, check_folder, check_number, check_out, dumps, refuse
+from autocable.cli.checks import check_folder, check_number, check_out, check_workers, dumps, refuse
 from autocable.errors import EXIT_FAILED
 from autocable.scene.schema import ENGINES, RESOLUTIONS, load_scene
 from autocable.spec import SpecError
@@ -16,7 +16,7 @@ def cmd_sweep(args) -> int:
     from autocable.scene.sweep_schema import load_sweep
     from autocable.studies.sweep import run_sweep
     check_out("--out", args.out)
-    check_number("--workers", args.workers, 0, WORKERS_LIMIT, integer=True)   # 0: serial, no Dask
+    check_workers("--workers", args.workers)           # 0: serial, no Dask
     check_number("--chunk", args.chunk, 1, 10**6, integer=True)
     if args.scheduler is not None and not args.scheduler.strip():
         raise refuse("--scheduler", "an empty address; give one like tcp://host:8786 (or leave --scheduler out)")

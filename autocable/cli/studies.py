@@ -6,8 +6,8 @@ import json
 import sys
 from pathlib import Path
 
-from autocable.cli.checks import (REPEATS_LIMIT, WORKERS_LIMIT, check_folder, check_number, check_out, dumps,
-                                  refuse, strict)
+from autocable.cli.checks import (REPEATS_LIMIT, WORKERS_LIMIT, check_folder, check_number, check_out,
+                                  check_workers, dumps, refuse, strict)
 from autocable.spec import SpecError, load_model
 
 def cmd_work_precision(args) -> int:
@@ -99,6 +99,7 @@ def cmd_calibrate(args) -> int:
     from autocable.paper import calibration as study
     check_out("--out", args.out)
     check_number("--jobs", args.jobs, 1, WORKERS_LIMIT, integer=True)
+    check_workers("--jobs", args.jobs)
     check_number("--full", args.full, 0, 10**6, integer=True)
     check_number("--bound-margin", args.bound_margin, 0, 10**3, integer=True)
     if args.bound_minutes is not None:

@@ -551,18 +551,25 @@ def check_scheduler(address: str, timeout: float | None = None) -> None:
 def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs, on_client):
     import logging
 
+    import dask
     from dask.distributed import Client, LocalCluster, as_completed
+
+    from autocable._store import cache_dir
     cluster = None
     t_start = time.perf_counter()
-    if scheduler:
-        client = Client(scheduler, timeout=SCHEDULER_TIMEOUT)
-        where = {"mode": "scheduler", "address": scheduler}
-    else:
-        n = workers if workers else (os.cpu_count() or 1)
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=logging.ERROR, **cluster_kwargs)
-        client = Client(cluster)
-        where = {"mode": "LocalCluster", "workers": n}
+    # Dask's scratch space (spilled data, worker folders) inside autocable's cache, not the system
+    # temporary folder: a sweep writes nowhere but its --out and the cache.
+    scratch = str(cache_dir("dask-scratch"))
+    with dask.config.set({"temporary-directory": scratch}):
+        if scheduler:
+            client = Client(scheduler, timeout=SCHEDULER_TIMEOUT)
+            where = {"mode": "scheduler", "address": scheduler}
+        else:
+            n = workers if workers else (os.cpu_count() or 1)
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                                   silence_logs=logging.ERROR, local_directory=scratch, **cluster_kwargs)
+            client = Client(cluster)
+            where = {"mode": "LocalCluster", "workers": n}
     try:
         nw = max(len(client.scheduler_info().get("workers", {})), 1)
         # units per task: single points (about 8 tasks per worker, at most 16 points each), or
