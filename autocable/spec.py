@@ -243,6 +243,8 @@ def parse_model(data: dict, path="<spec>") -> ModelSpec:
 def read_toml(path) -> tuple[dict, str]:
     """(parsed document, text) of a TOML file; a missing, unreadable or malformed file raises a
     one-line `SpecError`. Shared by model specs and scene files."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise SpecError("<path>", "", f"expected the path of a .toml file, got {show(path)}")
     if not str(path).strip():
         raise SpecError("<empty path>", "", "no file given; give the path of a .toml file")
     path = Path(path)

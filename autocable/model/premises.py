@@ -162,3 +162,64 @@ def check_model(spec: ModelSpec) -> dict[str, float]:
             f'indifferent (turning wind and section together changes the load); use "mirrored" '
             f'(the same in-plane terms, frame indifferent) or "eq12"'), stacklevel=2)
     return q
+
+
+class ArgumentError(SpecError):
+    """A bad argument of a Python call of autocable's API: ``str(err)`` is one line
+    ``function: argument: what is accepted, got ...``. A `SpecError` (so also a `ValueError`):
+    the command line reports it as bad input (exit 2)."""
+
+
+def _number(function: str, name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) and type(value).__module__ != "numpy":
+        raise ArgumentError(function, name, f"expected a number, got {show(value)}")
+    try:
+        x = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ArgumentError(function, name, f"expected a number, got {show(value)}") from None
+    if not math.isfinite(x):
+        raise ArgumentError(function, name, f"expected a finite number, got {value!r}")
+    return x
+
+
+def check_state(function: str, name: str, value, order: str = "(q1, q1', q2, q2')") -> tuple:
+    """Four finite numbers within `MAX_AMPLITUDE` (a start of eq. (21)), as floats."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 4:
+        raise ArgumentError(function, name, f"expected four numbers {order}, got {show(value)}")
+    out = tuple(_number(function, f"{name}[{k}]", v) for k, v in enumerate(value))
+    for k, v in enumerate(out):
+        if abs(v) > MAX_AMPLITUDE:
+            raise ArgumentError(function, f"{name}[{k}]", f"expected |value| <= {MAX_AMPLITUDE:g} (eq. 21's "
+                                                          f"coordinates are fractions of the cable length), got {v!r}")
+    return out
+
+
+def check_call(function: str, *, U=None, eta=None, sigma=None, q0=None, max_time=None, omega1=None,
+               time_name: str = "max_time") -> None:
+    """The premises the command line applies, for a Python call (`ArgumentError` naming the
+    argument): U, eta, sigma numbers in `PARAMETER_RANGES` (a `PremiseWarning` where stretched);
+    ``q0`` four finite numbers within `MAX_AMPLITUDE`; ``max_time`` (or the argument named
+    ``time_name``) a time of at least one forcing period 2 pi/(omega1 + sigma) and at most
+    `MAX_INTEGRATION_TIME`. Arguments left None are not checked."""
+    values = {}
+    for name, value in (("U", U), ("eta", eta), ("sigma", sigma)):
+        if value is not None:
+            values[name] = _number(function, name, value)
+    try:
+        check_parameters(values, function, {k: k for k in values})
+    except ArgumentError:
+        raise
+    except SpecError as exc:
+        raise ArgumentError(function, exc.field, str(exc).split(f"{exc.field}: ", 1)[-1]) from None
+    if q0 is not None:
+        check_state(function, "q0", q0)
+    if max_time is not None:
+        t = _number(function, time_name, max_time)
+        if not 0 < t <= MAX_INTEGRATION_TIME:
+            raise ArgumentError(function, time_name, f"expected a time in (0, {MAX_INTEGRATION_TIME:g}] (t* units), "
+                                                     f"got {max_time!r}")
+        if omega1 is not None and "sigma" in values:
+            period = 2 * math.pi / (omega1 + values["sigma"])
+            if t < period:
+                raise ArgumentError(function, time_name, f"expected at least one forcing period, 2 pi/Omega = "
+                                                         f"{period:.6g} at sigma = {values['sigma']:g}, got {max_time!r}")

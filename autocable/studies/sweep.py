@@ -418,6 +418,13 @@ def folder_lock(out: Path):
 def run_sweep(spec: SweepSpec, out_dir, **kwargs) -> dict:
     """Run a sweep into ``out_dir`` (points/, sweep.nc, sweep.json) under the folder's lock
     (`folder_lock`); returns the summary. Keywords: `run_sweep_unlocked`'s."""
+    from autocable.model.premises import ArgumentError
+    if not isinstance(spec, SweepSpec):
+        raise ArgumentError("run_sweep", "spec", f"expected a SweepSpec (load_sweep(path)), got {type(spec).__name__}")
+    for name, lo in (("workers", 0), ("chunk", 1)):
+        value = kwargs.get(name)
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < lo):
+            raise ArgumentError("run_sweep", name, f"expected a whole number >= {lo} or None, got {value!r}")
     if kwargs.get("scheduler") is not None:
         check_scheduler(kwargs["scheduler"])   # before any work: a dead or foreign address is named at once
     with folder_lock(Path(out_dir)):

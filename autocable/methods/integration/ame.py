@@ -40,6 +40,7 @@ import numpy as np
 from autocable.errors import BudgetExceeded, ComputationError
 from autocable.methods.integration.ode21 import DEFAULT_Q0, refined_peak
 from autocable.model.ame import AmplitudeEquations
+from autocable.model.premises import check_call
 
 METHODS = ("LSODA", "Radau", "BDF", "DOP853")
 
@@ -223,11 +224,14 @@ class AmeIntegrator:
         compiled DOP853 (`_c_chunk`) has a step budget per chunk."""
         from scipy.integrate import solve_ivp
 
+        check_call("AmeIntegrator.simulate", U=U, eta=eta, sigma=sigma, q0=q0 if y0 is None else None,
+                   max_time=max_time)
         start = time.perf_counter()
         p = self.parameters(U, eta, sigma, rho)
         Omega = float(p[-1])
         if not Omega > 0:
             raise ValueError(f"sigma = {sigma} gives a non-positive forcing frequency Omega = {Omega}")
+        check_call("AmeIntegrator.simulate", sigma=sigma, max_time=max_time, omega1=Omega - float(sigma))
         y = np.asarray(y0, dtype=float) if y0 is not None else initial_amplitudes(q0, Omega)
         f, J = self._numeric(p)
 

@@ -27,6 +27,7 @@ import numpy as np
 from autocable.codegen.compat import PyDSToolError
 from autocable.errors import ComputationError
 from autocable.model.equations import TwoModeODE
+from autocable.model.premises import ArgumentError, check_call, check_state
 from autocable.model.symbolic import PARAMETERS, STATE, T, first_order_rhs, parameter_values
 
 #: Default start: rest, with a tiny out-of-plane seed so that an unstable planar motion is never
@@ -170,7 +171,10 @@ class Ode21Integrator:
 
     def __init__(self, ode: TwoModeODE, engine: str = "dopri", rtol: float = 1e-10, atol: float = 1e-13):
         if engine not in ENGINES:
-            raise ValueError(f"unknown engine {engine!r}: use one of {', '.join(ENGINES)}")
+            raise ArgumentError("Ode21Integrator", "engine", f"expected one of {', '.join(ENGINES)}, got {engine!r}")
+        if not isinstance(ode, TwoModeODE):
+            raise ArgumentError("Ode21Integrator", "ode", f"expected the TwoModeODE of a derivation "
+                                                         f"(derive(spec).ode), got {type(ode).__name__}")
         self.ode, self.engine, self.rtol, self.atol = ode, engine, rtol, atol
         self._rhs = first_order_rhs(ode)
         self._generator = None
@@ -280,6 +284,8 @@ class Ode21Integrator:
         ``steady_tol`` (relative) between two consecutive chunks, or are at rest (all below 1e3 x
         atol and not growing). Stops at ``max_time`` otherwise.
         """
+        check_call("Ode21Integrator.simulate", U=U, eta=eta, sigma=sigma, q0=q0, max_time=max_time,
+                   omega1=self.ode.omega1)
         start = time.perf_counter()
         Omega = self.ode.omega1 + sigma
         if not Omega > 0:
@@ -379,6 +385,9 @@ class Ode21Integrator:
         `ComputationError`, or with ``keep_failed`` (compiled engine) ends the arrays at the last
         whole period before it, the message starting "eq. (21) could not be integrated".
         ``Omega`` overrides omega1 + sigma."""
+        check_call("Ode21Integrator.envelope", U=U, eta=eta, sigma=sigma if Omega is None else None,
+                   max_time=t_end, omega1=self.ode.omega1, time_name="t_end")
+        check_state("Ode21Integrator.envelope", "y0", y0, "(q1, q2, q1', q2')")
         Om = self.ode.omega1 + sigma if Omega is None else float(Omega)
         if not Om > 0:
             raise ValueError(f"sigma = {sigma} gives a non-positive forcing frequency Omega = {Om}")

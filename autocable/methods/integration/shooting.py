@@ -61,6 +61,7 @@ from autocable.errors import ComputationError
 from autocable.methods.integration.floquet21 import STABILITY_MARGIN, multipliers_of
 from autocable.methods.integration.ode21 import (DEFAULT_Q0, DIVERGED, Ode21Integrator, grew, half_range,
                                                  _stopped)
+from autocable.model.premises import check_call, check_state
 from autocable.model.symbolic import PARAMETERS, STATE, T, first_order_rhs, parameter_values
 
 #: The response classes, in the order of their integer codes (`RESPONSE_CODES`).
@@ -410,6 +411,10 @@ class ShootingSolver:
         q2, q2') (the command-line order of `Ode21Integrator.simulate`), by shooting after short
         transients; ``guess`` = (q1, q2, q1', q2') at phase 0 (e.g. a neighbouring point's
         ``state0``) is tried first, before any transient."""
+        check_call("ShootingSolver.steady", U=U, eta=eta, sigma=sigma, q0=q0, max_time=max_time,
+                   omega1=self.ode.omega1)
+        if guess is not None:
+            check_state("ShootingSolver.steady", "guess", guess, "(q1, q2, q1', q2')")
         start = time.perf_counter()
         Omega = self.ode.omega1 + sigma
         if not Omega > 0:
