@@ -561,6 +561,12 @@ def screen_point(spec: ModelSpec, targets, readings: Readings, yaw_deg: float, t
             "rejected_roots": rejected, "candidates": cands, "seconds": time.perf_counter() - t0}
 
 
+def screen_pool(jobs: int) -> ProcessPoolExecutor:
+    """The screen's process pool; its workers die with this process (`autocable._children`)."""
+    from autocable._children import die_with_parent
+    return ProcessPoolExecutor(max_workers=max(1, jobs), initializer=die_with_parent, initargs=(os.getpid(),))
+
+
 def _worker(model_path: str, targets_path: str, readings: dict, yaw_deg: float, theta0, orderings, out_file: str):
     """One screen task in a pool process: compute, then write its file atomically."""
     from autocable._store import atomic_write_json
@@ -658,7 +664,10 @@ def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path
     def figures(only=None):
         cmd = [sys.executable, "-m", "autocable.cli", "figures", "--runs", str(scene_dir), "--out",
                str(folder / "out"), "--jobs", str(jobs), "--quiet"] + (["--only", ",".join(only)] if only else [])
-        proc = subprocess.run(cmd, capture_output=True, text=True, env=dict(os.environ))
+        from autocable._children import die_with_parent
+        parent = os.getpid()
+        proc = subprocess.run(cmd, capture_output=True, text=True, env=dict(os.environ),
+                              preexec_fn=lambda: die_with_parent(parent))
         try:
             summary = json.loads((folder / "out" / "figures.json").read_text())
         except (OSError, ValueError):
@@ -1121,7 +1130,7 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     t0 = time.perf_counter()
     failed = []
     if tasks:
-        with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
+        with screen_pool(jobs) as pool:
             futs = [pool.submit(_worker, *t) for t in tasks]
             for i, fut in enumerate(as_completed(futs), 1):
                 res = fut.result()

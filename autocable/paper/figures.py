@@ -106,6 +106,8 @@ def _worker(scene_path: str, scene_out: str, conn, engine: str | None = None, mo
             plot: bool = True) -> None:
     """Child process: run one scene (on ``model`` instead of the scene's own, if given; without its
     figure if not ``plot``); send (status, one-line error, traceback) back."""
+    from autocable._children import die_with_parent
+    die_with_parent()                  # a killed `figures` or `calibrate` takes its scenes with it
     try:
         from dataclasses import replace
 
