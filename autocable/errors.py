@@ -7,7 +7,8 @@ Exit status is part of the interface (a user scripting hundreds of runs reads it
 * 2: bad input (`autocable.spec.SpecError`: a file, field or argument outside its accepted range)
   or an environment autocable cannot use (`CacheError`: the cache folder cannot be written).
 * 3: the computation failed (`ComputationError`): an integrator or Newton that does not converge,
-  or a budget of steps or time spent (`BudgetExceeded`). What was computed before is kept.
+  or a budget of steps or time spent (`BudgetExceeded`); also a sweep with failed points, figures
+  with failed scenes, a full disk or I/O error mid-run. What was computed before is kept.
 * 130: interrupted.
 """
 from __future__ import annotations
