@@ -145,3 +145,33 @@ def test_the_checks_catch_what_they_claim(tmp_path):
         print(f"autocable: error: {argv[1]}: cable.length_m: expected a positive length", file=sys.stderr)
         return 2
     assert fuzz.Harness(names_it, tmp_path / "c").run(case).problems == []
+
+
+def test_surfaces(harness):
+    """Sweep files, chart tables, targets and search-space files and --map files, each read the
+    way its command reads it (`autocable.bench.fuzz_surfaces`)."""
+    failures = _collect(harness, STRATEGIES["surfaces"], 60)
+    assert not failures, _report(failures)
+
+
+def test_api_calls(harness):
+    """Calls of the Python API: a bad argument is a SpecError naming it; no NaN as a result."""
+    failures = _collect(harness, STRATEGIES["api"], 40)
+    assert not failures, _report(failures)
+
+
+def test_the_surface_checks_catch_what_they_claim(tmp_path):
+    """The harness flags an accepted invalid input and a NaN result, and counts a refusal that
+    names the case's file as named (cases built for each)."""
+    from autocable.bench.fuzz_surfaces import SWEEP_FILE
+    h = fuzz.Harness(main, tmp_path, max_timeout=20.0)
+    accepted = fuzz.Case("sweep", "a valid sweep labelled invalid", fuzz.INVALID, ("max_time",),
+                         {fuzz.MODEL_FILE: fuzz.SAMPLE_MODEL.read_text(),
+                          SWEEP_FILE: 'model = "model.toml"\n[grid]\neta = 1e-4\n'}, mode="load_sweep")
+    assert [k for k, _ in h.run(accepted).problems] == ["exit0_invalid"]
+    named = fuzz.Case("sweep", "a refusal naming the file", fuzz.INVALID, ("zzz",),
+                      {SWEEP_FILE: 'model = 3\n'}, mode="load_sweep")
+    o = h.run(named)
+    assert o.exit == 2 and "sweep.toml: model:" in o.stderr and o.problems == []
+    nan = fuzz.Outcome(0, "NaN result\n", "", 0.1, [], [])
+    assert ("nan_result", "x") in fuzz.check(fuzz.Case("api", "x", fuzz.ODD, ()), nan, [], 1.0)

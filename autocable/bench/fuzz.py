@@ -63,7 +63,9 @@ class Case:
     argv: tuple[str, ...] = ()        # "{case}" and "{out}" are replaced; empty: load_scene only
     subprocess: bool = False          # run in a child process (real runs, blocking files)
     timeout: float = 60.0
-    mode: str = "cli"                 # "cli": the command line; "load_scene": the scene schema only
+    mode: str = "cli"                 # "cli": the command line; "load_scene": the scene schema only;
+    #                                   the surfaces of `fuzz_surfaces` ("load_sweep", "api", ...)
+    call: tuple = ()                  # mode "api": (function, arguments)
 
     def key(self) -> str:
         """A content hash of the case (files and command), to run identical expensive cases once."""
@@ -86,7 +88,8 @@ class Case:
             else:
                 shown[name] = f"<{len(v)} chars>"
         return {"family": self.family, "label": self.label, "expect": self.expect,
-                "argv": list(self.argv) if self.mode == "cli" else ["load_scene", SCENE_FILE],
+                "argv": list(self.argv) if self.mode == "cli" else [self.mode, SCENE_FILE if self.mode == "load_scene"
+                                                                      else repr(self.call)[:200]],
                 "files": shown}
 
 
@@ -874,6 +877,8 @@ class Harness:
             code, so, se = self._child(argv, cwd, limit)
         elif case.mode == "load_scene":
             code, so, se = self._load_scene(inp / SCENE_FILE, cwd, limit)
+        elif case.mode != "cli":
+            code, so, se = self._surface(case, inp, cwd, limit)
         else:
             code, so, se = self._inprocess(argv, cwd, limit)
         seconds = time.perf_counter() - t0
@@ -948,6 +953,14 @@ class Harness:
             code = 2
         return code, "", se.getvalue()
 
+    def _surface(self, case, inp, cwd, timeout):
+        from autocable.bench.fuzz_surfaces import run_mode
+        try:
+            with self._in(cwd, timeout):
+                return run_mode(case, inp)
+        except _Hang:
+            return None, "", ""
+
     def _child(self, argv, cwd, timeout):
         cmd = [sys.executable, "-m", "autocable.cli", *argv]
         try:
@@ -979,8 +992,10 @@ def check(case: Case, o: Outcome, argv: list[str], limit: float) -> list[tuple[s
         problems.append(("traceback", (msg or f"killed by signal {-o.exit}")[:300]))
     elif o.exit != 0 and msg.startswith("autocable: error (") and "AUTOCABLE_DEBUG" in msg:
         problems.append(("unforeseen_exception", msg[:300]))
-    elif o.exit != 0 and case.mode == "load_scene" and msg.startswith("autocable: error ("):
+    elif o.exit != 0 and case.mode != "cli" and msg.startswith("autocable: error ("):
         problems.append(("unforeseen_exception", msg[:300]))
+    if "NaN result" in o.stdout:
+        problems.append(("nan_result", case.label[:300]))
     if o.exit == 0 and case.expect == INVALID:
         problems.append(("exit0_invalid", (o.stdout.strip()[:200] or ("accepted by load_scene"
                                                                        if case.mode == "load_scene" else "(no output)"))
@@ -1021,14 +1036,21 @@ def strategies():
     # the vectors that end before any long computation (no run, figures, chart or sweep)
     quick = st.builds(args_case, st.sampled_from([i for i, c in enumerate(ARG_CASES)
                                                   if c[3][:1] not in (("run",), ("figures",), ("chart",), ("sweep",))]))
-    return {"specs": specs, "scenes": scenes, "scene_runs": runs, "args": args, "quick_args": quick}
+    from autocable.bench.fuzz_surfaces import SURFACE_KINDS, api_case, surface_case
+    surfaces = st.builds(surface_case, st.sampled_from(sorted(SURFACE_KINDS)), rnd)
+    api = st.builds(api_case, rnd)
+    return {"specs": specs, "scenes": scenes, "scene_runs": runs, "args": args, "quick_args": quick,
+            "surfaces": surfaces, "api": api}
 
 
 def run_fuzz(main: Callable, specs: int = 1000, scenes: int = 300, args: int = 60, seed: int = 0,
-             out: str | os.PathLike | None = None, real_runs: int = 16, log=None) -> dict:
+             out: str | os.PathLike | None = None, real_runs: int = 16, log=None, surfaces: int = 0,
+             api: int = 0) -> dict:
     """The long fuzz run (``autocable bench fuzz``): ``specs`` mutated models through ``derive --json``,
     ``scenes`` mutated scenes through `load_scene` (of which up to ``real_runs`` real coarse runs),
-    ``args`` argument vectors; counts and the first problems."""
+    ``args`` argument vectors, ``surfaces`` cases of each kind of `fuzz_surfaces.SURFACE_KINDS`
+    (sweep files, chart tables, targets and search-space files, --map files) and ``api`` calls of
+    the Python API; counts and the first problems."""
     say = log or (lambda s: None)
     t0 = time.perf_counter()
     tmp = None
@@ -1044,11 +1066,11 @@ def run_fuzz(main: Callable, specs: int = 1000, scenes: int = 300, args: int = 6
     counts = {"specs": 0, "scenes": 0, "scene_real_runs": 0, "args": 0, "invalid": 0, "odd": 0,
               "rejected": 0, "accepted": 0, "tracebacks": 0, "unforeseen_exceptions": 0, "exit0_invalid": 0,
               "unnamed_rejections": 0, "long_messages": 0, "bad_json": 0, "escaped_writes": 0, "hangs": 0,
-              "skipped_real_runs": 0}
+              "nan_results": 0, "skipped_real_runs": 0, "surfaces": {}, "api": 0}
     kind_count = {"traceback": "tracebacks", "unforeseen_exception": "unforeseen_exceptions",
                   "exit0_invalid": "exit0_invalid", "unnamed_rejection": "unnamed_rejections",
                   "long_message": "long_messages", "bad_json": "bad_json", "escaped_write": "escaped_writes",
-                  "hang": "hangs"}
+                  "hang": "hangs", "nan_result": "nan_results"}
     problems, groups, odd_accepted = [], {}, {}
 
     def record(case, o):
@@ -1095,6 +1117,18 @@ def run_fuzz(main: Callable, specs: int = 1000, scenes: int = 300, args: int = 6
         counts["args"] += 1
         record(case, h.run(case))
     say(f"arguments {args} ({time.perf_counter() - t0:.0f} s)")
+    if surfaces or api:
+        from autocable.bench.fuzz_surfaces import SURFACE_KINDS, api_case, surface_case
+        for kind in SURFACE_KINDS:
+            for i in range(surfaces):
+                case = surface_case(kind, random.Random(f"{seed}:{kind}:{i}"))
+                counts["surfaces"][kind] = counts["surfaces"].get(kind, 0) + 1
+                record(case, h.run(case))
+            say(f"{kind} files {surfaces} ({time.perf_counter() - t0:.0f} s)")
+        for i in range(api):
+            counts["api"] += 1
+            record(api_case(random.Random(f"{seed}:api:{i}")), h.run(api_case(random.Random(f"{seed}:api:{i}"))))
+        say(f"API calls {api} ({time.perf_counter() - t0:.0f} s)")
     if tmp:
         shutil.rmtree(tmp, ignore_errors=True)
     n_problems = sum(counts[k] for k in kind_count.values())

@@ -99,6 +99,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--scenes", type=int, default=300, help="fuzz: mutated scenes (default 300)")
     b.add_argument("--args", type=int, default=60, help="fuzz: argument vectors (default 60)")
     b.add_argument("--runs", type=int, default=16, help="fuzz: real scene runs at most (default 16)")
+    b.add_argument("--surfaces", type=int, default=0, help="fuzz: cases of each of sweep files, chart tables, "
+                   "targets files, search-space files and --map files (default 0)")
+    b.add_argument("--api", type=int, default=0, help="fuzz: calls of the Python API (default 0)")
     b.add_argument("--seed", type=int, default=0, help="fuzz: seed of the mutations (default 0)")
     b.set_defaults(func=cmd_bench)
 

@@ -60,8 +60,10 @@ def cmd_fuzz(args) -> int:
     exit 1 when any case shows a problem."""
     from autocable.bench.fuzz import run_fuzz
     from autocable.cli import main          # the whole command line is what the fuzz cases run
+    check_number("--surfaces", args.surfaces, 0, 10**6, integer=True)
+    check_number("--api", args.api, 0, 10**6, integer=True)
     result = run_fuzz(main, specs=args.specs, scenes=args.scenes, args=args.args, seed=args.seed,
-                      out=args.out, real_runs=args.runs,
+                      out=args.out, real_runs=args.runs, surfaces=args.surfaces, api=args.api,
                       log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
     if args.out:
         from autocable._store import atomic_write_json

@@ -194,16 +194,20 @@ def check_state(function: str, name: str, value, order: str = "(q1, q1', q2, q2'
     return out
 
 
-def check_call(function: str, *, U=None, eta=None, sigma=None, q0=None, max_time=None, omega1=None,
-               time_name: str = "max_time") -> None:
+#: An argument `check_call` is not asked to check (None is a value to refuse).
+NOT_GIVEN = object()
+
+
+def check_call(function: str, *, U=NOT_GIVEN, eta=NOT_GIVEN, sigma=NOT_GIVEN, q0=NOT_GIVEN, max_time=NOT_GIVEN,
+               omega1=None, time_name: str = "max_time") -> None:
     """The premises the command line applies, for a Python call (`ArgumentError` naming the
     argument): U, eta, sigma numbers in `PARAMETER_RANGES` (a `PremiseWarning` where stretched);
     ``q0`` four finite numbers within `MAX_AMPLITUDE`; ``max_time`` (or the argument named
     ``time_name``) a time of at least one forcing period 2 pi/(omega1 + sigma) and at most
-    `MAX_INTEGRATION_TIME`. Arguments left None are not checked."""
+    `MAX_INTEGRATION_TIME`. Arguments not given (`NOT_GIVEN`) are not checked."""
     values = {}
     for name, value in (("U", U), ("eta", eta), ("sigma", sigma)):
-        if value is not None:
+        if value is not NOT_GIVEN:
             values[name] = _number(function, name, value)
     try:
         check_parameters(values, function, {k: k for k in values})
@@ -211,9 +215,9 @@ def check_call(function: str, *, U=None, eta=None, sigma=None, q0=None, max_time
         raise
     except SpecError as exc:
         raise ArgumentError(function, exc.field, str(exc).split(f"{exc.field}: ", 1)[-1]) from None
-    if q0 is not None:
+    if q0 is not NOT_GIVEN:
         check_state(function, "q0", q0)
-    if max_time is not None:
+    if max_time is not NOT_GIVEN:
         t = _number(function, time_name, max_time)
         if not 0 < t <= MAX_INTEGRATION_TIME:
             raise ArgumentError(function, time_name, f"expected a time in (0, {MAX_INTEGRATION_TIME:g}] (t* units), "

@@ -657,7 +657,7 @@ def _chart(table, path: Path, plane, runs, fixed) -> ChartSpec:
         _amplitudes(a, path, "chart.starts")
     map_path = None
     if "map" in table:
-        if not isinstance(table["map"], str):
+        if not isinstance(table["map"], str) or not table["map"].strip():
             raise SpecError(path, "chart.map", "expected the path of a sweep.nc (relative to the scene)")
         map_path = (path.parent / table["map"]).resolve()
     return ChartSpec(x, y, xr, yr, (int(grid[0]), int(grid[1])), float(t_end), starts, map_path)

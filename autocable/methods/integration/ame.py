@@ -40,7 +40,7 @@ import numpy as np
 from autocable.errors import BudgetExceeded, ComputationError
 from autocable.methods.integration.ode21 import DEFAULT_Q0, refined_peak
 from autocable.model.ame import AmplitudeEquations
-from autocable.model.premises import check_call
+from autocable.model.premises import NOT_GIVEN, check_call
 
 METHODS = ("LSODA", "Radau", "BDF", "DOP853")
 
@@ -224,7 +224,7 @@ class AmeIntegrator:
         compiled DOP853 (`_c_chunk`) has a step budget per chunk."""
         from scipy.integrate import solve_ivp
 
-        check_call("AmeIntegrator.simulate", U=U, eta=eta, sigma=sigma, q0=q0 if y0 is None else None,
+        check_call("AmeIntegrator.simulate", U=U, eta=eta, sigma=sigma, q0=q0 if y0 is None else NOT_GIVEN,
                    max_time=max_time)
         start = time.perf_counter()
         p = self.parameters(U, eta, sigma, rho)

@@ -27,7 +27,7 @@ import numpy as np
 from autocable.codegen.compat import PyDSToolError
 from autocable.errors import ComputationError
 from autocable.model.equations import TwoModeODE
-from autocable.model.premises import ArgumentError, check_call, check_state
+from autocable.model.premises import NOT_GIVEN, ArgumentError, check_call, check_state
 from autocable.model.symbolic import PARAMETERS, STATE, T, first_order_rhs, parameter_values
 
 #: Default start: rest, with a tiny out-of-plane seed so that an unstable planar motion is never
@@ -385,7 +385,7 @@ class Ode21Integrator:
         `ComputationError`, or with ``keep_failed`` (compiled engine) ends the arrays at the last
         whole period before it, the message starting "eq. (21) could not be integrated".
         ``Omega`` overrides omega1 + sigma."""
-        check_call("Ode21Integrator.envelope", U=U, eta=eta, sigma=sigma if Omega is None else None,
+        check_call("Ode21Integrator.envelope", U=U, eta=eta, sigma=sigma if Omega is None else NOT_GIVEN,
                    max_time=t_end, omega1=self.ode.omega1, time_name="t_end")
         check_state("Ode21Integrator.envelope", "y0", y0, "(q1, q2, q1', q2')")
         Om = self.ode.omega1 + sigma if Omega is None else float(Omega)
