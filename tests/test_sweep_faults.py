@@ -198,3 +198,24 @@ def test_workers_beyond_twice_the_cores_are_refused(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and f"--workers: {n} worker processes on {os.cpu_count()} cores" in err
     assert not (tmp_path / "o").exists()
+
+
+def test_kill_bench_reads_a_sweep_folder_as_a_reader_would(tmp_path):
+    """`bench kill-surfaces`' reader: a finished sweep is complete and consistent; its sweep.json
+    without the dataset, or with a dataset of other points, reads complete but inconsistent (what
+    the trials count as read_as_complete_while_incomplete); no sweep.json is incomplete."""
+    import shutil
+
+    from autocable.bench.kill_surfaces import sweep_state
+    spec = load_sweep(write_sweep(tmp_path, SMALL))
+    out = tmp_path / "o"
+    run_sweep(spec, out, workers=0)
+    assert sweep_state(out) == {"status": "complete", "consistent": True, "why": ""}
+    summary = json.loads((out / "sweep.json").read_text())
+    (out / "sweep.json").write_text(json.dumps(dict(summary, points=4)))
+    assert sweep_state(out)["consistent"] is False
+    (out / "sweep.json").write_text(json.dumps(summary))
+    (out / "sweep.nc").unlink()
+    assert sweep_state(out)["consistent"] is False
+    shutil.rmtree(out)
+    assert sweep_state(out)["status"] == "incomplete"

@@ -39,6 +39,12 @@ def cmd_bench(args) -> int:
         return cmd_work_precision(args)
     if args.what == "fuzz":
         return cmd_fuzz(args)
+    if args.what == "kill-surfaces":
+        from autocable.bench.kill_surfaces import run_kill_surfaces
+        result = run_kill_surfaces(max(1, args.repeats), log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
+        print(dumps(result, indent=1))
+        bad = result["read_as_complete_while_incomplete"] or result["orphaned_processes"] or not result["final_runs_complete"]
+        return 1 if bad else 0
     if args.what == "kill":
         from autocable.bench.kill import run_kill_bench as run_bench
     else:
