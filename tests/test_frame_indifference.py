@@ -199,3 +199,42 @@ def test_reversed_warns_and_mirrored_does_not(tmp_path):
         assert bool(said) == warns, (sense, said)
         if warns:
             assert "angle_convention" in said[0] and "mirrored" in said[0]
+
+
+def test_errata_terms_of_appendix_a(readings_odes):
+    """docs/model.md, M8-M10: the terms the printed Appendix A gets wrong or lacks exist in the derived
+    eq. (21) with the powers of U that homogeneity gives, and are not zero; the in-plane equation has
+    its q1' wind damping (eq. 11 with v-dot, M8); the mean drag B0 enters the out-of-plane wind
+    damping (eq. 13 from k = 0, M9)."""
+    from dataclasses import replace
+
+    from autocable.paper.calibration import Readings, candidate_spec, fast_ode
+    from autocable.spec import load_model
+    ode = readings_odes[("mirrored", "reference", "natural")]
+
+    def coeff(eq, powers, forcing=(0, 0, 0), origin="aerodynamic"):
+        got = [t for t in ode.terms if t.equation == eq and t.powers == powers and t.forcing == forcing
+               and t.origin == origin]
+        assert len(got) == 1, (eq, powers, forcing, got)
+        return got[0]
+
+    scale = max(abs(t.coefficient) for t in ode.terms if t.origin == "aerodynamic")
+    for eq, powers, forcing, u in ((1, (0, 2, 0, 1), (0, 0, 0), 1),     # zeta15 q2^2 q2' U
+                                   (1, (0, 0, 0, 2), (0, 1, 0), -1),    # zeta22-bar eta f' q2'^2 / U
+                                   (1, (0, 0, 1, 2), (0, 0, 0), -1),    # q1' q2'^2 / U
+                                   (1, (0, 0, 0, 0), (0, 2, 0), 0),     # eta^2 f'^2 forcing
+                                   (1, (0, 0, 1, 0), (0, 0, 0), 1),     # zeta11 U q1' (M8)
+                                   (2, (0, 0, 0, 1), (0, 0, 0), 1)):    # xi11 U q2'
+        t = coeff(eq, powers, forcing)
+        assert t.u_power == u, t.label
+        assert abs(t.coefficient) > 1e-9 * scale, t.label
+    spec = load_model(SAMPLE)
+    r = Readings("natural", "reference", "mirrored", "diameter", 1.25)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        no_b0 = candidate_spec(replace(spec, aero=replace(spec.aero, drag=(0.0,) + spec.aero.drag[1:])),
+                               r, -6.569711, -13.879)
+        damped = coeff(2, (0, 0, 0, 1)).coefficient
+        undamped = [t.coefficient for t in fast_ode(no_b0).terms if t.equation == 2
+                    and t.powers == (0, 0, 0, 1) and t.origin == "aerodynamic"]
+    assert abs(damped - undamped[0]) > 0.1 * abs(damped)
