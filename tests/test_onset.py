@@ -214,3 +214,12 @@ def test_hopf_point_frequency_is_the_critical_eigenvalue(stay190):
     hp = hopf_point(stay190.ode, first.U_star)
     lam = np.linalg.eigvals(stay190.ode.linear_matrix(first.U_star))
     assert min(abs(lam - 1j * hp.omega)) < 1e-9
+
+
+def test_the_pencil_is_the_linear_matrix(derivation, stay190):
+    from autocable.model.onset import LinearPencil
+    for d in (derivation, stay190):
+        pencil = LinearPencil(d.ode)
+        U = np.array([0.0, 0.37, 1.0, 2.9])
+        for Ui, M in zip(U, pencil.matrices(U)):
+            assert np.allclose(M, d.ode.linear_matrix(Ui), rtol=1e-14, atol=1e-16)

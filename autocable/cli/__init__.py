@@ -1,4 +1,4 @@
-"""The `autocable` command: derive, simulate, run, chart, sweep, figures, bench, calibrate.
+"""The `autocable` command: derive, onset, simulate, run, chart, sweep, figures, bench, calibrate.
 
 Errors a user can fix (a bad spec, a bad option, a failed build or run) are printed as one line
 naming the file and field; no traceback. ``AUTOCABLE_DEBUG=1`` shows tracebacks. The exit status is
@@ -19,6 +19,7 @@ from autocable.errors import EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, CacheErr
 from autocable.paper.figures import add_figures_parser
 from autocable.cli.checks import refuse
 from autocable.cli.derivation import cmd_derive
+from autocable.cli.onset import add_onset_parser
 from autocable.cli.runs import add_chart_parser, add_run_parser, add_sweep_parser
 from autocable.cli.simulate import cmd_simulate
 from autocable.cli.studies import cmd_advise, cmd_bench, cmd_calibrate, cmd_failure_map
@@ -139,6 +140,7 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--quiet", action="store_true", help="no progress lines")
     cal.set_defaults(func=cmd_calibrate)
 
+    add_onset_parser(sub)
     add_run_parser(sub)
     add_chart_parser(sub)
     add_sweep_parser(sub)

@@ -210,16 +210,43 @@ class Stability:
         return self.onsets[0] if self.onsets else None
 
 
+class LinearPencil:
+    """The trivial state's matrix as a polynomial in U*, A(U) = sum_u U^u M_u (`linear_matrix` term by
+    term: the aerodynamic linear terms carry U or U^2 and vanish at U = 0), evaluated for a whole
+    grid of U at once: the scans of damping studies cost one batched eigenvalue call."""
+
+    def __init__(self, ode: TwoModeODE):
+        self.mats: dict[int, np.ndarray] = {}
+        for t in ode.terms:
+            if t.eta_power or sum(t.powers) != 1:
+                continue
+            if t.origin == "aerodynamic" and t.u_power <= 0:
+                raise ValueError(f"a linear wind term {t.label} with U^{t.u_power}: not a polynomial in U")
+            M = self.mats.setdefault(t.u_power, np.zeros((4, 4)))
+            M[1 + t.equation, t.powers.index(1)] -= t.coefficient
+        M0 = self.mats.setdefault(0, np.zeros((4, 4)))
+        M0[0, 2] = M0[1, 3] = 1.0
+
+    def matrices(self, U) -> np.ndarray:
+        U = np.atleast_1d(np.asarray(U, dtype=float))
+        return sum(U[:, None, None] ** u * M for u, M in self.mats.items())
+
+    def abscissa(self, U) -> np.ndarray:
+        """max Re lambda at each U of the array ``U``."""
+        return np.max(np.linalg.eigvals(self.matrices(U)).real, axis=-1)
+
+
 def crossings(ode: TwoModeODE, U_max: float = U_MAX_DEFAULT, n: int = 1001, xtol: float = 1e-12,
               first_only: bool = False) -> tuple[list[float], list[float], bool]:
     """(upward crossings, downward crossings, stable at the first grid point) of the spectral
     abscissa over (0, U_max], from a scan of ``n`` points refined by Brent's method to ``xtol``."""
+    pencil = LinearPencil(ode)
     grid = np.linspace(0.0, U_max, n)
-    g = np.array([spectral_abscissa(ode, U) for U in grid])
+    g = pencil.abscissa(grid)
     ups, downs = [], []
     for a, b, ga, gb in zip(grid[:-1], grid[1:], g[:-1], g[1:]):
         if ga < 0 <= gb or ga >= 0 > gb:
-            r = b if gb == 0 else brentq(lambda U: spectral_abscissa(ode, U), a, b, xtol=xtol,
+            r = b if gb == 0 else brentq(lambda U: float(pencil.abscissa(U)[0]), a, b, xtol=xtol,
                                          rtol=4 * np.finfo(float).eps, maxiter=200)
             (ups if ga < 0 else downs).append(float(r))
             if first_only and ups:
