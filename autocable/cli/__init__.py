@@ -67,7 +67,7 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
     b.add_argument("what", nargs="?", default=None,
                    choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "ordering", "engines",
-                            "shooting", "sweep", "kill", "fuzz"],
+                            "shooting", "sweep", "kill", "fuzz", "onset"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
                         "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
@@ -81,7 +81,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "sweep: 'autocable sweep' throughput with 1 and 2 Dask workers and the scaling; "
                         "kill: a scene run killed (SIGKILL, SIGINT) at random moments --repeats times (at least "
                         "20), each folder checked not to read as complete, leftovers checked after a rerun; "
-                        "fuzz: hostile model specs, scenes and arguments, counts of tracebacks, exit-0 "
+                        "onset: the onset report and a 50-point damping grid of `autocable onset` (target under 2 s "
+                        "warm); fuzz: hostile model specs, scenes and arguments, counts of tracebacks, exit-0 "
                         "results for invalid input, unnamed rejections and hangs. "
                         "Without a subcommand "
                         "(--out DIR): the work-precision bench of the method ladder (bench.json, "

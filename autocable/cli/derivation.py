@@ -154,11 +154,19 @@ def cmd_derive(args) -> int:
     from autocable.model.ame_cache import derive_ame
     d = derivation(args.model)
     cached = derive_ame(d, ordering=args.ordering)
+    from autocable.studies.onset import onset_report, onset_text
+    onset = onset_report(d)
     if args.json:
         out = derive_json(d)
         out["ame"] = ame_json(cached)
+        out["onset"] = onset
         print(dumps(out, indent=1))
     else:
         print(derive_report(d))
         print(ame_report(cached, latex=args.latex))
+        print()
+        print("\n".join(onset_text(onset)))
+        print("  (autocable onset MODEL --damping A:B --design-wind U: the damping that keeps it stable)")
+        for w in onset["warnings"]:
+            print(f"warning: {w}")
     return 0

@@ -64,6 +64,10 @@ def _changes(items) -> dict:
         key = key.strip()
         if not sep or not key.startswith("cable."):
             raise refuse("--set", f"expected cable.FIELD=VALUE, got {item!r}")
+        from autocable.studies.onset import VARIABLE_FIELDS
+        if key[len("cable."):] not in VARIABLE_FIELDS:
+            raise refuse("--set", f"cannot vary {key!r}; give one of "
+                                  f"{', '.join('cable.' + f for f in VARIABLE_FIELDS)}")
         try:
             x = float(value)
         except ValueError:

@@ -108,7 +108,7 @@ class Onset:
     growth_slope: float          # d Re lambda / d U* (> 0: the pair crosses into the right half plane)
     eigenvector: tuple           # (q1, q2, q1', q2') complex, |.| = 1
     in_plane_share: float
-    phase_deg: float             # arg(q2 / q1): the out-of-plane motion's lead on the in-plane one
+    phase_deg: float             # arg(q2 / q1): the out-of-plane motion's lead (nan if one share is < 1e-12)
     mechanism: str
     couplings: tuple             # (name, size) of the linear cross terms, largest first
     lyapunov: float | None       # l1 (|q| = 1), None at a real crossing
@@ -187,7 +187,8 @@ def onset_at(ode: TwoModeODE, U: float) -> Onset:
         slopes = tuple(float(s) for s in hp.amplitude_slopes(slope)[:2])
     n1, n2 = abs(q[0]) ** 2, abs(q[1]) ** 2
     share = float(n1 / (n1 + n2))
-    phase = math.degrees(np.angle(q[1] / q[0])) if abs(q[0]) > 0 else float("nan")
+    # a phase between a mode and a vanishing one is round-off
+    phase = math.degrees(np.angle(q[1] / q[0])) if min(n1, n2) > 1e-12 * (n1 + n2) else float("nan")
     couplings = _couplings(ode, U, q)
     return Onset(U_star=float(U), frequency=float(freq), growth_slope=slope,
                  eigenvector=tuple(complex(x) for x in q), in_plane_share=share, phase_deg=float(phase),

@@ -134,8 +134,10 @@ def onset_text(report: dict) -> list[str]:
         ev = o["eigenvector"]
         lines.append(f"  U_cr = {o['U_m_s']:.6g} m/s (U* = {o['U_star']:.10g}), {o['frequency_Hz']:.5g} Hz: "
                      f"{o['mechanism']}, {o['criticality']}")
+        phase = ev["phase_deg"]
         lines.append(f"    eigenvector: in-plane {100 * ev['in_plane_share']:.3g} %, out-of-plane "
-                     f"{100 * ev['out_of_plane_share']:.3g} %, phase of q2 on q1 {ev['phase_deg']:.4g} deg")
+                     f"{100 * ev['out_of_plane_share']:.3g} %"
+                     + (f", phase of q2 on q1 {phase:.4g} deg" if phase is not None and math.isfinite(phase) else ""))
         if o["lyapunov"] is not None:
             s = o["amplitude_slope"]["d_peak_m2_dU_m_s"]
             lines.append(f"    first Lyapunov coefficient {o['lyapunov']:.4g}; post-critical d(peak^2)/dU = "
