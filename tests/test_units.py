@@ -63,3 +63,66 @@ def test_a1_l_is_the_peak_displacement_of_the_time_history(derivation):
     assert station == pytest.approx(0.5, abs=1e-9)
     # sampled peaks (256 per period) against a_k's parabola-refined ones: within 1e-4 relative
     assert 0.5 * peak_to_peak.max() == pytest.approx(u.peak_m(r.a1), rel=1e-4)
+
+
+def test_simulate_json_carries_si(capsys, derivation):
+    """`simulate --json`: U_m_s, eta_m, Omega_Hz and peak_m, each against the closed form from the spec
+    (T = H / cos(alpha), omega = (pi/l) sqrt(T/m))."""
+    import json
+    from autocable.cli import main
+    from conftest import SAMPLE
+    assert main(["simulate", str(SAMPLE), "--U", "0.7", "--eta", "4.1e-4", "--sigma", "0.01", "--json",
+                 "--method", "ame"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    c = derivation.spec.cable
+    T = c.horizontal_tension_N / math.cos(math.radians(c.chord_slope_deg))
+    omega = math.pi / c.length_m * math.sqrt(T / c.mass_per_length_kg_m)
+    assert out["U_m_s"] == pytest.approx(0.7 * 36.0, rel=1e-14)
+    assert out["eta_m"] == pytest.approx(4.1e-4 * 121.9, rel=1e-14)
+    assert out["Omega_Hz"] == pytest.approx((derivation.ode.omega1 + 0.01) * omega / (2 * math.pi), rel=1e-12)
+    assert out["peak_m"] == pytest.approx([out["a1"] * 121.9, out["a2"] * 121.9], rel=1e-14)
+    assert "mid-span" in out["peak_station"]
+
+
+def test_branch_tables_carry_si_columns(tmp_path, derivation):
+    import csv
+    from dataclasses import asdict
+    from autocable.results import Branch, RunResults, SpecialPoint, write_results
+    n = 3
+    table = {"sigma": np.array([-0.01, 0.0, 0.01]), "U": np.full(n, 0.5), "eta": np.full(n, 1e-4),
+             "a1": np.array([1e-3, 2e-3, 3e-3]), "a2": np.zeros(n),
+             "r1": np.zeros(n), "s1": np.zeros(n), "r2": np.zeros(n), "s2": np.zeros(n)}
+    sp = SpecialPoint(branch="I", type="LP", label="LP1", parameter="sigma", value=0.0, a1=2e-3, a2=0.0,
+                      state=(0.0,) * 4, parameters={"sigma": 0.0, "U": 0.5, "eta": 1e-4}, index=1)
+    b = Branch(name="I", kind="equilibrium", parameter="sigma", parameter_names=("sigma", "U", "eta"),
+               variables=("r1", "s1", "r2", "s2"), amplitude_names=("a1", "a2"), table=table,
+               stable=np.ones(n, bool), eigenvalues=np.zeros((n, 0), complex), special_points=(sp,))
+    u = units_of(derivation.spec, derivation.statics)
+    prov = {"si_scales": asdict(u), "omega1": derivation.ode.omega1}
+    write_results(RunResults("t", (b,), prov), tmp_path)
+    rows = list(csv.DictReader(open(tmp_path / "branches.csv")))
+    for i, r in enumerate(rows):
+        assert float(r["U_m_s"]) == pytest.approx(0.5 * 36.0, rel=1e-14)
+        assert float(r["eta_m"]) == pytest.approx(1e-4 * 121.9, rel=1e-14)
+        assert float(r["Omega_Hz"]) == pytest.approx(
+            (derivation.ode.omega1 + table["sigma"][i]) * derivation.statics.omega_ref / (2 * math.pi), rel=1e-14)
+        assert float(r["peak_in_plane_m"]) == pytest.approx(table["a1"][i] * 121.9, rel=1e-14)
+    sp_row = next(csv.DictReader(open(tmp_path / "special_points.csv")))
+    assert float(sp_row["peak_in_plane_m"]) == pytest.approx(2e-3 * 121.9, rel=1e-14)
+    assert float(sp_row["U_m_s"]) == pytest.approx(18.0, rel=1e-14)
+    # without the scales (an older run's provenance) the tables are as before
+    write_results(RunResults("t", (b,), {}), tmp_path / "old")
+    assert "U_m_s" not in open(tmp_path / "old" / "branches.csv").readline()
+
+
+def test_sweep_axes_in_si(derivation):
+    from types import SimpleNamespace
+    from autocable.studies.sweep import _si_coordinates
+    spec = SimpleNamespace(U=[0.0, 1.3], eta=[8.2e-5], sigma=[-0.02, 0.02])
+    c = _si_coordinates(spec, derivation.spec)
+    assert c["U_m_s"][0] == "U" and c["U_m_s"][2]["units"] == "m s-1"
+    assert np.allclose(c["U_m_s"][1], [0.0, 46.8], rtol=1e-14)
+    assert np.allclose(c["eta_m"][1], [8.2e-5 * 121.9], rtol=1e-14)
+    assert np.allclose(c["Omega_Hz"][1], (derivation.ode.omega1 + np.array([-0.02, 0.02]))
+                       * derivation.statics.omega_ref / (2 * math.pi), rtol=1e-14)
+    assert c["Omega_Hz"][2]["units"] == "Hz"

@@ -75,3 +75,21 @@ def units_of(spec, statics) -> Units:
                  critical_wind_speed_m_s=a.critical_wind_speed_m_s,
                  mass_per_length_kg_m=c.mass_per_length_kg_m, air_density_kg_m3=a.air_density_kg_m3,
                  diameter_m=c.diameter_m)
+
+
+#: The SI columns of branches.csv and special_points.csv (`si_columns`), after the nondimensional ones.
+SI_COLUMNS = ("U_m_s", "eta_m", "Omega_Hz", "peak_in_plane_m", "peak_out_of_plane_m")
+
+
+def si_columns(units: Units, omega1: float, U, eta, sigma, a1, a2) -> dict:
+    """The `SI_COLUMNS` of points (U*, eta*, sigma, a1, a2) (numbers or numpy arrays): U in m/s, the
+    support amplitude in m, the forcing frequency Omega = omega1 + sigma in Hz, and the peak
+    displacements a_k l at mid-span."""
+    return {"U_m_s": units.wind_m_s(U), "eta_m": units.support_m(eta),
+            "Omega_Hz": units.frequency_hz(omega1 + sigma),
+            "peak_in_plane_m": units.peak_m(a1), "peak_out_of_plane_m": units.peak_m(a2)}
+
+
+def units_from_dict(data: dict) -> Units:
+    """A `Units` from its fields (as `dataclasses.asdict` wrote them, e.g. in a run's provenance)."""
+    return Units(**{k: float(data[k]) for k in Units.__dataclass_fields__})
