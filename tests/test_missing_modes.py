@@ -76,3 +76,14 @@ def test_the_sample_is_far_from_any_left_out_mode():
     assert not [w for w in caught if "two-mode model" in str(w.message)]
     # omega1 = 1.004: the antisymmetric mode at 2 is 0.996 away, 249 detunings
     assert q["missing_mode_gap"] == pytest.approx(2 - 1.0040053, rel=1e-6)
+
+
+@pytest.mark.parametrize("name", ["luongo_zulli_2012", "dongting_lake_a12", "stay_190m", "meiko_nishi"])
+def test_the_model_files_meet_the_two_mode_premise(name):
+    """Every model file under models/ (the sample and the real stays of docs/cables.md) is far from
+    the refusal: its nearest left-out mode lies more than 2 detunings away."""
+    from conftest import REPO
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        q = check_model(load_model(REPO / "models" / f"{name}.toml"))
+    assert q["missing_mode_gap"] > 2 * q["detuning"]

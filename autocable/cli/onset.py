@@ -148,9 +148,19 @@ def cmd_onset(args) -> int:
                              f"{100 * k['relative_difference_a1']:.2g} %)")
             else:
                 print(head + f"{k['message']} ({ame})")
+    for c in report.get("amplitude", []):
+        for k in c.get("hysteresis_checks", []):
+            print(f"eq. (21) below the sub-critical onset, xi = {100 * c['damping_ratio']:.3g} %, U = {k['U_m_s']:.4g} m/s: "
+                  f"from 0.6 x the unstable cycle ({units.peak_m(k['a1_unstable_cycle']):.4g} m) it "
+                  f"{_outcome(k['from_0.6'])}, from 1.5 x it {_outcome(k['from_1.5'])}"
+                  + (" (hysteresis, as the onset's criticality says)" if k["hysteresis"] else ""))
     if args.out:
         print(f"wrote {args.out}/onset.json, damping.csv, amplitude.csv, onset.png, onset.pdf", file=sys.stderr)
     return 0
+
+
+def _outcome(word: str) -> str:
+    return "neither grows nor decays clearly (t* = 1e5)" if word == "undecided" else word
 
 
 def _write(report: dict, out: Path, name: str) -> None:

@@ -55,6 +55,11 @@ def plot_onset(study: dict, stem: str | Path, title: str = "") -> list[Path]:
                    if c.get("peak_in_plane_m_eq21") is not None]
             if chk:
                 ax2.plot(*zip(*chk), "x", color=color, ms=7, label="eq. (21), integrated")
+            hys = [(c["U_m_s"], c["a1_unstable_cycle"] * study["length_m"]) for c in curve.get("hysteresis_checks", [])
+                   if c.get("hysteresis")]
+            if hys and "length_m" in study:
+                ax2.plot(*zip(*hys), "d", color=color, ms=6, mfc="none",
+                         label="eq. (21): decays from below, grows from above")
         ax2.set_xlabel("wind speed U [m/s]")
         ax2.set_ylabel("in-plane peak displacement at mid-span [m]")
         ax2.legend(fontsize=7, loc="best")

@@ -274,7 +274,7 @@ def eq21_check(ode, U: float, a1_ame: float, q_ratio: complex, t_end: float = 3e
     integ = Ode21Integrator(ode, engine="compiled")
     a0 = 0.5 * a1_ame
     y0 = (a0, (a0 * q_ratio).real, 0.0, -(a0 * q_ratio).imag * ode.omega1)
-    t, a1, a2, msg = integ.envelope(U, 0.0, 0.0, y0, t_end, Omega=ode.omega1)
+    t, a1, a2, msg = integ.envelope(U, 0.0, 0.0, y0, t_end, Omega=ode.omega1, keep_failed=True)
     if len(a1) < 400 or "bounded" not in msg:
         return {"U_star": U, "a1_eq21": math.nan, "a2_eq21": math.nan, "settled": False, "message": msg}
     drift = abs(a1[-1] - a1[-200]) / max(a1[-1], 1e-300)
@@ -312,6 +312,11 @@ def amplitude_curve(d, xi: float, U_top: float | None = None, n: int = 30, check
         r.update({"U_m_s": units.wind_m_s(r["U_star"]), "peak_in_plane_m": units.peak_m(r["a1"]),
                   "peak_out_of_plane_m": units.peak_m(r["a2"])})
     out["rows"] = rows
+    if checks and o.criticality == "subcritical" and rows:
+        q = np.asarray(o.eigenvector)
+        picks = [rows[int(round(k))] for k in np.linspace(len(rows) // 4, len(rows) - 1, checks)]
+        out["hysteresis_checks"] = [dict(hysteresis_check(ode, r["U_star"], r["a1"], q[1] / q[0]),
+                                         U_m_s=units.wind_m_s(r["U_star"])) for r in picks]
     stable = [r for r in rows if r["stable"]]
     if checks and stable:
         q = np.asarray(o.eigenvector)
@@ -336,4 +341,25 @@ def damping_study(d, xis, design_wind_m_s: float | None = None, amplitude_xis=()
         report["design"] = design_damping(d, design_wind_m_s, U_max)
     U_top = None if design_wind_m_s is None else min(U_max, units_of(d.spec, d.statics).wind_star(design_wind_m_s))
     report["amplitude"] = [amplitude_curve(d, float(xi), U_top, checks=checks) for xi in amplitude_xis]
+    report["length_m"] = d.spec.cable.length_m
     return report
+
+
+def hysteresis_check(ode, U: float, a1_cycle: float, q_ratio: complex, t_end: float = 1e5) -> dict:
+    """Below a sub-critical onset: eq. (21) from 0.6 and 1.5 times the AME's unstable cycle (in the
+    eigenvector's proportions): the first should decay, the second grow (hysteresis: a large enough
+    disturbance gallops below the onset)."""
+    from autocable.methods.integration.ode21 import Ode21Integrator
+    integ = Ode21Integrator(ode, engine="compiled")
+    out = {"U_star": U, "a1_unstable_cycle": a1_cycle}
+    for name, f in (("from_0.6", 0.6), ("from_1.5", 1.5)):
+        a0 = f * a1_cycle
+        y0 = (a0, (a0 * q_ratio).real, 0.0, -(a0 * q_ratio).imag * ode.omega1)
+        t, a1, a2, msg = integ.envelope(U, 0.0, 0.0, y0, t_end, Omega=ode.omega1, keep_failed=True)
+        grew = "diverges" in msg or (len(a1) > 0 and a1.max() > 1.3 * a0)
+        decayed = "bounded" in msg and len(a1) > 0 and a1[-1] < 0.5 * a0
+        out[name] = "grows" if grew else ("decays" if decayed else "undecided")
+        if msg.startswith("eq. (21) could not be integrated"):
+            out[name + "_note"] = msg
+    out["hysteresis"] = out["from_0.6"] == "decays" and out["from_1.5"] == "grows"
+    return out
