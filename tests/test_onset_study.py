@@ -117,3 +117,26 @@ def test_onset_command_json_and_errors(capsys):
         assert code == 2 and len(errors) == 1 and option in errors[0], err
     code, out, err = _cli(capsys, "derive", SAMPLE)
     assert code == 0 and "Onset of galloping" in out and "U_cr = " in out
+
+
+def test_onset_command_refit_and_damping_files(tmp_path, capsys):
+    import csv
+    spec = tmp_path / "c.toml"
+    spec.write_text(CALIBRATED_190)
+    code, out, err = _cli(capsys, "onset", spec, "--set", "cable.damping_ratio=0.003", "--refit")
+    assert code == 0, err
+    assert "refit: aero.rivulet_angle_deg moved from " in out and "stays at the U_c typed in (10 m/s)" in out
+    code, out, err = _cli(capsys, "onset", spec, "--damping", "0.0005:0.006:12", "--design-wind", "18",
+                          "--checks", "0", "--out", tmp_path / "out")
+    assert code == 0, err
+    assert "the damping study holds aero.rivulet_angle_deg at its fitted" in out
+    rows = list(csv.DictReader(open(tmp_path / "out" / "damping.csv")))
+    assert len(rows) == 12
+    for r in rows:
+        xi = float(r["damping_ratio"])
+        assert float(r["scruton"]) == pytest.approx(88.0 * xi / (1.25 * 0.19 ** 2), rel=1e-12)
+    onset = [float(r["U_cr_m_s"]) for r in rows if r["U_cr_m_s"]]
+    assert onset == sorted(onset)                      # more damping, later onset (this stay)
+    report = json.loads((tmp_path / "out" / "onset.json").read_text())
+    assert report["design"]["design_wind_m_s"] == 18.0
+    assert (tmp_path / "out" / "onset.png").stat().st_size > 10_000

@@ -50,8 +50,10 @@ def _damping_grid(text: str):
         raise refuse("--damping", f"expected A:B or A:B:N (damping ratios, e.g. 0.001:0.02:50), got {text!r}")
     a, b = vals[:2]
     n = vals[2] if len(vals) == 3 else 50
-    if not (math.isfinite(a) and math.isfinite(b) and 0 <= a < b < 1):
-        raise refuse("--damping", f"expected damping ratios 0 <= A < B < 1 (0.004 is 0.4 %), got {text!r}")
+    # A = 0 is refused: without damping the trivial state is only marginally stable at rest, and
+    # the onset (U -> 0+ for a negatively damping wind) cannot be told from none by the scan.
+    if not (math.isfinite(a) and math.isfinite(b) and 0 < a < b < 1):
+        raise refuse("--damping", f"expected damping ratios 0 < A < B < 1 (0.004 is 0.4 %), got {text!r}")
     if n != int(n) or not 2 <= n <= DAMPING_POINTS_LIMIT:
         raise refuse("--damping", f"N: expected an integer from 2 to {DAMPING_POINTS_LIMIT}, got {parts[2]!r}")
     return np.linspace(a, b, int(n))
@@ -103,6 +105,10 @@ def cmd_onset(args) -> int:
     messages = []
     if changes:
         d, messages = vary(d, changes, refit=args.refit)
+    if d.calibrated and (grid is not None or args.design_wind is not None):
+        value = math.degrees(d.theta0 if d.calibrated == "rivulet_angle_deg" else d.beta)
+        messages.append(f"the damping study holds aero.{d.calibrated} at its fitted {value:.4f} deg: only the "
+                        "damping changes (--set cable.damping_ratio=X --refit fits the angle again for one value)")
     units = units_of(d.spec, d.statics)
     U_max = U_MAX_DEFAULT
     if args.max_wind is not None:
