@@ -30,6 +30,8 @@ def test_wind_support_and_scruton_closed_forms(derivation):
     # Sc = m xi / (rho_a D^2) = 51.8 * 0.004 / (1.25 * 0.119^2)
     assert u.scruton(0.004) == pytest.approx(51.8 * 0.004 / (1.25 * 0.119 ** 2), rel=1e-14)
     assert u.damping_for_scruton(u.scruton(0.0123)) == pytest.approx(0.0123, rel=1e-14)
+    # d(a l)^2 / dU = l^2 d(a^2)/dU* / U_c
+    assert u.peak_squared_slope(2e-4) == pytest.approx(2e-4 * 121.9 ** 2 / 36.0, rel=1e-14)
 
 
 def test_modes_peak_at_mid_span_with_unit_maximum(derivation):

@@ -119,8 +119,7 @@ class Onset:
         """The onset in SI (units: `autocable.model.units.Units`) and nondimensional."""
         q = self.eigenvector
         slopes = self.amplitude_slopes
-        si = None if slopes is None else [units.length_m ** 2 * s / units.critical_wind_speed_m_s
-                                          for s in slopes]
+        si = None if slopes is None else [units.peak_squared_slope(s) for s in slopes]
         return {
             "U_m_s": units.wind_m_s(self.U_star), "U_star": self.U_star,
             "frequency_Hz": units.frequency_hz(self.frequency), "frequency_star": self.frequency,

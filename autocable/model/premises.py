@@ -172,6 +172,7 @@ def _check_missing_modes(spec: ModelSpec, st, q: dict, where: str) -> None:
     nears the 4 pi^2 crossover, where omega1 climbs to the antisymmetric omega = 2. Within
     `MISSING_MODE_WARN` detunings: a warning."""
     from autocable.model.modes_n import irvine_roots
+    from autocable.model.units import units_of
     omega1 = irvine_roots(st.lambda2, 1)[0] / math.pi
     rho = abs(omega1 - 1.0)
     others = (("in-plane antisymmetric", 2.0), ("2nd out-of-plane", 2.0),
@@ -183,7 +184,7 @@ def _check_missing_modes(spec: ModelSpec, st, q: dict, where: str) -> None:
         return
     names = [name for g, name, _ in gaps if g == gap]
     w = next(w for g, _, w in gaps if g == gap)
-    f = st.omega_ref / (2 * math.pi)
+    f = units_of(spec, st).frequency_hz(1.0)
     text = (f"the {' and '.join(names)} mode{'s' if len(names) > 1 else ''} at {w * f:.4g} Hz (omega = {w:.4g}) "
             f"lie{'' if len(names) > 1 else 's'} {gap:.3g} from omega1 = {omega1:.4g} ({omega1 * f:.4g} Hz), "
             f"against the retained pair's detuning {rho:.3g} (lambda^2 = {st.lambda2:.4g}, crossover at 4 pi^2)")

@@ -58,6 +58,10 @@ class Units:
         `PEAK_STATION`)."""
         return a * self.length_m
 
+    def peak_squared_slope(self, slope_star: float) -> float:
+        """d(a l)^2 / dU [m^2 per m/s] from d(a^2)/dU* (a post-critical amplitude slope)."""
+        return slope_star * self.length_m ** 2 / self.critical_wind_speed_m_s
+
     # -- mass-damping -----------------------------------------------------------------------------
     def scruton(self, damping_ratio: float) -> float:
         """Sc = m xi / (rho_a D^2)."""
