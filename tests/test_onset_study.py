@@ -42,7 +42,7 @@ def test_onset_in_m_s_does_not_depend_on_the_U_c_scale(tmp_path):
     assert ob["U_star"] == pytest.approx(oa["U_star"] * 10 / 17, rel=1e-9)
     assert ob["U_m_s"] == pytest.approx(oa["U_m_s"], rel=1e-9)
     assert ob["frequency_Hz"] == pytest.approx(oa["frequency_Hz"], rel=1e-12)
-    sa, sb = oa["amplitude_slope"]["d_peak_m2_dU_m_s"], ob["amplitude_slope"]["d_peak_m2_dU_m_s"]
+    sa, sb = oa["amplitude_slope"]["d_peak_squared_dU_m2_per_m_s"], ob["amplitude_slope"]["d_peak_squared_dU_m2_per_m_s"]
     assert sb[0] == pytest.approx(sa[0], rel=1e-7)
     assert "prediction" in a["wind_angles"]["text"] and a["wind_angles"]["calibrated"] is None
 

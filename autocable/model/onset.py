@@ -127,7 +127,7 @@ class Onset:
             "lyapunov_normalisation": "|q| = 1 over (q1, q2, q1', q2'); only its sign is invariant",
             "growth_slope_per_U_star": self.growth_slope,
             "amplitude_slope": None if slopes is None else {
-                "d_a2_dU_star": list(slopes), "d_peak_m2_dU_m_s": si,
+                "d_a_squared_dU_star": list(slopes), "d_peak_squared_dU_m2_per_m_s": si,
                 "order": "[in-plane a1, out-of-plane a2]; a_k = peak displacement / l at mid-span; "
                          "negative: the cycle lies below U_cr (sub-critical)"},
             "eigenvector": {

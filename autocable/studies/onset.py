@@ -139,7 +139,7 @@ def onset_text(report: dict) -> list[str]:
                      f"{100 * ev['out_of_plane_share']:.3g} %"
                      + (f", phase of q2 on q1 {phase:.4g} deg" if phase is not None and math.isfinite(phase) else ""))
         if o["lyapunov"] is not None:
-            s = o["amplitude_slope"]["d_peak_m2_dU_m_s"]
+            s = o["amplitude_slope"]["d_peak_squared_dU_m2_per_m_s"]
             lines.append(f"    first Lyapunov coefficient {o['lyapunov']:.4g}; post-critical d(peak^2)/dU = "
                          f"{s[0]:.4g} m^2/(m/s) in-plane, {s[1]:.4g} out-of-plane (mid-span)")
     for U in report["restabilisations_U_m_s"]:
