@@ -197,16 +197,33 @@ def test_one_mode_coefficients_mislead_on_the_190_m_stay(stay190):
     assert "zeta11" in text and "zeta8" in text and "supercritical" in text
 
 
-def test_damping_moves_the_onset_as_the_linear_damping_does(derivation):
-    """With the in-plane onset mono-modal (the sample: xi12 = 0), the trivial state's in-plane
-    damping is 2 xi omega1 + zeta11 U*, so the onset is U* = -2 xi omega1 / zeta11 for every xi."""
-    om = one_mode(derivation.ode)
-    for xi in (0.002, 0.004, 0.006):
-        ode = with_damping(derivation.ode, xi)
-        assert ode.xi_s == xi
-        first = stability(ode).first
-        if first.in_plane_share > 0.999:
-            assert first.U_star == pytest.approx(-2 * xi * ode.omega1 / om["zeta11"], rel=1e-6)
+@pytest.mark.parametrize("which", ["sample", "stay190"])
+def test_decoupled_onset_is_the_closed_form_for_every_damping(which, derivation, stay190):
+    """Eq. (21) with its linear cross terms removed (each mode's own terms kept): the in-plane block
+    q1'' + (2 xi omega1 + zeta11 U) q1' + omega1^2 q1 loses stability at U* = -2 xi omega1 / zeta11,
+    the out-of-plane one q2'' + (2 xi + xi21 U) q2' + (1 + h14 U^2) q2 at -2 xi / xi21 (when the
+    coefficient is negative), so the first onset is the smaller, at any damping `with_damping` sets."""
+    from dataclasses import replace
+    d = derivation if which == "sample" else stay190
+    own = tuple(t for t in d.ode.terms
+                if not (t.eta_power == 0 and sum(t.powers) == 1 and t.powers.index(1) % 2 != t.equation - 1))
+    ode0 = replace(d.ode, terms=own)
+
+    def coefficient(k, powers):
+        return sum(t.coefficient for t in ode0.find(k, powers, u_power=1) if t.origin == "aerodynamic")
+
+    z11, x21 = coefficient(1, (0, 0, 1, 0)), coefficient(2, (0, 0, 0, 1))
+    assert not ode0.find(1, (1, 0, 0, 0), u_power=2)          # no in-plane wind stiffness
+    for xi in (0.002, 0.004, 0.008):
+        ode = with_damping(ode0, xi)
+        roots = [U for U in (-2 * xi * ode.omega1 / z11 if z11 < 0 else math.inf,
+                             -2 * xi * ode.omega2 / x21 if x21 < 0 else math.inf) if U <= 5.0]
+        expected = min(roots, default=math.inf)
+        got = first_onset_U(ode)
+        if math.isfinite(expected):
+            assert got == pytest.approx(expected, rel=1e-9)
+        else:
+            assert got == math.inf
 
 
 def test_hopf_point_frequency_is_the_critical_eigenvalue(stay190):

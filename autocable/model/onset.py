@@ -74,10 +74,10 @@ class _Forms:
             c = -t.factor(U, 0.0, 0.0, 0.0, 0.0)    # accelerations are minus the left-hand side
             if c == 0.0:
                 continue
-            idx = tuple(i for i, p in enumerate(t.powers) for _ in range(p))
-            (self.quad if d == 2 else self.cubic).append((1 + t.equation, idx, c))
             if d > 3:
                 raise ValueError(f"a term of degree {d} in eq. (21): the Hopf formula takes up to cubic")
+            idx = tuple(i for i, p in enumerate(t.powers) for _ in range(p))
+            (self.quad if d == 2 else self.cubic).append((1 + t.equation, idx, c))
 
     def B(self, u, v):
         out = np.zeros(4, dtype=complex)
