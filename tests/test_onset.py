@@ -240,3 +240,25 @@ def test_the_pencil_is_the_linear_matrix(derivation, stay190):
         U = np.array([0.0, 0.37, 1.0, 2.9])
         for Ui, M in zip(U, pencil.matrices(U)):
             assert np.allclose(M, d.ode.linear_matrix(Ui), rtol=1e-14, atol=1e-16)
+
+
+@pytest.mark.parametrize("which", ["sample", "stay190"])
+def test_the_matrix_is_the_calibrations(which, derivation, stay190):
+    """Two routes to the trivial state's linear matrix: the calibration's (first-order load
+    coefficients projected directly, `calibration._linear_matrix`) and eq. (21)'s term table (the
+    cubic load expanded, then projected) that the onset scans: equal to round-off at every U*."""
+    from autocable.model.aero import linear_load
+    from autocable.model.calibration import _linear_matrix
+    from autocable.model.galerkin import aero_scales, linear_aero_matrix
+    from autocable.model.modes import linear_modes
+    from autocable.model.shapes import ClosedFormIntegrator
+    d = derivation if which == "sample" else stay190
+    spec, st = d.spec, d.statics
+    modes = linear_modes(st, spec.cable.twist_ends)
+    K, nu = aero_scales(spec.aero, spec.cable, st)
+    lin = linear_load(spec.aero.lift, spec.aero.drag, st.alpha, d.beta, d.theta0, spec.aero.angle_convention,
+                      spec.aero.load_axes)
+    al = linear_aero_matrix(ClosedFormIntegrator(modes.shapes), K, nu, st.m_star, lin)
+    for U in (0.3, 1.0, 2.2):
+        A = _linear_matrix(modes.omega1, modes.omega2, d.ode.xi_s, al, U)
+        assert np.allclose(A, d.ode.linear_matrix(U), rtol=1e-10, atol=1e-13)
