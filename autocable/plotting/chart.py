@@ -31,18 +31,22 @@ __all__ = ["read_response_map", "plot_chart", "MAP_CLASSES", "AME_TO_MAP"]
 
 #: The classes of eq. (21)'s steady responses in a sweep; "period-1 bi-modal" is a period-1 point
 #: whose a2 exceeds `BIMODAL_RATIO` a1 (when the map has a1 and a2), as the AME's regions say it.
-MAP_CLASSES = ("rest", "period-1", "period-1 bi-modal", "period-2", "quasi-periodic", "diverged")
+MAP_CLASSES = ("rest", "period-1", "period-1 bi-modal", "period-2", "autonomous-periodic", "quasi-periodic",
+               "diverged")
 BIMODAL_RATIO = 1e-2
 #: What eq. (21) should show where the AME settles on each kind of attractor (the AME's equilibria
 #: are period-1 motions of eq. (21), its cycles quasi-periodic ones; the small forced response is
-#: period-1, or rest when eta = 0).
+#: period-1, or rest when eta = 0; galloping at eta = 0 is a cycle of the autonomous eq. (21) with
+#: its own period, and unlocked from the support at eta > 0 a quasi-periodic motion).
 AME_TO_MAP = {"small": ("rest", "period-1"), "mono-modal": ("period-1",), "bi-modal": ("period-1 bi-modal",),
-              "galloping": ("quasi-periodic",), "modulated": ("quasi-periodic",), "diverged": ("diverged",)}
+              "galloping": ("autonomous-periodic", "quasi-periodic"), "modulated": ("quasi-periodic",),
+              "diverged": ("diverged",)}
 
 _MAP_STYLE = {"rest": dict(marker="o", mfc="white", mec="0.35", ms=3.5),
               "period-1": dict(marker="o", mfc="black", mec="black", ms=3.5),
               "period-1 bi-modal": dict(marker="o", mfc="tab:green", mec="darkgreen", ms=4),
               "period-2": dict(marker="s", mfc="tab:purple", mec="tab:purple", ms=3.5),
+              "autonomous-periodic": dict(marker="o", mfc="tab:purple", mec="indigo", ms=4),
               "quasi-periodic": dict(marker="^", mfc="tab:orange", mec="tab:orange", ms=4),
               "diverged": dict(marker="x", mfc="none", mec="tab:red", ms=4)}
 _REGION_COLORS = {"small": "#e8f1fa", "mono-modal": "#cfe3c4", "bi-modal": "#f6d7a8",

@@ -43,11 +43,12 @@ import numpy as np
 from autocable._store import atomic_write_json, atomic_write_text, content_hash
 from autocable.scene.sweep_schema import AXES, SweepSpec
 
-#: Bump when a point record changes meaning (part of every point key).
-POINT_FORMAT = "1"
+#: Bump when a point record changes meaning (part of every point key). 2: eta* = 0 cycles are
+#: autonomous-periodic (were quasi-periodic).
+POINT_FORMAT = "2"
 #: Codes of the `response` variable: `shooting.RESPONSE_CLASSES` in order; -1 marks a point not
 #: computed (an interrupted sweep assembled anyway).
-RESPONSE_CLASSES = ("rest", "period-1", "period-2", "quasi-periodic", "diverged")
+RESPONSE_CLASSES = ("rest", "period-1", "period-2", "quasi-periodic", "diverged", "autonomous-periodic")
 NOT_COMPUTED = -1
 #: Below this amplitude a steady response is the rest state (`ode21`'s rest floor, 1e3 x atol).
 REST_FLOOR = 1e-10
@@ -119,6 +120,15 @@ def compute_point(model, method: str, U: float, eta: float, sigma: float, q0, ma
         mu, kind, periods = [], "quasi-periodic", 0
         if r.steady and max(a) < REST_FLOOR:
             kind, periods = "rest", 1
+        elif r.steady and r.periodic and r.autonomous:
+            # eta* = 0: a cycle of its own period (ode21, "Autonomous responses"); its multipliers
+            # by autonomous shooting from the end state, the trivial 1 left out
+            kind, periods = "autonomous-periodic", 1
+            got = solver.cycle(U, eta, r.Omega, np.asarray(r.final_state), judge=False)
+            if got is not None and "multipliers" in got:
+                mu = got["multipliers"]
+            return _record(kind, a, env, mu, periods, r.steady, r.t_end, time.perf_counter() - start,
+                           r.message, state=r.final_state)
         elif r.steady and r.periodic:
             kind, periods = "period-1", 1
         elif r.steady:
@@ -448,12 +458,13 @@ def assemble(spec: SweepSpec, model, grid, folder: Path, shash: str):
         "a1_max": (dims, f["a1_max"], {"long_name": "envelope of a1 over single forcing periods: max"}),
         "a2_min": (dims, f["a2_min"], {"long_name": "envelope of a2 over single forcing periods: min"}),
         "a2_max": (dims, f["a2_max"], {"long_name": "envelope of a2 over single forcing periods: max"}),
-        "response": (dims, code, {"long_name": "response class", "flag_values": np.arange(-1, 5, dtype=np.int8),
+        "response": (dims, code, {"long_name": "response class", "flag_values": np.arange(-1, len(RESPONSE_CLASSES), dtype=np.int8),
                                   "flag_meanings": " ".join(["not_computed"] + [c.replace("-", "_")
                                                                                 for c in RESPONSE_CLASSES]),
                                   "legend": json.dumps({str(k): c for k, c in enumerate(RESPONSE_CLASSES)}
                                                        | {str(NOT_COMPUTED): "not computed"})}),
-        "periods": (dims, periods, {"long_name": "period of the orbit in forcing periods (0: none)"}),
+        "periods": (dims, periods, {"long_name": "period of the orbit in forcing periods (0: none; "
+                                                 "autonomous-periodic: 1, one turn of its own period)"}),
         "steady": (dims, steady, {"long_name": "1 when a steady state (or its envelope) was reached"}),
         "fallback": (dims, fallback, {"long_name": "1 when transient integration decided (shooting)"}),
         "floquet_re": (dims + ("multiplier",), mre, {"long_name": "Floquet multipliers of the period-k map, "
