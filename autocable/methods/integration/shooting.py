@@ -787,7 +787,7 @@ def response_json(r: SteadyResponse) -> dict:
             "state0": [num(v) for v in r.state0], "shooting_residual": num(r.residual),
             "newton_iterations": r.newton_iterations, "transient_periods": r.transient_periods,
             "fallback_to_integration": r.fallback,
-            **({"period": num(r.period), "a1_error": num(r.a1_error), "a2_error": num(r.a2_error),
+            **({"autonomous": True, "period": num(r.period), "a1_error": num(r.a1_error), "a2_error": num(r.a2_error),
                 "trivial_multiplier": [float(r.trivial_multiplier.real), float(r.trivial_multiplier.imag)],
                 "amplitude_convention": "a_k = half the peak-to-peak of q_k over one turn of the cycle's own "
                                         "period, extremes Hermite-refined from 256 samples; a_k_error by "
