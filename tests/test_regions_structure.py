@@ -106,3 +106,23 @@ def test_fig06_chart_classes_unchanged_on_the_symmetric_sample(fig06, sigma):
     cls, rows = classify_point(system, {"U": 0.0, "eta": 1.4e-3, "sigma": sigma})
     old = any(r["a2"] > 1e-2 * r["a1"] for r in rows)
     assert ("bi-modal" in cls) == old and old == (sigma == -0.02)
+
+
+@pytest.mark.parametrize("which,U,eta,sigma,flags", [
+    ("stay190", 0.8, 4.1e-4, 0.0, (0, 0)),         # coupled forced response, a2 ~ 0.1 a1: slaved
+    ("sample", 0.0, 8.2e-5, 0.0, (0, 0)),          # Fig. 5a: mono-modal
+    ("sample", 0.0, 1e-3, -0.005, (1, 1)),         # between Figs. 5b and 6: on a bi-modal branch
+    # Fig. 6 itself: eq. (21)'s bi-modal orbit (a1, a2) = (3.3e-3, 4.1e-3) is farther from the AME's
+    # (1.4e-3, 7.6e-3) than the study's NEAR (the AME's known error at this eta*): undecided
+    ("sample", 0.0, 1.4e-3, -0.02, (-1, 1))])
+def test_sweep_points_carry_the_structural_flag(stay190, derivation, which, U, eta, sigma, flags):
+    """A sweep's period-1 point records ``bimodal`` by structure (the AME equilibrium it lies on,
+    `a2_slaved`; -1 where the AME has none near it) for eq. (21) by shooting and for the AME; the
+    chart draws it from there."""
+    from autocable.methods.integration.ode21 import DEFAULT_Q0
+    from autocable.studies import sweep as sw
+    model = (stay190 if which == "stay190" else derivation).spec
+    for method, flag in zip(("shooting", "ame"), flags):
+        rec = sw.compute_point(model, method, U, eta, sigma, DEFAULT_Q0, 60000.0)
+        assert rec["response"] == "period-1", (method, rec["message"])
+        assert rec["bimodal"] == flag, method
