@@ -59,8 +59,9 @@ NEEDS = {"fig04c": ("fig04a", "fig04b"), "fig07": ("fig05b",), "fig08": ("fig05b
 #: Statements never used to lower a bound because of a measurement limit, and why (besides these,
 #: every statement whose ``source`` is not "paper": `not_used_to_prune`).
 NOT_USED_TO_PRUNE = {
-    "fig03.boxes": "no model can show it today: the overlay's steady test and the study's bound are "
-                   "made for forced responses, not the autonomous galloping cycles of eta* = 0",
+    "fig03.boxes": "no model can show it today: eq. (21)'s galloping cycles at eta* = 0 are classed "
+                   "periodic on their own period with a stated error, but the AME-vs-(21) study has no "
+                   "bound at eta* = 0 to judge them by",
 }
 #: A scene still running after this is stopped and counted failed (its statements stay undecided):
 #: the longest scene of the fully evaluated candidates took about 35 s.

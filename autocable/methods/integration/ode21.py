@@ -413,7 +413,8 @@ class Ode21Integrator:
         msg = ("steady" if not at_rest else f"at rest (amplitudes below {rest_floor:.0e} and decaying)") \
             if steady else f"not steady after t = {t:g} (amplitudes still changing)"
         return self._response(U, eta, sigma, Omega, amps, steady, periodic, t, window, msg, start, y,
-                              history, samples_per_period, period=period if periodic else math.nan)
+                              history, samples_per_period,
+                              period=period if periodic and not at_rest else math.nan)
 
     def _cycle_response(self, U, eta, sigma, Omega, cycles, steady, t, window, dt, start, y, history, steps):
         """The response of the autonomous eq. (21) measured on its own cycles: periodic when steady
