@@ -729,13 +729,15 @@ class ShootingSolver:
         if not math.isfinite(r.a1):
             return result("diverged", (r.a1, r.a2), env, 0, fs, [], math.inf,
                           r.message, fallback=True, t_end=t_end)
-        if r.autonomous and r.periodic:
-            # integration reached a cycle of its own period (eta* = 0): polish it by autonomous
-            # shooting from its end state, else report the integration's cycle
+        if r.autonomous and (r.periodic or not r.steady):
+            # integration reached a cycle of its own period (eta* = 0), or is still approaching one
+            # slowly (near the onset): autonomous shooting from its end state, judged by integration
+            # from there; else report the integration's cycle, or go on below
             got = attempt_cycle(fs)
             if got is not None:
                 return replace(got, fallback=True, t_end=t_end, message=got.message + " after transient "
                                f"integration to t = {t_end:.6g}")
+        if r.autonomous and r.periodic:
             return result("autonomous-periodic", (r.a1, r.a2), env, 1, fs, [], math.nan,
                           f"transient integration from t = {done * period:.6g}: {r.message}", fallback=True,
                           t_end=t_end, period=r.period, a1_error=r.a1_error, a2_error=r.a2_error)
