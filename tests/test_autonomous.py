@@ -182,3 +182,42 @@ def test_sample_cable_at_eta_zero_three_methods_agree(derivation):
         assert r.response == "autonomous-periodic" and q.periodic and q.autonomous
         assert rec["response"] == "autonomous-periodic"
         assert abs(r.a1 - q.a1) <= r.a1_error + q.a1_error
+
+
+def test_near_onset_shooting_finishes_what_integration_cannot(gallop):
+    """At U* = 1.05 the cycle is approached so slowly from rest that integration is not steady at
+    t = 60000 (still 1 % short); shooting ends on the cycle by autonomous shooting from where the
+    transient stopped, and integration started on that cycle is steady, periodic and equal to it
+    within the stated errors (an independent check of the shot cycle)."""
+    _, _, solver = gallop
+    r = solver.steady(1.05, 0.0, 0.0)
+    assert r.response == "autonomous-periodic", r.message
+    y = r.state0
+    q = solver.integrator.simulate(1.05, 0.0, 0.0, (y[0], y[2], y[1], y[3]))
+    assert q.steady and q.periodic and q.autonomous, q.message
+    assert abs(r.a1 - q.a1) <= r.a1_error + q.a1_error
+    assert abs(r.period - q.period) < 1e-7 * r.period
+
+
+def test_eta_zero_row_of_a_sweep_is_periodic(tmp_path, stay190):
+    """`autocable sweep` over U* = 0.9, 1.1, 1.2 at eta* = 0 (the row of a chart above U_c): rest
+    below the onset, autonomous-periodic above it (was quasi-periodic), in sweep.nc with its legend,
+    and the chart reads them as such (AME galloping predicts it)."""
+    pytest.importorskip("xarray")
+    import xarray as xr
+    from conftest import STAY190
+    from autocable.plotting.chart import AME_TO_MAP, read_response_map
+    from autocable.scene.sweep_schema import load_sweep
+    from autocable.studies.sweep import run_sweep
+    (tmp_path / "stay190.toml").write_text(STAY190)
+    (tmp_path / "s.toml").write_text('model = "stay190.toml"\nmethod = "shooting"\n[grid]\n'
+                                     'U = [0.9, 1.1, 1.2]\neta = [0.0]\nsigma = [0.0]\n')
+    run_sweep(load_sweep(tmp_path / "s.toml"), tmp_path / "out", workers=0)
+    with xr.open_dataset(tmp_path / "out" / "sweep.nc", engine="scipy") as ds:
+        legend = dict(zip(ds["response"].attrs["flag_values"].tolist(), ds["response"].attrs["flag_meanings"].split()))
+        codes = ds["response"].values.ravel().tolist()
+        assert [legend[c] for c in codes] == ["rest", "autonomous_periodic", "autonomous_periodic"]
+        assert np.all(ds["a1"].values.ravel()[1:] > 1e-3)
+    m = read_response_map(tmp_path / "out" / "sweep.nc", "U", "eta", {"sigma": 0.0})
+    assert m["response"] == ["rest", "autonomous-periodic", "autonomous-periodic"]
+    assert "autonomous-periodic" in AME_TO_MAP["galloping"]
