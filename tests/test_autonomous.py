@@ -221,3 +221,27 @@ def test_eta_zero_row_of_a_sweep_is_periodic(tmp_path, stay190):
     m = read_response_map(tmp_path / "out" / "sweep.nc", "U", "eta", {"sigma": 0.0})
     assert m["response"] == ["rest", "autonomous-periodic", "autonomous-periodic"]
     assert "autonomous-periodic" in AME_TO_MAP["galloping"]
+
+
+def test_own_cycles_measure_a_closed_form_cycle():
+    """`cycles.own_cycles` on q1 = A sin(w t), q2 = B cos(w t) (q2's extremes exactly at q1's zero
+    crossings, the cycle's phase drifting against the sample grid as a galloping cycle's does):
+    the period 2 pi / w and both amplitudes to the fourth-order Hermite accuracy h^4 / 384 of the
+    amplitude (with the half-sampling estimate of `orbit_amplitudes` below that), the section
+    states repeating."""
+    from autocable.methods.integration.cycles import orbit_amplitudes, own_cycles
+    A, B, w = 5.7e-3, 6.8e-4, 1.0289528
+    h = 2 * math.pi / 1.0178 / 128
+    t = np.arange(0, 20 * 2 * math.pi / 1.0178, h) + 0.3
+    ys = np.column_stack([A * np.sin(w * t), B * np.cos(w * t), A * w * np.cos(w * t), -B * w * np.sin(w * t)])
+    c = own_cycles(t, ys)
+    bound = (h * w) ** 4 / 384
+    assert c.coordinate == 0 and c.count >= 19
+    assert abs(c.period - 2 * math.pi / w) < 1e-9
+    assert abs(c.amplitudes[0] - A) < bound * A and abs(c.amplitudes[1] - B) < bound * B
+    assert c.section_change < 1e-5
+    T = 2 * math.pi / w
+    tt = np.linspace(0, T, 257)
+    one = np.column_stack([A * np.sin(w * tt), B * np.cos(w * tt), A * w * np.cos(w * tt), -B * w * np.sin(w * tt)])
+    amps, errs = orbit_amplitudes(tt, one)
+    assert abs(amps[0] - A) <= max(errs[0], 1e-15) * 2 and abs(amps[1] - B) <= max(errs[1], 1e-15) * 2

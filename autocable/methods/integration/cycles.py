@@ -63,9 +63,9 @@ def _hermite_slope(p0, m0, p1, m1, s: float) -> float:
     return (6 * s * s - 6 * s) * p0 + (3 * s * s - 4 * s + 1) * m0 + (-6 * s * s + 6 * s) * p1 + (3 * s * s - 2 * s) * m1
 
 
-def _extreme(p0, m0, p1, m1) -> float | None:
-    """The value of the Hermite interpolant at the root in (0, 1] of its derivative (an interval in
-    which the derivative changes sign), or None."""
+def _extreme(p0, m0, p1, m1) -> tuple[float, float] | None:
+    """(s, value) of the Hermite interpolant at the root s in [0, 1] of its derivative (an interval
+    in which the derivative changes sign), or None."""
     # p'(s) = a s^2 + b s + c
     a = 6 * p0 + 3 * m0 - 6 * p1 + 3 * m1
     b = -6 * p0 - 4 * m0 + 6 * p1 - 2 * m1
@@ -81,21 +81,23 @@ def _extreme(p0, m0, p1, m1) -> float | None:
     s = [r for r in roots if 0.0 <= r <= 1.0]
     if not s:
         return None
-    return _hermite(p0, m0, p1, m1)(s[0])
+    return s[0], _hermite(p0, m0, p1, m1)(s[0])
 
 
 def hermite_extremes(t, x, xd, lo: float, hi: float) -> tuple[float, float]:
     """(max, min) of the signal over [lo, hi), from the samples inside it and the Hermite-refined
-    extremes of the intervals where x' changes sign."""
+    extremes of the intervals where x' changes sign, those that straddle lo or hi included (an
+    extreme of q2 may sit at a zero crossing of q1, where which side of the boundary its computed
+    time falls on is rounding: over one period, taking it on both sides repeats the same value)."""
     t, x, xd = (np.asarray(v, float) for v in (t, x, xd))
     inside = (t >= lo) & (t < hi)
     hi_v, lo_v = float(np.max(x[inside])), float(np.min(x[inside]))
-    idx = np.nonzero(inside[:-1] & inside[1:] & (np.sign(xd[:-1]) != np.sign(xd[1:])))[0]
+    idx = np.nonzero((t[1:] > lo) & (t[:-1] < hi) & (np.sign(xd[:-1]) != np.sign(xd[1:])))[0]
     for i in idx:
         h = t[i + 1] - t[i]
-        v = _extreme(x[i], xd[i] * h, x[i + 1], xd[i + 1] * h)
-        if v is not None:
-            hi_v, lo_v = max(hi_v, v), min(lo_v, v)
+        got = _extreme(x[i], xd[i] * h, x[i + 1], xd[i + 1] * h)
+        if got is not None:
+            hi_v, lo_v = max(hi_v, got[1]), min(lo_v, got[1])
     return hi_v, lo_v
 
 
