@@ -114,6 +114,7 @@ class Response:
     sigma: float
     Omega: float
     a1_min: float          # envelope of the half peak-to-peak over single forcing periods
+                           # (autonomous: over the response's own single cycles)
     a1_max: float
     a2_min: float
     a2_max: float
