@@ -245,3 +245,19 @@ def test_own_cycles_measure_a_closed_form_cycle():
     one = np.column_stack([A * np.sin(w * tt), B * np.cos(w * tt), A * w * np.cos(w * tt), -B * w * np.sin(w * tt)])
     amps, errs = orbit_amplitudes(tt, one)
     assert abs(amps[0] - A) <= max(errs[0], 1e-15) * 2 and abs(amps[1] - B) <= max(errs[1], 1e-15) * 2
+
+
+def test_own_cycles_find_the_period_of_a_doubly_crossing_coordinate():
+    """q1 = A sin(2 w t) driven by q2 = B sin(w t) (an out-of-plane cycle with its quadratic in-plane
+    response, A > B so q1 bounds the cycles): q1 crosses zero upwards twice a period, and the period
+    is 2 pi / w, not half of it (the section states repeat every second crossing only)."""
+    from autocable.methods.integration.cycles import own_cycles
+    A, B, w = 6e-3, 4e-3, 1.0289528
+    h = 2 * math.pi / 1.0178 / 256
+    t = np.arange(0, 20 * 2 * math.pi / 1.0178, h)
+    ys = np.column_stack([A * np.sin(2 * w * t), B * np.sin(w * t), 2 * w * A * np.cos(2 * w * t),
+                          w * B * np.cos(w * t)])
+    c = own_cycles(t, ys)
+    assert c.coordinate == 0
+    assert abs(c.period - 2 * math.pi / w) < 1e-8 and c.section_change < 1e-5
+    assert abs(c.amplitudes[0] - A) < 1e-7 * A and abs(c.amplitudes[1] - B) < 1e-7 * B

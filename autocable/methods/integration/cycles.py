@@ -116,11 +116,21 @@ class Cycles:
     coordinate: int               # 0 or 1: the coordinate whose crossings bound the cycles
 
 
-def own_cycles(t: np.ndarray, ys: np.ndarray, *, min_cycles: int = 3, coordinate: int | None = None
-               ) -> Cycles | None:
+#: The largest number of zero crossings of the section coordinate per period that `own_cycles`
+#: considers: a q1 driven by q2^2 (an out-of-plane cycle) crosses zero twice per period.
+MAX_CROSSINGS_PER_PERIOD = 3
+
+
+def own_cycles(t: np.ndarray, ys: np.ndarray, *, min_cycles: int = 3, coordinate: int | None = None,
+               crossings_per_period: int | None = None) -> Cycles | None:
     """The cycles of the samples ``ys`` (columns q1, q2, q1', q2') at times ``t``, bounded by the
     upward zero crossings of ``coordinate`` (default: the one with the larger range); None with
-    fewer than ``min_cycles`` whole cycles (or a coordinate that does not cross zero)."""
+    fewer than ``min_cycles`` whole cycles (or a coordinate that does not cross zero).
+
+    A period may hold several upward crossings (q1 at twice the frequency of an out-of-plane cycle
+    that drives it quadratically): the period is taken as m crossings, m = 1 .. 3 the smallest
+    whose section states repeat ten times better than those of one crossing, if any
+    (``crossings_per_period`` fixes m)."""
     t, ys = np.asarray(t, float), np.asarray(ys, float)
     if len(t) < 8:
         return None
@@ -128,15 +138,6 @@ def own_cycles(t: np.ndarray, ys: np.ndarray, *, min_cycles: int = 3, coordinate
     c = hermite_crossings(t, ys[:, k], ys[:, 2 + k])
     if len(c) < min_cycles + 1:
         return None
-    periods = np.diff(c)
-    amps = [[], []]
-    for lo, hi in zip(c[:-1], c[1:]):
-        for j in (0, 1):
-            mx, mn = hermite_extremes(t, ys[:, j], ys[:, 2 + j], lo, hi)
-            amps[j].append(0.5 * (mx - mn))
-    amps = np.asarray(amps)
-    means = amps.mean(axis=1)
-    errors = np.max(np.abs(amps - means[:, None]), axis=1)
     # the section states: q_k and q_k' from the Hermite interpolant (q_k' to third order in h)
     sec = []
     for tc in c:
@@ -149,12 +150,33 @@ def own_cycles(t: np.ndarray, ys: np.ndarray, *, min_cycles: int = 3, coordinate
         sec.append(q + v)
     sec = np.asarray(sec)
     scale = max(float(np.max(np.abs(sec))), 1e-300)
-    change = float(np.max(np.abs(np.diff(sec, axis=0)))) / scale
+
+    def change(m):
+        return float(np.max(np.abs(sec[m:] - sec[:-m]))) / scale
+
+    m = crossings_per_period or 1
+    for n in (range(2, MAX_CROSSINGS_PER_PERIOD + 1) if crossings_per_period is None else ()):
+        if len(c) >= n * min_cycles + 1 and change(n) < 0.1 * change(1):
+            m = n
+            break
+    c, sec = c[::m], sec[::m]
+    if len(c) < min_cycles + 1:
+        return None
+    periods = np.diff(c)
+    amps = [[], []]
+    for lo, hi in zip(c[:-1], c[1:]):
+        for j in (0, 1):
+            mx, mn = hermite_extremes(t, ys[:, j], ys[:, 2 + j], lo, hi)
+            amps[j].append(0.5 * (mx - mn))
+    amps = np.asarray(amps)
+    means = amps.mean(axis=1)
+    errors = np.max(np.abs(amps - means[:, None]), axis=1)
     T = float(periods.mean())
     return Cycles(period=T, period_spread=float(np.max(np.abs(periods - T))),
                   amplitudes=(float(means[0]), float(means[1])), errors=(float(errors[0]), float(errors[1])),
                   ranges=tuple((float(a.min()), float(a.max())) for a in amps),
-                  section=sec, section_change=change, count=len(periods), coordinate=k)
+                  section=sec, section_change=float(np.max(np.abs(np.diff(sec, axis=0)))) / scale, count=len(periods),
+                  coordinate=k)
 
 
 def orbit_amplitudes(t: np.ndarray, ys: np.ndarray) -> tuple[tuple, tuple]:

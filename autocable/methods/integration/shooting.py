@@ -64,7 +64,7 @@ from autocable.codegen.cintegrate import Repeated, sample_grid
 from autocable.errors import ComputationError
 from autocable.methods.integration.floquet21 import STABILITY_MARGIN, multipliers_of
 from autocable.methods.integration.autonomous import newton_cycle, split_multipliers
-from autocable.methods.integration.cycles import orbit_amplitudes, own_cycles
+from autocable.methods.integration.cycles import MAX_CROSSINGS_PER_PERIOD, orbit_amplitudes, own_cycles
 from autocable.methods.integration.ode21 import (DEFAULT_Q0, DIVERGED, Ode21Integrator, grew, half_range,
                                                  is_autonomous, _stopped)
 from autocable.model.symbolic import PARAMETERS, STATE, T, first_order_rhs, parameter_values
@@ -508,14 +508,18 @@ class ShootingSolver:
         r = self._sampled(U, eta, Omega, y_tr, (turns + 2) * T, T / SAMPLES_PER_PERIOD)
         if r is None:
             return False
-        cyc = own_cycles(r.t, r.y, min_cycles=2, coordinate=k)
+        # every crossing a section point (a period may hold several: the nearest of the first
+        # and of the last few measure the distance to the cycle)
+        cyc = own_cycles(r.t, r.y, min_cycles=2 * MAX_CROSSINGS_PER_PERIOD, coordinate=k,
+                         crossings_per_period=1)
         if cyc is None:
             return False
         size = max(_norm(np.asarray(y_star)), 1e-12)
-        d0 = _norm(cyc.section[0] - y_star)
+        n = MAX_CROSSINGS_PER_PERIOD
+        d0 = min(_norm(v - y_star) for v in cyc.section[:n])
         if d0 <= 1e-6 * size:
             return True
-        return bool(_norm(cyc.section[-1] - y_star) < 0.75 * d0)
+        return bool(min(_norm(v - y_star) for v in cyc.section[-n:]) < 0.75 * d0)
 
     # -- the steady response -------------------------------------------------------------------
     def steady(self, U: float, eta: float, sigma: float, q0=DEFAULT_Q0, *, guess=None,
