@@ -510,12 +510,11 @@ class ShootingSolver:
             return False
         # every crossing a section point (a period may hold several: the nearest of the first
         # and of the last few measure the distance to the cycle)
-        cyc = own_cycles(r.t, r.y, min_cycles=2 * MAX_CROSSINGS_PER_PERIOD, coordinate=k,
-                         crossings_per_period=1)
+        cyc = own_cycles(r.t, r.y, min_cycles=2, coordinate=k, crossings_per_period=1)
         if cyc is None:
             return False
         size = max(_norm(np.asarray(y_star)), 1e-12)
-        n = MAX_CROSSINGS_PER_PERIOD
+        n = min(MAX_CROSSINGS_PER_PERIOD, len(cyc.section) // 2)
         d0 = min(_norm(v - y_star) for v in cyc.section[:n])
         if d0 <= 1e-6 * size:
             return True
