@@ -64,7 +64,10 @@ def sample_ame(derivation):
 #: U_c = 10 m/s, yaw 30 deg, the sample's lift/drag fits and readings. The chord slope (30 deg), EA
 #: (E = 195 GPa on 9.5e-3 m^2 of steel) and EI, GJ (the sample's scaled by D^4) are not given: typical
 #: values. Its wind coupling is strong: at eta* = 0 it gallops super-critically with a2 about 0.12 a1
-#: (autocable simulate), a coupled cable where a2 is slaved to a1.
+#: (autocable simulate), a coupled cable where a2 is slaved to a1. The angle sense is the sample's at
+#: the time the issue was filed ("reversed", now a legacy reading with a warning): with "mirrored"
+#: the same cable's eq. (21) at U* = 1.2, eta* = 0 is a large modulated motion (a1 = 0.064), not the
+#: small super-critical cycle these tests need.
 STAY190 = """\
 name = "stay190"
 description = "190 m stay with rain-wind vibration (test cable)"
