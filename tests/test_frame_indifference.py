@@ -238,3 +238,33 @@ def test_errata_terms_of_appendix_a(readings_odes):
         undamped = [t.coefficient for t in fast_ode(no_b0).terms if t.equation == 2
                     and t.powers == (0, 0, 0, 1) and t.origin == "aerodynamic"]
     assert abs(damped - undamped[0]) > 0.1 * abs(damped)
+
+
+def test_mirrored_reading_decisions_on_the_sample(tmp_path):
+    """The consistent sense at the sample's yaw decides the in-plane targets as the legacy one does,
+    for the reason the structure gives (same in-plane terms): the same calibrated Theta0 (to the
+    root finder's tolerance), the same zeta8 > 0 (super-critical galloping of eq. 25, the screen's
+    "supercritical" target yes) and the same onset of eq. (21) at U* = 1 (xi12 = 0 at this yaw, so
+    the flipped k21 cannot move it); and out of plane the cubic wind stiffness h32 flips sign, from
+    softening to hardening."""
+    from autocable.model.derive import derive
+    from autocable.paper import targets as tg
+    ts = {t.id: t for t in tg.load_targets(SAMPLE.with_suffix("").with_suffix(".targets.toml"))}
+    text = SAMPLE.read_text()
+    got = {}
+    for sense in ("mirrored", "reversed"):
+        p = tmp_path / f"{sense}.toml"
+        p.write_text(text.replace('angle_convention = "mirrored"', f'angle_convention = "{sense}"')
+                     .replace('angle_convention = "reversed"', f'angle_convention = "{sense}"'))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            d = derive(p)
+        c = d.ode.coefficients()
+        got[sense] = (math.degrees(d.theta0), c["zeta8"], c["h32"],
+                      tg.decide_screen(ts["supercritical"], c["zeta8"]).shown,
+                      tg.decide_screen(ts["onset_21"], tg.onset_error_21(d.ode)).shown)
+    m, r = got["mirrored"], got["reversed"]
+    assert m[0] == pytest.approx(r[0], abs=1e-6) and m[0] == pytest.approx(-13.879, abs=1e-3)
+    assert m[1] == pytest.approx(r[1], rel=1e-8) and m[1] > 0
+    assert m[3] == r[3] == "yes" and m[4] == r[4] == "yes"
+    assert m[2] == pytest.approx(-r[2], rel=1e-8) and m[2] > 0

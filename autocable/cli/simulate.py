@@ -25,6 +25,9 @@ def si_fields(d, out: dict) -> dict:
     out.update({"U_m_s": u.wind_m_s(out["U"]), "eta_m": u.support_m(out["eta"]),
                 "Omega_Hz": u.frequency_hz(out["Omega"]), "peak_m": [peak(out["a1"]), peak(out["a2"])],
                 "peak_station": PEAK_STATION})
+    if out.get("autonomous") and out.get("period"):
+        # a self-excited cycle has its own frequency: 2 pi / period in units of omega (eq. 17)
+        out["response_frequency_Hz"] = u.frequency_hz(2 * math.pi / out["period"])
     return out
 
 
@@ -97,6 +100,14 @@ def cmd_simulate(args) -> int:
            "amplitude_convention": "a_k = half the peak-to-peak of q_k over the last 20 forcing "
                                    "periods (peak modal amplitude = peak displacement / l)",
            "message": r.message, "method": "ode21", "wall_seconds": r.wall_seconds}
+    if r.autonomous:
+        # eta* = 0: a self-excited cycle measured on its own period (ode21, "Autonomous responses")
+        out.update(autonomous=True, period=r.period if math.isfinite(r.period) else None,
+                   a1_error=r.a1_error, a2_error=r.a2_error,
+                   amplitude_convention="a_k = half the peak-to-peak of q_k over each whole cycle of the "
+                                        "response's own period (zero crossings), averaged over the last "
+                                        "20 forcing periods; a_k_error = their scatter plus the sampling "
+                                        "error (peak modal amplitude = peak displacement / l)")
     _print_simulation(args, r, si_fields(d, out))
     return 0
 
