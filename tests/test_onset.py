@@ -17,7 +17,7 @@ from autocable.model.units import units_of
 #: rivulet angle (the root of the U_c calibration with the "reversed" sense) its galloping onset is
 #: in-plane and super-critical, while the one-mode coefficients say zeta8 < 0 (sub-critical) and
 #: zeta11 > 0 (no in-plane galloping): the case of the issue that asked for `autocable onset`.
-STAY_190 = """name = "stay190"
+STAY_190 = """name = "stay190_40"
 [cable]
 length_m = 190.0
 chord_slope_deg = -40.0
@@ -41,10 +41,10 @@ rivulet_angle_deg = -31.886261
 
 
 @pytest.fixture(scope="module")
-def stay190(tmp_path_factory):
+def stay190_40(tmp_path_factory):
     import warnings
     from autocable.model.derive import derive
-    path = tmp_path_factory.mktemp("stay") / "stay190.toml"
+    path = tmp_path_factory.mktemp("stay") / "stay190_40.toml"
     path.write_text(STAY_190)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -64,10 +64,10 @@ def _hurwitz(A):
     return a1 * a2 * a3 - a3 ** 2 - a1 ** 2 * a4
 
 
-@pytest.mark.parametrize("which", ["sample", "stay190"])
-def test_onset_speed_equals_the_hurwitz_route(which, derivation, stay190):
+@pytest.mark.parametrize("which", ["sample", "stay190_40"])
+def test_onset_speed_equals_the_hurwitz_route(which, derivation, stay190_40):
     from scipy.optimize import brentq
-    d = derivation if which == "sample" else stay190
+    d = derivation if which == "sample" else stay190_40
     first = stability(d.ode).first
     assert first is not None and first.lyapunov is not None
     Uc = first.U_star
@@ -143,13 +143,13 @@ def _envelope_end(d, U, a0, t_end):
     return a1, msg
 
 
-@pytest.mark.parametrize("which", ["sample", "stay190"])
-def test_criticality_agrees_with_direct_integration(which, derivation, stay190):
+@pytest.mark.parametrize("which", ["sample", "stay190_40"])
+def test_criticality_agrees_with_direct_integration(which, derivation, stay190_40):
     """Just below the onset (U* = 0.99 U_cr) hysteresis is present iff the onset is sub-critical: a
     start at 1.5 times the unstable cycle's amplitude (from the normal form) grows and one at 0.6
     times decays; for a super-critical onset a start at 5e-3 (a displacement of l/200 at mid-span)
     decays as one at 1e-4 does."""
-    d = derivation if which == "sample" else stay190
+    d = derivation if which == "sample" else stay190_40
     first = stability(d.ode).first
     Uc, slope = first.U_star, first.amplitude_slopes[0]
     U = 0.99 * Uc
@@ -166,45 +166,45 @@ def test_criticality_agrees_with_direct_integration(which, derivation, stay190):
         assert slope > 0
         big, msg = _envelope_end(d, U, 5e-3, 8e4)
         assert "diverges" not in msg and big[-1] < 0.2 * big[0]
-    expected = {"sample": None, "stay190": "supercritical"}[which]
+    expected = {"sample": None, "stay190_40": "supercritical"}[which]
     if expected:
         assert first.criticality == expected
 
 
-def test_post_critical_amplitude_matches_the_normal_form(stay190):
+def test_post_critical_amplitude_matches_the_normal_form(stay190_40):
     """Above a super-critical onset (U* = 1.02 U_cr) the cycle of eq. (21), reached from below and
     from above, has a1^2 = slope (U - U_cr) to within 5 % in a1 (the normal form's leading order)."""
-    first = stability(stay190.ode).first
+    first = stability(stay190_40.ode).first
     Uc, slope = first.U_star, first.amplitude_slopes[0]
     U = 1.02 * Uc
     a_pred = math.sqrt(slope * (U - Uc))
     for start in (0.5 * a_pred, 2 * a_pred):
-        a1, msg = _envelope_end(stay190, U, start, 2.5e5)
+        a1, msg = _envelope_end(stay190_40, U, start, 2.5e5)
         assert "bounded" in msg
         assert a1[-1] == pytest.approx(a_pred, rel=0.05)
         assert abs(a1[-1] - a1[-200]) < 1e-3 * a1[-1]          # settled
 
 
-def test_one_mode_coefficients_mislead_on_the_190_m_stay(stay190):
+def test_one_mode_coefficients_mislead_on_the_190_m_stay(stay190_40):
     """The issue's reading: zeta8 < 0 and zeta11 > 0 say "no in-plane galloping, and sub-critical
     if any"; eq. (21) gallops in-plane and super-critically, and the warnings say both."""
-    om = one_mode(stay190.ode)
+    om = one_mode(stay190_40.ode)
     assert om["zeta8"] < 0 and om["zeta11"] > 0
-    result = stability(stay190.ode)
+    result = stability(stay190_40.ode)
     first = result.first
     assert first.mechanism == "in-plane galloping" and first.criticality == "supercritical"
-    text = " ".join(one_mode_warnings(stay190.ode, result, units_of(stay190.spec, stay190.statics)))
+    text = " ".join(one_mode_warnings(stay190_40.ode, result, units_of(stay190_40.spec, stay190_40.statics)))
     assert "zeta11" in text and "zeta8" in text and "supercritical" in text
 
 
-@pytest.mark.parametrize("which", ["sample", "stay190"])
-def test_decoupled_onset_is_the_closed_form_for_every_damping(which, derivation, stay190):
+@pytest.mark.parametrize("which", ["sample", "stay190_40"])
+def test_decoupled_onset_is_the_closed_form_for_every_damping(which, derivation, stay190_40):
     """Eq. (21) with its linear cross terms removed (each mode's own terms kept): the in-plane block
     q1'' + (2 xi omega1 + zeta11 U) q1' + omega1^2 q1 loses stability at U* = -2 xi omega1 / zeta11,
     the out-of-plane one q2'' + (2 xi + xi21 U) q2' + (1 + h14 U^2) q2 at -2 xi / xi21 (when the
     coefficient is negative), so the first onset is the smaller, at any damping `with_damping` sets."""
     from dataclasses import replace
-    d = derivation if which == "sample" else stay190
+    d = derivation if which == "sample" else stay190_40
     own = tuple(t for t in d.ode.terms
                 if not (t.eta_power == 0 and sum(t.powers) == 1 and t.powers.index(1) % 2 != t.equation - 1))
     ode0 = replace(d.ode, terms=own)
@@ -226,24 +226,24 @@ def test_decoupled_onset_is_the_closed_form_for_every_damping(which, derivation,
             assert got == math.inf
 
 
-def test_hopf_point_frequency_is_the_critical_eigenvalue(stay190):
-    first = stability(stay190.ode).first
-    hp = hopf_point(stay190.ode, first.U_star)
-    lam = np.linalg.eigvals(stay190.ode.linear_matrix(first.U_star))
+def test_hopf_point_frequency_is_the_critical_eigenvalue(stay190_40):
+    first = stability(stay190_40.ode).first
+    hp = hopf_point(stay190_40.ode, first.U_star)
+    lam = np.linalg.eigvals(stay190_40.ode.linear_matrix(first.U_star))
     assert min(abs(lam - 1j * hp.omega)) < 1e-9
 
 
-def test_the_pencil_is_the_linear_matrix(derivation, stay190):
+def test_the_pencil_is_the_linear_matrix(derivation, stay190_40):
     from autocable.model.onset import LinearPencil
-    for d in (derivation, stay190):
+    for d in (derivation, stay190_40):
         pencil = LinearPencil(d.ode)
         U = np.array([0.0, 0.37, 1.0, 2.9])
         for Ui, M in zip(U, pencil.matrices(U)):
             assert np.allclose(M, d.ode.linear_matrix(Ui), rtol=1e-14, atol=1e-16)
 
 
-@pytest.mark.parametrize("which", ["sample", "stay190"])
-def test_the_matrix_is_the_calibrations(which, derivation, stay190):
+@pytest.mark.parametrize("which", ["sample", "stay190_40"])
+def test_the_matrix_is_the_calibrations(which, derivation, stay190_40):
     """Two routes to the trivial state's linear matrix: the calibration's (first-order load
     coefficients projected directly, `calibration._linear_matrix`) and eq. (21)'s term table (the
     cubic load expanded, then projected) that the onset scans: equal to round-off at every U*."""
@@ -252,7 +252,7 @@ def test_the_matrix_is_the_calibrations(which, derivation, stay190):
     from autocable.model.galerkin import aero_scales, linear_aero_matrix
     from autocable.model.modes import linear_modes
     from autocable.model.shapes import ClosedFormIntegrator
-    d = derivation if which == "sample" else stay190
+    d = derivation if which == "sample" else stay190_40
     spec, st = d.spec, d.statics
     modes = linear_modes(st, spec.cable.twist_ends)
     K, nu = aero_scales(spec.aero, spec.cable, st)
