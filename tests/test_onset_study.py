@@ -140,3 +140,12 @@ def test_onset_command_refit_and_damping_files(tmp_path, capsys):
     report = json.loads((tmp_path / "out" / "onset.json").read_text())
     assert report["design"]["design_wind_m_s"] == 18.0
     assert (tmp_path / "out" / "onset.png").stat().st_size > 10_000
+
+
+def test_bench_onset_reports_the_grid(tmp_path):
+    """`autocable bench onset` runs its 50-point grid and says whether it met the target (the time
+    itself is the benchmark's, not asserted here)."""
+    from autocable.bench.commands import run_bench
+    r = run_bench("onset", str(SAMPLE), repeats=1)
+    assert r["damping_grid_points"] == 50 and r["damping_grid_s"] > 0
+    assert r["meets_target"] == (r["damping_grid_s"] < r["target_damping_grid_s"])
