@@ -262,3 +262,16 @@ def test_the_matrix_is_the_calibrations(which, derivation, stay190_40):
     for U in (0.3, 1.0, 2.2):
         A = _linear_matrix(modes.omega1, modes.omega2, d.ode.xi_s, al, U)
         assert np.allclose(A, d.ode.linear_matrix(U), rtol=1e-10, atol=1e-13)
+
+
+def test_matrix_derivative_and_growth_slope_by_differences(stay190_40):
+    """d A / d U* term by term against a central difference of the matrix (exact for its U and U^2
+    terms), and d Re lambda / d U* at the onset against a difference of the eigenvalue."""
+    from autocable.model.onset import matrix_derivative
+    ode = stay190_40.ode
+    first = stability(ode).first
+    U, h = first.U_star, 1e-5
+    fd = (ode.linear_matrix(U + h) - ode.linear_matrix(U - h)) / (2 * h)
+    assert np.allclose(matrix_derivative(ode, U), fd, rtol=1e-7, atol=1e-12)
+    lam = [np.max(np.linalg.eigvals(ode.linear_matrix(u)).real) for u in (U - h, U + h)]
+    assert first.growth_slope == pytest.approx((lam[1] - lam[0]) / (2 * h), rel=1e-5)

@@ -45,11 +45,6 @@ def with_damping(ode: TwoModeODE, xi: float) -> TwoModeODE:
     return replace(ode, terms=terms, xi_s=float(xi))
 
 
-def spectral_abscissa(ode: TwoModeODE, U: float) -> float:
-    """max Re lambda of the trivial state at U* (eta = 0)."""
-    return float(np.max(np.linalg.eigvals(ode.linear_matrix(U)).real))
-
-
 def matrix_derivative(ode: TwoModeODE, U: float) -> np.ndarray:
     """d A / d U* of `TwoModeODE.linear_matrix`, term by term (coefficient u U^(u-1))."""
     dA = np.zeros((4, 4))
