@@ -117,6 +117,9 @@ def test_onset_command_json_and_errors(capsys):
         assert code == 2 and len(errors) == 1 and option in errors[0], err
     code, out, err = _cli(capsys, "derive", SAMPLE)
     assert code == 0 and "Onset of galloping" in out and "U_cr = " in out
+    code, out, err = _cli(capsys, "derive", SAMPLE, "--json")
+    onset = json.loads(out)["onset"]
+    assert code == 0 and onset["onsets"][0]["U_star"] == pytest.approx(o["U_star"], rel=1e-14)
 
 
 def test_onset_command_refit_and_damping_files(tmp_path, capsys):
