@@ -199,3 +199,72 @@ def test_reversed_warns_and_mirrored_does_not(tmp_path):
         assert bool(said) == warns, (sense, said)
         if warns:
             assert "angle_convention" in said[0] and "mirrored" in said[0]
+
+
+def test_errata_terms_of_appendix_a(readings_odes):
+    """docs/model.md, M8-M10: the terms the printed Appendix A gets wrong or lacks exist in the derived
+    eq. (21) with the powers of U that homogeneity gives, and are not zero; the in-plane equation has
+    its q1' wind damping (eq. 11 with v-dot, M8); the mean drag B0 enters the out-of-plane wind
+    damping (eq. 13 from k = 0, M9)."""
+    from dataclasses import replace
+
+    from autocable.paper.calibration import Readings, candidate_spec, fast_ode
+    from autocable.spec import load_model
+    ode = readings_odes[("mirrored", "reference", "natural")]
+
+    def coeff(eq, powers, forcing=(0, 0, 0), origin="aerodynamic"):
+        got = [t for t in ode.terms if t.equation == eq and t.powers == powers and t.forcing == forcing
+               and t.origin == origin]
+        assert len(got) == 1, (eq, powers, forcing, got)
+        return got[0]
+
+    scale = max(abs(t.coefficient) for t in ode.terms if t.origin == "aerodynamic")
+    for eq, powers, forcing, u in ((1, (0, 2, 0, 1), (0, 0, 0), 1),     # zeta15 q2^2 q2' U
+                                   (1, (0, 0, 0, 2), (0, 1, 0), -1),    # zeta22-bar eta f' q2'^2 / U
+                                   (1, (0, 0, 1, 2), (0, 0, 0), -1),    # q1' q2'^2 / U
+                                   (1, (0, 0, 0, 0), (0, 2, 0), 0),     # eta^2 f'^2 forcing
+                                   (1, (0, 0, 1, 0), (0, 0, 0), 1),     # zeta11 U q1' (M8)
+                                   (2, (0, 0, 0, 1), (0, 0, 0), 1)):    # xi11 U q2'
+        t = coeff(eq, powers, forcing)
+        assert t.u_power == u, t.label
+        assert abs(t.coefficient) > 1e-9 * scale, t.label
+    spec = load_model(SAMPLE)
+    r = Readings("natural", "reference", "mirrored", "diameter", 1.25)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        no_b0 = candidate_spec(replace(spec, aero=replace(spec.aero, drag=(0.0,) + spec.aero.drag[1:])),
+                               r, -6.569711, -13.879)
+        damped = coeff(2, (0, 0, 0, 1)).coefficient
+        undamped = [t.coefficient for t in fast_ode(no_b0).terms if t.equation == 2
+                    and t.powers == (0, 0, 0, 1) and t.origin == "aerodynamic"]
+    assert abs(damped - undamped[0]) > 0.1 * abs(damped)
+
+
+def test_mirrored_reading_decisions_on_the_sample(tmp_path):
+    """The consistent sense at the sample's yaw decides the in-plane targets as the legacy one does,
+    for the reason the structure gives (same in-plane terms): the same calibrated Theta0 (to the
+    root finder's tolerance), the same zeta8 > 0 (super-critical galloping of eq. 25, the screen's
+    "supercritical" target yes) and the same onset of eq. (21) at U* = 1 (xi12 = 0 at this yaw, so
+    the flipped k21 cannot move it); and out of plane the cubic wind stiffness h32 flips sign, from
+    softening to hardening."""
+    from autocable.model.derive import derive
+    from autocable.paper import targets as tg
+    ts = {t.id: t for t in tg.load_targets(SAMPLE.with_suffix("").with_suffix(".targets.toml"))}
+    text = SAMPLE.read_text()
+    got = {}
+    for sense in ("mirrored", "reversed"):
+        p = tmp_path / f"{sense}.toml"
+        p.write_text(text.replace('angle_convention = "mirrored"', f'angle_convention = "{sense}"')
+                     .replace('angle_convention = "reversed"', f'angle_convention = "{sense}"'))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            d = derive(p)
+        c = d.ode.coefficients()
+        got[sense] = (math.degrees(d.theta0), c["zeta8"], c["h32"],
+                      tg.decide_screen(ts["supercritical"], c["zeta8"]).shown,
+                      tg.decide_screen(ts["onset_21"], tg.onset_error_21(d.ode)).shown)
+    m, r = got["mirrored"], got["reversed"]
+    assert m[0] == pytest.approx(r[0], abs=1e-6) and m[0] == pytest.approx(-13.879, abs=1e-3)
+    assert m[1] == pytest.approx(r[1], rel=1e-8) and m[1] > 0
+    assert m[3] == r[3] == "yes" and m[4] == r[4] == "yes"
+    assert m[2] == pytest.approx(-r[2], rel=1e-8) and m[2] > 0

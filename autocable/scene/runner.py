@@ -14,11 +14,12 @@ import math
 import platform
 import sys
 import time
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
 from autocable.errors import ComputationError
+from autocable.model.units import units_of
 from autocable.spec import SpecError, load_model
 
 from autocable.scene.provenance import ode21_engine, versions
@@ -164,8 +165,45 @@ def run_equilibria(r: _Run):
         return run_search(r)
     else:
         x0 = r.start_state
-    return C.continue_equilibria(r.problem, r.settings, x0, name=r.run.name, directions=r.run.directions,
-                                 progress=r.say, engine=r.engine)
+    try:
+        return C.continue_equilibria(r.problem, r.settings, x0, name=r.run.name, directions=r.run.directions,
+                                     progress=r.say, engine=r.engine)
+    except C.StartError as exc:
+        if start.kind != "trivial":
+            raise
+        moved = _trivial_start_elsewhere(r)
+        if moved is None:
+            raise
+        r.say(f"  {exc}; Newton from rest converges at {r.problem.parameter} = {moved.values[moved.parameter]:g}: "
+              f"the branch starts there")
+        return C.continue_equilibria(moved, r.settings, np.zeros(system.dimension), name=r.run.name,
+                                     directions=r.run.directions, progress=r.say, engine=r.engine)
+
+
+#: Values of the continued parameter tried, across the range, when Newton from rest does not converge
+#: at the range's start (``start = "trivial"``).
+TRIVIAL_TRIES = 41
+
+
+def _trivial_start_elsewhere(r: _Run):
+    """The run's problem moved to the first value of the continued parameter, across its range from
+    the start, where Newton from rest converges to an equilibrium; None if there is none. The small
+    forced response that ``start = "trivial"`` means need not exist at the range's start for every
+    model (a fold of it may lie there), and a start tuned to one model is what scenes avoid."""
+    import numpy as np
+
+    from autocable.methods.continuation.equilibrium_analysis import equilibrium_near
+    prob, sysm = r.problem, r.system
+    lo, hi = prob.bounds
+    names = list(sysm.parameter_names)
+    for v in np.linspace(lo, hi, TRIVIAL_TRIES)[1:]:
+        values = {**prob.values, prob.parameter: float(v)}
+        p = sysm.parameter_vector(values)
+        x, ok, _ = equilibrium_near(sysm, np.zeros(sysm.dimension), p, tol=r.settings.newton_tol,
+                                    scale=prob.state_scale)
+        if ok and all(math.isfinite(float(y)) for y in x):
+            return replace(prob, values=dict(zip(names, p)))
+    return None
 
 
 def on_known_branch(branches, parameter: str, value: float, state, rel_tol: float = 1e-2) -> str:
@@ -505,6 +543,7 @@ def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolut
         "ame_advice": None if advice is None else {"requested": "auto", "tol": advice.tol, "chosen": advice.ame,
                                                    "lightest_rung": advice.rung, "reasons": list(advice.reasons)},
         "omega1": omega1, "omega2": float(ame.omegas[1]) if len(ame.omegas) > 1 else None,
+        "si_scales": asdict(units_of(spec, deriv.statics)),
         "amplitude_convention": "a_k = sqrt(r_k^2 + s_k^2): peak modal amplitude (peak displacement / l, "
                                 "modes normalised to a unit maximum); Omega = omega1 + sigma",
         "stability": "autocable's eigenvalues (equilibria) and Floquet multipliers (cycles), not PyCont's flags",
