@@ -96,9 +96,9 @@ def chart_map(path: Path, *, U=(0.2, 0.8, 1.4), sigma=0.01, model_hash=None, cod
 
 
 def test_a_map_of_the_chart_is_read_and_points_off_it_are_counted(tmp_path):
-    from autocable.scene.runner import _read_map
+    from autocable.scene.runner import read_chart_map
     from autocable.scene.schema import load_scene
-    m = _read_map(load_scene(CHART), chart_map(tmp_path / "m.nc", U=(0.2, 0.8, 2.5)))
+    m = read_chart_map(load_scene(CHART), chart_map(tmp_path / "m.nc", U=(0.2, 0.8, 2.5)))
     assert len(m["x"]) == 4 and m["outside"] == 2 and set(m["response"]) == {"period-1"}
 
 

@@ -8,7 +8,7 @@ folders, no hang; API calls also never return NaN as a result.
 Each file kind is read the way its command reads it, without the long computation after it:
 `load_sweep` (``autocable sweep``), `load_scene` of a chart scene (``autocable chart``),
 `load_targets` + `load_goal` + `check_scenes` (``autocable calibrate``), `load_space`
-(``calibrate --space``), and the chart's map check (``chart --map``, `scene.runner._read_map`).
+(``calibrate --space``), and the chart's map check (``chart --map``, `scene.runner.read_chart_map`).
 """
 from __future__ import annotations
 
@@ -333,9 +333,9 @@ def run_mode(case: Case, inp) -> tuple[int, str, str]:
             from autocable.paper.calibration import load_space
             load_space(inp / SPACE_FILE)
         elif case.mode == "read_map":
-            from autocable.scene.runner import _read_map
+            from autocable.scene.runner import read_chart_map
             from autocable.scene.schema import load_scene
-            _read_map(load_scene(CHART_SCENE), inp / MAP_FILE)
+            read_chart_map(load_scene(CHART_SCENE), inp / MAP_FILE)
         elif case.mode == "api":
             import warnings
             with warnings.catch_warnings():

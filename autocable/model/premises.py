@@ -219,12 +219,12 @@ def _number(function: str, name: str, value) -> float:
     return x
 
 
-def check_state(function: str, name: str, value, order: str = "(q1, q1', q2, q2')") -> tuple:
-    """Four finite numbers within `MAX_AMPLITUDE` (a start of eq. (21)), as floats."""
+def check_state(function: str, name: str, value, order: str = "(q1, q1', q2, q2')", limit: bool = True) -> tuple:
+    """Four finite numbers, within `MAX_AMPLITUDE` with ``limit`` (a start of eq. (21)), as floats."""
     if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 4:
         raise ArgumentError(function, name, f"expected four numbers {order}, got {show(value)}")
     out = tuple(_number(function, f"{name}[{k}]", v) for k, v in enumerate(value))
-    for k, v in enumerate(out):
+    for k, v in enumerate(out if limit else ()):
         if abs(v) > MAX_AMPLITUDE:
             raise ArgumentError(function, f"{name}[{k}]", f"expected |value| <= {MAX_AMPLITUDE:g} (eq. 21's "
                                                           f"coordinates are fractions of the cable length), got {v!r}")

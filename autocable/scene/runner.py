@@ -342,7 +342,7 @@ def run_scene(scene: Scene, out_dir: str | Path, *, progress: Progress | None = 
             raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
         scene = replace(scene, engine=engine)
     # a bad map is refused before the folder is touched
-    rmap = _read_map(scene, response_map) if scene.chart is not None and scene.time is None else None
+    rmap = read_chart_map(scene, response_map) if scene.chart is not None and scene.time is None else None
     # files the run reads may sit in its output folder (e.g. `--map DIR/sweep.nc`): never refused
     inputs = (scene.path, scene.model, scene.compare.csv if scene.compare else None,
               rmap["path"] if rmap else None)
@@ -653,7 +653,7 @@ def _run_chart(scene: Scene, ame, systems: dict, say, out: Path, resolution: str
     return {"rows": rows, "regions": regions, "fixed": data["fixed"]}
 
 
-def _read_map(scene: Scene, response_map) -> dict | None:
+def read_chart_map(scene: Scene, response_map) -> dict | None:
     """The brute-force map (``response_map`` or the table's ``map``) in the chart's plane, read
     before anything is computed (a bad map is refused at once, not after the runs)."""
     from autocable.plotting.chart import read_response_map

@@ -481,7 +481,8 @@ class Ode21Integrator:
         ``Omega`` overrides omega1 + sigma."""
         check_call("Ode21Integrator.envelope", U=U, eta=eta, sigma=sigma if Omega is None else NOT_GIVEN,
                    max_time=t_end, omega1=self.ode.omega1, time_name="t_end")
-        check_state("Ode21Integrator.envelope", "y0", y0, "(q1, q2, q1', q2')")
+        # a start beyond the model's range is the studies' to try (it ends as a divergence)
+        check_state("Ode21Integrator.envelope", "y0", y0, "(q1, q2, q1', q2')", limit=False)
         Om = self.ode.omega1 + sigma if Omega is None else float(Omega)
         if not Om > 0:
             raise ValueError(f"sigma = {sigma} gives a non-positive forcing frequency Omega = {Om}")
