@@ -238,7 +238,8 @@ NOT_GIVEN = object()
 def check_call(function: str, *, U=NOT_GIVEN, eta=NOT_GIVEN, sigma=NOT_GIVEN, q0=NOT_GIVEN, max_time=NOT_GIVEN,
                omega1=None, time_name: str = "max_time") -> None:
     """The premises the command line applies, for a Python call (`ArgumentError` naming the
-    argument): U, eta, sigma numbers in `PARAMETER_RANGES` (a `PremiseWarning` where stretched);
+    argument): U, eta, sigma numbers in `PARAMETER_RANGES` (no warning where stretched: the
+    command line and the input files warn);
     ``q0`` four finite numbers within `MAX_AMPLITUDE`; ``max_time`` (or the argument named
     ``time_name``) a time of at least one forcing period 2 pi/(omega1 + sigma) and at most
     `MAX_INTEGRATION_TIME`. Arguments not given (`NOT_GIVEN`) are not checked."""
@@ -247,7 +248,11 @@ def check_call(function: str, *, U=NOT_GIVEN, eta=NOT_GIVEN, sigma=NOT_GIVEN, q0
         if value is not NOT_GIVEN:
             values[name] = _number(function, name, value)
     try:
-        check_parameters(values, function, {k: k for k in values})
+        # errors only: a stretched value is the command line's and the input files' to warn about
+        # once (a sweep would otherwise warn at every point)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", PremiseWarning)
+            check_parameters(values, function, {k: k for k in values})
     except ArgumentError:
         raise
     except SpecError as exc:
