@@ -171,15 +171,18 @@ def test_compiled_step_budget_is_a_failure_not_a_divergence(derivation, monkeypa
 
 
 def test_non_finite_parameters_in_the_library_are_failures(derivation, sample_ame):
-    """The library does not call a NaN a divergence either (the CLI refuses it before)."""
+    """The library does not call a NaN a divergence either: as the CLI, it refuses it before any
+    work, naming the argument (`ArgumentError`, issue 29 item 14; was a `ComputationError` from
+    the integration)."""
     from autocable.methods.integration.ame import AmeIntegrator
     from autocable.methods.integration.ode21 import Ode21Integrator
     from autocable.methods.integration.shooting import ShootingSolver
-    with pytest.raises(ComputationError):
+    from autocable.model.premises import ArgumentError
+    with pytest.raises(ArgumentError, match="^Ode21Integrator.simulate: eta: expected a finite number"):
         Ode21Integrator(derivation.ode, engine="compiled").simulate(0.7, math.nan, 0.01)
-    with pytest.raises(ComputationError):
+    with pytest.raises(ArgumentError, match="^AmeIntegrator.simulate: eta: expected a finite number"):
         AmeIntegrator(sample_ame, method="DOP853").simulate(0.7, math.nan, 0.01)
-    with pytest.raises(ComputationError):
+    with pytest.raises(ArgumentError, match="^ShootingSolver.steady: eta: expected a finite number"):
         ShootingSolver(derivation.ode).steady(0.7, math.nan, 0.01)
 
 
