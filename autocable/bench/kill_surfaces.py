@@ -73,10 +73,12 @@ def _run(cmd, env, at: float | None, sig) -> dict:
     """Start ``cmd``; at ``at`` s send ``sig`` (unless it ended); its end; the processes it had
     started still alive `_ORPHAN_WAIT_S` after it ended (then killed, to leave the machine clean)."""
     t0 = time.time()
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    # stderr into a file, not a pipe: an orphan holding the pipe would keep the bench waiting
+    errfile = tempfile.TemporaryFile()
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=errfile)
     ended_first, below = False, set()
     if at is None:
-        _, err = proc.communicate()
+        proc.wait()
     else:
         deadline = t0 + at
         while time.time() < deadline and proc.poll() is None:
@@ -88,10 +90,13 @@ def _run(cmd, env, at: float | None, sig) -> dict:
         else:
             ended_first = True
         try:
-            _, err = proc.communicate(timeout=120)
+            proc.wait(timeout=120)
         except subprocess.TimeoutExpired:
             proc.kill()
-            _, err = proc.communicate()
+            proc.wait()
+    errfile.seek(0)
+    err = errfile.read()
+    errfile.close()
     end = time.time() + _ORPHAN_WAIT_S
     while time.time() < end and any(_alive(p) for p in below):
         time.sleep(0.1)
