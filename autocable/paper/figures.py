@@ -345,7 +345,7 @@ def cmd_figures(args) -> int:
     # Before anything imports numpy: this process forks the scene processes after loading it.
     os.environ.update(blas_thread_env(int(args.jobs or os.cpu_count() or 1), os.cpu_count() or 1, os.environ,
                                       "numpy" in sys.modules))
-    from autocable.paper.report import write_report
+    from autocable.paper.report_md import write_report
     if args.timeout is not None and not 0 < args.timeout < float("inf"):   # also refuses nan
         raise SpecError("--timeout", "", f"expected a positive number of seconds, got {args.timeout}")
     if not str(args.out).strip():
