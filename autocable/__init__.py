@@ -106,11 +106,15 @@ def run_scene(scene, out_dir, *, progress=None, plot: bool = True, resolution: s
                choose_ame=choose_ame)
 
 
-def plot_branches(branches, stem, *, x: str, y=("a1",), title: str = "", labels: bool = True):
+def plot_branches(branches, stem=None, *, x: str, y=("a1",), title: str = "", labels: bool = True, units=None,
+                  ax=None):
     """Draw ``branches`` (`Branch` objects, or `ContinuationResult` objects) paper-style, stable
-    continuous and unstable dashed, special points labelled, into ``stem.png`` and ``stem.pdf``;
-    returns the files written (`autocable.plotting.diagrams.plot_scene`)."""
+    continuous and unstable dashed, special points (LP, H, BP, ...) marked, labelled and named in the
+    legend; return the matplotlib Figure, and write ``stem.png`` and ``stem.pdf`` when ``stem`` is
+    given (`autocable.plotting.diagrams.plot_scene`). ``units``: `si_scales` for SI axes; ``ax``: an
+    Axes (one per amplitude of ``y``) to draw into."""
     from autocable.plotting.diagrams import plot_scene
     from autocable.results import RunResults
     plain = tuple(getattr(b, "branch", b) for b in branches)
-    return plot_scene(RunResults("plot", plain, {}), stem, x=x, y=tuple(y), title=title, labels=labels)
+    return plot_scene(RunResults("plot", plain, {}), stem, x=x, y=tuple(y), title=title, labels=labels,
+                      units=units, ax=ax)
