@@ -93,6 +93,7 @@ def test_angles_in_degrees_summary_and_repr(tmp_path):
     assert d.beta == pytest.approx(math.radians(d.spec.aero.yaw_deg), abs=1e-15)
     assert d.theta0_deg == pytest.approx(math.degrees(d.theta0), rel=1e-15)
     assert d.static_angle_deg == pytest.approx(math.degrees(d.static_angle), rel=1e-15)
+    assert d.statics.alpha_deg == pytest.approx(d.spec.cable.chord_slope_deg, abs=1e-12)
     text = d.summary()
     assert f"Theta0 = {d.theta0_deg:.4f} deg" in text and "rivulet_angle_deg calibrated" in text
     assert f"omega1 = {d.ode.omega1:.6f}" in text

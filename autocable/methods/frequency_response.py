@@ -21,8 +21,8 @@ __all__ = ["frequency_response"]
 def frequency_response(source, *, U: float = 0.0, eta: float, sigma: tuple[float, float] = (-0.05, 0.05),
                        ame: str = "2dof", ordering: str = "paper", switch: bool = True, engine: str = "compiled",
                        settings=None, progress=None) -> RunResults:
-    """The frequency response of the AME (24) of ``source`` at wind ``U`` (U*) and support
-    amplitude ``eta`` (eta*), over ``sigma = (lo, hi)``: branch ``I`` from the small forced
+    """The frequency response of the AME (24) of ``source`` at wind ``U`` (``U*``) and support
+    amplitude ``eta`` (``eta*``), over ``sigma = (lo, hi)``: branch ``I`` from the small forced
     response at sigma = lo (the zero state refined by Newton), and with ``switch`` every branch
     through one of its branch points (``I-BP1``, ...). Each `Branch` has its special points and a
     ``stable`` column (autocable's own eigenvalues).

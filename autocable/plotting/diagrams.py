@@ -184,7 +184,7 @@ def _plot_scene(results, *, x, y, title, labels, compare, compare_panel, compare
                 for sx, sy, st in _segments(xs, ys, np.asarray(b.stable)):
                     ax_.plot(sx, sy, color="black", lw=_THICK, ls="-" if st else "--")
                     seen["stable" if st else "unstable"] = True
-                if labels and np.any(np.isfinite(ys)):
+                if np.any(np.isfinite(ys)):        # the branch's name, labels or not (as before)
                     top = int(np.nanargmax(ys))
                     names.append((xs[top], ys[top], b.name))
             else:

@@ -143,7 +143,12 @@ def place_labels(ax, items: Sequence[tuple[float, float, str]], *, avoid: Sequen
     from matplotlib.transforms import Bbox
 
     fig = ax.figure
-    renderer = fig.canvas.get_renderer()
+    get_renderer = getattr(fig.canvas, "get_renderer", None)
+    if get_renderer is None:
+        # a canvas that cannot measure text (no Agg renderer): the labels at the first position
+        return [ax.annotate(text, (x, y), textcoords="offset points", xytext=_OFFSETS[0][0], ha=_OFFSETS[0][1],
+                            va=_OFFSETS[0][2], fontsize=fontsize, zorder=12) for x, y, text in items]
+    renderer = get_renderer()
     frame = ax.get_window_extent(renderer)
     to_px = ax.transData.transform
     scale = fig.dpi / 72.0
