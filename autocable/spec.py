@@ -222,7 +222,7 @@ TOP_KEYS = ("name", "description", "cable", "aero")
 def model_fields() -> dict[str, tuple[str, bool]]:
     """Every field a model spec accepts, by dotted name (``cable.length_m``): (what is expected,
     whether it is required). The schema's own rules, for the generated file reference."""
-    out = {"name": ("a label: " + NAME_RULE, False), "description": ("text", False),
+    out = {"name": (NAME_RULE, False), "description": ("text", False),
            "cable": ("a table", True), "aero": ("a table", True)}
     for section, rules in (("cable", _CABLE_RULES), ("aero", _AERO_RULES)):
         for key, (_, _, expected) in rules.items():

@@ -56,7 +56,8 @@ def stale(kind: str) -> list[str]:
 
 
 def _cell(text: str) -> str:
-    return text.replace("|", "\\|").replace("\n", " ")
+    """A table cell: pipes escaped, and asterisks (U*, eta*), which Markdown would read as emphasis."""
+    return text.replace("|", "\\|").replace("*", "\\*").replace("\n", " ")
 
 
 def reference_page(kind: str) -> str:

@@ -34,7 +34,7 @@ def _statements() -> str:
         if t.kind != "statement":
             continue
         cells = [f"`{t.id}`", t.scene, t.says, t.threshold, t.source]
-        rows.append("| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |")
+        rows.append("| " + " | ".join(str(c).replace("|", "\\|").replace("*", "\\*") for c in cells) + " |")
     notes = [f"- **{k}**: {v}." for k, v in SOURCES.items()]
     return "\n".join(rows + [""] + notes)
 
