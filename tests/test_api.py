@@ -71,7 +71,7 @@ def test_frequency_response_in_one_call(response):
 
 def test_default_state_scale_is_the_ames_own():
     """Left out, the state scale of an AME problem is auto_state_scale's (the linear forced
-    response |f(0)| / mean damping rate); a system without amplitudes keeps 1."""
+    response |f(0)| / mean damping rate; 1e-2 unforced); any other system keeps 1."""
     ame = ac.derive_ame(ac.derive(SAMPLE)).ame
     system = ac.ame_system(ame, "2dof", wind=False)
     values = {"U": 0.0, "eta": 1.4e-3, "sigma": -0.05}
@@ -83,6 +83,8 @@ def test_default_state_scale_is_the_ames_own():
     assert p.state_scale == pytest.approx(expected, rel=1e-12) and 1e-5 < p.state_scale < 1e-1
     toy = ac.System("toy", ("x",), ("mu - x**3",), {"mu": 0.0})
     assert ac.EquilibriumProblem(toy, "mu", {"mu": 0.0}, (-1.0, 1.0)).state_scale == 1.0
+    # unforced (eta = 0): no forced response to measure, the AME's amplitude scale 1e-2
+    assert ac.EquilibriumProblem(system, "sigma", {**values, "eta": 0.0}, (-0.05, 0.05)).state_scale == 1e-2
 
 
 def test_angles_in_degrees_summary_and_repr(tmp_path):

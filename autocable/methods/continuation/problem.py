@@ -26,10 +26,9 @@ class EquilibriumProblem:
     """What to continue: ``system`` with ``values`` (every parameter; the continued one at its start
     value), ``parameter`` over ``bounds``, states measured on ``state_scale``.
 
-    ``state_scale`` left out (None): for a system whose states are amplitudes (the AME of
-    `ame_system`, whose ``amplitudes`` are declared) the size of its linear forced response at
-    ``values`` (`auto_state_scale`, what a scene's ``state_scale = "auto"`` uses); 1 for any other
-    system (states of order one)."""
+    ``state_scale`` left out (None): for the AME of `ame_system` the size of its linear forced
+    response at ``values`` (`auto_state_scale`, what a scene's ``state_scale = "auto"`` uses; 1e-2
+    without forcing, eta = 0); 1 for any other system (states of order one)."""
 
     system: System
     parameter: str
@@ -49,7 +48,7 @@ class EquilibriumProblem:
             raise ValueError(f"start value {self.parameter} = {values[self.parameter]:g} is outside "
                              f"the range [{lo:g}, {hi:g}]")
         if self.state_scale is None:
-            scale = auto_state_scale(self.system, values) if self.system.amplitudes else 1.0
+            scale = auto_state_scale(self.system, values) if self.system.amplitude_equations else 1.0
             object.__setattr__(self, "state_scale", float(scale))
         if not (self.state_scale > 0 and math.isfinite(self.state_scale)):
             raise ValueError(f"state_scale must be positive, got {self.state_scale}")
