@@ -6,7 +6,7 @@ one line naming the file, the field and what is expected. Nothing else in autoca
 
 Inputs the paper does not give (the yaw angle beta, the rivulet angle Theta0, the air density, the
 load length and angle convention of eqs. 11-12: docs/model.md, U1-U4) are explicit fields; the angle
-convention is required (its two senses give different cables). Values outside the ranges where the
+convention is required (its senses give different cables). Values outside the ranges where the
 model can apply are refused here; the premises of the derived cable are checked by
 `autocable.model.premises.check_model` (docs/model.md, P). Exactly one
 of (yaw, rivulet angle) may be the string ``"calibrate"``: it is then found so that the trivial
@@ -82,7 +82,7 @@ class AeroSpec:
     yaw_deg: float | None            # beta (None: to be calibrated)
     rivulet_angle_deg: float | None  # Theta0 (None: to be calibrated)
     load_length: str = "diameter"    # the length in eq. (11): "diameter" (1/2 rho V D) or "radius"
-    angle_convention: str = "eq12"   # sense of phi against the relative-wind angle: "eq12" | "reversed"
+    angle_convention: str = "eq12"   # sense of phi (aero.ANGLE_SENSES): "eq12" | "mirrored" | "reversed" (legacy)
     calibration_root: str = "smallest"  # which root the calibration keeps: "smallest" |angle|
     load_axes: str = "reference"     # axes the load is projected on in eq. (14): "reference" (the
                                      # initial section axes a2-bar, a3-bar of eqs. 8) or "twisted"
@@ -134,12 +134,14 @@ _AERO_RULES = {
                           'an angle in degrees in [-180, 180], or "calibrate"'),
     "load_length": ("choice", ("diameter", "radius"), '"diameter" or "radius"'),
     "calibration_root": ("choice", ("smallest",), '"smallest"'),
-    "angle_convention": ("choice", ("eq12", "reversed"), '"eq12" (eq. 12 as printed) or "reversed"'),
+    "angle_convention": ("choice", ("eq12", "mirrored", "reversed"),
+                         '"eq12" (eq. 12 as printed), "mirrored" (the coefficient curves read as '
+                         'c(-phi)) or the legacy "reversed" (not frame indifferent)'),
     "load_axes": ("choice", ("reference", "twisted"),
                   '"reference" (initial section axes) or "twisted" (axes turned by the twist)'),
 }
-# angle_convention is required: its two senses give different cables (the sample's Theta0 is -13.9
-# deg with "reversed", 58.2 deg with "eq12"), so a default would silently pick one.
+# angle_convention is required: its senses give different cables (the sample's Theta0 is -13.9
+# deg with "mirrored" and "reversed", 58.2 deg with "eq12"), so a default would silently pick one.
 _OPTIONAL = {"gravity_m_s2", "load_length", "calibration_root", "twist_ends", "load_axes"}
 
 #: A model's ``name``: a one-line label (it names outputs and cache entries).

@@ -226,3 +226,31 @@ def test_the_markdown_says_what_the_conclusion_rests_on():
     assert "| s1 | 3 | 2 | U_c 2, supercritical 1 |" in text and "| s2 | 2 | 1 | U_c 1, supercritical 1 |" in text
     assert "4 bounded in this stage with 4 scenes decided (1.00 per model; 0.0 h" in text
     assert "4 of the scenes were computed by the calls that wrote the records" in text
+
+
+def test_prior_bound_records_round_trip_and_merge(tmp_path):
+    """An earlier call's bound.csv read back equals what was written (every column), joins a new
+    call's records only for the readings that call did not decide, and the markdown says how many
+    records came from it. A file that is not a bound.csv is one line naming the file."""
+    from autocable.spec import SpecError
+    published = Path(__file__).resolve().parents[1] / "docs" / "calibration" / "bound.csv"
+    prior = bd.read_csv(published)
+    assert len(prior) == len(published.read_text().splitlines()) - 1 > 0
+    again = tmp_path / "again.csv"
+    bd.write_csv(prior, again)
+    assert again.read_text().splitlines()[1:] == published.read_text().splitlines()[1:]
+    # a new call deciding one reading the prior file also has: that reading is not taken from it
+    taken = dict(prior[0]["readings"])
+    mine = [dict(prior[0], name="new", prior=False, bound=20)]
+    merged = bd.merge_prior(mine, prior)
+    same = [r for r in prior if r["readings"] == taken]
+    assert len(merged) == 1 + len(prior) - len(same)
+    assert all(r["readings"] != taken for r in merged if r.get("prior"))
+    goal = tg.Goal(statements_yes=40, boxes_share=0.8, boxes_scenes=("fig08", "fig10"))
+    lines = bd.markdown(merged, goal, 42, 48, 1.0, 2, None, "bound.csv", {})
+    assert any(f"{len(merged) - 1} of the {len(merged)} records" in x for x in lines)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("name,bound\nx,3\n")
+    with pytest.raises(SpecError) as err:
+        bd.read_csv(bad)
+    assert "bad.csv" in str(err.value) and "\n" not in str(err.value)

@@ -419,16 +419,26 @@ def test_a_bad_map_is_refused_before_anything_is_computed(tmp_path):
 
 
 def test_map_period_1_points_with_both_modes_are_bi_modal(tmp_path):
+    """A period-1 point is bi-modal when the map's structural flag says its a2 is not slaved to a1,
+    whatever a2 / a1: here the point with a2 = 0.5 a1 is slaved (a coupled cable's forced
+    response), the one with a2 = 1e-4 a1 is not (near the pitchfork it was born at); a map without
+    the flag marks neither (tests/test_regions_structure.py for the rule itself)."""
     import xarray as xr
     from autocable.plotting.chart import agreement, read_response_map
-    sig, eta = np.array([0.0, 0.01]), np.array([1e-3])
-    resp = np.array([[["period-1", "period-1"]]])                      # (U, eta, sigma)
-    a1 = np.array([[[4e-3, 4e-3]]])
-    a2 = np.array([[[2e-3, 4e-3 * 1e-4]]])                             # 0.5 a1 and 1e-4 a1
-    ds = xr.Dataset({"response": (("U", "eta", "sigma"), resp), "a1": (("U", "eta", "sigma"), a1),
-                     "a2": (("U", "eta", "sigma"), a2)}, coords={"U": [0.0], "eta": eta, "sigma": sig})
+    sig, eta = np.array([0.0, 0.01, 0.02]), np.array([1e-3])
+    resp = np.array([[["period-1", "period-1", "quasi-periodic"]]])    # (U, eta, sigma)
+    a1 = np.array([[[4e-3, 4e-3, 4e-3]]])
+    a2 = np.array([[[2e-3, 4e-3 * 1e-4, 2e-3]]])                       # 0.5 a1, 1e-4 a1, 0.5 a1
+    flag = np.array([[[0, 1, -1]]], dtype=np.int8)
+    dims = ("U", "eta", "sigma")
+    ds = xr.Dataset({"response": (dims, resp), "a1": (dims, a1), "a2": (dims, a2), "bimodal": (dims, flag)},
+                    coords={"U": [0.0], "eta": eta, "sigma": sig})
     ds.to_netcdf(tmp_path / "sweep.nc")
     m = read_response_map(tmp_path / "sweep.nc", "sigma", "eta", {"U": 0.0})
-    assert m["response"] == ["period-1 bi-modal", "period-1"]
-    rows = [{"sigma": 0.0, "eta": 1e-3, "class": "bi-modal"}, {"sigma": 0.01, "eta": 1e-3, "class": "bi-modal"}]
-    assert agreement(rows, "sigma", "eta", m)["agree"] == 1                # the mono-modal point disagrees
+    assert m["response"] == ["period-1", "period-1 bi-modal", "quasi-periodic"]
+    rows = [{"sigma": 0.0, "eta": 1e-3, "class": "bi-modal"}, {"sigma": 0.01, "eta": 1e-3, "class": "bi-modal"},
+            {"sigma": 0.02, "eta": 1e-3, "class": "bi-modal"}]
+    assert agreement(rows, "sigma", "eta", m)["agree"] == 1                # the slaved point disagrees
+    ds.drop_vars("bimodal").to_netcdf(tmp_path / "old.nc")
+    assert read_response_map(tmp_path / "old.nc", "sigma", "eta", {"U": 0.0})["response"] == [
+        "period-1", "period-1", "quasi-periodic"]

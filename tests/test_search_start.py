@@ -145,3 +145,30 @@ def test_search_needs_the_cartesian_ame(tmp_path):
                       'sigma = 0.0\n[[run]]\nname = "A"\nparameter = "U"\nrange = [0.5, 1.5]\n'
                       'start = { search = [1.2] }\n')
     assert err.field == "run[0].start" and 'ame = "2dof"' in str(err)
+
+
+def test_trivial_start_moves_where_newton_from_rest_converges(tmp_path):
+    """``start = "trivial"`` on a model whose small forced response does not reach the range's start:
+    Fig. 10's setting (U* = 1.3, eta* = 1.4e-3) with the consistent "mirrored" angle sense, where the
+    branch through the small response is a closed curve inside (-0.05, 0.05). Newton from rest fails
+    at sigma = -0.05 and the run starts at the first sigma of the range where it converges; the branch
+    found is closed and never reaches -0.05, which is why no start there could converge."""
+    from autocable.scene.runner import TRIVIAL_TRIES, run_scene
+    from conftest import SAMPLE
+    model = tmp_path / "mirrored.toml"
+    model.write_text(SAMPLE.read_text().replace('angle_convention = "reversed"', 'angle_convention = "mirrored"'))
+    scene = tmp_path / "fig10_I.toml"
+    scene.write_text(f'title = "Fig. 10, run I"\nmodel = "{model.as_posix()}"\name = "2dof"\nengine = "compiled"\n'
+                     '[fixed]\nU = 1.3\neta = 1.4e-3\n[[run]]\nname = "I"\nparameter = "sigma"\n'
+                     'range = [-0.05, 0.05]\nstart = "trivial"\n')
+    said = []
+    res = run_scene(load_scene(scene), tmp_path / "out", plot=False, progress=said.append)
+    moved = [s for s in said if "did not converge" in s and "Newton from rest converges at sigma = " in s]
+    assert len(moved) == 1, said
+    v = float(moved[0].split("converges at sigma = ")[1].split(":")[0])
+    grid = np.linspace(-0.05, 0.05, TRIVIAL_TRIES)
+    assert -0.05 < v < 0.0 and np.min(np.abs(grid - v)) < 1e-9
+    b = [x for x in res.branches if x.name == "I"][0]
+    sigma = np.asarray(b.table["sigma"], float)
+    assert sigma.min() > -0.05 + 1e-4
+    assert any(e.reason == "closed" for e in b.ends)

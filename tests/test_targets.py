@@ -194,3 +194,19 @@ def test_fig03_galloping_and_trivial_decided_with_and_without_a_galloping_branch
     assert rest["fig03.galloping"].evidence.startswith("no non-trivial equilibrium branch")
     # the settled-on-rest run is stable above U = 1 in this example: rest is then not "unstable above"
     assert rest["fig03.trivial"].shown == "partly" and "3 of 3 trivial points stable below" in rest["fig03.trivial"].evidence
+
+
+def test_statements_decided_beyond_the_cubic_expansion():
+    """A statement is listed as decided beyond the cubic load's bound exactly when its scene's
+    run.json records points past the bound; a scene within it, or without the record, is not listed."""
+    ts = tg.load_targets(TARGETS)
+    past = _scene("fig05a", 0.0)
+    past.run["provenance"]["model_validity"] = {"points_beyond_bound": 3, "points": 40, "cubic_rtol": 0.1,
+                                                "largest_cubic_error": 0.4}
+    within = _scene("fig05b", 0.0)
+    within.run["provenance"]["model_validity"] = {"points_beyond_bound": 0, "points": 40, "cubic_rtol": 0.1,
+                                                  "largest_cubic_error": 0.02}
+    got = tg.beyond_expansion(ts, {"fig05a": past, "fig05b": within, "fig06": _scene("fig06", 0.0)})
+    fig05a = sorted(t.id for t in ts if t.kind == "statement" and t.scene == "fig05a")
+    assert sorted(got) == fig05a and fig05a
+    assert got[fig05a[0]]["points_beyond_bound"] == 3 and got[fig05a[0]]["largest_cubic_error"] == 0.4

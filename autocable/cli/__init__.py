@@ -146,6 +146,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help="stop a candidate only when its bound is below the goal by more than this many "
                           "statements (default 0): with N, the conclusion holds even if any N of the decisions "
                           "that lowered a bound were wrong")
+    cal.add_argument("--prior-bound", metavar="CSV",
+                     help="an earlier call's bound.csv: its models of readings outside this space join "
+                          "bound.csv, bound.png and calibration.md (a space grown by one reading is bounded "
+                          "without deciding the others again)")
     cal.add_argument("--quiet", action="store_true", help="no progress lines")
     cal.set_defaults(func=cmd_calibrate)
 

@@ -121,6 +121,14 @@ def cmd_simulate(args) -> int:
            "amplitude_convention": "a_k = half the peak-to-peak of q_k over the last 20 forcing "
                                    "periods (peak modal amplitude = peak displacement / l)",
            "message": r.message, "method": "ode21", "wall_seconds": r.wall_seconds}
+    if r.autonomous:
+        # eta* = 0: a self-excited cycle measured on its own period (ode21, "Autonomous responses")
+        out.update(autonomous=True, period=r.period if math.isfinite(r.period) else None,
+                   a1_error=r.a1_error, a2_error=r.a2_error,
+                   amplitude_convention="a_k = half the peak-to-peak of q_k over each whole cycle of the "
+                                        "response's own period (zero crossings), averaged over the last "
+                                        "20 forcing periods; a_k_error = their scatter plus the sampling "
+                                        "error (peak modal amplitude = peak displacement / l)")
     _print_simulation(args, r, out)
     return 0
 

@@ -109,11 +109,17 @@ def cmd_calibrate(args) -> int:
         space = _replace(space, full=max(0, args.full))
     load_model(args.model)                  # bad files: one line before any work
     study.tg.load_targets(args.targets)
+    if args.prior_bound is not None:
+        if not args.prior_bound:
+            raise SpecError("arguments", "--prior-bound", "expected the path of an earlier call's bound.csv, got ''")
+        from autocable.paper.bound import read_csv
+        read_csv(Path(args.prior_bound))
     if args.bound and study.tg.load_goal(args.targets) is None:
         raise study.tg.TargetsError(args.targets, "goal", "--bound needs a [goal] table "
                                                           "(statements_yes, boxes_share, boxes_scenes)")
     stats = study.calibrate(args.model, args.targets, args.out, space=space, jobs=args.jobs, quiet=args.quiet,
                             bound=args.bound or args.bound_minutes is not None or args.bound_margin > 0,
-                            bound_minutes=args.bound_minutes, bound_margin=args.bound_margin)
+                            bound_minutes=args.bound_minutes, bound_margin=args.bound_margin,
+                            prior_bound=Path(args.prior_bound) if args.prior_bound else None)
     print(dumps(stats))
     return 0

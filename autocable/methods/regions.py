@@ -10,11 +10,12 @@ run decides what it reached:
 * ``diverged``: the integration stopped on the amplitude bound (or a non-finite state, a step
   collapse): no bounded response (the AME's blow-up above the island of Fig. 4);
 * an equilibrium (the state moves by less than ``steady_tol`` of its size over the last window):
-  ``bi-modal`` if a2 > ``bimodal_ratio`` a1 (both modes, Figs. 6, 9), otherwise ``small`` if a1 is
-  within ``small_factor`` of the linear forced response a_lin = |J(0)^-1 f(0)| (the small forced
-  response of branch I, and rest when eta = 0; amplitudes below ``floor`` are rest) and
-  ``mono-modal`` beyond it (the resonant,
-  hardened branch: Figs. 5-6 above their folds);
+  ``bi-modal`` if its a2 is not slaved to a1 (`a2_slaved`: the out-of-plane motion is a solution of
+  its own, as on the branches born at the pitchforks of a mono-modal branch, Figs. 6, 9, not the
+  response of the a2 equation forced by a1 through the wind's cross terms), otherwise ``small`` if
+  a1 is within ``small_factor`` of the linear forced response a_lin = |J(0)^-1 f(0)| (the small
+  forced response of branch I, and rest when eta = 0; amplitudes below ``floor`` are rest) and
+  ``mono-modal`` beyond it (the resonant, hardened branch: Figs. 5-6 above their folds);
 * a bounded motion that does not settle (a stable cycle of the AME: the cable's motion
   quasi-periodic): ``galloping`` when a1 stays within ``steady_ratio`` of its mean (a
   self-excited oscillation at its own frequency, unlocked from the support: the Cartesian
@@ -33,7 +34,8 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-__all__ = ["ATTRACTORS", "ClassifySettings", "classify_point", "classify_grid", "label_regions", "Region"]
+__all__ = ["ATTRACTORS", "ClassifySettings", "a2_slaved", "classify_point", "classify_grid", "label_regions",
+           "Region"]
 
 #: The kinds of attractor a start can reach, in drawing order.
 ATTRACTORS = ("small", "mono-modal", "bi-modal", "galloping", "modulated", "diverged")
@@ -48,12 +50,97 @@ class ClassifySettings:
     starts: tuple = ((0.0, 1e-6), (5e-3, 1e-6))   # (a1, a2): r_k = a_k, s_k = 0
     bound: float = 0.05                    # |r_k|, |s_k| beyond it: diverged
     steady_tol: float = 1e-4               # equilibrium: max |x - x_end| / max(|x_end|, 1e-9) over the window
-    bimodal_ratio: float = 1e-2            # a2 / a1 above it: bi-modal
     small_factor: float = 1.5              # a1 <= small_factor a_lin: the small forced response
     steady_ratio: float = 0.05             # cycles: (max - min) / (max + min) of a1 below it: galloping
     rtol: float = 1e-8
     floor: float = 1e-7                    # amplitudes below it count as rest (the AME's are 1e-4..1e-2)
     extensions: int = 2                    # a run not settled at t_end is continued up to this many times
+
+
+#: Homotopy steps of `a2_slaved` (the forcing of the a2 equation switched on in this many equal
+#: steps, each solved by Newton from the previous one).
+SLAVED_STEPS = 16
+#: `a2_slaved`: the homotopy's end and the equilibrium's a2 are the same solution when they differ
+#: by less than this, relative to the equilibrium's amplitude (a Newton solution is good to ~1e-12;
+#: distinct solutions of the a2 equation differ by a fraction of the amplitude).
+SLAVED_TOL = 1e-6
+
+
+def a2_slaved(system, x, p, *, steps: int = SLAVED_STEPS, tol: float = SLAVED_TOL) -> bool | None:
+    """Whether the out-of-plane part of the AME equilibrium ``x`` is slaved to its in-plane part.
+
+    With the in-plane amplitudes w = (r1, s1) held at the equilibrium's, the a2 equations
+    G(z) = F_(r2, s2)(w, z) = 0 in z = (r2, s2) are solved by homotopy in their forcing by a1,
+    g = G(0): from z = 0, the solution of G(z) - g = 0 (the a2 equations without that forcing),
+    g is switched on in ``steps`` steps, each solved by Newton from the previous z. The a2 of a
+    mono-modal response is where this path ends: zero when nothing forces the a2 equations (no wind:
+    the symmetry q2 -> -q2 of eq. 21), and the forced response a2 ~ |g| / |dG/dz| where the wind's
+    cross terms couple the modes. A bi-modal solution (born at a branch point from a mono-modal
+    branch, the out-of-plane mode in its own resonance: Figs. 6, 9) is another solution of G: the path
+    does not reach it. No threshold on a2 / a1 enters: only whether two solutions of the same
+    equations are the same (`SLAVED_TOL`). A path that cannot be followed (a singular dG/dz on the
+    way: the forced response folds) reaches no solution, so that equilibrium is not slaved.
+    None when the system has no a2 equations (the 1-dof reduction)."""
+    pair = system.amplitudes[1][1] if len(system.amplitudes) > 1 else ()
+    if len(pair) != 2:
+        return None
+    iz = [system.variables.index(v) for v in pair]
+    x = np.asarray(x, float)
+    z_star = x[iz].copy()
+
+    def G(z):
+        y = x.copy()
+        y[iz] = z
+        return np.asarray(system.f(y, p), float)[iz]
+
+    def dG(z):
+        y = x.copy()
+        y[iz] = z
+        return np.asarray(system.jac(y, p), float)[np.ix_(iz, iz)]
+
+    g = G(np.zeros(2))
+    size = max(float(np.max(np.abs(x))), 1e-300)
+    z = np.zeros(2)
+    for k in range(1, steps + 1):
+        shift = (1.0 - k / steps) * g
+        for _ in range(30):
+            r = G(z) - shift
+            try:
+                dz = np.linalg.solve(dG(z), r)
+            except np.linalg.LinAlgError:
+                return False
+            z = z - dz
+            if float(np.max(np.abs(dz))) <= 1e-10 * size:
+                break
+        else:
+            return False
+    return bool(float(np.max(np.abs(z - z_star))) <= tol * size)
+
+
+def refine_equilibrium(system, x, p, iterations: int = 20):
+    """Newton on the whole AME from ``x`` (an integration's end state, steady to ``steady_tol``):
+    (the equilibrium to ~1e-12 of its size, True), or (``x`` itself, False) when Newton does not
+    converge."""
+    x0 = np.asarray(x, float)
+    y = x0.copy()
+    size = max(float(np.max(np.abs(y))), 1e-300)
+    for _ in range(iterations):
+        try:
+            dy = np.linalg.solve(np.asarray(system.jac(y, p), float), np.asarray(system.f(y, p), float))
+        except np.linalg.LinAlgError:
+            return x0, False
+        y = y - dy
+        if float(np.max(np.abs(dy))) <= 1e-12 * size:
+            return y, True
+    return x0, False
+
+
+def _bimodal(system, x, p, settings) -> bool:
+    """An equilibrium reached by integration is bi-modal when its a2 is not slaved to a1: judged at
+    the equilibrium refined by Newton, or, when Newton fails, at the integration's end state to
+    ten times its own steadiness."""
+    y, ok = refine_equilibrium(system, x, p)
+    return a2_slaved(system, y, p, tol=SLAVED_TOL if ok else 10 * settings.steady_tol) is False
 
 
 def _linear_response(system, p) -> float:
@@ -113,7 +200,7 @@ def classify_point(system, values: Mapping[str, float], settings: ClassifySettin
         if moving <= settings.steady_tol:
             if max(a1[-1], a2[-1]) <= settings.floor:
                 kind = "small"                 # rest (eta = 0), or as good as rest
-            elif a2[-1] > settings.bimodal_ratio * a1[-1]:
+            elif _bimodal(system, Y[-1], p, settings):
                 kind = "bi-modal"
             elif a1[-1] <= settings.small_factor * a_lin + 1e-12:
                 kind = "small"

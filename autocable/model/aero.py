@@ -8,11 +8,22 @@ in the section basis (a2: in-plane normal, a3: out of plane) is
 
     V2 = -U-tilde sin(gamma) - vdot = U sin(alpha) sin(beta) - vdot,   V3 = U cos(alpha) - wdot,
 
-and eq. (12) gives phi = arcsin(-V2/|V|) - Theta0 - theta. The sense in which phi follows the
-relative-wind angle is a convention shared with the source of the A_k, B_k fits ([36]); the paper's
-text does not pin it down against its data (docs/model.md, U4). ``angle_convention = "reversed"`` takes
-phi = -arcsin(-V2/|V|) - Theta0 - theta instead (ANGLE_SIGNS); the choice decides, for instance,
-whether galloping is super- or subcritical (see the sample model spec). Lift and drag are the cubic fits of
+and eq. (12) gives phi = psi - Theta0 - theta with the relative-wind angle psi = arcsin(-V2/|V|).
+Both psi and the twist theta are right-handed about the cable axis a1 (eq. 3: k2 = -w'' + kappa
+theta), so phi depends only on the angle between the relative wind and the twisted section: turning
+wind and section together by d leaves the load unchanged in the turned section (frame indifference,
+`frame_residual`). The sense in which the coefficient curves of [36] are measured is not pinned down
+by the paper against its data (docs/model.md, U4); ``angle_convention`` (ANGLE_SENSES) selects:
+
+- ``"eq12"``: eq. (12) as printed, phi = psi - Theta0 - theta;
+- ``"mirrored"``: the curves read the other way, c(-phi): phi = -(psi - theta) - Theta0. Frame
+  indifferent like "eq12"; it has the in-plane terms of "reversed" and flips the terms odd in theta;
+- ``"reversed"`` (legacy): phi = -psi - Theta0 - theta flips psi alone. It is NOT frame indifferent
+  (the load depends on how the section is oriented in space, which no quasi-steady load can), and is
+  kept readable only to reproduce older results; the spec reader warns.
+
+The choice decides, for instance, whether galloping is super- or subcritical (see the sample model
+spec). Lift and drag are the cubic fits of
 eq. (13), a global polynomial in phi (not a Taylor series about the operating point). Projected on
 a2, a3 (a1 x a2 = a3): b2 = |V| (c_d V2 - c_l V3), b3 = |V| (c_d V3 + c_l V2), in units of
 1/2 rho_a L U_c^2 when velocities are measured in units of U_c.
@@ -53,8 +64,15 @@ ROUNDOFF = 1e-13
 MONOMIALS = tuple(m for m in product(range(4), repeat=3) if 1 <= sum(m) <= 3)
 
 
-#: phi = sign * arcsin(-V2/|V|) - Theta0 - theta, by `AeroSpec.angle_convention`.
-ANGLE_SIGNS = {"eq12": 1, "reversed": -1}
+#: phi = s_psi * arcsin(-V2/|V|) - Theta0 - s_theta * theta: (s_psi, s_theta) by
+#: `AeroSpec.angle_convention` (module docstring).
+ANGLE_SENSES = {"eq12": (1, 1), "mirrored": (-1, -1), "reversed": (-1, 1)}
+#: The sign of psi alone (the static angle phi0 = s_psi gamma - Theta0).
+ANGLE_SIGNS = {k: v[0] for k, v in ANGLE_SENSES.items()}
+#: The senses that keep the load frame indifferent (turning wind and section together).
+FRAME_INDIFFERENT = ("eq12", "mirrored")
+#: Readings kept only to reproduce older results.
+LEGACY_SENSES = ("reversed",)
 #: The axes of the projection of eq. (14), by `AeroSpec.load_axes` (module docstring).
 AXES = ("reference", "twisted")
 
@@ -68,7 +86,8 @@ def quasi_steady_load(convention: str = "eq12", axes: str = "reference"):
     V2 = U * sp.sin(ALPHA) * sp.sin(BETA) - VD
     V3 = U * sp.cos(ALPHA) - WD
     Vn = sp.sqrt(V2**2 + V3**2)
-    phi = ANGLE_SIGNS[convention] * sp.asin(-V2 / Vn) - THETA0 - TH
+    s_psi, s_th = ANGLE_SENSES[convention]
+    phi = s_psi * sp.asin(-V2 / Vn) - THETA0 - s_th * TH
     cl = A_SYMS[0] + A_SYMS[1] * phi + A_SYMS[2] / 2 * phi**2 + A_SYMS[3] / 6 * phi**3
     cd = B_SYMS[0] + B_SYMS[1] * phi + B_SYMS[2] / 2 * phi**2 + B_SYMS[3] / 6 * phi**3
     b2, b3 = Vn * (cd * V2 - cl * V3), Vn * (cd * V3 + cl * V2)
@@ -241,7 +260,8 @@ def expand_load_jet(lift, drag, alpha: float, beta: float, theta0: float,
     Vn = n2.compose(_sqrt_d(n2.c[(0, 0, 0)]))
     inv = Vn.compose(_inv_d(Vn.c[(0, 0, 0)]))
     ratio = -V2 * inv
-    phi = ratio.compose(_asin_d(ratio.c[(0, 0, 0)])) * ANGLE_SIGNS[convention] - theta0 - th
+    s_psi, s_th = ANGLE_SENSES[convention]
+    phi = ratio.compose(_asin_d(ratio.c[(0, 0, 0)])) * s_psi - theta0 - th * s_th
     phi2 = phi * phi
     phi3 = phi2 * phi
     cl = _Jet.const(lift[0]) + phi * lift[1] + phi2 * (lift[2] / 2) + phi3 * (lift[3] / 6)
@@ -271,17 +291,56 @@ def exact_load(lift, drag, alpha: float, beta: float, theta0: float, theta, vdot
     """(b2, b3) of eqs. (9)-(13) without expansion, in the units of `quasi_steady_load` (numpy,
     vectorised): the reference the cubic expansion of eq. (14) is measured against."""
     import numpy as np
-    theta, vdot, wdot = (np.asarray(x, dtype=float) for x in (theta, vdot, wdot))
+    vdot, wdot = (np.asarray(x, dtype=float) for x in (vdot, wdot))
     V2 = U * math.sin(alpha) * math.sin(beta) - vdot
     V3 = U * math.cos(alpha) - wdot
+    return section_load(lift, drag, theta0, V2, V3, theta, convention, axes)
+
+
+def section_load(lift, drag, theta0: float, V2, V3, theta, convention: str = "eq12",
+                 axes: str = "reference"):
+    """(b2, b3) of eqs. (11)-(13) from the relative wind (V2, V3) on the reference section axes and
+    the twist theta (numpy, vectorised), in the units of `quasi_steady_load`: the load of one
+    section, whatever produced its relative wind."""
+    import numpy as np
+    V2, V3, theta = (np.asarray(x, dtype=float) for x in (V2, V3, theta))
     Vn = np.sqrt(V2**2 + V3**2)
-    phi = ANGLE_SIGNS[convention] * np.arcsin(-V2 / Vn) - theta0 - theta
+    s_psi, s_th = ANGLE_SENSES[convention]
+    phi = s_psi * np.arcsin(-V2 / Vn) - theta0 - s_th * theta
     cl = lift[0] + lift[1] * phi + lift[2] / 2 * phi**2 + lift[3] / 6 * phi**3
     cd = drag[0] + drag[1] * phi + drag[2] / 2 * phi**2 + drag[3] / 6 * phi**3
     b2, b3 = Vn * (cd * V2 - cl * V3), Vn * (cd * V3 + cl * V2)
     if axes == "twisted":
         return np.cos(theta) * b2 + np.sin(theta) * b3, -np.sin(theta) * b2 + np.cos(theta) * b3
     return b2, b3
+
+
+def turn(x2, x3, d):
+    """The components on a2, a3 of the vector (x2, x3) turned by d about a1, in the sense in which
+    psi = arcsin(-V2/|V|) and the twist theta grow (a3 goes towards -a2)."""
+    import numpy as np
+    return np.cos(d) * x2 - np.sin(d) * x3, np.sin(d) * x2 + np.cos(d) * x3
+
+
+def frame_residual(lift, drag, theta0: float, V2, V3, theta, d: float, convention: str = "eq12",
+                   axes: str = "reference", load=None) -> float:
+    """Frame indifference of the quasi-steady load: turn the relative wind and the section together
+    by d about a1 and compare the load with the original load turned by d (on the reference axes) or
+    with the original load itself (on the twisted axes, which turn with the section). Returns the
+    largest difference over the samples relative to the largest load; zero (to round-off) for a
+    frame-indifferent sense. ``load(V2, V3, theta)`` replaces the exact load (e.g. by the cubic
+    expansion of eq. 14)."""
+    import numpy as np
+    if load is None:
+        def load(v2, v3, th):
+            return section_load(lift, drag, theta0, v2, v3, th, convention, axes)
+    b2, b3 = load(V2, V3, theta)
+    W2, W3 = turn(V2, V3, d)
+    c2, c3 = load(W2, W3, np.asarray(theta, dtype=float) + d)
+    if axes == "reference":
+        b2, b3 = turn(b2, b3, d)
+    scale = max(float(np.max(np.abs(b2))), float(np.max(np.abs(b3))), 1e-300)
+    return float(max(np.max(np.abs(c2 - b2)), np.max(np.abs(c3 - b3))) / scale)
 
 
 #: The expansion of eq. (14) counts as in range while the cubic's error on the load change it

@@ -147,4 +147,11 @@ def check_model(spec: ModelSpec) -> dict[str, float]:
         w, e = CABLE_LIMITS[key]
         if q[key] > w:
             warn(key, q[key], w)
+    if spec.aero.angle_convention == "reversed":
+        # Kept readable for older results only: it flips the wind angle and not the twist, so the
+        # load depends on how the section is oriented in space (autocable.model.aero.frame_residual).
+        warnings.warn(PremiseWarning(
+            f'{where}: aero.angle_convention = "reversed" is a legacy reading that is not frame '
+            f'indifferent (turning wind and section together changes the load); use "mirrored" '
+            f'(the same in-plane terms, frame indifferent) or "eq12"'), stacklevel=2)
     return q

@@ -59,8 +59,9 @@ NEEDS = {"fig04c": ("fig04a", "fig04b"), "fig07": ("fig05b",), "fig08": ("fig05b
 #: Statements never used to lower a bound because of a measurement limit, and why (besides these,
 #: every statement whose ``source`` is not "paper": `not_used_to_prune`).
 NOT_USED_TO_PRUNE = {
-    "fig03.boxes": "no model can show it today: the overlay's steady test and the study's bound are "
-                   "made for forced responses, not the autonomous galloping cycles of eta* = 0",
+    "fig03.boxes": "no model can show it today: eq. (21)'s galloping cycles at eta* = 0 are classed "
+                   "periodic on their own period with a stated error, but the AME-vs-(21) study has no "
+                   "bound at eta* = 0 to judge them by",
 }
 #: A scene still running after this is stopped and counted failed (its statements stay undecided):
 #: the longest scene of the fully evaluated candidates took about 35 s.
@@ -449,6 +450,48 @@ def write_csv(records: list[dict], path: Path) -> None:
             w.writerow(row)
 
 
+READING_KEYS = ("twist_ends", "load_axes", "angle_convention", "load_length")
+
+
+def read_csv(path: Path) -> list[dict]:
+    """The records of an earlier call's bound.csv (`write_csv`), as the stage's records: the bound
+    outputs of a new call can then cover readings that call did not run (``calibrate --prior-bound``).
+    A bad file is one line naming it and the column. Each record is marked ``prior``."""
+    import csv
+
+    from autocable.spec import SpecError
+    path = Path(path)
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            rows = list(csv.DictReader(fh))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise SpecError(path, "--prior-bound", f"cannot read it as bound.csv: {exc}") from None
+    out = []
+    for i, row in enumerate(rows):
+        missing = [k for k in CSV_FIELDS if k not in row]
+        if missing:
+            raise SpecError(path, f"row {i + 1}", f"is not a bound.csv row (missing columns {missing})")
+        try:
+            rec = {"name": row["name"], "readings": {k: row[k] for k in READING_KEYS},
+                   "yaw_deg": float(row["yaw_deg"]), "rivulet_angle_deg": float(row["rivulet_angle_deg"]),
+                   "bound": int(row["bound"]), "status": row["status"],
+                   "boxes_good": int(row["boxes_good"] or 0), "boxes_points": int(row["boxes_points"] or 0),
+                   "reaches_goal": row["reaches_goal"] == "True", "scene_s": float(row["scene_s"] or 0.0),
+                   "boxes_short": row["status"] == "stopped: boxes", "prior": True, "computed_scenes": 0}
+        except ValueError as exc:
+            raise SpecError(path, f"row {i + 1}", f"has a value that is not a number: {exc}") from None
+        rec.update({k: row[k].split() for k in ("scenes_run", "lowered_by", "failed_scenes", "screen_not_met")})
+        out.append(rec)
+    return out
+
+
+def merge_prior(records: list[dict], prior: list[dict]) -> list[dict]:
+    """``records`` and the ``prior`` records of readings none of ``records`` has (a reading decided
+    by this call is never taken from an earlier one)."""
+    mine = {tuple(r["readings"][k] for k in READING_KEYS) for r in records}
+    return list(records) + [r for r in prior if tuple(r["readings"][k] for k in READING_KEYS) not in mine]
+
+
 def draw_map(records: list[dict], goal: tg.Goal, ceiling_yes: int, path: Path) -> Path:
     """The bound over the space: one panel per (twist ends, angle sense), bound against yaw, one
     colour per (load axes, load length), the marker saying what stopped the candidate; the goal and
@@ -507,6 +550,7 @@ def markdown(records: list[dict], goal: tg.Goal, ceiling_yes: int, n_statements:
     stopped = {k: v for k, v in s["by_status"].items()}
     run = [r for r in records if r["status"] not in ("fully evaluated",)]
     scenes = sum(len(r["scenes_run"]) for r in run)
+    prior = [r for r in records if r.get("prior")]
     lines = ["", "## Can any candidate reach the goal? (branch and bound over the whole space)", "",
              f"Goal (the targets file's `[goal]`): at least **{goal.statements_yes} of {n_statements}** statements "
              f"yes, and eq. (21)'s boxes within the study's bound at {goal.boxes_share:.0%} or more of the overlay "
@@ -532,6 +576,11 @@ def markdown(records: list[dict], goal: tg.Goal, ceiling_yes: int, n_statements:
                f"{sum(r.get('computed_scenes', 0) for r in run)} of the scenes were computed by the calls that "
                "wrote the records, the others reused from earlier calls' folders; this call took "
                f"{wall_s / 60:.1f} min with {jobs} processes)."]
+    if prior:
+        got = sorted({r["readings"]["angle_convention"] for r in prior})
+        lines += ["", f"{len(prior)} of the {s['models']} records (angle senses {', '.join(got)}) were read from an "
+                      "earlier call's bound.csv (`--prior-bound`) for the readings this call's space does not "
+                      "hold; the others were decided by this call."]
     if s["reach_goal"]:
         verdict = "**Candidate models that reach the goal: " + ", ".join(s["reach_goal"]) + ".**"
     elif not s["not_bounded"] and not s["could_still_reach"]:

@@ -83,7 +83,7 @@ class SearchSpace:
 
     twist_ends: tuple = ("natural", "restrained")
     load_axes: tuple = ("reference", "twisted")
-    angle_convention: tuple = ("eq12", "reversed")
+    angle_convention: tuple = ("eq12", "mirrored")
     load_length: tuple = ("diameter",)
     air_density_kg_m3: tuple = (1.25,)
     ordering: tuple = ORDERINGS
@@ -105,7 +105,7 @@ class SearchSpace:
 
 
 _CHOICES = {"twist_ends": ("natural", "restrained"), "load_axes": ("reference", "twisted"),
-            "angle_convention": ("eq12", "reversed"), "load_length": ("diameter", "radius"),
+            "angle_convention": ("eq12", "mirrored", "reversed"), "load_length": ("diameter", "radius"),
             "ordering": ORDERINGS}
 
 
@@ -442,7 +442,7 @@ def _no_wind_reference(spec: ModelSpec, sigmas: tuple, ordering: str) -> tuple[f
     """(largest a2 of eq. 21, largest a2 of the AME) from rest at U = 0, eta* = 1.4e-3 over the
     sigmas: Fig. 6. Eq. (21) at U = 0 is the same for every reading (tests/test_calibration.py)."""
     from autocable.model import multiscale
-    ode = fast_ode(candidate_spec(spec, Readings("natural", "reference", "reversed", "diameter", 1.25), 0.0, 0.0))
+    ode = fast_ode(candidate_spec(spec, Readings("natural", "reference", "eq12", "diameter", 1.25), 0.0, 0.0))
     ame = multiscale.derive(ode, ordering, omega="exact")
     a21 = max(integrate_ode(ode, 0.0, RATIO_ETA, s)["a2"] for s in sigmas)
     aam = max(integrate_ame(ame, 0.0, RATIO_ETA, s)["a2"] for s in sigmas)
@@ -640,6 +640,14 @@ def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path
     return res
 
 
+def _beyond_expansion(targets, folder: Path) -> list[str]:
+    """The statements a full evaluation decided where the cubic load of eq. (14) leaves its bound
+    (`targets.beyond_expansion`), read again from its scene folders."""
+    from autocable.paper.report import load_scene_data
+    scenes = {d.name: load_scene_data(d) for d in sorted((folder / "out").glob("fig*")) if d.is_dir()}
+    return sorted(tg.beyond_expansion(targets, scenes))
+
+
 def _csv_rows(cands: list[dict], target_ids: list[str]) -> list[dict]:
     rows = []
     for c in cands:
@@ -769,7 +777,8 @@ def _full_lines(full: list, targets, statement_map: Path | None = None) -> list[
     if statement_map is not None:
         lines += ["", f"![statements shown per candidate]({statement_map.name})"]
     lines += ["", "| candidate | yes | partly | no | numbers (U_c, omega1, rho) | eq. (21) boxes within the bound, "
-              "Figs. 8 / 10 | runs dropped (their start, tuned to the sample, failed) |", "|---|---|---|---|---|---|---|"]
+              "Figs. 8 / 10 | runs dropped (their start, tuned to the sample, failed) | yes decided where the cubic "
+              "load of eq. (14) leaves its bound |", "|---|---|---|---|---|---|---|---|"]
     for c in ranked:
         k = _statement_counts(c, by_id)
         fv = c["full"]["verdicts"]
@@ -777,8 +786,9 @@ def _full_lines(full: list, targets, statement_map: Path | None = None) -> list[
         bx = c["full"].get("boxes") or {}
         box = " / ".join(f"{bx[f]['within']} of {bx[f]['points']}" if f in bx else "—" for f in ("fig08", "fig10"))
         dropped = [d.split(" (")[0] for d in c["full"].get("dropped_runs") or []]
+        beyond = [i for i in c["full"].get("beyond_expansion") or [] if fv.get(i, {}).get("shown") == "yes"]
         lines.append(f"| {candidate_name(c)} | {k['yes']} | {k['partly']} | {k['no']} | {nums} | {box} | "
-                     f"{', '.join(dropped) or '—'} |")
+                     f"{', '.join(dropped) or '—'} | {len(beyond)} of {k['yes']} |")
     lines += ["", "### Each statement over the fully evaluated candidates", "",
               "| statement | says | yes | partly | no |", "|---|---|---|---|---|"]
     nobody = []
@@ -916,7 +926,7 @@ def _markdown(cands, full, target_ids, targets, space, stats, maps, failed, ceil
 
 
 def _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, jobs, say, stats,
-                 minutes=None, margin: int = 0) -> list[str]:
+                 minutes=None, margin: int = 0, prior: Path | None = None) -> list[str]:
     """`autocable.paper.bound` over every candidate; writes bound.csv and bound.png, returns the
     markdown lines and puts the summary in ``stats``."""
     from autocable.paper import bound as bd
@@ -932,6 +942,8 @@ def _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, job
     records = bd.run_bound(model_path, targets, goal, cands, full, out, runs, reference, capped, jobs, say,
                            minutes=minutes, margin=margin)
     wall = time.perf_counter() - t0
+    if prior is not None:
+        records = bd.merge_prior(records, bd.read_csv(prior))
     bd.write_csv(records, out / "bound.csv")
     n_stmt = sum(1 for t in targets if t.kind == "statement")
     pic = bd.draw_map(records, goal, ceiling["at_most_yes"], out / "bound.png") if records else None
@@ -964,11 +976,12 @@ def _fmt(x) -> str:
 
 def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = None, jobs: int = 2,
               runs: Path | None = None, quiet: bool = False, bound: bool = False,
-              bound_minutes: float | None = None, bound_margin: int = 0) -> dict:
+              bound_minutes: float | None = None, bound_margin: int = 0, prior_bound: Path | None = None) -> dict:
     """The whole study (module docstring). Returns counts and the output paths. ``bound``: then ask
     of every candidate whether it can reach the targets file's ``[goal]`` (`autocable.paper.bound`),
     starting no scene after ``bound_minutes`` of that stage, stopping a candidate when its bound is
-    below the goal by more than ``bound_margin``."""
+    below the goal by more than ``bound_margin``; ``prior_bound``: an earlier call's bound.csv whose
+    records of readings outside this space join the bound's outputs (`bound.merge_prior`)."""
     model_path, targets_path, out = Path(model_path).resolve(), Path(targets_path).resolve(), Path(out_dir)
     load_model(model_path)                  # a bad model file: one line before any work
     targets = tg.load_targets(targets_path)
@@ -976,6 +989,9 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     if bound and goal is None:
         raise tg.TargetsError(targets_path, "goal", "the bound stage needs a [goal] table "
                                                     "(statements_yes, boxes_share, boxes_scenes)")
+    if prior_bound is not None:
+        from autocable.paper import bound as bd
+        bd.read_csv(prior_bound)            # a bad file: one line before any work
     if bound:
         from autocable.paper.bound import NO_WIND, ORDER, unknown_scenes
         unknown = unknown_scenes(targets)
@@ -1056,6 +1072,8 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
             say(f"FAILED full evaluation of {candidate_name(c)}: {type(exc).__name__}: {' '.join(str(exc).split())[:300]}")
             continue
         full.append(c)
+    for c in full:
+        c["full"].setdefault("beyond_expansion", _beyond_expansion(targets, out / "full" / candidate_name(c)))
     ceiling = _ceiling(model_path, targets, space, full, out) if full else None
     target_ids = [t.id for t in targets]
     rows = _csv_rows(cands, target_ids)
@@ -1077,7 +1095,7 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     bound_lines = []
     if bound:
         bound_lines = _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, jobs, say, stats,
-                                   bound_minutes, bound_margin)
+                                   bound_minutes, bound_margin, prior_bound)
     stats["wall_s"] = time.perf_counter() - t_all          # with the bound stage, if it ran
     (out / "calibration.md").write_text(_markdown(cands, full, target_ids, targets, space, stats, maps, failed,
                                                   ceiling, smap) + "\n".join(bound_lines) + ("\n" if bound_lines else ""))

@@ -47,6 +47,13 @@ def _targets_summary(scenes: dict, targets: str | Path | None = None) -> list[st
         if ids:
             # said beside the count: the calibration's bound does not use these (autocable.paper.bound)
             lines[-1] += f" {', '.join(f'{i} ({shown.get(i, chr(8212))})' for i in ids)}: {targets_mod.SOURCES[src]}."
+    beyond = targets_mod.beyond_expansion(targets, scenes)
+    if beyond:
+        rtol = next(iter(beyond.values()))["cubic_rtol"]
+        lines += ["", f"Decided where the cubic load of eq. (14) leaves its bound (error above {rtol:g} of the "
+                  f"load change at some point of the scene, the validity table below): {len(beyond)} of "
+                  f"{len(verdicts)} statements, {sum(shown.get(i) == 'yes' for i in beyond)} of them yes: "
+                  + ", ".join(f"{i} ({shown.get(i)})" for i in beyond) + "."]
     lines += ["", "The numbers Sect. 5 prints:", "", "| number | paper | here | shown |", "|---|---|---|---|"]
     for v in numbers:
         t = by_id[v.id]

@@ -343,3 +343,23 @@ def decide_numbers(targets, numbers: dict) -> list[Verdict]:
 def count_shown(verdicts) -> dict[str, int]:
     """How many verdicts are yes / partly / no."""
     return {s: sum(v.shown == s for v in verdicts) for s in SHOWN}
+
+
+def beyond_expansion(targets, scenes: dict) -> dict[str, dict]:
+    """The statements decided in a scene where the cubic load of eq. (14) leaves its stated bound:
+    statement id -> {scene, largest_cubic_error, points_beyond_bound, points, cubic_rtol}, read from
+    the scene's run.json (``model_validity``, `autocable.scene.runner`). A statement listed here is
+    decided where the expansion's error at some point of its scene exceeds ``cubic_rtol`` of the load
+    change it carries (with natural twist ends the slaved twist is about -477 rad per unit q2, far
+    outside a cubic in theta); a scene without the record is left out, not counted as within."""
+    out = {}
+    for t in targets:
+        if t.kind != "statement":
+            continue
+        d = scenes.get(t.scene)
+        v = d.provenance().get("model_validity") if d is not None and d.ok else None
+        if v and v.get("points_beyond_bound", 0) > 0:
+            out[t.id] = {"scene": t.scene, "largest_cubic_error": v.get("largest_cubic_error"),
+                         "points_beyond_bound": v["points_beyond_bound"], "points": v.get("points"),
+                         "cubic_rtol": v.get("cubic_rtol")}
+    return out

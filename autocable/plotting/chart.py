@@ -11,8 +11,11 @@ The map's format (``sweep.nc``, xarray/NetCDF): dimensions and coordinates named
 ...") or the CF pair ``flag_values``/``flag_meanings`` (preferred when both are there; CF's
 underscores read as hyphens, ``period_1`` is ``period-1``; ``not_computed`` points are left out).
 Other dimensions (e.g. ``start``: several starts per point) are folded: a point's classes are joined
-with " + ". With data variables ``a1`` and ``a2`` (same dimensions) a period-1 point whose a2
-exceeds 1 % of a1 is ``period-1 bi-modal``, the class the AME's bi-modal regions predict."""
+with " + ". With a data variable ``bimodal`` (same dimensions; 1: a2 not slaved to a1, decided by
+structure when the sweep ran, `autocable.studies.sweep.bimodal_flag`) a period-1 point so flagged is
+``period-1 bi-modal``, the class the AME's bi-modal regions predict. A map without it (older sweeps)
+draws every period-1 point as ``period-1``: a threshold on a2 / a1 would call the forced response of
+a coupled cable bi-modal."""
 from __future__ import annotations
 
 import json
@@ -31,19 +34,23 @@ from autocable.spec import SpecError
 __all__ = ["read_response_map", "plot_chart", "MAP_CLASSES", "AME_TO_MAP"]
 
 #: The classes of eq. (21)'s steady responses in a sweep; "period-1 bi-modal" is a period-1 point
-#: whose a2 exceeds `BIMODAL_RATIO` a1 (when the map has a1 and a2), as the AME's regions say it.
-MAP_CLASSES = ("rest", "period-1", "period-1 bi-modal", "period-2", "quasi-periodic", "diverged")
-BIMODAL_RATIO = 1e-2
+#: whose a2 is not slaved to a1 (the map's ``bimodal`` variable, decided by structure when the sweep
+#: ran: `autocable.studies.sweep.bimodal_flag`), as the AME's regions say it.
+MAP_CLASSES = ("rest", "period-1", "period-1 bi-modal", "period-2", "autonomous-periodic", "quasi-periodic",
+               "diverged")
 #: What eq. (21) should show where the AME settles on each kind of attractor (the AME's equilibria
 #: are period-1 motions of eq. (21), its cycles quasi-periodic ones; the small forced response is
-#: period-1, or rest when eta = 0).
+#: period-1, or rest when eta = 0; galloping at eta = 0 is a cycle of the autonomous eq. (21) with
+#: its own period, and unlocked from the support at eta > 0 a quasi-periodic motion).
 AME_TO_MAP = {"small": ("rest", "period-1"), "mono-modal": ("period-1",), "bi-modal": ("period-1 bi-modal",),
-              "galloping": ("quasi-periodic",), "modulated": ("quasi-periodic",), "diverged": ("diverged",)}
+              "galloping": ("autonomous-periodic", "quasi-periodic"), "modulated": ("quasi-periodic",),
+              "diverged": ("diverged",)}
 
 _MAP_STYLE = {"rest": dict(marker="o", mfc="white", mec="0.35", ms=3.5),
               "period-1": dict(marker="o", mfc="black", mec="black", ms=3.5),
               "period-1 bi-modal": dict(marker="o", mfc="tab:green", mec="darkgreen", ms=4),
               "period-2": dict(marker="s", mfc="tab:purple", mec="tab:purple", ms=3.5),
+              "autonomous-periodic": dict(marker="o", mfc="tab:purple", mec="indigo", ms=4),
               "quasi-periodic": dict(marker="^", mfc="tab:orange", mec="tab:orange", ms=4),
               "diverged": dict(marker="x", mfc="none", mec="tab:red", ms=4)}
 _REGION_COLORS = {"small": "#e8f1fa", "mono-modal": "#cfe3c4", "bi-modal": "#f6d7a8",
@@ -121,18 +128,16 @@ def read_response_map(path: str | Path, x: str, y: str, fixed: Mapping[str, floa
         names = np.vectorize(lambda v: v.decode() if isinstance(v, bytes) else str(v), otypes=[object])(values)
     # CF flag_meanings are single words (period_1); a point not computed (yet) is left out.
     names = np.vectorize(lambda v: str(v).strip().replace("_", "-"), otypes=[object])(names)
-    if "a1" in ds.data_vars and "a2" in ds.data_vars:
-        # Both modes in a period-1 response: bi-modal, as the AME's classes distinguish it.
-        amp = {}
-        for var in ("a1", "a2"):
-            a = ds[var]
-            for name in used:
-                if name in a.dims:
-                    a = a.sel({name: used[name]})
-            amp[var] = np.asarray(a.transpose(*da.dims).values, float)
-        if amp["a1"].shape == names.shape:
-            both = (names == "period-1") & (amp["a2"] > BIMODAL_RATIO * amp["a1"])
-            names = np.where(both, "period-1 bi-modal", names)
+    if "bimodal" in ds.data_vars:
+        # A period-1 response with a2 not slaved to a1 (decided by structure when the sweep ran,
+        # not by a ratio a2 / a1): bi-modal, as the AME's classes distinguish it.
+        b = ds["bimodal"]
+        for name in used:
+            if name in b.dims:
+                b = b.sel({name: used[name]})
+        flag = np.asarray(b.transpose(*da.dims).values)
+        if flag.shape == names.shape:
+            names = np.where((names == "period-1") & (flag == 1), "period-1 bi-modal", names)
     X, Y, R = [], [], []
     xs, ys = np.asarray(da[x], float), np.asarray(da[y], float)
     for j in range(len(ys)):

@@ -164,8 +164,45 @@ def run_equilibria(r: _Run):
         return run_search(r)
     else:
         x0 = r.start_state
-    return C.continue_equilibria(r.problem, r.settings, x0, name=r.run.name, directions=r.run.directions,
-                                 progress=r.say, engine=r.engine)
+    try:
+        return C.continue_equilibria(r.problem, r.settings, x0, name=r.run.name, directions=r.run.directions,
+                                     progress=r.say, engine=r.engine)
+    except C.StartError as exc:
+        if start.kind != "trivial":
+            raise
+        moved = _trivial_start_elsewhere(r)
+        if moved is None:
+            raise
+        r.say(f"  {exc}; Newton from rest converges at {r.problem.parameter} = {moved.values[moved.parameter]:g}: "
+              f"the branch starts there")
+        return C.continue_equilibria(moved, r.settings, np.zeros(system.dimension), name=r.run.name,
+                                     directions=r.run.directions, progress=r.say, engine=r.engine)
+
+
+#: Values of the continued parameter tried, across the range, when Newton from rest does not converge
+#: at the range's start (``start = "trivial"``).
+TRIVIAL_TRIES = 41
+
+
+def _trivial_start_elsewhere(r: _Run):
+    """The run's problem moved to the first value of the continued parameter, across its range from
+    the start, where Newton from rest converges to an equilibrium; None if there is none. The small
+    forced response that ``start = "trivial"`` means need not exist at the range's start for every
+    model (a fold of it may lie there), and a start tuned to one model is what scenes avoid."""
+    import numpy as np
+
+    from autocable.methods.continuation.equilibrium_analysis import equilibrium_near
+    prob, sysm = r.problem, r.system
+    lo, hi = prob.bounds
+    names = list(sysm.parameter_names)
+    for v in np.linspace(lo, hi, TRIVIAL_TRIES)[1:]:
+        values = {**prob.values, prob.parameter: float(v)}
+        p = sysm.parameter_vector(values)
+        x, ok, _ = equilibrium_near(sysm, np.zeros(sysm.dimension), p, tol=r.settings.newton_tol,
+                                    scale=prob.state_scale)
+        if ok and all(math.isfinite(float(y)) for y in x):
+            return replace(prob, values=dict(zip(names, p)))
+    return None
 
 
 def on_known_branch(branches, parameter: str, value: float, state, rel_tol: float = 1e-2) -> str:

@@ -26,7 +26,8 @@ task returns (the key hashes the model, method, settings and the point), so an i
 loses at most the points in flight: a rerun finds the files, counts them as resumed and computes
 only the rest. ``DIR/sweep.nc`` (xarray, NetCDF 3 through scipy) is assembled from the point files
 at the end: dims U, eta, sigma (and start), data variables a1, a2, their envelopes, the response
-class (int8 with CF flag_values/flag_meanings), the Floquet multipliers (real and imaginary parts,
+class (int8 with CF flag_values/flag_meanings), ``bimodal`` (a period-1 response whose a2 is not
+slaved to a1, by structure: `bimodal_flag`), the Floquet multipliers (real and imaginary parts,
 dim ``multiplier``), provenance in the attributes. ``DIR/sweep.json`` holds the run's summary.
 """
 from __future__ import annotations
@@ -43,11 +44,12 @@ import numpy as np
 from autocable._store import atomic_write_json, atomic_write_text, content_hash
 from autocable.scene.sweep_schema import AXES, SweepSpec
 
-#: Bump when a point record changes meaning (part of every point key).
-POINT_FORMAT = "1"
+#: Bump when a point record changes meaning (part of every point key). 2: eta* = 0 cycles are
+#: autonomous-periodic (were quasi-periodic).
+POINT_FORMAT = "2"
 #: Codes of the `response` variable: `shooting.RESPONSE_CLASSES` in order; -1 marks a point not
 #: computed (an interrupted sweep assembled anyway).
-RESPONSE_CLASSES = ("rest", "period-1", "period-2", "quasi-periodic", "diverged")
+RESPONSE_CLASSES = ("rest", "period-1", "period-2", "quasi-periodic", "diverged", "autonomous-periodic")
 NOT_COMPUTED = -1
 #: Below this amplitude a steady response is the rest state (`ode21`'s rest floor, 1e3 x atol).
 REST_FLOOR = 1e-10
@@ -108,8 +110,11 @@ def compute_point(model, method: str, U: float, eta: float, sigma: float, q0, ma
         q0 = _carried_start(carried, q0)
     if method == "shooting":
         r = solver.steady(U, eta, sigma, q0, max_time=max_time, guess=carried)
-        return _record(r.response, (r.a1, r.a2), (r.a1_min, r.a1_max, r.a2_min, r.a2_max), r.multipliers,
-                       r.periods, r.steady, r.t_end, r.wall_seconds, r.message, r.fallback, r.state0)
+        rec = _record(r.response, (r.a1, r.a2), (r.a1_min, r.a1_max, r.a2_min, r.a2_max), r.multipliers,
+                      r.periods, r.steady, r.t_end, r.wall_seconds, r.message, r.fallback, r.state0)
+        if r.response == "period-1":
+            rec["bimodal"] = bimodal_flag(model, U, eta, sigma, r.state0, r.Omega)
+        return rec
     if method == "ode21":
         r = solver.integrator.simulate(U, eta, sigma, q0, max_time=max_time)
         a, env = (r.a1, r.a2), (r.a1_min, r.a1_max, r.a2_min, r.a2_max)
@@ -119,6 +124,15 @@ def compute_point(model, method: str, U: float, eta: float, sigma: float, q0, ma
         mu, kind, periods = [], "quasi-periodic", 0
         if r.steady and max(a) < REST_FLOOR:
             kind, periods = "rest", 1
+        elif r.steady and r.periodic and r.autonomous:
+            # eta* = 0: a cycle of its own period (ode21, "Autonomous responses"); its multipliers
+            # by autonomous shooting from the end state, the trivial 1 left out
+            kind, periods = "autonomous-periodic", 1
+            got = solver.cycle(U, eta, r.Omega, np.asarray(r.final_state), judge=False)
+            if got is not None and "multipliers" in got:
+                mu = got["multipliers"]
+            return _record(kind, a, env, mu, periods, r.steady, r.t_end, time.perf_counter() - start,
+                           r.message, state=r.final_state)
         elif r.steady and r.periodic:
             kind, periods = "period-1", 1
         elif r.steady:
@@ -131,8 +145,11 @@ def compute_point(model, method: str, U: float, eta: float, sigma: float, q0, ma
             from autocable.methods.integration.floquet21 import multipliers_of
             got = solver.flow(U, eta, r.Omega, r.final_state, periods)
             mu = multipliers_of(got[1]) if got is not None else []
-        return _record(kind, a, env, mu, periods, r.steady, r.t_end, time.perf_counter() - start, r.message,
-                       state=r.final_state)
+        rec = _record(kind, a, env, mu, periods, r.steady, r.t_end, time.perf_counter() - start, r.message,
+                      state=r.final_state)
+        if kind == "period-1":
+            rec["bimodal"] = bimodal_flag(model, U, eta, sigma, r.final_state, r.Omega)
+        return rec
     r = solver.simulate(U, eta, sigma, q0, max_time=max_time)
     a, env = (r.a1, r.a2), (r.a1_min, r.a1_max, r.a2_min, r.a2_max)
     if not math.isfinite(r.a1) or not math.isfinite(r.a2):
@@ -141,8 +158,43 @@ def compute_point(model, method: str, U: float, eta: float, sigma: float, q0, ma
         kind = "rest" if max(a) < REST_FLOOR else "period-1"
     else:
         kind = "quasi-periodic"     # a limit cycle of the AME: amplitude-modulated q
-    return _record(kind, a, env, [], 1 if kind in ("rest", "period-1") else 0, r.steady, r.t_end,
-                   time.perf_counter() - start, r.message)
+    rec = _record(kind, a, env, [], 1 if kind in ("rest", "period-1") else 0, r.steady, r.t_end,
+                  time.perf_counter() - start, r.message)
+    if kind == "period-1":
+        rec["bimodal"] = bimodal_flag(model, U, eta, sigma, r.final_state)
+    return rec
+
+
+@functools.lru_cache(maxsize=4)
+def _ame_systems(model):
+    """The Cartesian AME (24) of a model with and without its wind rows (the wind rows carry 1/U:
+    at U* = 0 the system without them), built once per worker."""
+    from autocable.methods.continuation.system import ame_system
+    from autocable.model.ame_cache import derive_ame
+    from autocable.model.derive import derive
+    ame = derive_ame(derive(model)).ame
+    return ame_system(ame, "2dof", wind=True), ame_system(ame, "2dof", wind=False)
+
+
+def bimodal_flag(model, U: float, eta: float, sigma: float, x0, Omega: float | None = None) -> int:
+    """Whether a period-1 response is bi-modal by structure (`regions.a2_slaved`): 1 when the AME
+    equilibrium it lies on has an a2 not slaved to a1, 0 when slaved, -1 undecided (no AME
+    equilibrium within the AME-vs-(21) study's NEAR of it: the AME cannot say). ``x0``: the AME
+    state (r1, s1, r2, s2), or with ``Omega`` an eq. (21) state (q1, q2, q1', q2') at forcing phase
+    0, read to first order as q_k = r_k cos(Omega t) - s_k sin(Omega t)."""
+    from autocable.methods.regions import a2_slaved, refine_equilibrium
+    from autocable.studies.ame_bounds import NEAR
+    system = _ame_systems(model)[0 if U != 0 else 1]
+    x0 = np.asarray(x0, float)
+    if Omega is not None:
+        x0 = np.array([x0[0], -x0[2] / Omega, x0[1], -x0[3] / Omega])
+    p = system.parameter_vector({"U": U, "eta": eta, "sigma": sigma})
+    y, ok = refine_equilibrium(system, x0, p)
+    a0 = np.array([math.hypot(x0[0], x0[1]), math.hypot(x0[2], x0[3])])
+    a = np.array([math.hypot(y[0], y[1]), math.hypot(y[2], y[3])])
+    if not ok or np.linalg.norm(a - a0) > NEAR * np.linalg.norm(a0):
+        return -1
+    return int(a2_slaved(system, y, p) is False)
 
 
 def _warm(model, method: str) -> int:
@@ -421,6 +473,7 @@ def assemble(spec: SweepSpec, model, grid, folder: Path, shash: str):
     periods = np.zeros(shape, dtype=np.int8)
     steady = np.zeros(shape, dtype=np.int8)
     fallback = np.zeros(shape, dtype=np.int8)
+    bimodal = np.full(shape, -1, dtype=np.int8)
     mre = np.full(shape + (4,), np.nan)
     mim = np.full(shape + (4,), np.nan)
     for idx, key, *_ in grid:
@@ -432,6 +485,7 @@ def assemble(spec: SweepSpec, model, grid, folder: Path, shash: str):
             f[k][idx] = np.nan if v is None else v
         code[idx] = RESPONSE_CLASSES.index(rec["response"])
         periods[idx], steady[idx], fallback[idx] = rec["periods"], rec["steady"], rec["fallback"]
+        bimodal[idx] = rec.get("bimodal", -1)
         for j, (re, im) in enumerate(rec["multipliers"][:4]):
             mre[idx + (j,)], mim[idx + (j,)] = re, im
     dims = AXES + (("start",) if spec.start_axis else ())
@@ -448,14 +502,19 @@ def assemble(spec: SweepSpec, model, grid, folder: Path, shash: str):
         "a1_max": (dims, f["a1_max"], {"long_name": "envelope of a1 over single forcing periods: max"}),
         "a2_min": (dims, f["a2_min"], {"long_name": "envelope of a2 over single forcing periods: min"}),
         "a2_max": (dims, f["a2_max"], {"long_name": "envelope of a2 over single forcing periods: max"}),
-        "response": (dims, code, {"long_name": "response class", "flag_values": np.arange(-1, 5, dtype=np.int8),
+        "response": (dims, code, {"long_name": "response class", "flag_values": np.arange(-1, len(RESPONSE_CLASSES), dtype=np.int8),
                                   "flag_meanings": " ".join(["not_computed"] + [c.replace("-", "_")
                                                                                 for c in RESPONSE_CLASSES]),
                                   "legend": json.dumps({str(k): c for k, c in enumerate(RESPONSE_CLASSES)}
                                                        | {str(NOT_COMPUTED): "not computed"})}),
-        "periods": (dims, periods, {"long_name": "period of the orbit in forcing periods (0: none)"}),
+        "periods": (dims, periods, {"long_name": "period of the orbit in forcing periods (0: none; "
+                                                 "autonomous-periodic: 1, one turn of its own period)"}),
         "steady": (dims, steady, {"long_name": "1 when a steady state (or its envelope) was reached"}),
         "fallback": (dims, fallback, {"long_name": "1 when transient integration decided (shooting)"}),
+        "bimodal": (dims, bimodal, {"long_name": "period-1 response with a2 not slaved to a1 (bi-modal by "
+                                                 "structure, regions.a2_slaved on the AME equilibrium it lies on)",
+                                    "flag_values": np.array([-1, 0, 1], dtype=np.int8),
+                                    "flag_meanings": "undecided slaved bi_modal"}),
         "floquet_re": (dims + ("multiplier",), mre, {"long_name": "Floquet multipliers of the period-k map, "
                                                      "real part (sorted by modulus, largest first; NaN: none)"}),
         "floquet_im": (dims + ("multiplier",), mim, {"long_name": "Floquet multipliers, imaginary part"}),

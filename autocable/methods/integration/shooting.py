@@ -40,7 +40,11 @@ integration's absolute accuracy, e.g. eta* = 0 below flutter), ``period-1``, ``p
 ``quasi-periodic`` (an amplitude-modulated response: not periodic with T or 2T; the transient's
 envelope, or no steady state within the time limit, which `message` says), ``diverged`` (|q_k| beyond
 `ode21.DIVERGED`, e.g. above the critical wind U* > 1 of Sect. 3 where eq. (21) has no bounded
-response).
+response), ``autonomous-periodic`` (eta* = 0, where eq. (21) is autonomous: a self-excited cycle,
+galloping, with its own period, found by autonomous shooting with a phase condition and the period
+as an unknown, `autonomous.newton_cycle`; its stability from the Floquet multipliers other than the
+trivial 1, `autonomous.split_multipliers`). The last class was added after the others, so that
+the integer codes of the earlier ones do not change.
 
 Amplitudes. a_k as everywhere in autocable: half the peak-to-peak of q_k, sampled 64 times per
 forcing period from forcing phase 0 with parabolic peaks (`ode21.half_range`), over one period
@@ -59,12 +63,14 @@ import numpy as np
 from autocable.codegen.cintegrate import Repeated, sample_grid
 from autocable.errors import ComputationError
 from autocable.methods.integration.floquet21 import STABILITY_MARGIN, multipliers_of
+from autocable.methods.integration.autonomous import newton_cycle, split_multipliers
+from autocable.methods.integration.cycles import MAX_CROSSINGS_PER_PERIOD, orbit_amplitudes, own_cycles
 from autocable.methods.integration.ode21 import (DEFAULT_Q0, DIVERGED, Ode21Integrator, grew, half_range,
-                                                 _stopped)
+                                                 is_autonomous, _stopped)
 from autocable.model.symbolic import PARAMETERS, STATE, T, first_order_rhs, parameter_values
 
 #: The response classes, in the order of their integer codes (`RESPONSE_CODES`).
-RESPONSE_CLASSES = ("rest", "period-1", "period-2", "quasi-periodic", "diverged")
+RESPONSE_CLASSES = ("rest", "period-1", "period-2", "quasi-periodic", "diverged", "autonomous-periodic")
 RESPONSE_CODES = {name: k for k, name in enumerate(RESPONSE_CLASSES)}
 #: Transient stages (forcing periods integrated before each shooting attempt). The damping
 #: decrement of the sample cable is 1 - exp(-2 pi xi_s) = 0.025 a period, so 30 periods shrink a
@@ -96,7 +102,7 @@ _EYE4.flags.writeable = False
 #: multipliers reported need; the fixed point itself is at the solver's rtol.
 MONODROMY_RTOL = 1e-10
 #: Version of the shooting algorithm (part of a sweep's provenance).
-SHOOTING_VERSION = "2"
+SHOOTING_VERSION = "3"     # 3: autonomous shooting at eta* = 0
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,16 +136,26 @@ class SteadyResponse:
     message: str
     wall_seconds: float
     details: dict = field(default_factory=dict)
+    #: the response's period (2 pi k / Omega for a period-k orbit, the cycle's own period when
+    #: autonomous-periodic); nan otherwise
+    period: float = math.nan
+    #: the stated error of a1, a2 (autonomous-periodic: the sampling error of the orbit's extremes)
+    a1_error: float = math.nan
+    a2_error: float = math.nan
+    #: autonomous-periodic: the trivial multiplier (1 up to the monodromy's accuracy), excluded from
+    #: ``multipliers`` and from the stability verdict
+    trivial_multiplier: complex = complex(math.nan, math.nan)
 
     @property
     def steady(self) -> bool:
-        return self.response in ("rest", "period-1", "period-2", "quasi-periodic") and \
+        return self.response in ("rest", "period-1", "period-2", "quasi-periodic", "autonomous-periodic") and \
             "not steady" not in self.message
 
     @property
     def periodic(self) -> bool:
-        """Period-1 in the forcing (the meaning of ``periodic`` in `ode21.Response`)."""
-        return self.response in ("rest", "period-1")
+        """Periodic: period-1 in the forcing (the meaning of ``periodic`` in `ode21.Response`), or a
+        cycle of the autonomous eq. (21) with its own period."""
+        return self.response in ("rest", "period-1", "autonomous-periodic")
 
     @property
     def max_modulus(self) -> float:
@@ -402,6 +418,108 @@ class ShootingSolver:
             return False
         return bool(_norm(r.y[-1] - y_star) < 0.75 * d0)
 
+    # -- autonomous cycles (eta* = 0) ----------------------------------------------------------
+    def flow_time(self, U: float, eta: float, Omega: float, y0, T: float, rtol: float | None = None):
+        """(y(T), Phi(T)) from y(0) = ``y0`` over a time ``T`` (not a whole number of forcing
+        periods: the period of an autonomous cycle), or None as `flow`."""
+        rtol = self.rtol if rtol is None else float(rtol)
+        y0 = np.asarray(y0, dtype=float)
+        scale = max(float(np.abs(y0).max()), 1e-9)
+        turns = max(1, math.ceil(T * Omega / (2 * math.pi)))
+        r = self._variational().run(np.concatenate([y0, _EYE4]), np.array([0.0, float(T)]),
+                                    self._parameters(U, eta, Omega), rtol=rtol, atol=rtol * 1e-2 * scale,
+                                    max_step=1.0, max_steps=200_000 * turns, bound=DIVERGED, n_bound=2)
+        if not r.ok:
+            return None
+        z = r.y[-1]
+        return z[:4].copy(), z[4:].reshape(4, 4).copy()
+
+    def _vector_field(self, U: float, eta: float, Omega: float):
+        """F(y) of eq. (21) at (U*, eta* = 0, Omega): the right-hand side at t = 0 (autonomous)."""
+        f = self.integrator._scipy_rhs()
+        pars = parameter_values(U, eta, Omega)
+        p = tuple(pars[s.name] for s in PARAMETERS)
+        return lambda y: np.asarray(f(0.0, tuple(float(v) for v in y), p), float)
+
+    def _sampled(self, U, eta, Omega, y, t1: float, dt: float):
+        """The compiled transient integrator's samples from ``y`` over [0, t1] every ``dt``, or None."""
+        r = self.integrator.run_compiled(tuple(float(v) for v in y), 0.0, t1, dt,
+                                         parameter_values(U, eta, Omega), bound=DIVERGED)
+        return r if r.ok else None
+
+    def cycle(self, U: float, eta: float, Omega: float, y_from, *, judge: bool = True,
+              floor: float = 1e-10):
+        """Autonomous shooting (`autonomous.newton_cycle`) for the self-excited cycle of eq. (21) at
+        eta* = 0 near the state ``y_from`` = (q1, q2, q1', q2'): the start and the period are read
+        from a few cycles integrated from it (`cycles.own_cycles`). Returns a dict (state0, period,
+        amplitudes and their errors, the trivial and the other multipliers, residual, iterations,
+        and why it was refused) or None when no cycle could be started from there. Accepted
+        (``"accepted"``) when it converged, is not the rest state, is stable by the non-trivial
+        multipliers and (``judge``) integration from ``y_from`` approaches it."""
+        period = 2 * math.pi / Omega
+        n = SAMPLES_PER_PERIOD
+        r = self._sampled(U, eta, Omega, y_from, 8 * period, period / n)
+        cyc = own_cycles(r.t, r.y, min_cycles=2) if r is not None else None
+        if cyc is None:
+            return None
+        F = self._vector_field(U, eta, Omega)
+        c = newton_cycle(lambda y, T: self.flow_time(U, eta, Omega, y, T), F, cyc.section[-1], cyc.period,
+                         cyc.coordinate, floor=floor)
+        out = {"converged": c.converged, "iterations": c.iterations, "residual": c.residual,
+               "period": c.period, "state0": c.state0, "accepted": False}
+        if not c.converged:
+            out["why"] = "Newton did not converge"
+            return out
+        if float(np.max(np.abs(c.state0[:2]))) < floor:
+            out["why"] = "converged on the rest state"
+            return out
+        M = c.monodromy
+        got = self.flow_time(U, eta, Omega, c.state0, c.period, max(MONODROMY_RTOL, self.rtol))
+        if got is not None:
+            M = got[1]
+        trivial, mu, check = split_multipliers(M, F(c.state0))
+        out.update(trivial=trivial, multipliers=mu, eigen_check=check)
+        mu_max = float(np.abs(mu[0])) if len(mu) else 0.0
+        if not mu_max < 1.0 - STABILITY_MARGIN:
+            out["why"] = f"unstable (largest non-trivial |mu| = {mu_max:.6g})"
+            return out
+        # the orbit sampled over one turn, 4 n samples (its extremes to ~1e-11 relative)
+        T = c.period
+        m = 4 * n
+        ro = self.integrator.run_compiled(tuple(c.state0), 0.0, T * (1 + 1e-12), T / m,
+                                          parameter_values(U, eta, Omega))
+        if not ro.ok:
+            out["why"] = "the orbit could not be sampled"
+            return out
+        amps, errs = orbit_amplitudes(ro.t[:m + 1], ro.y[:m + 1])
+        out.update(amplitudes=amps, errors=errs)
+        if judge and not self._cycle_attracts(U, eta, Omega, c.state0, T, y_from, cyc.coordinate, mu_max):
+            out["why"] = "integration from the transient does not approach it"
+            return out
+        out["accepted"] = True
+        return out
+
+    def _cycle_attracts(self, U, eta, Omega, y_star, T, y_tr, k: int, mu_max: float) -> bool:
+        """The judge of a cycle (as `_attracts` for a forced orbit): integrating on from the
+        transient's state ``y_tr``, its crossings of the section q_k = 0 get closer to the cycle's
+        ``y_star`` by a quarter over as many turns as the slowest non-trivial multiplier needs to
+        halve the distance (4 to 200 turns)."""
+        turns = 200 if not 0.0 < mu_max < 1.0 else min(200, max(4, math.ceil(math.log(0.5) / math.log(mu_max))))
+        r = self._sampled(U, eta, Omega, y_tr, (turns + 2) * T, T / SAMPLES_PER_PERIOD)
+        if r is None:
+            return False
+        # every crossing a section point (a period may hold several: the nearest of the first
+        # and of the last few measure the distance to the cycle)
+        cyc = own_cycles(r.t, r.y, min_cycles=2, coordinate=k, crossings_per_period=1)
+        if cyc is None:
+            return False
+        size = max(_norm(np.asarray(y_star)), 1e-12)
+        n = min(MAX_CROSSINGS_PER_PERIOD, len(cyc.section) // 2)
+        d0 = min(_norm(v - y_star) for v in cyc.section[:n])
+        if d0 <= 1e-6 * size:
+            return True
+        return bool(min(_norm(v - y_star) for v in cyc.section[-n:]) < 0.75 * d0)
+
     # -- the steady response -------------------------------------------------------------------
     def steady(self, U: float, eta: float, sigma: float, q0=DEFAULT_Q0, *, guess=None,
                stages=TRANSIENT_STAGES, max_time: float = 60000.0, rest_floor: float | None = None
@@ -423,13 +541,39 @@ class ShootingSolver:
         newton_total = 0
         tried = []
 
-        def result(kind, amps, env, k, state, mu, res, msg, fallback=False, t_end=None):
+        def result(kind, amps, env, k, state, mu, res, msg, fallback=False, t_end=None, **extra):
+            if kind in ("period-1", "period-2", "rest") and "period" not in extra:
+                extra["period"] = k * period
             return SteadyResponse(kind, float(amps[0]), float(amps[1]), float(env[0][0]), float(env[0][1]),
                                   float(env[1][0]), float(env[1][1]), float(U), float(eta), float(sigma),
                                   float(Omega), k, tuple(float(v) for v in state),
                                   np.asarray(mu, complex), float(res), newton_total, done, fallback,
                                   done * period if t_end is None else float(t_end), msg,
-                                  time.perf_counter() - start, {"attempts": tried})
+                                  time.perf_counter() - start, {"attempts": tried}, **extra)
+
+        autonomous = is_autonomous(eta)
+
+        def attempt_cycle(y_from, judge=True):
+            """Autonomous shooting from ``y_from`` (eta* = 0): the accepted SteadyResponse or None."""
+            nonlocal newton_total
+            got = self.cycle(U, eta, Omega, y_from, judge=judge, floor=floor)
+            if got is None:
+                return None
+            newton_total += got["iterations"]
+            tried.append({"autonomous": True, "after_transient_periods": done, "converged": got["converged"],
+                          "iterations": got["iterations"],
+                          "residual": got["residual"] if math.isfinite(got["residual"]) else None,
+                          **({"refused": got["why"]} if not got["accepted"] else {})})
+            if not got["accepted"]:
+                return None
+            amps, errs, Tc, tr = got["amplitudes"], got["errors"], got["period"], got["trivial"]
+            return result("autonomous-periodic", amps, [(a, a) for a in amps], 1, got["state0"],
+                          got["multipliers"], got["residual"],
+                          f"autonomous periodic orbit by shooting (eta* = 0: a self-excited cycle of own period "
+                          f"{Tc:.9g}, frequency {2 * math.pi / Tc:.9g}; {got['iterations']} Newton steps, residual "
+                          f"{got['residual']:.1e}; trivial multiplier {tr.real:.9f}, excluded from the stability "
+                          f"verdict); a1 = {amps[0]:.9e} +- {errs[0]:.1e}, a2 = {amps[1]:.9e} +- {errs[1]:.1e}",
+                          period=Tc, a1_error=errs[0], a2_error=errs[1], trivial_multiplier=tr)
 
         def attempt(y_from, k, judge_from):
             """Shoot for a period-k orbit from ``y_from``; (accepted SteadyResponse or None, the
@@ -466,6 +610,8 @@ class ShootingSolver:
         left = None          # the unstable orbit the transient was last pushed away from
         if guess is not None:
             got = attempt(np.asarray(guess, float), 1, np.asarray(guess, float))[0]
+            if got is None and autonomous and float(np.max(np.abs(guess))) > floor:
+                got = attempt_cycle(np.asarray(guess, float))
             if got is not None:
                 return got
         for n in stages:
@@ -498,6 +644,14 @@ class ShootingSolver:
             got, ys, M = attempt(y, 1, y)
             if got is not None:
                 return got
+            if autonomous:
+                # eta* = 0: no forcing period to lock to; a bounded motion away from rest is a cycle
+                # of its own period (or on its way to one): autonomous shooting, else more transient
+                if float(np.max(np.abs(y[:2]))) > floor:
+                    got = attempt_cycle(y)
+                    if got is not None:
+                        return got
+                continue
             if M is None:
                 if d2 < 0.1 * d1:
                     # the transient repeats every two periods, not every one: a period-2 orbit
@@ -523,7 +677,7 @@ class ShootingSolver:
                 # response or galloping growth; integration decides from here
                 tried[-1]["torus"] = True
                 break
-        return self._fallback(U, eta, sigma, y, done, period, max_time, result, attempt)
+        return self._fallback(U, eta, sigma, y, done, period, max_time, result, attempt, attempt_cycle)
 
     def _stage_run(self, y, n: int, period: float, pars: dict, rtol: float = STAGE_RTOL,
                    atol: float | None = None, max_step: float = 1.0):
@@ -568,7 +722,7 @@ class ShootingSolver:
         return y_star + math.copysign(size * max(float(np.linalg.norm(y_star)), 1e-9), side) * e
 
 
-    def _fallback(self, U, eta, sigma, y, done, period, max_time, result, attempt):
+    def _fallback(self, U, eta, sigma, y, done, period, max_time, result, attempt, attempt_cycle=None):
         """Transient integration decides: `Ode21Integrator.simulate` from the last state."""
         q0 = (y[0], y[2], y[1], y[3])
         r = self.integrator.simulate(U, eta, sigma, q0, max_time=max(max_time - done * period, period))
@@ -578,6 +732,18 @@ class ShootingSolver:
         if not math.isfinite(r.a1):
             return result("diverged", (r.a1, r.a2), env, 0, fs, [], math.inf,
                           r.message, fallback=True, t_end=t_end)
+        if r.autonomous and (r.periodic or not r.steady):
+            # integration reached a cycle of its own period (eta* = 0), or is still approaching one
+            # slowly (near the onset): autonomous shooting from its end state, judged by integration
+            # from there; else report the integration's cycle, or go on below
+            got = attempt_cycle(fs)
+            if got is not None:
+                return replace(got, fallback=True, t_end=t_end, message=got.message + " after transient "
+                               f"integration to t = {t_end:.6g}")
+        if r.autonomous and r.periodic:
+            return result("autonomous-periodic", (r.a1, r.a2), env, 1, fs, [], math.nan,
+                          f"transient integration from t = {done * period:.6g}: {r.message}", fallback=True,
+                          t_end=t_end, period=r.period, a1_error=r.a1_error, a2_error=r.a2_error)
         if r.steady and (r.periodic or max(r.a1, r.a2) < 1e3 * self.integrator.atol):
             # integration reached a periodic (or rest) response: polish it by Newton from there
             # (its end state is in the orbit's basin), else report the integration's numbers with
@@ -625,4 +791,11 @@ def response_json(r: SteadyResponse) -> dict:
             "max_multiplier_modulus": num(r.max_modulus) if len(r.multipliers) else None,
             "state0": [num(v) for v in r.state0], "shooting_residual": num(r.residual),
             "newton_iterations": r.newton_iterations, "transient_periods": r.transient_periods,
-            "fallback_to_integration": r.fallback}
+            "fallback_to_integration": r.fallback,
+            **({"autonomous": True, "period": num(r.period), "a1_error": num(r.a1_error), "a2_error": num(r.a2_error),
+                "trivial_multiplier": [float(r.trivial_multiplier.real), float(r.trivial_multiplier.imag)],
+                "amplitude_convention": "a_k = half the peak-to-peak of q_k over one turn of the cycle's own "
+                                        "period, extremes Hermite-refined from 256 samples; a_k_error by "
+                                        "Richardson against 128 samples (peak modal amplitude = peak "
+                                        "displacement / l)"}
+               if r.response == "autonomous-periodic" else {})}

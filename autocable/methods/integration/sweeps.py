@@ -47,6 +47,11 @@ class SweepPoint:
     periodic: bool          # period-1 in the forcing (eq. 21) / an AME equilibrium
     message: str
     wall_seconds: float
+    #: eq. (21) at eta* = 0: the response's own period and the stated errors of a1, a2 when it is a
+    #: self-excited cycle (`ode21`, "Autonomous responses"); nan otherwise
+    period: float = math.nan
+    a1_error: float = math.nan
+    a2_error: float = math.nan
 
 
 def sweep(integrator, parameter: str, values, fixed: dict, *, directions=("up", "down"),
@@ -99,7 +104,9 @@ def sweep(integrator, parameter: str, values, fixed: dict, *, directions=("up", 
                                   a1=r.a1, a2=r.a2, a1_min=r.a1_min, a1_max=r.a1_max,
                                   a2_min=r.a2_min, a2_max=r.a2_max, steady=r.steady,
                                   periodic=r.periodic, message=r.message,
-                                  wall_seconds=r.wall_seconds))
+                                  wall_seconds=r.wall_seconds, period=getattr(r, "period", math.nan),
+                                  a1_error=getattr(r, "a1_error", math.nan),
+                                  a2_error=getattr(r, "a2_error", math.nan)))
             if progress:
                 progress(out[-1])
     return tuple(out)
