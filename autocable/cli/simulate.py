@@ -292,7 +292,11 @@ def _plot_history(args, d, r) -> None:
         return
     from autocable.plotting.diagrams import save_figure
     response = "period-1" if r.periodic else ("not settled" if not r.steady else "not period-1")
-    fig = plot_simulation(r.history, Omega=r.Omega, response=response,
+    Omega, period_name = r.Omega, "forcing period"
+    if getattr(r, "autonomous", False) and math.isfinite(getattr(r, "period", math.nan)) and r.period > 0:
+        # eta* = 0: no forcing; the response's own cycle is the period that makes a section a point
+        Omega, period_name, response = 2 * math.pi / r.period, "cycle's own period", "autonomous"
+    fig = plot_simulation(r.history, Omega=Omega, response=response, period_name=period_name,
                           title=f"eq. (21) at U* = {r.U:g}, eta* = {r.eta:g}, sigma = {r.sigma:g}",
                           units=figure_units(getattr(args, "units", None) or "paper", d))
     files = save_figure(fig, args.plot)

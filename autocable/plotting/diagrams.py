@@ -410,7 +410,8 @@ def poincare_section(t, q, Omega: float, t_from: float = 0.0) -> np.ndarray:
 
 
 def plot_simulation(history, stem: str | Path | None = None, *, Omega: float, response: str = "",
-                    steady_from: float | None = None, title: str = "", units: Mapping | None = None, ax=None):
+                    steady_from: float | None = None, title: str = "", units: Mapping | None = None, ax=None,
+                    period_name: str = "forcing period"):
     """`autocable simulate --plot`: the time history of q_1 and q_2 of eq. (21) with their envelope
     (the max and min of q_k per forcing period), the phase plane (q_1, q_2) over the steady part,
     and the stroboscopic Poincare section of the steady part at the
@@ -418,7 +419,9 @@ def plot_simulation(history, stem: str | Path | None = None, *, Omega: float, re
     n for period-n, a closed curve for a quasi-periodic one.
 
     ``history`` = (t, q1, q2, q1', q2') arrays. ``steady_from``: the time after which the response
-    is taken as steady (default: the last half). Returns the Figure (and writes ``<stem>.png`` /
+    is taken as steady (default: the last half). ``Omega`` = 2 pi / the period of the envelope and
+    the section, named ``period_name`` (an autonomous response at eta* = 0 has no forcing: give
+    its own period and "cycle's own period"). Returns the Figure (and writes ``<stem>.png`` /
     ``.pdf`` when ``stem`` is given). ``ax``: 4 Axes (q1(t), q2(t), phase plane, section)."""
     with styled():
         t, q1, q2, v1, v2 = (np.asarray(c, float) for c in history)
@@ -449,7 +452,7 @@ def plot_simulation(history, stem: str | Path | None = None, *, Omega: float, re
                 np.fmin.at(bot, k, q)
                 mid = edges + period / 2
                 ok = np.isfinite(top)
-                a.plot(mid[ok] * ft, top[ok] * fq, color="black", lw=_THIN, label="envelope (max, min per forcing period)")
+                a.plot(mid[ok] * ft, top[ok] * fq, color="black", lw=_THIN, label=f"envelope (max, min per {period_name})")
                 a.plot(mid[ok] * ft, bot[ok] * fq, color="black", lw=_THIN)
             a.axvline(steady_from * ft, color="tab:blue", lw=0.6, ls=":", label="steady part from here")
             a.set_ylabel(qlabel)
@@ -469,7 +472,7 @@ def plot_simulation(history, stem: str | Path | None = None, *, Omega: float, re
         axes[3].set_xlabel(l1)
         axes[3].set_ylabel(l2)
         kind = f" ({response})" if response else ""
-        axes[3].set_title(f"Poincare section at the forcing period{kind}: {len(sec)} points")
+        axes[3].set_title(f"Poincare section at the {period_name}{kind}: {len(sec)} points")
         for a in axes[2:]:
             a.ticklabel_format(style="sci", scilimits=(-3, 3))
         if title:
