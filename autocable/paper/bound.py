@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from autocable.paper import targets as tg
+from autocable.plotting.style import styled
 
 #: The wind scenes in the order they are run: the cheapest and the most often decisive first
 #: (measured on the fully evaluated candidates: Fig. 3 about 3 s and Fig. 11 about 2 s stop most
@@ -492,6 +493,7 @@ def merge_prior(records: list[dict], prior: list[dict]) -> list[dict]:
     return list(records) + [r for r in prior if tuple(r["readings"][k] for k in READING_KEYS) not in mine]
 
 
+@styled()      # the package's one look (autocable.plotting.style)
 def draw_map(records: list[dict], goal: tg.Goal, ceiling_yes: int, path: Path) -> Path:
     """The bound over the space: one panel per (twist ends, angle sense), bound against yaw, one
     colour per (load axes, load length), the marker saying what stopped the candidate; the goal and

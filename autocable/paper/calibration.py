@@ -62,6 +62,7 @@ from autocable.paper.candidates import (Readings, _drop_run, _failed_start, _fin
                                         candidate_name, scene_complete, screen_score,
                                         write_candidate_model)
 from autocable.spec import ModelSpec, SpecError, load_model, read_toml
+from autocable.plotting.style import styled
 
 #: Time units eq. (21) and the AME are integrated from rest in the screen: enough for the in-plane
 #: galloping at U* = 1.3 (growth rate ~1e-3 per unit) to saturate from a 1e-7 seed.
@@ -666,6 +667,7 @@ def _csv_rows(cands: list[dict], target_ids: list[str]) -> list[dict]:
     return rows
 
 
+@styled()      # the package's one look (autocable.plotting.style)
 def _maps(cands: list[dict], out: Path, space: SearchSpace) -> list[Path]:
     """beta-Theta0 plane per reading, coloured by screen targets met, bounded at U* = 1.3 marked."""
     import matplotlib
@@ -810,6 +812,7 @@ def _full_lines(full: list, targets, statement_map: Path | None = None) -> list[
     return lines
 
 
+@styled()      # the package's one look (autocable.plotting.style)
 def _statement_map(full: list, targets, out: Path, ceiling_yes: int | None = None,
                    capped=(), goal: int | None = None) -> Path | None:
     """A picture of the full evaluation: candidates (rows, most statements shown first) against the
