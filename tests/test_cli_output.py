@@ -31,7 +31,7 @@ def test_progress_off_a_terminal_is_whole_lines(capsys):
 
 
 def test_progress_on_a_terminal_is_a_bar():
-    from autocable.cli.progress import BarProgress, LineProgress, progress_for
+    from autocable.progress import BarProgress, LineProgress, progress_for
 
     class Tty(io.StringIO):
         def isatty(self):

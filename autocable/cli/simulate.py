@@ -90,7 +90,7 @@ def settle_hint(r, U: float, max_time: float) -> str:
 def cmd_simulate(args) -> int:
     from autocable.methods.integration.ode21 import DEFAULT_Q0, Ode21Integrator
     _check_simulate(args)
-    from autocable.cli.progress import progress_for
+    from autocable.progress import progress_for
     d = derivation(args.model)
     q0 = tuple(args.q0) if args.q0 else DEFAULT_Q0
     show = not (args.quiet or args.json)

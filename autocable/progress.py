@@ -1,4 +1,5 @@
-"""Progress of a long command on stderr: a live bar on a terminal (`rich`), plain lines otherwise.
+"""Progress of a long command on stderr: a live bar on a terminal (`rich`), plain lines otherwise
+(`autocable simulate`, `autocable figures`).
 
 In a log file or a pipe a bar redrawn with carriage returns becomes one line of kilobytes; there the
 progress is written as whole lines, one per stage (`LineProgress`: at most one line per tenth of the
@@ -52,7 +53,8 @@ class BarProgress:
         self._bar.update(self._task, completed=float(done), note=note)
 
     def close(self, note: str = "") -> None:
-        self._bar.update(self._task, note=note)
+        if note:
+            self._bar.update(self._task, note=note)
         self._bar.stop()
 
 
