@@ -362,7 +362,7 @@ class RunResults:
         """The special points as a pandas DataFrame with the columns of ``special_points.csv``."""
         import pandas as pd
         return pd.read_csv(io.StringIO(special_points_csv(self.special_points, self.branches)),
-                           keep_default_na=False, na_values={"": None})
+                           float_precision="round_trip")   # the CSV writes repr: read back exactly
 
     def special(self, name: str) -> SpecialPoint:
         """A special point by ``<branch>:<label>``."""

@@ -43,6 +43,12 @@ def test_to_dataframe_equals_branches_csv(response, tmp_path):
         else:
             np.testing.assert_array_equal(frame[col].to_numpy(dtype=float), csv[col].to_numpy(), err_msg=col)
     assert frame["stable"].dtype == bool and frame["point"].dtype == np.int64
+    import csv as csv_mod
+    with open(tmp_path / "special_points.csv", newline="") as fh:
+        rows = list(csv_mod.DictReader(fh))
+    sp = response.special_points_dataframe()
+    assert list(sp.columns) == list(rows[0]) and sp["label"].tolist() == [r["label"] for r in rows]
+    np.testing.assert_array_equal(sp["sigma"].to_numpy(), [float(r["sigma"]) for r in rows])
     one = response.branches[1].to_dataframe()
     rows = csv[csv["branch"] == response.branches[1].name].reset_index(drop=True)
     assert len(one) == len(rows)
