@@ -193,3 +193,26 @@ def test_simulation_figure_has_history_phase_plane_and_section():
     assert np.allclose(sec.get_xdata(), 1e-3 * np.cos(t0), atol=1.3e-6)
     assert np.allclose(sec.get_ydata(), 1e-4 * np.sin(t0), atol=1.3e-7)
     assert "envelope (max, min per forcing period)" in _legend(fig)
+
+
+def test_the_folds_of_figure_7s_frequency_response_are_labelled():
+    """Fig. 7's setting (U* = 0.7, eta* = 4.1e-4) computed: branch I folds twice (at an LP the
+    continued sigma turns back: its value is an extreme of sigma along the branch, within the
+    branch's own points around it), and the diagram names both folds in its texts and its legend."""
+    import warnings
+
+    import autocable as ac
+    from conftest import SAMPLE
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = ac.frequency_response(SAMPLE, U=0.7, eta=4.1e-4, sigma=(-0.05, 0.05), switch=False)
+    I = res.branch("I")
+    lps = I.of_type("LP")
+    assert len(lps) == 2
+    s = I["sigma"]
+    for p in lps:
+        near = s[max(p.index - 3, 0):p.index + 4]
+        assert p.value >= near.max() - 1e-9 or p.value <= near.min() + 1e-9
+    fig = ac.plot_branches(res.branches, x="sigma", y=("a1",))
+    assert {p.label for p in lps} <= set(_texts(fig))
+    assert "fold (LP)" in _legend(fig)
