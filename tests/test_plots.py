@@ -216,3 +216,17 @@ def test_the_folds_of_figure_7s_frequency_response_are_labelled():
     fig = ac.plot_branches(res.branches, x="sigma", y=("a1",))
     assert {p.label for p in lps} <= set(_texts(fig))
     assert "fold (LP)" in _legend(fig)
+
+
+def test_a_scene_in_si_units_takes_the_cables_own_scales(tmp_path):
+    """[plot] units = "si" (or --units si): the scales are the derived cable's l, omega (eq. 17) and
+    U_c (eq. 18); "paper" keeps the nondimensional symbols."""
+    import autocable as ac
+    from autocable.scene.figure_units import figure_units
+    from conftest import SAMPLE
+    d = ac.derive(SAMPLE)
+    assert figure_units("paper", d) is None
+    si = figure_units("si", d)
+    assert si["a1"][0] == d.spec.cable.length_m == 121.9
+    assert si["sigma"][0] == pytest.approx(d.statics.omega_ref / (2 * math.pi), rel=1e-15)
+    assert si["U"][0] == 36.0 and si["t"][0] == pytest.approx(1 / d.statics.omega_ref, rel=1e-15)
