@@ -71,6 +71,9 @@ def test_frequency_response_in_one_call(response):
     assert I.stable.dtype == bool and I.stable.any() and not I.stable.all()
     r = ac.AmeIntegrator(ac.derive_ame(ac.derive(SAMPLE)).ame).simulate(0.0, 1.4e-3, -0.05)
     assert I["sigma"][0] == pytest.approx(-0.05) and I["a1"][0] == pytest.approx(r.a1, rel=1e-6)
+    # eq. (21) itself gives the same branch
+    again = ac.frequency_response(ac.derive(SAMPLE).ode, U=0.0, eta=1.4e-3, sigma=(-0.05, 0.05), switch=False)
+    np.testing.assert_array_equal(again.branch("I")["a1"], I["a1"])
     with pytest.raises(ValueError, match="sigma"):
         ac.frequency_response(SAMPLE, eta=1e-3, sigma=(0.05, -0.05))
 

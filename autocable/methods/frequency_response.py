@@ -27,7 +27,8 @@ def frequency_response(source, *, U: float = 0.0, eta: float, sigma: tuple[float
     through one of its branch points (``I-BP1``, ...). Each `Branch` has its special points and a
     ``stable`` column (autocable's own eigenvalues).
 
-    ``source``: a `Derivation` (`derive`), a `ModelSpec` or the path of a model file. ``ame``:
+    ``source``: a `Derivation` (`derive`), its ``ode`` (eq. 21 as a `TwoModeODE`), a `ModelSpec` or
+    the path of a model file. ``ame``:
     "2dof" or "1dof" (the A2 = 0 reduction of Sect. 5); ``ordering``: the Multiple Scales ordering
     ("paper" or "natural"); ``engine``: "compiled" (the C kernel, default) or "pycont";
     ``settings``: `ContinuationSettings` (default: steps of at most 1/5 of the sigma range).
@@ -43,9 +44,14 @@ def frequency_response(source, *, U: float = 0.0, eta: float, sigma: tuple[float
     for name, v in (("U", U), ("eta", eta)):
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
             raise ValueError(f"{name}: expected a finite number >= 0, got {v!r}")
-    d = source if isinstance(source, Derivation) else derive(source if not isinstance(source, (str, os.PathLike))
-                                                             else os.fspath(source))
-    cached = derive_ame(d, ordering=ordering)
+    from autocable.model.equations import TwoModeODE
+    if isinstance(source, TwoModeODE):           # eq. (21) itself (``eq21.ode``)
+        eq21, name, key = source, str(source.provenance.get("name", "eq. (21)")), source.content_hash()
+    else:
+        eq21 = source if isinstance(source, Derivation) else derive(
+            os.fspath(source) if isinstance(source, (str, os.PathLike)) else source)
+        name, key = eq21.spec.name, eq21.spec.content_hash()
+    cached = derive_ame(eq21, ordering=ordering)
     system = ame_system(cached.ame, ame, wind=U != 0.0)
     values = {"U": float(U), "eta": float(eta), "sigma": lo}
     problem = EquilibriumProblem(system, "sigma", values, (lo, hi))
@@ -55,7 +61,7 @@ def frequency_response(source, *, U: float = 0.0, eta: float, sigma: tuple[float
     if switch:
         results += [switch_branch(main, p, settings, name=f"I-{p.label}", engine=engine, progress=progress)
                     for p in main.branch.special_points if p.type == "BP" and p.label != "BP0"]
-    provenance = {"model": d.spec.name, "model_hash": d.spec.content_hash(), "ame": ame, "ordering": ordering,
+    provenance = {"model": name, "model_hash": key, "ame": ame, "ordering": ordering,
                   "engine": engine, "fixed": {"U": float(U), "eta": float(eta)}, "range": [lo, hi],
                   "state_scale": problem.state_scale}
     return RunResults("frequency_response", tuple(r.branch for r in results), provenance)
