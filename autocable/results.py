@@ -26,6 +26,9 @@ Files in an output folder (written atomically, read back by `read_results`):
 * ``special_points.csv``: ``branch, type, label, parameter``, every system parameter, ``a1, a2``,
   the state, ``converged, confirmed_by_pycont, origin, l1, omega, period, message``. ``parameter``
   is the branch's first parameter; on a two-parameter curve ``parameters`` holds both values.
+* Both tables end, when the run's provenance carries the cable's scales (``si_scales``, ``omega1``),
+  with the same points in SI (`autocable.model.units.SI_COLUMNS`): ``U_m_s, eta_m, Omega_Hz,
+  peak_in_plane_m, peak_out_of_plane_m`` (peak displacements a_k l at mid-span).
 * ``run.json``: provenance, per-branch metadata (ends, diagnostics) and every special point with
   its ``extra`` data; ``status`` (``"complete"`` only for a run that finished) and ``files`` (the
   other files of the run, the manifest). It is written last.
@@ -314,7 +317,8 @@ class Branch:
 
     def to_dataframe(self):
         """This branch as a pandas DataFrame with the columns and values of its rows in
-        ``branches.csv`` (`branches_dataframe`)."""
+        ``branches.csv`` (`branches_dataframe`; a branch alone has no run's SI scales:
+        `RunResults.to_dataframe` adds those columns)."""
         return branches_dataframe([self])
 
     def replace(self, **changes) -> "Branch":
@@ -355,13 +359,13 @@ class RunResults:
 
     def to_dataframe(self):
         """Every branch as one pandas DataFrame: the columns and values of ``branches.csv``
-        (`branches_dataframe`)."""
-        return branches_dataframe(self.branches)
+        (`branches_dataframe`), with its SI columns when the provenance has the scales."""
+        return branches_dataframe(self.branches, _si(self.provenance))
 
     def special_points_dataframe(self):
         """The special points as a pandas DataFrame with the columns of ``special_points.csv``."""
         import pandas as pd
-        return pd.read_csv(io.StringIO(special_points_csv(self.special_points, self.branches)),
+        return pd.read_csv(io.StringIO(special_points_csv(self.special_points, self.branches, _si(self.provenance))),
                            float_precision="round_trip")   # the CSV writes repr: read back exactly
 
     def special(self, name: str) -> SpecialPoint:
@@ -407,9 +411,31 @@ def _union(seqs: Iterable[Sequence[str]]) -> list[str]:
     return out
 
 
-def _branch_rows(branches: Sequence[Branch]) -> tuple[list[str], Iterable[list]]:
+def _si(provenance) -> tuple | None:
+    """(units, omega1) from a run's provenance (``si_scales``, ``omega1``), or None without them."""
+    from autocable.model.units import units_from_dict
+    if not provenance or not provenance.get("si_scales") or provenance.get("omega1") is None:
+        return None
+    return units_from_dict(provenance["si_scales"]), float(provenance["omega1"])
+
+
+def _si_row(si, values: Mapping) -> list:
+    """The `SI_COLUMNS` of one point (``values``: U, eta, sigma, a1, a2); empty where one is missing."""
+    from autocable.model.units import SI_COLUMNS, si_columns
+    if si is None:
+        return []
+    x = {k: values.get(k) for k in ("U", "eta", "sigma", "a1", "a2")}
+    if any(v is None for v in x.values()):
+        return [None] * len(SI_COLUMNS)
+    cols = si_columns(si[0], si[1], *(float(x[k]) for k in ("U", "eta", "sigma", "a1", "a2")))
+    return [cols[c] for c in SI_COLUMNS]
+
+
+def _branch_rows(branches: Sequence[Branch], si=None) -> tuple[list[str], Iterable[list]]:
     """The header of ``branches.csv`` and its rows as Python values (None where a cell is empty):
-    the one definition of the table that the CSV file and the DataFrames share."""
+    the one definition of the table that the CSV file and the DataFrames share; with ``si`` =
+    (units, omega1), the `autocable.model.units.SI_COLUMNS` at the end."""
+    from autocable.model.units import SI_COLUMNS
     params = _union(b.parameter_names for b in branches)
     amps = _union([("a1", "a2")] + [b.amplitude_names for b in branches])
     states = _union(b.variables for b in branches)
@@ -419,7 +445,7 @@ def _branch_rows(branches: Sequence[Branch]) -> tuple[list[str], Iterable[list]]
     extra = _union([c for c in b.table if c not in known] for b in branches)
     header = (["branch", "kind", "parameter", "parameter2", "point"] + params + amps
               + ["stable", *_CYCLE_COLUMNS, *_CURVE_COLUMNS] + states + ["max_real"] + [f"ev{k}_{part}" for k in range(1, nev + 1) for part in ("re", "im")]
-              + extra)
+              + extra + (list(SI_COLUMNS) if si else []))
 
     def rows():
         for b in branches:
@@ -439,13 +465,15 @@ def _branch_rows(branches: Sequence[Branch]) -> tuple[list[str], Iterable[list]]
                     else:
                         row += [None, None]
                 row += [b.table[c][i] if c in b.table else None for c in extra]
+                row += _si_row(si, {k: b.table[k][i] for k in ("U", "eta", "sigma", "a1", "a2") if k in b.table})
                 yield row
     return header, rows()
 
 
-def branches_csv(branches: Sequence[Branch]) -> str:
-    """The text of ``branches.csv`` (see the module docstring)."""
-    header, rows = _branch_rows(branches)
+def branches_csv(branches: Sequence[Branch], si=None) -> str:
+    """The text of ``branches.csv`` (see the module docstring); with ``si`` = (units, omega1), the
+    `autocable.model.units.SI_COLUMNS` at the end."""
+    header, rows = _branch_rows(branches, si)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(header)
@@ -454,13 +482,13 @@ def branches_csv(branches: Sequence[Branch]) -> str:
     return buf.getvalue()
 
 
-def branches_dataframe(branches: Sequence[Branch]):
+def branches_dataframe(branches: Sequence[Branch], si=None):
     """``branches.csv`` as a pandas DataFrame: the same columns in the same order, one row per
     point; numbers as float64 (an empty cell is NaN), ``stable`` as bool, ``point`` as int, the
-    names as strings (``parameter2`` is "" off two-parameter curves)."""
+    names as strings (``parameter2`` is "" off two-parameter curves); ``si`` as for `branches_csv`."""
     import pandas as pd
 
-    header, rows = _branch_rows(branches)
+    header, rows = _branch_rows(branches, si)
     frame = pd.DataFrame(list(rows), columns=header)
     text = ("branch", "kind", "parameter", "parameter2")
     for col in header:
@@ -475,12 +503,14 @@ def branches_dataframe(branches: Sequence[Branch]):
     return frame
 
 
-def special_points_csv(points: Sequence[SpecialPoint], branches: Sequence[Branch] = ()) -> str:
-    """The text of ``special_points.csv`` (see the module docstring)."""
+def special_points_csv(points: Sequence[SpecialPoint], branches: Sequence[Branch] = (), si=None) -> str:
+    """The text of ``special_points.csv`` (see the module docstring); ``si`` as for `branches_csv`."""
+    from autocable.model.units import SI_COLUMNS
     params = _union([b.parameter_names for b in branches] + [list(sp.parameters) for sp in points])
     states = _union(b.variables for b in branches)
     header = (["branch", "type", "label", "parameter"] + params + ["a1", "a2"] + states
-              + ["converged", "confirmed_by_pycont", "origin", "l1", "omega", "period", "message"])
+              + ["converged", "confirmed_by_pycont", "origin", "l1", "omega", "period", "message"]
+              + (list(SI_COLUMNS) if si else []))
     by_branch = {b.name: b for b in branches}
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
@@ -494,6 +524,7 @@ def special_points_csv(points: Sequence[SpecialPoint], branches: Sequence[Branch
         row += [state.get(s) for s in states]
         row += [sp.converged, sp.confirmed_by_pycont, sp.origin, sp.extra.get("l1"),
                 sp.extra.get("omega"), sp.extra.get("period"), sp.message]
+        row += _si_row(si, {**sp.parameters, "a1": sp.a1, "a2": sp.a2})
         w.writerow([_fmt(x) for x in row])
     return buf.getvalue()
 
@@ -504,10 +535,11 @@ def write_results(results: RunResults, out_dir: str | Path, *, status: str = STA
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     branches = results.branches
+    si = _si(results.provenance)
     paths = {
-        "branches": atomic_write_text(out / BRANCHES_CSV, branches_csv(branches)),
+        "branches": atomic_write_text(out / BRANCHES_CSV, branches_csv(branches, si)),
         "special_points": atomic_write_text(out / SPECIAL_CSV,
-                                            special_points_csv(results.special_points, branches)),
+                                            special_points_csv(results.special_points, branches, si)),
     }
     meta = {"format": "autocable.run/1", "name": results.name,
             "provenance": finite_or_none(dict(results.provenance)),

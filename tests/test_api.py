@@ -43,6 +43,21 @@ def test_to_dataframe_equals_branches_csv(response, tmp_path):
         else:
             np.testing.assert_array_equal(frame[col].to_numpy(dtype=float), csv[col].to_numpy(), err_msg=col)
     assert frame["stable"].dtype == bool and frame["point"].dtype == np.int64
+    # a run with its SI scales in the provenance (as every scene writes them): the SI columns too
+    from dataclasses import asdict
+
+    from autocable.model.units import SI_COLUMNS, units_of
+    d = ac.derive(SAMPLE)
+    with_si = ac.RunResults("si", response.branches, {"si_scales": asdict(units_of(d.spec, d.statics)),
+                                                      "omega1": d.ode.omega1})
+    ac.write_results(with_si, tmp_path / "si")
+    csv_si = _csv_frame(tmp_path / "si" / "branches.csv")
+    frame_si = with_si.to_dataframe()
+    assert list(frame_si.columns) == list(csv_si.columns) and list(frame_si.columns[-len(SI_COLUMNS):]) == list(SI_COLUMNS)
+    for col in SI_COLUMNS:
+        np.testing.assert_array_equal(frame_si[col].to_numpy(), csv_si[col].to_numpy(), err_msg=col)
+    assert frame_si["peak_in_plane_m"].to_numpy() == pytest.approx(d.spec.cable.length_m * frame_si["a1"].to_numpy(),
+                                                                    rel=1e-15)
     import csv as csv_mod
     with open(tmp_path / "special_points.csv", newline="") as fh:
         rows = list(csv_mod.DictReader(fh))

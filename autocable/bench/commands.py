@@ -123,10 +123,40 @@ def run_bench(what: str, model_path: str, repeats: int = 3, log=None, out=None) 
     if what == "sweep":
         from autocable.bench.shooting import bench_sweep
         return bench_sweep(model_path, repeats=repeats, log=log)
+    if what == "onset":
+        return bench_onset(model_path, repeats, log)
     if what == "continuation":
         from autocable.bench.continuation import bench_continuation
         return bench_continuation(model_path, repeats=repeats, cold=True, progress=log)
     raise ValueError(f"unknown benchmark {what!r}")
+
+
+# -- onset: the damping curve of `autocable onset --damping` ----------------------------------------
+def bench_onset(model_path: str, repeats: int = 3, log=None, n: int = 50) -> dict:
+    """Wall time of the onset report and of a 50-point damping grid (U_cr against the damping ratio,
+    `autocable onset --damping A:B:50` without the amplitude curves), warm: the derivation read from
+    the cache (its cold time reported beside). Target: the grid under 2 s."""
+
+    from autocable.model.derive import derive
+    from autocable.studies.onset import damping_curve, design_damping, onset_report
+    t0 = time.perf_counter()
+    d = derive(model_path)
+    first = time.perf_counter() - t0
+    xi = d.ode.xi_s
+    grid = np.linspace(0.25 * xi, 4 * xi, n)
+    report = _best(lambda: onset_report(d), repeats)
+    curve = _best(lambda: damping_curve(d, grid), repeats)
+    U_design = 1.5 * d.spec.aero.critical_wind_speed_m_s
+    design = _best(lambda: design_damping(d, U_design), repeats)
+    result = {"model": model_path, "derive_s": first, "derivation_from_cache": d.from_cache,
+              "onset_report_s": report, "damping_grid_points": n,
+              "damping_grid": [float(grid[0]), float(grid[-1])], "damping_grid_s": curve,
+              "design_damping_s": design, "design_wind_m_s": U_design, "target_damping_grid_s": 2.0,
+              "meets_target": curve < 2.0}
+    if log:
+        log(f"onset report {report:.3g} s, {n}-point damping grid {curve:.3g} s (target 2 s), "
+            f"design damping {design:.3g} s")
+    return result
 
 
 # -- ame-vs-ode: the Multiple Scales AME (22)-(24) against direct integration of eq. (21) -------------

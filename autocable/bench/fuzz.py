@@ -727,6 +727,13 @@ ARG_CASES += [
     ("simulate --max-time 1e9 --U 0", ODD, ("--max-time",),
      ("simulate", "{model}", "--json", "--quiet", "--max-time", "1e9"), {}, True),
     ("derive: missing file", INVALID, (), ("derive", "{case}/none.toml", "--json"), {}, False),
+    *((f"onset {_o}={_v}", INVALID, (_o,), ("onset", "{model}", "--json", f"{_o}={_v}"), {}, False)
+      for _o, _v in (("--damping", "0:0.01"), ("--damping", "nan:0.01"), ("--damping", "0.01:0.001"),
+                     ("--damping", "0.001:0.01:1e9"), ("--damping", "a:b"), ("--design-wind", "-3"),
+                     ("--design-wind", "1e9"), ("--design-wind", "nan"), ("--max-wind", "inf"),
+                     ("--set", "cable.damping_ratio=2"), ("--set", "cable.gravity_m_s2=3"), ("--set", "bogus"),
+                     ("--checks", "-1"))),
+    ("onset --refit without --set", INVALID, ("--refit",), ("onset", "{model}", "--refit"), {}, False),
     ("derive: a folder", INVALID, (), ("derive", "{case}/adir", "--json"), {"adir": DIRECTORY}, False),
     ("derive: a FIFO", INVALID, (), ("derive", "{case}/pipe.toml", "--json"), {"pipe.toml": FIFO}, True),
     ("derive: empty path", INVALID, ("model",), ("derive", "", "--json"), {}, False),

@@ -1,4 +1,4 @@
-"""The `autocable` command: derive, simulate, run, chart, sweep, figures, bench, calibrate.
+"""The `autocable` command: derive, onset, simulate, run, chart, sweep, figures, bench, calibrate.
 
 Errors a user can fix (a bad spec, a bad option, a failed build or run) are printed as one line
 naming the file and field; no traceback. ``AUTOCABLE_DEBUG=1`` shows tracebacks. The exit status is
@@ -19,6 +19,7 @@ from autocable.errors import EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, CacheErr
 from autocable.paper.figures import add_figures_parser
 from autocable.cli.checks import refuse
 from autocable.cli.derivation import cmd_derive
+from autocable.cli.onset import add_onset_parser
 from autocable.cli.runs import add_chart_parser, add_run_parser, add_sweep_parser
 from autocable.cli.simulate import cmd_simulate
 from autocable.cli.studies import cmd_advise, cmd_bench, cmd_calibrate, cmd_failure_map
@@ -76,7 +77,7 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
     b.add_argument("what", nargs="?", default=None,
                    choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "ordering", "engines",
-                            "shooting", "sweep", "kill", "fuzz"],
+                            "shooting", "sweep", "kill", "fuzz", "onset"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
                         "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
@@ -90,7 +91,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "sweep: 'autocable sweep' throughput with 1 and 2 Dask workers and the scaling; "
                         "kill: a scene run killed (SIGKILL, SIGINT) at random moments --repeats times (at least "
                         "20), each folder checked not to read as complete, leftovers checked after a rerun; "
-                        "fuzz: hostile model specs, scenes and arguments, counts of tracebacks, exit-0 "
+                        "onset: the onset report and a 50-point damping grid of `autocable onset` (target under 2 s "
+                        "warm); fuzz: hostile model specs, scenes and arguments, counts of tracebacks, exit-0 "
                         "results for invalid input, unnamed rejections and hangs. "
                         "Without a subcommand "
                         "(--out DIR): the work-precision bench of the method ladder (bench.json, "
@@ -153,6 +155,7 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--quiet", action="store_true", help="no progress lines")
     cal.set_defaults(func=cmd_calibrate)
 
+    add_onset_parser(sub)
     add_run_parser(sub)
     add_chart_parser(sub)
     add_sweep_parser(sub)

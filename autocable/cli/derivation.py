@@ -17,7 +17,9 @@ def _fmt(x: float) -> str:
 
 def derive_report(d) -> str:
     """The readable report of `autocable derive` (eq. 21 and what it rests on)."""
+    from autocable.model.units import units_of
     st, ode, spec = d.statics, d.ode, d.spec
+    u = units_of(spec, st)
     lines = [
         f"model {spec.name} ({spec.path})",
         "",
@@ -25,11 +27,12 @@ def derive_report(d) -> str:
         f"  T-bar = {st.T_bar:.6g} N   kappa-bar = {st.kappa_bar:.6g} 1/m   alpha = {math.degrees(st.alpha):.4g} deg",
         f"  delta = kappa*l = {st.delta:.6g}   tau = T/EA = {st.tau:.6g}   chi = GJ/EI = {st.chi:.6g}",
         f"  Irvine lambda^2 = {st.lambda2:.6g}   m* = pi^2 tau = {st.m_star:.6g}",
-        f"  reference frequency omega = (pi/l) sqrt(T/m) = {st.omega_ref:.6g} rad/s ({st.frequency_hz:.4g} Hz)",
+        f"  reference frequency omega = (pi/l) sqrt(T/m) = {st.omega_ref:.6g} rad/s ({u.frequency_hz(1.0):.4g} Hz)",
         f"  quasi-static shape (eqs. 15-16, corrected C2): vhat(s) = {st.C1:.6g} s^2 + {st.C2:.6g} s",
         "",
         "Modes (eqs. 19-20, unit maximum):",
-        f"  omega1 = {ode.omega1:.9f} (in-plane, Irvine)   omega2 = {ode.omega2:.9f} (out-of-plane)",
+        f"  omega1 = {ode.omega1:.9f} (in-plane, Irvine; {u.frequency_hz(ode.omega1):.5g} Hz)   "
+        f"omega2 = {ode.omega2:.9f} (out-of-plane; {u.frequency_hz(ode.omega2):.5g} Hz)",
         f"  internal detuning rho = omega2 - omega1 = {ode.omega2 - ode.omega1:.6g}",
         f"  slaved twist theta2 = {d.twist[0]:.6g} sin(pi s) + {d.twist[1]:.6g} cosh({d.twist[2]:.6g} (s - 1/2))",
         "",
@@ -154,11 +157,19 @@ def cmd_derive(args) -> int:
     from autocable.model.ame_cache import derive_ame
     d = derivation(args.model)
     cached = derive_ame(d, ordering=args.ordering)
+    from autocable.studies.onset import onset_report, onset_text
+    onset = onset_report(d)
     if args.json:
         out = derive_json(d)
         out["ame"] = ame_json(cached)
+        out["onset"] = onset
         print(dumps(out, indent=1))
     else:
         print(derive_report(d))
         print(ame_report(cached, latex=args.latex))
+        print()
+        print("\n".join(onset_text(onset)))
+        print("  (autocable onset MODEL --damping A:B --design-wind U: the damping that keeps it stable)")
+        for w in onset["warnings"]:
+            print(f"warning: {w}")
     return 0

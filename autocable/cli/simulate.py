@@ -20,6 +20,31 @@ DEFAULT_CSV_SAMPLES = 50_000
 #: hint to raise --max-time (growth and decay rates vanish at a threshold: transients are long).
 NEAR_THRESHOLD = 0.1
 
+def si_fields(d, out: dict) -> dict:
+    """``out`` with its nondimensional U*, eta*, Omega and amplitudes also in SI (eqs. 17-18,
+    `autocable.model.units`): U_m_s, eta_m, Omega_Hz and peak_m = [a1 l, a2 l] (in-plane,
+    out-of-plane; null where the amplitude is not finite) at the station stated in peak_station."""
+    from autocable.model.units import PEAK_STATION, units_of
+    u = units_of(d.spec, d.statics)
+
+    def peak(a):
+        return u.peak_m(a) if a is not None and math.isfinite(a) else None
+
+    out.update({"U_m_s": u.wind_m_s(out["U"]), "eta_m": u.support_m(out["eta"]),
+                "Omega_Hz": u.frequency_hz(out["Omega"]), "peak_m": [peak(out["a1"]), peak(out["a2"])],
+                "peak_station": PEAK_STATION})
+    if out.get("autonomous") and out.get("period"):
+        # a self-excited cycle has its own frequency: 2 pi / period in units of omega (eq. 17)
+        out["response_frequency_Hz"] = u.frequency_hz(2 * math.pi / out["period"])
+    return out
+
+
+def _si_line(out: dict) -> str:
+    peaks = ", ".join("-" if p is None else f"{p:.4g} m" for p in out["peak_m"])
+    return (f"SI: U = {out['U_m_s']:.4g} m/s, support amplitude {out['eta_m']:.4g} m, forcing "
+            f"{out['Omega_Hz']:.5g} Hz; peak displacements (in-plane, out-of-plane) {peaks} at mid-span")
+
+
 def _check_parameters(args) -> None:
     """U*, eta*, sigma of `simulate` against the premises of eq. (21) (one line each; a stretched
     premise is a one-line warning on stderr)."""
@@ -129,7 +154,7 @@ def cmd_simulate(args) -> int:
                                         "response's own period (zero crossings), averaged over the last "
                                         "20 forcing periods; a_k_error = their scatter plus the sampling "
                                         "error (peak modal amplitude = peak displacement / l)")
-    _print_simulation(args, r, out)
+    _print_simulation(args, r, si_fields(d, out))
     return 0
 
 
@@ -141,7 +166,7 @@ def _simulate_shooting(args, d, q0) -> int:
         raise SpecError("--csv", "", "--method shooting computes no time history; use --method ode21 "
                         "for --csv")
     r = ShootingSolver(d.ode).steady(args.U, args.eta, args.sigma, q0, max_time=args.max_time)
-    out = {"status": response_status(r.a1, r.steady), **response_json(r)}
+    out = si_fields(d, {"status": response_status(r.a1, r.steady), **response_json(r)})
     if args.json:
         print(dumps(out, indent=1))
         return 0
@@ -154,6 +179,7 @@ def _simulate_shooting(args, d, q0) -> int:
               + f"   (max |mu| = {r.max_modulus:.9f})")
     print(f"transient {r.transient_periods} forcing periods, {r.newton_iterations} Newton steps, "
           f"{r.wall_seconds * 1e3:.1f} ms")
+    print(_si_line(out))
     return 0
 
 
@@ -195,7 +221,7 @@ def _simulate_ame(args, d, q0, bar, progress) -> int:
         out["equilibrium"] = {"stable": eq.stable, "residual": eq.residual,
                               "max_real_eigenvalue": eq.max_real,
                               "eigenvalues": [[e.real, e.imag] for e in eq.eigenvalues]}
-    _print_simulation(args, r, out)
+    _print_simulation(args, r, si_fields(d, out))
     return 0
 
 
@@ -238,6 +264,7 @@ def _simulate_nmode(args, d, q0, bar, progress) -> int:
     hint = settle_hint(r, args.U, args.max_time)
     if hint:
         print(hint, file=sys.stderr)
+    si_fields(d, out)
     if args.json:
         print(dumps(out, indent=1))
     else:
@@ -246,6 +273,7 @@ def _simulate_nmode(args, d, q0, bar, progress) -> int:
         print(f"a1 = {r.a1:.9e}   a2 = {r.a2:.9e}   ({r.message}; "
               f"{'periodic' if r.periodic else 'not period-1'}; t_end = {r.t_end:.1f})")
         print("modal amplitudes: " + "  ".join(f"{k} = {v:.6e}" for k, v in r.amplitudes.items()))
+        print(_si_line(out))
     return 0
 
 
@@ -261,6 +289,7 @@ def _print_simulation(args, r, out) -> None:
         if out["status"] == "diverged":
             print(f"diverged: no bounded steady state ({r.message}; t_end = {r.t_end:.6g})")
             return
+        print(_si_line(out))
         print(f"a1 = {r.a1:.9e}   a2 = {r.a2:.9e}   ({r.message}; "
               f"{'periodic' if r.periodic else 'not period-1'}; t_end = {r.t_end:.1f})")
         if not r.periodic:

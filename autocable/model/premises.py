@@ -154,4 +154,41 @@ def check_model(spec: ModelSpec) -> dict[str, float]:
             f'{where}: aero.angle_convention = "reversed" is a legacy reading that is not frame '
             f'indifferent (turning wind and section together changes the load); use "mirrored" '
             f'(the same in-plane terms, frame indifferent) or "eq12"'), stacklevel=2)
+    _check_missing_modes(spec, st, q, where)
     return q
+
+
+#: Warning band of `_check_missing_modes`: a left-out mode closer than this many internal detunings.
+MISSING_MODE_WARN = 2.0
+
+
+def _check_missing_modes(spec: ModelSpec, st, q: dict, where: str) -> None:
+    """Refuse a cable whose two retained modes (omega1, omega2 = 1, eq. 17 units) do not stand apart
+    from the rest: a left-out mode (the in-plane antisymmetric and the second out-of-plane modes at
+    omega = 2 exactly, the second symmetric in-plane mode at the second root of Irvine's equation,
+    `autocable.model.modes_n`) lying closer to a retained mode or to the forcing (Omega = omega1 +
+    sigma, sigma small) than the retained modes' own detuning |omega2 - omega1| takes part in the
+    1:1 resonance that Sect. 4 assumes is between those two alone. This happens as Irvine's lambda^2
+    nears the 4 pi^2 crossover, where omega1 climbs to the antisymmetric omega = 2. Within
+    `MISSING_MODE_WARN` detunings: a warning."""
+    from autocable.model.modes_n import irvine_roots
+    from autocable.model.units import units_of
+    omega1 = irvine_roots(st.lambda2, 1)[0] / math.pi
+    rho = abs(omega1 - 1.0)
+    others = (("in-plane antisymmetric", 2.0), ("2nd out-of-plane", 2.0),
+              ("2nd symmetric in-plane", irvine_roots(st.lambda2, 2)[1] / math.pi))
+    gaps = [(min(abs(w - omega1), abs(w - 1.0)), name, w) for name, w in others]
+    gap = min(g for g, _, _ in gaps)
+    q["missing_mode_gap"] = gap
+    if gap >= MISSING_MODE_WARN * rho:
+        return
+    names = [name for g, name, _ in gaps if g == gap]
+    w = next(w for g, _, w in gaps if g == gap)
+    f = units_of(spec, st).frequency_hz(1.0)
+    text = (f"the {' and '.join(names)} mode{'s' if len(names) > 1 else ''} at {w * f:.4g} Hz (omega = {w:.4g}) "
+            f"lie{'' if len(names) > 1 else 's'} {gap:.3g} from omega1 = {omega1:.4g} ({omega1 * f:.4g} Hz), "
+            f"against the retained pair's detuning {rho:.3g} (lambda^2 = {st.lambda2:.4g}, crossover at 4 pi^2)")
+    if gap < rho:
+        raise SpecError(where, "two-mode model", f"two modes cannot describe this cable: {text}")
+    warnings.warn(PremiseWarning(f"{where}: two-mode model: {text}: within {MISSING_MODE_WARN:g} "
+                                 "detunings: the two-mode model is stretched"), stacklevel=3)

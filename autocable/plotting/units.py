@@ -9,16 +9,16 @@ are drawn in SI: a_k l [m] (the peak displacement of a mode of unit maximum, at 
 retained modes), sigma omega / (2 pi) [Hz] (the detuning as a frequency), U [m/s], eta [m] and t [s],
 with omega = (pi / l) sqrt(T-bar / m) the fundamental of the taut string (eq. 17).
 
-The conversions here are the few a plot needs; they are the same linear maps as the package's
-model-level unit conversions (eq. 17-18) and take the three scales of one cable as plain numbers, so
-that plotting keeps reading results only.
+The conversions are `autocable.model.units`' (the one module converting eqs. 17-18 to SI); this
+module only turns them into axis scales and labels. `si_scales` takes the three scales of one cable
+as plain numbers (or `scales_of` a `Units`), so that plotting keeps reading results only.
 """
 from __future__ import annotations
 
 import math
 from typing import Mapping
 
-__all__ = ["PAPER_LABELS", "UNITS", "AxisScale", "si_scales", "axis_scale", "check_units"]
+__all__ = ["PAPER_LABELS", "UNITS", "AxisScale", "si_scales", "scales_of", "axis_scale", "check_units"]
 
 #: The paper's symbols (eqs. 17-18): the starred quantities are U*, eta* and t*.
 PAPER_LABELS = {"sigma": r"$\sigma$", "U": r"$U^*$", "eta": r"$\eta^*$", "a1": r"$a_1$", "a2": r"$a_2$",
@@ -40,20 +40,32 @@ def check_units(units: str, where: str = "units") -> str:
 def si_scales(length_m: float, omega_rad_s: float, critical_wind_speed_m_s: float) -> dict[str, AxisScale]:
     """The SI scale and label of every plotted quantity for a cable of length ``length_m`` [m],
     fundamental ``omega_rad_s`` [rad/s] (eq. 17) and critical wind speed ``critical_wind_speed_m_s``
-    [m/s] (eq. 18)."""
+    [m/s] (eq. 18), each factor taken from `autocable.model.units.Units` (all its conversions are
+    linear: the factor is the conversion of 1)."""
+    from autocable.model.units import Units
+
     for name, v in (("length_m", length_m), ("omega_rad_s", omega_rad_s),
                     ("critical_wind_speed_m_s", critical_wind_speed_m_s)):
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
             raise ValueError(f"si_scales: {name} must be a positive finite number, got {v!r}")
-    hz = omega_rad_s / (2 * math.pi)
+    u = Units(length_m=float(length_m), omega_rad_s=float(omega_rad_s),
+              critical_wind_speed_m_s=float(critical_wind_speed_m_s), mass_per_length_kg_m=math.nan,
+              air_density_kg_m3=math.nan, diameter_m=math.nan)
+    return scales_of(u)
+
+
+def scales_of(u) -> dict[str, AxisScale]:
+    """The axis scales of an `autocable.model.units.Units`: a_k l [m] (peak displacement of a mode
+    of unit maximum), sigma omega / 2 pi [Hz], U [m/s], eta [m], t [s], q_k l [m], q_k' l omega [m/s]."""
+    peak, hz = u.peak_m(1.0), u.frequency_hz(1.0)
     return {
-        "a1": (length_m, r"$a_1 l$ [m]"), "a2": (length_m, r"$a_2 l$ [m]"),
+        "a1": (peak, r"$a_1 l$ [m]"), "a2": (peak, r"$a_2 l$ [m]"),
         "sigma": (hz, r"$\sigma\,\omega/2\pi$ [Hz]"),
-        "U": (critical_wind_speed_m_s, r"$U$ [m/s]"),
-        "eta": (length_m, r"$\eta$ [m]"),
-        "t": (1.0 / omega_rad_s, r"$t$ [s]"),
-        "q1": (length_m, r"$q_1 l$ [m]"), "q2": (length_m, r"$q_2 l$ [m]"),
-        "dq1": (length_m * omega_rad_s, r"$\dot q_1 l$ [m/s]"), "dq2": (length_m * omega_rad_s, r"$\dot q_2 l$ [m/s]"),
+        "U": (u.wind_m_s(1.0), r"$U$ [m/s]"),
+        "eta": (u.support_m(1.0), r"$\eta$ [m]"),
+        "t": (u.time_s(1.0), r"$t$ [s]"),
+        "q1": (peak, r"$q_1 l$ [m]"), "q2": (peak, r"$q_2 l$ [m]"),
+        "dq1": (peak / u.time_s(1.0), r"$\dot q_1 l$ [m/s]"), "dq2": (peak / u.time_s(1.0), r"$\dot q_2 l$ [m/s]"),
     }
 
 

@@ -9,5 +9,6 @@ def figure_units(units: str, deriv):
     eq. (17) and critical wind speed U_c of eq. (18)."""
     if units != "si":
         return None
-    from autocable.plotting.units import si_scales
-    return si_scales(deriv.spec.cable.length_m, deriv.statics.omega_ref, deriv.spec.aero.critical_wind_speed_m_s)
+    from autocable.model.units import units_of
+    from autocable.plotting.units import scales_of
+    return scales_of(units_of(deriv.spec, deriv.statics))

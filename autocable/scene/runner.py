@@ -14,11 +14,12 @@ import math
 import platform
 import sys
 import time
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
 from autocable.errors import ComputationError
+from autocable.model.units import units_of
 from autocable.spec import SpecError, load_model
 
 from autocable.scene.provenance import ode21_engine, versions
@@ -542,6 +543,7 @@ def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolut
         "ame_advice": None if advice is None else {"requested": "auto", "tol": advice.tol, "chosen": advice.ame,
                                                    "lightest_rung": advice.rung, "reasons": list(advice.reasons)},
         "omega1": omega1, "omega2": float(ame.omegas[1]) if len(ame.omegas) > 1 else None,
+        "si_scales": asdict(units_of(spec, deriv.statics)),
         "amplitude_convention": "a_k = sqrt(r_k^2 + s_k^2): peak modal amplitude (peak displacement / l, "
                                 "modes normalised to a unit maximum); Omega = omega1 + sigma",
         "stability": "autocable's eigenvalues (equilibria) and Floquet multipliers (cycles), not PyCont's flags",

@@ -461,6 +461,20 @@ def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs
     return where
 
 
+def _si_coordinates(spec: SweepSpec, model) -> dict:
+    """The grid's axes in SI as auxiliary CF coordinates (`autocable.model.units`): U_m_s on U, eta_m on
+    eta, Omega_Hz on sigma."""
+    from autocable.model.derive import derive
+    from autocable.model.units import units_of
+    d = derive(model)
+    u = units_of(d.spec, d.statics)
+    return {"U_m_s": ("U", u.wind_m_s(np.array(spec.U)), {"long_name": "wind speed U", "units": "m s-1"}),
+            "eta_m": ("eta", u.support_m(np.array(spec.eta)), {"long_name": "support amplitude eta",
+                                                                "units": "m"}),
+            "Omega_Hz": ("sigma", u.frequency_hz(d.ode.omega1 + np.array(spec.sigma)),
+                         {"long_name": "forcing frequency Omega = omega1 + sigma", "units": "Hz"})}
+
+
 def assemble(spec: SweepSpec, model, grid, folder: Path, shash: str):
     """The xarray Dataset of a sweep from its point files (points without a file: NaN, code -1)."""
     import xarray as xr
@@ -489,8 +503,13 @@ def assemble(spec: SweepSpec, model, grid, folder: Path, shash: str):
         for j, (re, im) in enumerate(rec["multipliers"][:4]):
             mre[idx + (j,)], mim[idx + (j,)] = re, im
     dims = AXES + (("start",) if spec.start_axis else ())
-    coords = {"U": ("U", np.array(spec.U)), "eta": ("eta", np.array(spec.eta)),
-              "sigma": ("sigma", np.array(spec.sigma))}
+    coords = {"U": ("U", np.array(spec.U), {"long_name": "nondimensional wind speed U* = U/U_c (eq. 18)",
+                                             "units": "1"}),
+              "eta": ("eta", np.array(spec.eta), {"long_name": "nondimensional support amplitude eta* = eta/l "
+                                                               "(eq. 18)", "units": "1"}),
+              "sigma": ("sigma", np.array(spec.sigma), {"long_name": "detuning sigma = Omega - omega1, in units "
+                                                                     "of omega (eq. 17)", "units": "1"})}
+    coords.update(_si_coordinates(spec, model))
     if spec.start_axis:
         coords["start"] = ("start", np.arange(len(spec.starts)))
         coords["start_q0"] = (("start", "state"), np.array(spec.starts))

@@ -1,0 +1,192 @@
+"""`autocable onset`: where the trivial state of eq. (21) loses stability under wind (m/s, Hz), how
+(mechanism, criticality), how hard it gallops, and what damping keeps it stable
+(`autocable.studies.onset`)."""
+from __future__ import annotations
+
+import csv
+import io
+import math
+import sys
+from pathlib import Path
+
+from autocable.cli.checks import check_number, check_out, dumps, refuse, strict
+from autocable.cli.derivation import derivation
+
+#: Points of a damping grid at most: each costs about 2 ms; more is a typing error.
+DAMPING_POINTS_LIMIT = 10000
+
+
+def add_onset_parser(sub) -> None:
+    o = sub.add_parser("onset", help="where the cable's trivial state loses stability under wind (m/s, Hz), "
+                                     "by which mechanism, super- or sub-critically, and what damping stops it")
+    o.add_argument("model", help="model spec file (models/*.toml)")
+    o.add_argument("--json", action="store_true", help="one JSON object instead of the report")
+    o.add_argument("--max-wind", type=float, metavar="M_S",
+                   help="scan the wind up to this speed in m/s (default and at most 5 U_c)")
+    o.add_argument("--damping", metavar="A:B[:N]",
+                   help="U_cr against the damping ratio from A to B (N points, default 50) and against the "
+                        "Scruton number; with --out, also the post-critical amplitude for a few damping ratios")
+    o.add_argument("--design-wind", type=float, metavar="M_S",
+                   help="the least damping ratio keeping the trivial state stable up to this wind speed [m/s]")
+    o.add_argument("--set", action="append", default=[], metavar="cable.FIELD=VALUE",
+                   help="change a cable field for this study (damping_ratio, horizontal_tension_N, diameter_m, "
+                        "mass_per_length_kg_m, length_m); a fitted wind angle is held unless --refit")
+    o.add_argument("--refit", action="store_true",
+                   help="with --set: fit the calibrated wind angle again (the onset then stays at U_c)")
+    o.add_argument("--checks", type=int, default=2, metavar="N",
+                   help="eq. (21) integrations per amplitude curve (default 2; 0: none)")
+    o.add_argument("--out", metavar="DIR", help="write onset.json, damping.csv, amplitude.csv, onset.png/.pdf")
+    o.set_defaults(func=cmd_onset)
+
+
+def _damping_grid(text: str):
+    import numpy as np
+    parts = text.split(":")
+    try:
+        vals = [float(p) for p in parts]
+    except ValueError:
+        raise refuse("--damping", f"expected A:B or A:B:N (damping ratios, e.g. 0.001:0.02:50), got {text!r}") from None
+    if len(vals) not in (2, 3):
+        raise refuse("--damping", f"expected A:B or A:B:N (damping ratios, e.g. 0.001:0.02:50), got {text!r}")
+    a, b = vals[:2]
+    n = vals[2] if len(vals) == 3 else 50
+    # A = 0 is refused: without damping the trivial state is only marginally stable at rest, and
+    # the onset (U -> 0+ for a negatively damping wind) cannot be told from none by the scan.
+    if not (math.isfinite(a) and math.isfinite(b) and 0 < a < b < 1):
+        raise refuse("--damping", f"expected damping ratios 0 < A < B < 1 (0.004 is 0.4 %), got {text!r}")
+    if n != int(n) or not 2 <= n <= DAMPING_POINTS_LIMIT:
+        raise refuse("--damping", f"N: expected an integer from 2 to {DAMPING_POINTS_LIMIT}, got {parts[2]!r}")
+    return np.linspace(a, b, int(n))
+
+
+def _changes(items) -> dict:
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep or not key.startswith("cable."):
+            raise refuse("--set", f"expected cable.FIELD=VALUE, got {item!r}")
+        from autocable.studies.onset import VARIABLE_FIELDS
+        if key[len("cable."):] not in VARIABLE_FIELDS:
+            raise refuse("--set", f"cannot vary {key!r}; give one of "
+                                  f"{', '.join('cable.' + f for f in VARIABLE_FIELDS)}")
+        try:
+            x = float(value)
+        except ValueError:
+            raise refuse("--set", f"{key}: expected a number, got {value!r}") from None
+        if not math.isfinite(x) or x <= 0 or (key == "cable.damping_ratio" and x >= 1):
+            raise refuse("--set", f"{key}: expected a positive number (a damping ratio below 1), got {value!r}")
+        out[key[len("cable."):]] = x
+    return out
+
+
+def _csv(rows, columns) -> str:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(columns)
+    for r in rows:
+        w.writerow(["" if (isinstance(r.get(c), float) and not math.isfinite(r[c])) or r.get(c) is None
+                    else r[c] for c in columns])
+    return buf.getvalue()
+
+
+def cmd_onset(args) -> int:
+    from autocable.model.onset import U_MAX_DEFAULT
+    from autocable.model.units import units_of
+    from autocable.studies.onset import damping_study, design_damping, onset_report, onset_text, vary
+
+    check_out("--out", args.out)
+    check_number("--checks", args.checks, 0, 20, integer=True)
+    grid = _damping_grid(args.damping) if args.damping else None
+    changes = _changes(args.set)
+    if args.refit and not changes:
+        raise refuse("--refit", "refits the calibrated angle of a changed cable: give --set cable.FIELD=VALUE")
+    d = derivation(args.model)
+    messages = []
+    if changes:
+        d, messages = vary(d, changes, refit=args.refit)
+    if d.calibrated and (grid is not None or args.design_wind is not None):
+        value = math.degrees(d.theta0 if d.calibrated == "rivulet_angle_deg" else d.beta)
+        messages.append(f"the damping study holds aero.{d.calibrated} at its fitted {value:.4f} deg: only the "
+                        "damping changes (--set cable.damping_ratio=X --refit fits the angle again for one value)")
+    units = units_of(d.spec, d.statics)
+    U_max = U_MAX_DEFAULT
+    if args.max_wind is not None:
+        check_number("--max-wind", args.max_wind, 0.0, units.wind_m_s(U_MAX_DEFAULT), lo_open=True)
+        U_max = units.wind_star(args.max_wind)
+    if args.design_wind is not None:
+        check_number("--design-wind", args.design_wind, 0.0, units.wind_m_s(U_max), lo_open=True)
+    if grid is not None or args.out:
+        xis = grid if grid is not None else [d.ode.xi_s]
+        amp = sorted({d.ode.xi_s, float(xis[0]), float(xis[len(xis) // 2])}) if args.out else []
+        report = damping_study(d, xis, args.design_wind, amplitude_xis=amp, checks=args.checks, U_max=U_max)
+    else:
+        report = onset_report(d, U_max)
+        if args.design_wind is not None:
+            report["design"] = design_damping(d, args.design_wind, U_max)
+    report["study"] = messages
+    if args.out:
+        _write(report, Path(args.out), d.spec.name)
+    if args.json:
+        print(dumps(report, indent=1))
+        return 0
+    for m in messages:
+        print(m)
+    print("\n".join(onset_text(report)))
+    for w in report["warnings"]:
+        print(f"warning: {w}")
+    if "design" in report:
+        ds = report["design"]
+        print(f"design wind {ds['design_wind_m_s']:g} m/s: least damping ratio {100 * ds['least_damping_ratio']:.4g} % "
+              f"(Sc = {ds['scruton']:.4g}); the cable has {100 * ds['current_damping_ratio']:.4g} % "
+              f"(Sc = {ds['current_scruton']:.4g}): {'enough' if ds['enough'] else 'not enough'}")
+    if "damping" in report and grid is not None:
+        print("damping ratio [%]   Sc        U_cr [m/s]   criticality")
+        step = max(1, len(report["damping"]) // 10)
+        for r in report["damping"][::step]:
+            print(f"  {100 * r['damping_ratio']:8.4g}   {r['scruton']:8.4g}   {r['U_cr_m_s']:10.5g}   {r['criticality']}")
+    for c in report.get("amplitude", []):
+        for k in c["eq21_checks"]:
+            head = f"eq. (21) check, xi = {100 * c['damping_ratio']:.3g} %, U = {k['U_m_s']:.4g} m/s: "
+            ame = f"AME {units.peak_m(k['a1_ame']):.4g} m"
+            if k["settled"]:
+                print(head + f"peak {k['peak_in_plane_m_eq21']:.4g} m ({ame}, difference "
+                             f"{100 * k['relative_difference_a1']:.2g} %)")
+            else:
+                print(head + f"{k['message']} ({ame})")
+    for c in report.get("amplitude", []):
+        for k in c.get("hysteresis_checks", []):
+            print(f"eq. (21) below the sub-critical onset, xi = {100 * c['damping_ratio']:.3g} %, U = {k['U_m_s']:.4g} m/s: "
+                  f"from 0.6 x the unstable cycle ({units.peak_m(k['a1_unstable_cycle']):.4g} m) it "
+                  f"{_outcome(k['from_0.6'])}, from 1.5 x it {_outcome(k['from_1.5'])}"
+                  + (" (hysteresis, as the onset's criticality says)" if k["hysteresis"] else ""))
+    if args.out:
+        print(f"wrote {args.out}/onset.json, damping.csv, amplitude.csv, onset.png, onset.pdf", file=sys.stderr)
+    return 0
+
+
+def _outcome(word: str) -> str:
+    return "neither grows nor decays clearly (t* = 1e5)" if word == "undecided" else word
+
+
+def _write(report: dict, out: Path, name: str) -> None:
+    from autocable._store import atomic_write_json, atomic_write_text
+    from autocable.plotting.onset import plot_onset
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_json(out / "onset.json", strict(report))
+    atomic_write_text(out / "damping.csv", _csv(report.get("damping", []), [
+        "damping_ratio", "scruton", "U_cr_m_s", "U_cr_star", "frequency_Hz", "criticality", "mechanism"]))
+    rows = []
+    for c in report.get("amplitude", []):
+        for r in c["rows"]:
+            rows.append({"damping_ratio": c["damping_ratio"], "scruton": c["scruton"], "source": "AME (natural ordering)",
+                         **r})
+        for k in c["eq21_checks"]:
+            rows.append({"damping_ratio": c["damping_ratio"], "scruton": c["scruton"], "source": "eq. (21)",
+                         "U_m_s": k["U_m_s"], "U_star": k["U_star"], "a1": k["a1_eq21"], "a2": k["a2_eq21"],
+                         "peak_in_plane_m": k["peak_in_plane_m_eq21"],
+                         "stable": k["settled"], "converged": k["settled"]})
+    atomic_write_text(out / "amplitude.csv", _csv(rows, [
+        "damping_ratio", "scruton", "source", "U_m_s", "U_star", "a1", "a2", "peak_in_plane_m",
+        "peak_out_of_plane_m", "sigma", "stable", "converged"]))
+    plot_onset(strict(report), out / "onset", title=f"{name}: onset of galloping and damping")

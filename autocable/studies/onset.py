@@ -1,0 +1,365 @@
+"""`autocable onset`: where a cable's trivial state loses stability under wind, in m/s, Hz and m, and
+what damping keeps it stable (`autocable.model.onset` does the eigenvalue and Hopf work).
+
+* **Predict, do not only fit.** With both wind angles given, the onset is a result: its U in m/s does
+  not depend on the U_c of eq. (18), which only scales U* (tests/test_onset_study.py). With an angle
+  set to "calibrate", U_c is an input and the angle is the fitted answer; `angle_statement` says so.
+  A study that changes the cable (`vary`) holds a fitted angle at its fitted value unless asked to
+  refit, and a refit says from where to where it moved the angle.
+* **Damping.** `damping_curve` (U_cr against the damping ratio and the Scruton number
+  Sc = m xi / (rho_a D^2)), `design_damping` (the least damping ratio keeping the trivial state stable
+  up to a design wind, by bisection on the onset), with the wind angles as derived.
+* **How hard it gallops.** `ame_galloping`: the galloping cycle of the amplitude equations (24) at
+  eta = 0, a relative equilibrium (the AME are invariant under a common phase rotation there): its
+  amplitudes, the frequency shift sigma and s1 = 0 solved by Newton, continued in U* from the normal
+  form's start at the onset. The AME are derived with the "natural" ordering, which keeps the
+  quadratic wind terms (the paper's ordering puts every wind term at third order and drops them,
+  which can flip the criticality: the quadratic in-plane velocity load of the out-of-plane equation
+  feeds back at third order). `eq21_check` integrates eq. (21) to its own cycle there.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from autocable.model.onset import (U_MAX_DEFAULT, first_onset_U, one_mode, one_mode_warnings, stability,
+                                   with_damping)
+from autocable.model.premises import MAX_AMPLITUDE
+from autocable.model.units import PEAK_STATION, units_of
+from autocable.spec import SpecError
+
+#: The empirical references drawn beside the damping curve: the stay-cable design recommendations'
+#: Scruton criterion for rain-wind vibration (Sc = m xi / (rho_a D^2) >= 10, or >= 5 for a cable with
+#: a surface treatment that disrupts the rivulets). A rule of thumb from field experience, not a
+#: result of eq. (21).
+SCRUTON_RULES = ((10.0, "Sc = 10 (design rule, plain cable)"),
+                 (5.0, "Sc = 5 (design rule, rivulet-suppressing surface)"))
+
+#: The cable fields a study may change (`vary`).
+VARIABLE_FIELDS = ("damping_ratio", "horizontal_tension_N", "diameter_m", "mass_per_length_kg_m",
+                   "length_m")
+
+
+def angle_statement(d) -> dict:
+    """What the wind angles of a derivation are: given (the onset is a prediction) or fitted (U_c is
+    the input and the angle the answer)."""
+    Uc = d.spec.aero.critical_wind_speed_m_s
+    yaw, th0 = math.degrees(d.beta), math.degrees(d.theta0)
+    if d.calibrated:
+        name = {"rivulet_angle_deg": "the rivulet angle Theta0", "yaw_deg": "the yaw beta"}[d.calibrated]
+        value = th0 if d.calibrated == "rivulet_angle_deg" else yaw
+        text = (f"U_c = {Uc:g} m/s was typed in (aero.critical_wind_speed_m_s) and {name} = {value:.4f} deg "
+                f"is the fitted answer (aero.{d.calibrated} = \"calibrate\"): the onset at U_c is the input, "
+                "not a prediction; give the angle as a number to predict the onset")
+    else:
+        text = (f"both wind angles are given (yaw {yaw:.4f} deg, rivulet {th0:.4f} deg): the onset is a "
+                f"prediction; U_c = {Uc:g} m/s only scales U* = U/U_c")
+    return {"calibrated": d.calibrated or None, "yaw_deg": yaw, "rivulet_angle_deg": th0,
+            "critical_wind_speed_m_s": Uc, "text": text}
+
+
+def held_spec(d):
+    """The spec of derivation ``d`` with a fitted angle written in as the number it was fitted to."""
+    a = d.spec.aero
+    if d.calibrated == "rivulet_angle_deg":
+        a = replace(a, rivulet_angle_deg=math.degrees(d.theta0))
+    elif d.calibrated == "yaw_deg":
+        a = replace(a, yaw_deg=math.degrees(d.beta))
+    return replace(d.spec, aero=a)
+
+
+def vary(d, changes: dict, refit: bool = False):
+    """(derivation, messages) of the cable of ``d`` with the cable fields ``changes`` (name -> value,
+    names in `VARIABLE_FIELDS`): a fitted angle is held at its fitted value unless ``refit``; a
+    refit says how far it moved the angle."""
+    from autocable.model.derive import derive
+    for k in changes:
+        if k not in VARIABLE_FIELDS:
+            raise SpecError("arguments", "--set", f"cannot vary {k!r}; give one of "
+                                                  f"{', '.join('cable.' + f for f in VARIABLE_FIELDS)}")
+    base = d.spec if refit else held_spec(d)
+    spec = replace(base, cable=replace(base.cable, **changes))
+    messages = []
+    if d.calibrated and not refit:
+        value = math.degrees(d.theta0 if d.calibrated == "rivulet_angle_deg" else d.beta)
+        messages.append(f"aero.{d.calibrated} held at its fitted {value:.4f} deg (fitted on the spec as "
+                        f"written to put the onset at U_c = {d.spec.aero.critical_wind_speed_m_s:g} m/s); "
+                        "--refit fits it again")
+    new = derive(spec)
+    if refit:
+        if not d.calibrated:
+            messages.append("--refit: nothing to refit, both wind angles are given")
+        else:
+            old = math.degrees(d.theta0 if d.calibrated == "rivulet_angle_deg" else d.beta)
+            now = math.degrees(new.theta0 if d.calibrated == "rivulet_angle_deg" else new.beta)
+            messages.append(f"refit: aero.{d.calibrated} moved from {old:.4f} to {now:.4f} deg so that the "
+                            f"onset stays at the U_c typed in ({d.spec.aero.critical_wind_speed_m_s:g} m/s); "
+                            "the onset is then an input, not a result")
+    return new, messages
+
+
+def onset_report(d, U_max: float = U_MAX_DEFAULT) -> dict:
+    """The JSON of `autocable onset` (and the summary of `autocable derive`)."""
+    units = units_of(d.spec, d.statics)
+    result = stability(d.ode, U_max)
+    om = one_mode(d.ode)
+    return {
+        "model": d.spec.name, "wind_angles": angle_statement(d),
+        "damping_ratio": d.ode.xi_s, "scruton": units.scruton(d.ode.xi_s),
+        "scanned_U_m_s": [0.0, units.wind_m_s(U_max)],
+        "onsets": [o.to_dict(units) for o in result.onsets],
+        "restabilisations_U_m_s": [units.wind_m_s(U) for U in result.restabilisations],
+        "stable_without_wind": result.stable_at_start,
+        "one_mode": {"zeta11": om["zeta11"], "zeta8": om["zeta8"],
+                     "onset_U_m_s": units.wind_m_s(om["onset_U_star"]),
+                     "criticality": om["criticality"],
+                     "reading": "eq. (25): in-plane galloping iff zeta11 < 0, super-critical iff zeta8 > 0"},
+        "warnings": one_mode_warnings(d.ode, result, units),
+        "conventions": {"U_m_s": "U* U_c", "frequency_Hz": "Im(lambda) omega / (2 pi), omega = (pi/l) sqrt(T/m)",
+                        "amplitudes": f"a_k l [m] at {PEAK_STATION}",
+                        "scruton": "Sc = m xi / (rho_a D^2)"},
+    }
+
+
+def onset_text(report: dict) -> list[str]:
+    """The readable lines of an `onset_report` (also printed by `autocable derive`)."""
+    lines = [f"Onset of galloping (eq. 21 at eta = 0, trivial state, every linear coupling; "
+             f"damping {100 * report['damping_ratio']:.3g} %, Sc = {report['scruton']:.3g}):",
+             f"  {report['wind_angles']['text']}"]
+    if not report["onsets"]:
+        lines.append(f"  stable up to {report['scanned_U_m_s'][1]:.4g} m/s (the scanned range)")
+    for o in report["onsets"]:
+        ev = o["eigenvector"]
+        lines.append(f"  U_cr = {o['U_m_s']:.6g} m/s (U* = {o['U_star']:.10g}), {o['frequency_Hz']:.5g} Hz: "
+                     f"{o['mechanism']}, {o['criticality']}")
+        phase = ev["phase_deg"]
+        lines.append(f"    eigenvector: in-plane {100 * ev['in_plane_share']:.3g} %, out-of-plane "
+                     f"{100 * ev['out_of_plane_share']:.3g} %"
+                     + (f", phase of q2 on q1 {phase:.4g} deg" if phase is not None and math.isfinite(phase) else ""))
+        if o["lyapunov"] is not None:
+            s = o["amplitude_slope"]["d_peak_squared_dU_m2_per_m_s"]
+            lines.append(f"    first Lyapunov coefficient {o['lyapunov']:.4g}; post-critical d(peak^2)/dU = "
+                         f"{s[0]:.4g} m^2/(m/s) in-plane, {s[1]:.4g} out-of-plane (mid-span)")
+    for U in report["restabilisations_U_m_s"]:
+        lines.append(f"  the trivial state is stable again above U = {U:.6g} m/s")
+    om = report["one_mode"]
+    lines.append(f"  one-mode eq. (25): zeta11 = {om['zeta11']:.4g}, zeta8 = {om['zeta8']:.4g} -> "
+                 + (f"onset {om['onset_U_m_s']:.4g} m/s, {om['criticality']}"
+                    if om["onset_U_m_s"] is not None and math.isfinite(om["onset_U_m_s"])
+                    else "no in-plane galloping"))
+    return lines
+
+
+# -- damping -----------------------------------------------------------------------------------------
+def damping_curve(d, xis, U_max: float = U_MAX_DEFAULT) -> list[dict]:
+    """U_cr (m/s) of the first onset against the damping ratio and the Scruton number, angles fixed."""
+    from autocable.model.onset import onset_at
+    units = units_of(d.spec, d.statics)
+    rows = []
+    for xi in xis:
+        ode = with_damping(d.ode, float(xi))
+        U = first_onset_U(ode, U_max)
+        o = onset_at(ode, U) if math.isfinite(U) else None
+        rows.append({"damping_ratio": float(xi), "scruton": units.scruton(float(xi)),
+                     "U_cr_m_s": units.wind_m_s(U), "U_cr_star": U,
+                     "frequency_Hz": units.frequency_hz(o.frequency) if o else math.nan,
+                     "criticality": o.criticality if o else "stable in the scanned range",
+                     "mechanism": o.mechanism if o else ""})
+    return rows
+
+
+def design_damping(d, U_design_m_s: float, U_max: float = U_MAX_DEFAULT, rtol: float = 1e-8) -> dict:
+    """The least damping ratio for which the trivial state is stable for every U <= U_design (the
+    first onset at or above it), by bisection on xi (the onset rises with damping)."""
+    units = units_of(d.spec, d.statics)
+    U_des = units.wind_star(U_design_m_s)
+    if not 0 < U_des <= U_max:
+        raise SpecError("arguments", "--design-wind", f"expected a wind speed in (0, {units.wind_m_s(U_max):.4g}] "
+                                                      f"m/s (U* <= {U_max:g}), got {U_design_m_s:g}")
+
+    def onset(xi):
+        return first_onset_U(with_damping(d.ode, xi), U_des * (1 + 1e-9), n=201)
+
+    # (at xi = 0 exactly the trivial state is only marginally stable without wind, and the scan
+    # cannot see a crossing at U = 0+: a damping of 1e-12 stands for "none")
+    if onset(1e-12) > U_des:
+        xi = 0.0
+    else:
+        lo, hi = 1e-12, 1e-3
+        while onset(hi) <= U_des:
+            lo, hi = hi, 2 * hi
+            if hi >= 1.0:
+                raise SpecError("arguments", "--design-wind", f"no damping ratio below 100 % keeps the trivial "
+                                                              f"state stable up to {U_design_m_s:g} m/s")
+        while hi - lo > rtol * hi:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if onset(mid) <= U_des else (lo, mid)
+        xi = hi
+    return {"design_wind_m_s": U_design_m_s, "least_damping_ratio": xi, "scruton": units.scruton(xi),
+            "current_damping_ratio": d.ode.xi_s, "current_scruton": units.scruton(d.ode.xi_s),
+            "enough": d.ode.xi_s >= xi}
+
+
+# -- post-critical amplitude -------------------------------------------------------------------------
+def ame_galloping(ode, U_values, ordering: str = "natural") -> list[dict]:
+    """The galloping cycle of the AME (24) at eta = 0 along ``U_values`` (U*, ordered away from the
+    onset): a relative equilibrium with s1 = 0, unknowns (r1, r2, s2, sigma) solved by Newton, each
+    point started from the previous one, the first from the normal form (module docstring), until
+    Newton fails or the amplitude leaves the model's range (`MAX_AMPLITUDE`). Rows
+    carry a1, a2, sigma, the Hopf frequency shift, and whether the cycle is stable (every
+    eigenvalue of the AME's Jacobian but the phase's zero one in the left half plane)."""
+    from scipy.optimize import root
+
+    from autocable.methods.integration.ame import AmeIntegrator
+    from autocable.model.ame_cache import derive_ame
+    from autocable.model.onset import onset_at
+
+    Uc = first_onset_U(ode)
+    if not math.isfinite(Uc):
+        return []
+    o = onset_at(ode, Uc)
+    if o.lyapunov is None:
+        return []
+    ame = derive_ame(ode, ordering=ordering).ame
+    integ = AmeIntegrator(ame)
+    f, J = integ.rhs.f, integ.rhs.jacobian
+    q = np.asarray(o.eigenvector)
+    ratio = q[1] / q[0]
+    x, U_prev = None, None
+    rows = []
+    for U in U_values:
+        s = o.amplitude_slopes[0] * (U - Uc)
+        if x is None:
+            if s <= 0:
+                continue          # no small cycle on this side of the onset
+            a = math.sqrt(s)
+            x = np.array([a, (a * ratio).real, (a * ratio).imag, o.frequency - ode.omega1])
+        else:
+            # the previous cycle scaled as the normal form scales it: amplitudes ~ sqrt(U - Uc),
+            # the frequency shift ~ (U - Uc)
+            k = (U - Uc) / (U_prev - Uc)
+            x = np.concatenate([x[:3] * math.sqrt(k), [o.frequency - ode.omega1
+                                                       + (x[3] - o.frequency + ode.omega1) * k]])
+
+        def g(z, U=U):
+            p = integ.parameters(U, 0.0, z[3])
+            return f(np.array([z[0], 0.0, z[1], z[2]]), p)
+
+        sol = root(g, x, method="hybr", tol=1e-13)
+        # the right-hand side is a1 times rates of order 1e-3: a residual 1e-9 a1 is Newton's floor;
+        # a solution more than twice as far as the prediction is another branch, not this one's
+        # continuation, and one beyond MAX_AMPLITUDE is outside the model
+        ok = (0 < sol.x[0] <= MAX_AMPLITUDE and float(np.max(np.abs(g(sol.x)))) < 1e-9 * sol.x[0]
+              and 0.5 * x[0] <= sol.x[0] <= 2 * x[0])
+        if not ok:
+            if U_prev is None:
+                x = None
+                continue
+            break                 # the branch ends here (a fold, or the model's range)
+        x, U_prev = sol.x, U
+        y = np.array([x[0], 0.0, x[1], x[2]])
+        ev = np.linalg.eigvals(J(y, integ.parameters(U, 0.0, x[3])))
+        ev = np.delete(ev, int(np.argmin(np.abs(ev))))          # the phase's zero eigenvalue
+        rows.append({"U_star": float(U), "a1": float(x[0]), "a2": float(math.hypot(x[1], x[2])),
+                     "sigma": float(x[3]), "stable": bool(np.max(ev.real) < 0), "converged": True})
+    return rows
+
+
+def eq21_check(ode, U: float, a1_ame: float, q_ratio: complex, t_end: float = 3e5) -> dict:
+    """Eq. (21) at eta = 0, U* from half the AME's cycle (in the eigenvector's proportions) to its own
+    cycle: the last period's half peak-to-peak a1, a2 against the AME's, and whether it settled."""
+    from autocable.methods.integration.ode21 import Ode21Integrator
+    integ = Ode21Integrator(ode, engine="compiled")
+    a0 = 0.5 * a1_ame
+    y0 = (a0, (a0 * q_ratio).real, 0.0, -(a0 * q_ratio).imag * ode.omega1)
+    t, a1, a2, msg = integ.envelope(U, 0.0, 0.0, y0, t_end, Omega=ode.omega1, keep_failed=True)
+    if len(a1) < 400 or "bounded" not in msg:
+        return {"U_star": U, "a1_eq21": math.nan, "a2_eq21": math.nan, "settled": False, "message": msg}
+    drift = abs(a1[-1] - a1[-200]) / max(a1[-1], 1e-300)
+    return {"U_star": U, "a1_eq21": float(a1[-1]), "a2_eq21": float(a2[-1]), "settled": drift < 1e-3,
+            "drift_last_200_periods": float(drift), "t_end": float(t[-1]), "message": msg}
+
+
+def amplitude_curve(d, xi: float, U_top: float | None = None, n: int = 30, checks: int = 2) -> dict:
+    """The post-critical amplitude (m at mid-span) against U (m/s) at damping ratio ``xi``: the AME's
+    galloping cycle (`ame_galloping`) from the onset to ``U_top`` (U*; 1.5 U_cr if not above 1.05 U_cr)
+    on a super-critical onset (the stable branch), or down to half the onset on a sub-critical one (the unstable branch), with
+    ``checks`` points of the stable branch integrated by eq. (21) (`eq21_check`)."""
+    from autocable.model.onset import onset_at
+    units = units_of(d.spec, d.statics)
+    ode = with_damping(d.ode, xi)
+    Uc = first_onset_U(ode)
+    out = {"damping_ratio": xi, "scruton": units.scruton(xi), "U_cr_m_s": units.wind_m_s(Uc), "rows": [],
+           "eq21_checks": []}
+    if not math.isfinite(Uc):
+        out["note"] = "no onset in the scanned range"
+        return out
+    o = onset_at(ode, Uc)
+    out["criticality"] = o.criticality
+    if o.lyapunov is None:
+        out["note"] = "a static (non-oscillatory) loss of stability: no galloping cycle"
+        return out
+    if o.criticality == "supercritical":
+        end = U_top if U_top is not None and U_top > 1.05 * Uc else 1.5 * Uc
+    else:
+        end = 0.5 * Uc
+    s = np.linspace(0.0, 1.0, n + 1)[1:] ** 2          # dense near the onset, where a ~ sqrt(U - U_cr)
+    U_values = Uc + (end - Uc) * s
+    rows = ame_galloping(ode, U_values)
+    for r in rows:
+        r.update({"U_m_s": units.wind_m_s(r["U_star"]), "peak_in_plane_m": units.peak_m(r["a1"]),
+                  "peak_out_of_plane_m": units.peak_m(r["a2"])})
+    out["rows"] = rows
+    if checks and o.criticality == "subcritical" and rows:
+        q = np.asarray(o.eigenvector)
+        picks = [rows[int(round(k))] for k in np.linspace(len(rows) // 4, len(rows) - 1, checks)]
+        out["hysteresis_checks"] = [dict(hysteresis_check(ode, r["U_star"], r["a1"], q[1] / q[0]),
+                                         U_m_s=units.wind_m_s(r["U_star"])) for r in picks]
+    stable = [r for r in rows if r["stable"]]
+    if checks and stable:
+        q = np.asarray(o.eigenvector)
+        picks = [stable[int(round(k))] for k in np.linspace(len(stable) // 4, len(stable) - 1, checks)]
+        for r in picks:
+            c = eq21_check(ode, r["U_star"], r["a1"], q[1] / q[0])
+            c.update({"U_m_s": units.wind_m_s(r["U_star"]), "a1_ame": r["a1"], "a2_ame": r["a2"],
+                      "peak_in_plane_m_eq21": units.peak_m(c["a1_eq21"]),
+                      "relative_difference_a1": abs(c["a1_eq21"] - r["a1"]) / r["a1"]})
+            out["eq21_checks"].append(c)
+    return out
+
+
+def damping_study(d, xis, design_wind_m_s: float | None = None, amplitude_xis=(), checks: int = 2,
+                  U_max: float = U_MAX_DEFAULT) -> dict:
+    """Everything `autocable onset --damping` writes: the onset report, U_cr against damping and
+    Scruton number, the design damping, and the amplitude curves."""
+    report = onset_report(d, U_max)
+    report["damping"] = damping_curve(d, xis, U_max)
+    report["scruton_rules"] = [list(r) for r in SCRUTON_RULES]
+    if design_wind_m_s is not None:
+        report["design"] = design_damping(d, design_wind_m_s, U_max)
+    U_top = None if design_wind_m_s is None else min(U_max, units_of(d.spec, d.statics).wind_star(design_wind_m_s))
+    report["amplitude"] = [amplitude_curve(d, float(xi), U_top, checks=checks) for xi in amplitude_xis]
+    report["length_m"] = d.spec.cable.length_m
+    return report
+
+
+def hysteresis_check(ode, U: float, a1_cycle: float, q_ratio: complex, t_end: float = 1e5) -> dict:
+    """Below a sub-critical onset: eq. (21) from 0.6 and 1.5 times the AME's unstable cycle (in the
+    eigenvector's proportions): the first should decay, the second grow (hysteresis: a large enough
+    disturbance gallops below the onset)."""
+    from autocable.methods.integration.ode21 import Ode21Integrator
+    integ = Ode21Integrator(ode, engine="compiled")
+    out = {"U_star": U, "a1_unstable_cycle": a1_cycle}
+    for name, f in (("from_0.6", 0.6), ("from_1.5", 1.5)):
+        a0 = f * a1_cycle
+        y0 = (a0, (a0 * q_ratio).real, 0.0, -(a0 * q_ratio).imag * ode.omega1)
+        t, a1, a2, msg = integ.envelope(U, 0.0, 0.0, y0, t_end, Omega=ode.omega1, keep_failed=True)
+        grew = "diverges" in msg or (len(a1) > 0 and a1.max() > 1.3 * a0)
+        decayed = "bounded" in msg and len(a1) > 0 and a1[-1] < 0.5 * a0
+        out[name] = "grows" if grew else ("decays" if decayed else "undecided")
+        if msg.startswith("eq. (21) could not be integrated"):
+            out[name + "_note"] = msg
+    out["hysteresis"] = out["from_0.6"] == "decays" and out["from_1.5"] == "grows"
+    return out
