@@ -10,13 +10,19 @@ name loads lazily (``import autocable`` costs nothing), so a script pays only fo
     ame = ac.derive_ame(eq21).ame                                # the AME (22)-(24)
     system = ac.ame_system(ame, "2dof", wind=False)              # Cartesian AME (24) at U = 0
     problem = ac.EquilibriumProblem(system, "sigma", {"U": 0.0, "eta": 1.4e-3, "sigma": -0.05},
-                                    (-0.05, 0.05), state_scale=ac.auto_state_scale(system, ...))
+                                    (-0.05, 0.05))                # state scale: the AME's own (default)
     I = ac.continue_equilibria(problem, ac.ContinuationSettings(), start="trivial")
     III = ac.switch_branch(I, "BP1")                             # at a labelled point of I
     cycles = ac.continue_cycles(I, "H1")                         # from a Hopf point of I
     folds = ac.continue_folds(I, "LP1", "eta", (0.0, 3e-3))      # a two-parameter curve
     pitchforks = ac.continue_branch_points(I, "BP1", "eta", (0.0, 2.5e-3))   # where Fig. 6's bi-modal branches are born
-    ac.plot_branches([I.branch, III.branch], "fig06", x="sigma", y=("a1", "a2"))
+    fig = ac.plot_branches([I.branch, III.branch], "fig06", x="sigma", y=("a1", "a2"))  # a Figure
+    I.branch.to_dataframe()                                      # branches.csv's rows (pandas)
+
+    res = ac.frequency_response(eq21, U=0.0, eta=1.4e-3, sigma=(-0.05, 0.05))   # all of it in one call
+
+Angles: the spec and the reports are in degrees (``eq21.theta0_deg``, ``eq21.beta_deg``); the
+radians (``eq21.theta0``) are what the equations use. ``eq21.summary()`` prints the essentials.
 
 Scenes (``runs/*.toml``) run the same chain from a file: ``ac.run_scene(ac.load_scene(path), out)``;
 ``ac.read_results(out)`` reads what a run wrote. Eq. (21) itself is integrated by
@@ -59,6 +65,8 @@ _API = {
     "continue_branch_points": "autocable.methods.continuation",
     "equilibrium_near": "autocable.methods.continuation",
     "settle": "autocable.methods.continuation",
+    # one call: branches, special points and stability of a frequency response
+    "frequency_response": "autocable.methods.frequency_response",
     # time integration
     "Ode21Integrator": "autocable.methods.integration.ode21",
     "AmeIntegrator": "autocable.methods.integration.ame",
@@ -76,8 +84,15 @@ _API = {
     "write_results": "autocable.results",
     # scenes
     "load_scene": "autocable.scene.schema",
+    "branches_dataframe": "autocable.results",
     # plots (matplotlib loads only here)
     "plot_scene": "autocable.plotting.diagrams",
+    "plot_plane": "autocable.plotting.diagrams",
+    "plot_time_series": "autocable.plotting.diagrams",
+    "plot_simulation": "autocable.plotting.diagrams",
+    "plot_chart": "autocable.plotting.chart",
+    "save_figure": "autocable.plotting.style",
+    "si_scales": "autocable.plotting.units",
 }
 
 __all__ = sorted([*_API, "run_scene", "plot_branches", "__version__"])
@@ -106,11 +121,15 @@ def run_scene(scene, out_dir, *, progress=None, plot: bool = True, resolution: s
                choose_ame=choose_ame)
 
 
-def plot_branches(branches, stem, *, x: str, y=("a1",), title: str = "", labels: bool = True):
+def plot_branches(branches, stem=None, *, x: str, y=("a1",), title: str = "", labels: bool = True, units=None,
+                  ax=None):
     """Draw ``branches`` (`Branch` objects, or `ContinuationResult` objects) paper-style, stable
-    continuous and unstable dashed, special points labelled, into ``stem.png`` and ``stem.pdf``;
-    returns the files written (`autocable.plotting.diagrams.plot_scene`)."""
+    continuous and unstable dashed, special points (LP, H, BP, ...) marked, labelled and named in the
+    legend; return the matplotlib Figure, and write ``stem.png`` and ``stem.pdf`` when ``stem`` is
+    given (`autocable.plotting.diagrams.plot_scene`). ``units``: `si_scales` for SI axes; ``ax``: an
+    Axes (one per amplitude of ``y``) to draw into."""
     from autocable.plotting.diagrams import plot_scene
     from autocable.results import RunResults
     plain = tuple(getattr(b, "branch", b) for b in branches)
-    return plot_scene(RunResults("plot", plain, {}), stem, x=x, y=tuple(y), title=title, labels=labels)
+    return plot_scene(RunResults("plot", plain, {}), stem, x=x, y=tuple(y), title=title, labels=labels,
+                      units=units, ax=ax)

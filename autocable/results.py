@@ -63,6 +63,7 @@ __all__ = [
     "Branch",
     "RunResults",
     "write_results",
+    "branches_dataframe",
     "stability_measure",
     "read_results",
     "BRANCHES_CSV",
@@ -314,6 +315,12 @@ class Branch:
     def of_type(self, kind: str) -> tuple[SpecialPoint, ...]:
         return tuple(sp for sp in self.special_points if sp.type == kind)
 
+    def to_dataframe(self):
+        """This branch as a pandas DataFrame with the columns and values of its rows in
+        ``branches.csv`` (`branches_dataframe`; a branch alone has no run's SI scales:
+        `RunResults.to_dataframe` adds those columns)."""
+        return branches_dataframe([self])
+
     def replace(self, **changes) -> "Branch":
         data = {f: getattr(self, f) for f in self.__dataclass_fields__}
         data.update(changes)
@@ -349,6 +356,17 @@ class RunResults:
     @property
     def special_points(self) -> tuple[SpecialPoint, ...]:
         return tuple(sp for b in self.branches for sp in b.special_points)
+
+    def to_dataframe(self):
+        """Every branch as one pandas DataFrame: the columns and values of ``branches.csv``
+        (`branches_dataframe`), with its SI columns when the provenance has the scales."""
+        return branches_dataframe(self.branches, _si(self.provenance))
+
+    def special_points_dataframe(self):
+        """The special points as a pandas DataFrame with the columns of ``special_points.csv``."""
+        import pandas as pd
+        return pd.read_csv(io.StringIO(special_points_csv(self.special_points, self.branches, _si(self.provenance))),
+                           float_precision="round_trip")   # the CSV writes repr: read back exactly
 
     def special(self, name: str) -> SpecialPoint:
         """A special point by ``<branch>:<label>``."""
@@ -413,9 +431,10 @@ def _si_row(si, values: Mapping) -> list:
     return [cols[c] for c in SI_COLUMNS]
 
 
-def branches_csv(branches: Sequence[Branch], si=None) -> str:
-    """The text of ``branches.csv`` (see the module docstring); with ``si`` = (units, omega1), the
-    `autocable.model.units.SI_COLUMNS` at the end."""
+def _branch_rows(branches: Sequence[Branch], si=None) -> tuple[list[str], Iterable[list]]:
+    """The header of ``branches.csv`` and its rows as Python values (None where a cell is empty):
+    the one definition of the table that the CSV file and the DataFrames share; with ``si`` =
+    (units, omega1), the `autocable.model.units.SI_COLUMNS` at the end."""
     from autocable.model.units import SI_COLUMNS
     params = _union(b.parameter_names for b in branches)
     amps = _union([("a1", "a2")] + [b.amplitude_names for b in branches])
@@ -427,29 +446,61 @@ def branches_csv(branches: Sequence[Branch], si=None) -> str:
     header = (["branch", "kind", "parameter", "parameter2", "point"] + params + amps
               + ["stable", *_CYCLE_COLUMNS, *_CURVE_COLUMNS] + states + ["max_real"] + [f"ev{k}_{part}" for k in range(1, nev + 1) for part in ("re", "im")]
               + extra + (list(SI_COLUMNS) if si else []))
+
+    def rows():
+        for b in branches:
+            for i in range(len(b)):
+                ev = b.eigenvalues[i]
+                max_real = stability_measure(b.kind, ev)
+                row = [b.name, b.kind, b.parameter, b.parameter2, i]
+                row += [b.table[p][i] if p in b.table else None for p in params]
+                row += [b.table[a][i] if a in b.table else None for a in amps]
+                row += [bool(b.stable[i])]
+                row += [b.table[c][i] if c in b.table else None for c in _CYCLE_COLUMNS + _CURVE_COLUMNS]
+                row += [b.table[s][i] if s in b.table else None for s in states]
+                row += [max_real]
+                for k in range(nev):
+                    if k < ev.size:
+                        row += [ev[k].real, ev[k].imag]
+                    else:
+                        row += [None, None]
+                row += [b.table[c][i] if c in b.table else None for c in extra]
+                row += _si_row(si, {k: b.table[k][i] for k in ("U", "eta", "sigma", "a1", "a2") if k in b.table})
+                yield row
+    return header, rows()
+
+
+def branches_csv(branches: Sequence[Branch], si=None) -> str:
+    """The text of ``branches.csv`` (see the module docstring); with ``si`` = (units, omega1), the
+    `autocable.model.units.SI_COLUMNS` at the end."""
+    header, rows = _branch_rows(branches, si)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(header)
-    for b in branches:
-        for i in range(len(b)):
-            ev = b.eigenvalues[i]
-            max_real = stability_measure(b.kind, ev)
-            row = [b.name, b.kind, b.parameter, b.parameter2, i]
-            row += [b.table[p][i] if p in b.table else None for p in params]
-            row += [b.table[a][i] if a in b.table else None for a in amps]
-            row += [bool(b.stable[i])]
-            row += [b.table[c][i] if c in b.table else None for c in _CYCLE_COLUMNS + _CURVE_COLUMNS]
-            row += [b.table[s][i] if s in b.table else None for s in states]
-            row += [max_real]
-            for k in range(nev):
-                if k < ev.size:
-                    row += [ev[k].real, ev[k].imag]
-                else:
-                    row += [None, None]
-            row += [b.table[c][i] if c in b.table else None for c in extra]
-            row += _si_row(si, {k: b.table[k][i] for k in ("U", "eta", "sigma", "a1", "a2") if k in b.table})
-            w.writerow([_fmt(x) for x in row])
+    for row in rows:
+        w.writerow([_fmt(x) for x in row])
     return buf.getvalue()
+
+
+def branches_dataframe(branches: Sequence[Branch], si=None):
+    """``branches.csv`` as a pandas DataFrame: the same columns in the same order, one row per
+    point; numbers as float64 (an empty cell is NaN), ``stable`` as bool, ``point`` as int, the
+    names as strings (``parameter2`` is "" off two-parameter curves); ``si`` as for `branches_csv`."""
+    import pandas as pd
+
+    header, rows = _branch_rows(branches, si)
+    frame = pd.DataFrame(list(rows), columns=header)
+    text = ("branch", "kind", "parameter", "parameter2")
+    for col in header:
+        if col in text:
+            frame[col] = frame[col].astype(str)
+        elif col == "stable":
+            frame[col] = frame[col].astype(bool)
+        elif col == "point":
+            frame[col] = frame[col].astype("int64")
+        else:
+            frame[col] = pd.to_numeric(frame[col], errors="coerce").astype("float64")
+    return frame
 
 
 def special_points_csv(points: Sequence[SpecialPoint], branches: Sequence[Branch] = (), si=None) -> str:

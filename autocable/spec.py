@@ -217,9 +217,24 @@ def _section(data, name, rules, path):
     return out
 
 
+#: The top-level keys of a model spec.
+TOP_KEYS = ("name", "description", "cable", "aero")
+
+
+def model_fields() -> dict[str, tuple[str, bool]]:
+    """Every field a model spec accepts, by dotted name (``cable.length_m``): (what is expected,
+    whether it is required). The schema's own rules, for the generated file reference."""
+    out = {"name": (NAME_RULE, False), "description": ("text", False),
+           "cable": ("a table", True), "aero": ("a table", True)}
+    for section, rules in (("cable", _CABLE_RULES), ("aero", _AERO_RULES)):
+        for key, (_, _, expected) in rules.items():
+            out[f"{section}.{key}"] = (expected, key not in _OPTIONAL)
+    return out
+
+
 def parse_model(data: dict, path="<spec>") -> ModelSpec:
     """Validate a parsed TOML document and build a `ModelSpec`."""
-    allowed = {"name", "description", "cable", "aero"}
+    allowed = set(TOP_KEYS)
     for key in data:
         if key not in allowed:
             raise SpecError(path, key, f"unknown key; allowed top-level keys: {', '.join(sorted(allowed))}")

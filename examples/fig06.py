@@ -18,13 +18,12 @@ def main(out_dir=".", engine="compiled", settings=None):
     ame = ac.derive_ame(ac.derive(ac.load_model(MODEL))).ame            # eq. (21), then the AME (24)
     system = ac.ame_system(ame, "2dof", wind=False)                     # U = 0: no aerodynamic rows
     values = {"U": 0.0, "eta": 1.4e-3, "sigma": -0.05}
-    problem = ac.EquilibriumProblem(system, "sigma", values, (-0.05, 0.05),
-                                    state_scale=ac.auto_state_scale(system, values))
+    problem = ac.EquilibriumProblem(system, "sigma", values, (-0.05, 0.05))   # the AME's own state scale
     settings = settings or ac.ContinuationSettings(max_step=0.02)
     I = ac.continue_equilibria(problem, settings, name="I", engine=engine)  # from the trivial state
     bimodal = [ac.switch_branch(I, p, settings, name=f"I-{p.label}", engine=engine)
                for p in I.branch.special_points if p.label.startswith("BP")]
-    ac.plot_branches([I, *bimodal], Path(out_dir) / "fig06", x="sigma", y=("a1", "a2"), title="Fig. 6")
+    ac.plot_branches([I, *bimodal], Path(out_dir) / "fig06", x="sigma", y=("a1", "a2"), title="Fig. 6")   # Figure
     return I, bimodal
 
 

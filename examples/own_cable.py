@@ -14,6 +14,7 @@ from pathlib import Path
 import autocable as ac
 
 SPEC = """
+# --8<-- [start:spec]
 name = "stay_160m"
 description = "A 160 m stay (illustrative data), fixed rivulet"
 
@@ -39,6 +40,7 @@ load_length = "diameter"
 angle_convention = "reversed"
 yaw_deg = 0.0
 rivulet_angle_deg = "calibrate"
+# --8<-- [end:spec]
 """
 
 

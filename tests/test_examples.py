@@ -102,3 +102,18 @@ def test_ame_vs_ode21_example(tmp_path):
     assert all(up[s] == pytest.approx(down[s], rel=1e-6) for s in up)
     assert max(up, key=up.get) == pytest.approx(0.0, abs=1e-12)
     assert (tmp_path / "ame_vs_ode21.png").is_file()
+
+
+def test_frequency_response_example(tmp_path):
+    """examples/frequency_response.py: one call gives branch I and the two bi-modal branches of
+    Fig. 6's setting; the DataFrame holds every point of every branch; the SI figure's a1 axis is
+    a1 l (l = 121.9 m), its data the nondimensional a1 times l."""
+    res, table, fig = _example("frequency_response").main(tmp_path)
+    assert [b.name for b in res.branches] == ["I", "I-BP1", "I-BP2"]
+    assert len(table) == sum(len(b) for b in res.branches)
+    assert table.groupby("branch")["a2"].max()[["I-BP1", "I-BP2"]].min() > 1e-3
+    ax = fig.axes[0]
+    assert ax.get_ylabel() == r"$a_1 l$ [m]"
+    drawn = max(np.nanmax(ln.get_ydata()) for ln in ax.lines if ln.get_linestyle() in ("-", "--"))
+    assert drawn == pytest.approx(121.9 * table["a1"].max(), rel=1e-12)
+    assert (tmp_path / "frequency_response.png").is_file() and (tmp_path / "frequency_response.pdf").is_file()

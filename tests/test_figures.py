@@ -183,7 +183,7 @@ def test_stage_groups_add_up_to_the_scene_total(figures):
 def test_report_lists_the_distance_to_digitised_points(figures):
     """compare.json (autocable/scene/compare.py: per curve label, n_points and max/RMS distance) becomes a
     table in the figure's section, the numbers as written."""
-    from autocable.paper.report import build_report
+    from autocable.paper.report_md import build_report
     _, out, _ = figures
     path = out / "figt2" / "compare.json"
     path.write_text(json.dumps({"panel": "a1", "x": "sigma", "curves": {

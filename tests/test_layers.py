@@ -1,7 +1,9 @@
 """The layering of the package (setup.cfg ``[importlinter]``): spec -> model -> codegen -> methods ->
-scene -> studies -> paper -> bench -> cli, each importing only from below. The contract passes on
-the repository, and a deliberately wrong import (the physics importing the scene runner, a loop
-the layering exists to prevent) makes it fail, naming the import."""
+scene -> studies -> paper -> bench -> cli, each importing only from below, and no import circle
+between the modules of any one package (``acyclic_siblings`` over all of autocable). The contracts
+pass on the repository; a deliberately wrong import (the physics importing the scene runner, a loop
+the layering exists to prevent) makes them fail, naming the import, and so does a circle inside a
+layer (the bound stage and the calibration importing each other)."""
 import shutil
 import subprocess
 import sys
@@ -34,6 +36,21 @@ def test_the_contract_fails_on_a_wrong_import(tmp_path):
     assert res.returncode != 0
     assert "BROKEN" in res.stdout
     assert "autocable.model.statics -> autocable.scene.runner" in res.stdout
+
+
+def test_a_circle_inside_a_layer_fails(tmp_path):
+    """Two modules of one package importing each other (both in the paper layer, so the layers
+    contract cannot see it) break the acyclic contract, which names the package and the imports."""
+    shutil.copytree(REPO / "autocable", tmp_path / "autocable", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(REPO / "setup.cfg", tmp_path / "setup.cfg")
+    bound = tmp_path / "autocable" / "paper" / "bound.py"
+    bound.write_text(bound.read_text() + "\n\ndef _back():\n    from autocable.paper.calibration import calibrate\n"
+                     "    return calibrate\n")
+    res = _lint(tmp_path)
+    assert res.returncode != 0
+    assert "No import circles inside any package" in res.stdout and "BROKEN" in res.stdout
+    assert "No cycles are allowed in autocable.paper" in res.stdout
+    assert "The pipeline's layers KEPT" in res.stdout        # the circle is invisible to the layers
 
 
 def test_no_private_name_crosses_a_package_border():

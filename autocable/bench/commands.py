@@ -18,6 +18,8 @@ import time
 
 import numpy as np
 
+from autocable.plotting.style import styled
+
 
 def _best(fn, repeats: int) -> float:
     fn()                                   # warm-up: builds, imports, caches
@@ -412,6 +414,7 @@ def _markdown_ame_vs_ode(result: dict, png: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+@styled()      # the package's one look (autocable.plotting.style)
 def _plot_ame_vs_ode(result: dict, path) -> None:
     import matplotlib
     matplotlib.use("Agg")

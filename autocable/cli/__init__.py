@@ -52,8 +52,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="initial state (default: rest with q2 = 1e-6)")
     s.add_argument("--max-time", type=float, default=60000.0, help="give up after this time (t* units)")
     s.add_argument("--json", action="store_true")
-    s.add_argument("--csv", metavar="FILE", help="write the time history")
-    s.add_argument("--quiet", action="store_true", help="no progress")
+    s.add_argument("--csv", metavar="FILE", help="write the time history (thinned to at most 50,000 rows "
+                   "unless --every or --samples says otherwise)")
+    s.add_argument("--every", type=int, metavar="N", help="--csv: keep every N-th sample (of 64 per forcing "
+                   "period; --every 1 keeps them all)")
+    s.add_argument("--samples", type=int, metavar="N", help="--csv: at most N rows, evenly thinned "
+                   "(default 50000)")
+    s.add_argument("--plot", metavar="STEM", help="draw STEM.png and STEM.pdf: q1, q2 against time with their "
+                   "envelope, the phase plane and the Poincare section at the forcing period (--method ode21)")
+    s.add_argument("--units", choices=("paper", "si"), default="paper",
+                   help="axes of --plot: the paper's nondimensional quantities (default) or SI units")
+    s.add_argument("--quiet", action="store_true", help="no progress (on a terminal a progress bar, "
+                   "otherwise one line per tenth of --max-time)")
     s.add_argument("--method", choices=["ode21", "ame", "shooting"], default="ode21",
                    help="ode21: direct integration of eq. (21); ame: the Multiple Scales amplitude "
                         "equations (24) to their steady state; shooting: the steady response of eq. (21) "

@@ -8,8 +8,23 @@ from pathlib import Path
 
 from autocable.cli.checks import check_folder, check_number, check_out, check_workers, dumps, refuse
 from autocable.errors import EXIT_FAILED
-from autocable.scene.schema import ENGINES, RESOLUTIONS, load_scene
+from autocable.scene.schema import ENGINES, PLOT_UNITS, RESOLUTIONS, load_scene
 from autocable.spec import SpecError
+
+
+def _units_option(parser) -> None:
+    parser.add_argument("--units", choices=PLOT_UNITS,
+                        help="axes of the figures: the paper's nondimensional symbols (a_1, sigma, U*, eta*) "
+                             "or SI (a_k l [m], sigma omega/2pi [Hz], U [m/s], eta [m]); default: the scene's "
+                             "[plot] units, else paper")
+
+
+def _load_scene(args):
+    """The scene file with ``--units`` (when given) in place of its ``[plot] units``."""
+    from dataclasses import replace
+    scene = load_scene(args.scene)
+    units = getattr(args, "units", None)
+    return replace(scene, plot=replace(scene.plot, units=units)) if units else scene
 
 def cmd_sweep(args) -> int:
     """`autocable sweep SWEEP.toml --out DIR`: a grid of steady responses as one dataset."""
@@ -64,13 +79,14 @@ def add_run_parser(subparsers) -> None:
                    help="coarse: longer steps, capped cycle runs, every third overlay value (what the tests run)")
     r.add_argument("--engine", choices=ENGINES,
                    help="override the scene's engine of equilibria, switching and cycles from Hopf points")
+    _units_option(r)
     r.set_defaults(func=cmd_run)
 
 
 def cmd_run(args) -> int:
     """Run a scene; print a summary (branches, special points, files) on stdout."""
     check_out("--out", getattr(args, "out", None))
-    scene = load_scene(args.scene)
+    scene = _load_scene(args)
     out = Path(args.out) if getattr(args, "out", None) else Path("out") / scene.name
     # Before the computation, not after it: a folder that cannot be made would lose the results.
     try:
@@ -128,13 +144,14 @@ def add_chart_parser(subparsers) -> None:
     c.add_argument("--quiet", action="store_true", help="no progress on stderr")
     c.add_argument("--resolution", choices=RESOLUTIONS, default="full",
                    help="coarse: longer continuation steps and half the classification grid (what the tests run)")
+    _units_option(c)
     c.set_defaults(func=cmd_chart)
 
 
 def cmd_chart(args) -> int:
     """Run a chart scene (its continuation runs and the [chart] table); print the regions and files."""
     check_out("--out", args.out)
-    scene = load_scene(args.scene)
+    scene = _load_scene(args)
     if scene.chart is None:
         raise SpecError(scene.path, "chart", "missing; `autocable chart` draws a scene with a [chart] table "
                                              "(runs/chart_U_eta.toml is one); use `autocable run` for others")

@@ -12,6 +12,14 @@ from autocable.cli.derivation import derivation
 from autocable.model.premises import MAX_AMPLITUDE
 from autocable.spec import SpecError
 
+#: Rows of ``simulate --csv`` at most when neither --every nor --samples is given: the history is
+#: thinned evenly (every k-th sample) to this many rows (about 5 MB; 64 samples per forcing period
+#: over the default --max-time would be 620,000 rows, 50 MB). ``--every 1`` keeps every sample.
+DEFAULT_CSV_SAMPLES = 50_000
+#: A response that has not settled with U* within this of the galloping threshold U* = 1 gets the
+#: hint to raise --max-time (growth and decay rates vanish at a threshold: transients are long).
+NEAR_THRESHOLD = 0.1
+
 def si_fields(d, out: dict) -> dict:
     """``out`` with its nondimensional U*, eta*, Omega and amplitudes also in SI (eqs. 17-18,
     `autocable.model.units`): U_m_s, eta_m, Omega_Hz and peak_m = [a1 l, a2 l] (in-plane,
@@ -68,11 +76,47 @@ def _check_simulate(args) -> None:
     if args.csv and Path(args.csv).is_dir():       # found before the integration, not after it
         raise refuse("--csv", f"{args.csv} is a folder; give a file name for the time history")
     check_file_target("--csv", args.csv)
+    every, samples = getattr(args, "every", None), getattr(args, "samples", None)
+    if every is not None and samples is not None:
+        raise refuse("--every", "give --every N or --samples N, not both")
+    if every is not None:
+        check_number("--every", every, 1, 10**9, integer=True)
+    if samples is not None:
+        check_number("--samples", samples, 2, 10**9, integer=True)
+    if (every is not None or samples is not None) and not args.csv:
+        raise refuse("--every" if every is not None else "--samples", "thins the --csv time history; give --csv FILE")
+    plot = getattr(args, "plot", None)
+    check_out("--plot", plot)
+    if plot and (args.method != "ode21" or getattr(args, "modes", None) is not None):
+        raise refuse("--plot", "draws the time history of eq. (21) with two modes; use --method ode21 "
+                               "without --modes")
+
+
+def thin_rows(n: int, every: int | None = None, samples: int | None = None) -> range:
+    """The indices of the rows of an n-sample history that ``simulate --csv`` writes: every
+    ``every``-th sample, or every k-th with k the smallest that leaves at most ``samples`` rows
+    (default `DEFAULT_CSV_SAMPLES`); the first sample is always kept."""
+    if every is None:
+        cap = DEFAULT_CSV_SAMPLES if samples is None else samples
+        every = max(1, -(-n // cap))
+    return range(0, n, every)
+
+
+def settle_hint(r, U: float, max_time: float) -> str:
+    """The hint printed when a response has not settled by ``max_time`` (empty if it settled or
+    diverged): near the threshold U* = 1 the transients are long."""
+    if r.steady or not all(math.isfinite(a) for a in (r.a1, r.a2)):
+        return ""
+    near = f" (U* = {U:g} is near the galloping threshold U* = 1, where transients are long)" \
+        if abs(U - 1.0) <= NEAR_THRESHOLD else ""
+    return (f"autocable: hint: the response has not settled by t* = {r.t_end:g}{near}; raise --max-time "
+            f"(e.g. --max-time {min(4 * max_time, MAX_TIME_LIMIT):g}) for the steady state")
 
 
 def cmd_simulate(args) -> int:
     from autocable.methods.integration.ode21 import DEFAULT_Q0, Ode21Integrator
     _check_simulate(args)
+    from autocable.progress import progress_for
     d = derivation(args.model)
     period = 2 * math.pi / (d.ode.omega1 + args.sigma)
     if args.max_time < period:
@@ -81,24 +125,26 @@ def cmd_simulate(args) -> int:
                                    f"sigma = {args.sigma:g}, got {args.max_time!r}")
     q0 = tuple(args.q0) if args.q0 else DEFAULT_Q0
     show = not (args.quiet or args.json)
+    bar = progress_for("simulate", args.max_time, quiet=not show)
 
     def progress(t, amps):
-        if show:
-            print(f"\r  t = {t:9.1f}   a1 = {amps[0]:.6e}   a2 = {amps[1]:.6e}", end="", file=sys.stderr)
+        bar.update(t, f"t* = {t:.1f}  a1 = {amps[0]:.6e}  a2 = {amps[1]:.6e}")
 
     if getattr(args, "modes", None) is not None:
-        return _simulate_nmode(args, d, q0, show, progress)
+        return _simulate_nmode(args, d, q0, bar, progress)
     if args.method == "ame":
-        return _simulate_ame(args, d, q0, show, progress)
+        return _simulate_ame(args, d, q0, bar, progress)
     if args.method == "shooting":
         return _simulate_shooting(args, d, q0)
+    plot = getattr(args, "plot", None)
     integ = Ode21Integrator(d.ode)
     r = integ.simulate(args.U, args.eta, args.sigma, q0, max_time=args.max_time,
-                       keep_history=bool(args.csv), progress=progress)
-    if show:
-        print(file=sys.stderr)
+                       keep_history=bool(args.csv or plot), progress=progress)
+    bar.close(f"t* = {r.t_end:.1f}: {r.message}")
     if args.csv:
-        _write_history(Path(args.csv), r)
+        _write_history(Path(args.csv), r, getattr(args, "every", None), getattr(args, "samples", None))
+    if plot:
+        _plot_history(args, d, r)
     out = {"status": response_status(r.a1, r.steady),
            "a1": r.a1, "a2": r.a2, "steady": r.steady, "periodic": r.periodic, "t_end": r.t_end,
            "U": r.U, "eta": r.eta, "sigma": r.sigma, "Omega": r.Omega,
@@ -143,21 +189,21 @@ def _simulate_shooting(args, d, q0) -> int:
     return 0
 
 
-def _simulate_ame(args, d, q0, show, progress) -> int:
+def _simulate_ame(args, d, q0, bar, progress) -> int:
     """`autocable simulate --method ame`: the Cartesian AME (24) from the same start as eq. (21)."""
     from autocable.methods.integration.ame import AmeIntegrator
     from autocable.model.ame_cache import derive_ame
     r = AmeIntegrator(derive_ame(d).ame).simulate(args.U, args.eta, args.sigma, q0,
                                                   max_time=args.max_time, keep_history=bool(args.csv),
                                                   progress=progress)
-    if show:
-        print(file=sys.stderr)
+    bar.close(f"t* = {r.t_end:.1f}: {r.message}")
     if args.csv:
         from autocable._store import atomic_write_text
         # A diverged response keeps what was computed up to the divergence (possibly nothing).
         t, r1, s1, r2, s2 = r.history or ((),) * 5
-        rows = ["t,r1,s1,r2,s2"] + [f"{a:.10g},{b:.10e},{c:.10e},{e:.10e},{f:.10e}"
-                                    for a, b, c, e, f in zip(t, r1, s1, r2, s2)]
+        keep = thin_rows(len(t), getattr(args, "every", None), getattr(args, "samples", None))
+        rows = ["t,r1,s1,r2,s2"] + [f"{t[i]:.10g},{r1[i]:.10e},{s1[i]:.10e},{r2[i]:.10e},{s2[i]:.10e}"
+                                    for i in keep]
         atomic_write_text(Path(args.csv), "\n".join(rows) + "\n")
     eq = r.equilibrium
 
@@ -185,7 +231,7 @@ def _simulate_ame(args, d, q0, show, progress) -> int:
     return 0
 
 
-def _simulate_nmode(args, d, q0, show, progress) -> int:
+def _simulate_nmode(args, d, q0, bar, progress) -> int:
     """`autocable simulate --modes N`: eq. (21) with N in-plane and N out-of-plane modes."""
     from autocable.methods.integration.nmode import NModeIntegrator
     if args.method != "ode21":
@@ -200,13 +246,13 @@ def _simulate_nmode(args, d, q0, show, progress) -> int:
         x0 = tuple(x)
     r = integ.simulate(args.U, args.eta, args.sigma, x0, max_time=args.max_time,
                        keep_history=bool(args.csv), progress=progress)
-    if show:
-        print(file=sys.stderr)
+    bar.close(f"t* = {r.t_end:.1f}: {r.message}")
     if args.csv:
         from autocable._store import atomic_write_text
         t, ys = r.history or ((), ())
         rows = [",".join(("t",) + integ.ode.state_names)]
-        rows += [f"{a:.10g}," + ",".join(f"{v:.10e}" for v in y) for a, y in zip(t, ys)]
+        rows += [f"{t[i]:.10g}," + ",".join(f"{v:.10e}" for v in ys[i])
+                 for i in thin_rows(len(t), getattr(args, "every", None), getattr(args, "samples", None))]
         atomic_write_text(Path(args.csv), "\n".join(rows) + "\n")
 
     def finite(x):
@@ -221,6 +267,9 @@ def _simulate_nmode(args, d, q0, show, progress) -> int:
                                    "forcing periods; a1 = first in-plane (v1), a2 = first out-of-plane (w1)",
            "message": r.message, "method": "nmode", "modes_per_plane": args.modes,
            "wall_seconds": r.wall_seconds}
+    hint = settle_hint(r, args.U, args.max_time)
+    if hint:
+        print(hint, file=sys.stderr)
     si_fields(d, out)
     if args.json:
         print(dumps(out, indent=1))
@@ -235,6 +284,9 @@ def _simulate_nmode(args, d, q0, show, progress) -> int:
 
 
 def _print_simulation(args, r, out) -> None:
+    hint = settle_hint(r, args.U, args.max_time)
+    if hint:
+        print(hint, file=sys.stderr)
     if args.json:
         print(dumps(out, indent=1))
     else:
@@ -254,10 +306,34 @@ def _print_simulation(args, r, out) -> None:
                   f"max Re(eigenvalue) = {e['max_real_eigenvalue']:.6e}, residual {e['residual']:.1e}")
 
 
-def _write_history(path: Path, r) -> None:
+def _write_history(path: Path, r, every: int | None = None, samples: int | None = None) -> None:
+    """The time history as CSV, thinned by `thin_rows` (``--every``/``--samples``)."""
     from autocable._store import atomic_write_text
     rows = ["t,q1,q2,q1dot,q2dot"]
     # A diverged response keeps the rows up to the divergence (none when it diverged at once).
     t, q1, q2, v1, v2 = r.history or ((),) * 5
-    rows += [f"{a:.10g},{b:.10e},{c:.10e},{d:.10e},{e:.10e}" for a, b, c, d, e in zip(t, q1, q2, v1, v2)]
+    rows += [f"{t[i]:.10g},{q1[i]:.10e},{q2[i]:.10e},{v1[i]:.10e},{v2[i]:.10e}"
+             for i in thin_rows(len(t), every, samples)]
     atomic_write_text(path, "\n".join(rows) + "\n")
+
+
+def _plot_history(args, d, r) -> None:
+    """``--plot STEM``: q1, q2 against time with their envelope, the phase plane and the Poincare
+    section (`autocable.plotting.diagrams.plot_simulation`), in STEM.png and STEM.pdf."""
+    from autocable.plotting.diagrams import plot_simulation
+    from autocable.scene.figure_units import figure_units
+    if not r.history or len(r.history[0]) < 2:
+        print("autocable: warning: --plot: no time history to draw (the response diverged at once)", file=sys.stderr)
+        return
+    from autocable.plotting.diagrams import save_figure
+    response = "period-1" if r.periodic else ("not settled" if not r.steady else "not period-1")
+    Omega, period_name = r.Omega, "forcing period"
+    if getattr(r, "autonomous", False) and math.isfinite(getattr(r, "period", math.nan)) and r.period > 0:
+        # eta* = 0: no forcing; the response's own cycle is the period that makes a section a point
+        Omega, period_name, response = 2 * math.pi / r.period, "cycle's own period", "autonomous"
+    fig = plot_simulation(r.history, Omega=Omega, response=response, period_name=period_name,
+                          title=f"eq. (21) at U* = {r.U:g}, eta* = {r.eta:g}, sigma = {r.sigma:g}",
+                          units=figure_units(getattr(args, "units", None) or "paper", d))
+    files = save_figure(fig, args.plot)
+    if not (args.quiet or args.json):
+        print(f"plot: {', '.join(str(f) for f in files)}", file=sys.stderr)

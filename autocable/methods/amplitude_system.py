@@ -33,4 +33,5 @@ def galloping_amplitude_system(ame, *, name: str | None = None) -> System:
     return System(name=name or "galloping_amplitude", variables=("a1",), rhs=(p1,),
                   parameters=(("sigma", 0.0), ("U", 1.0), ("eta", 0.0)),
                   amplitudes=(("a1", ("a1",)), ("a2", ())),
-                  description="eq. (23), A2 = 0, eta = 0: the galloping amplitude equation (Fig. 3)")
+                  description="eq. (23), A2 = 0, eta = 0: the galloping amplitude equation (Fig. 3)",
+                  amplitude_equations=True)

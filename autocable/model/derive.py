@@ -50,6 +50,56 @@ class Derivation:
     def critical_wind_speed_m_s(self) -> float:
         return self.spec.aero.critical_wind_speed_m_s
 
+    # The spec and the reports give angles in degrees; the radians above are what the equations use.
+    @property
+    def beta_deg(self) -> float:
+        """The yaw beta in degrees (the spec's ``yaw_deg``; `beta` is the same in radians)."""
+        return math.degrees(self.beta)
+
+    @property
+    def theta0_deg(self) -> float:
+        """The rivulet angle Theta0 in degrees (the spec's ``rivulet_angle_deg``; `theta0` in radians)."""
+        return math.degrees(self.theta0)
+
+    @property
+    def static_angle_deg(self) -> float:
+        """The static angle phi0 = gamma - Theta0 of eq. (12) in degrees (`static_angle` in radians)."""
+        return math.degrees(self.static_angle)
+
+    @property
+    def omega1(self) -> float:
+        """The in-plane frequency of eq. (21) (in units of omega, eq. 17)."""
+        return self.ode.omega1
+
+    @property
+    def omega2(self) -> float:
+        """The out-of-plane frequency of eq. (21) (in units of omega, eq. 17)."""
+        return self.ode.omega2
+
+    def summary(self) -> str:
+        """A few lines: the cable, its frequencies, the wind angles in degrees (which was
+        calibrated) and the scales of eqs. (17)-(18); `autocable derive` prints the whole report."""
+        st, c = self.statics, self.spec.cable
+        cal = f" ({self.calibrated} calibrated)" if self.calibrated else ""
+        lines = [
+            f"eq. (21) of model {self.spec.name!r}: l = {c.length_m:g} m, alpha = {c.chord_slope_deg:g} deg, "
+            f"Irvine lambda^2 = {st.lambda2:.4g}",
+            f"  omega = {st.omega_ref:.6g} rad/s ({st.frequency_hz:.4g} Hz): omega1 = {self.ode.omega1:.6f}, "
+            f"omega2 = {self.ode.omega2:.6f} (rho = {self.ode.omega2 - self.ode.omega1:.4g}), "
+            f"xi_s = {self.ode.xi_s:g}",
+            f"  wind: U_c = {self.critical_wind_speed_m_s:g} m/s, yaw beta = {self.beta_deg:.4f} deg, "
+            f"rivulet Theta0 = {self.theta0_deg:.4f} deg{cal}, phi0 = {self.static_angle_deg:.4f} deg "
+            f"({self.spec.aero.angle_convention})",
+            f"  K = {self.aero_scale:.4g}, nu = omega l / U_c = {self.velocity_ratio:.4g}",
+        ]
+        lines += [f"  warning: {w}" for w in self.warnings]
+        return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        cal = f", {self.calibrated} calibrated" if self.calibrated else ""
+        return (f"Derivation(model={self.spec.name!r}, omega1={self.ode.omega1:.6f}, omega2={self.ode.omega2:.6f}, "
+                f"beta_deg={self.beta_deg:.4f}, theta0_deg={self.theta0_deg:.4f}{cal})")
+
 
 def _integrator(kind: str, shapes):
     if kind == "closed-form":

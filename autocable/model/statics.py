@@ -34,6 +34,11 @@ class CableStatics:
     def frequency_hz(self) -> float:
         return self.omega_ref / (2 * math.pi)
 
+    @property
+    def alpha_deg(self) -> float:
+        """The chord slope alpha in degrees (the spec's ``chord_slope_deg``; `alpha` in radians)."""
+        return math.degrees(self.alpha)
+
 
 def quasi_static_coefficients_si(cable: CableSpec, printed: bool = False) -> tuple[float, float]:
     """C1 [1/m^2], C2 [1/m] of eq. (16), dimensional, for v-hat(s) = C1 s^2 + C2 s with s in metres.

@@ -33,7 +33,7 @@ scene runs (`NOT_RUN`, recorded in ``dropped.json``), about half of those scenes
 
 Resumable: one ``bound.json`` per candidate model under ``DIR/bound/``, stamped with the rule that
 decided it (`rule_of`: a record of another rule, e.g. after the targets file changed, is decided
-again); the scene folders of a candidate are reused (`calibration.scene_complete`). Parallel: at most ``jobs`` scene
+again); the scene folders of a candidate are reused (`candidates.scene_complete`). Parallel: at most ``jobs`` scene
 processes at a time, over candidates.
 """
 from __future__ import annotations
@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from autocable.paper import targets as tg
+from autocable.plotting.style import styled
 
 #: The wind scenes in the order they are run: the cheapest and the most often decisive first
 #: (measured on the fully evaluated candidates: Fig. 3 about 3 s and Fig. 11 about 2 s stop most
@@ -199,7 +200,7 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
     this (0: as soon as it is below), so that the conclusion survives any ``margin`` of the decisions
     that lowered it being wrong. Returns one record per candidate model."""
     from autocable._store import atomic_write_json
-    from autocable.paper import calibration as cal
+    from autocable.paper import candidates as cm
     from autocable.paper.figures import _preload, _worker, receive
     from autocable.paper.report import load_scene_data, overlay_summary
 
@@ -236,12 +237,12 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
                                sorted(failed), c["full"].get("dropped_runs") or [], c["full"].get("wall_s", 0.0),
                                goal, short, scene_s=c["full"].get("wall_s", 0.0)))
         seen.add(key)
-    for c in sorted(cands, key=cal.screen_score, reverse=True):
+    for c in sorted(cands, key=cm.screen_score, reverse=True):
         key = model_key(c)
         if key in seen:
             continue
         seen.add(key)
-        folder = out / "bound" / cal.candidate_name(c)
+        folder = out / "bound" / cm.candidate_name(c)
         done = folder / "bound.json"
         if done.is_file():
             try:
@@ -265,20 +266,20 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
 
     def prepare(cand: Candidate) -> None:
         """The candidate's model file and scene copies (kept: a rerun reuses them with their drops)."""
-        model = cal.write_candidate_model(model_path, cand.c, cand.folder / "model.toml")
+        model = cm.write_candidate_model(model_path, cand.c, cand.folder / "model.toml")
         (cand.folder / "runs").mkdir(parents=True, exist_ok=True)
         (cand.folder / "out").mkdir(parents=True, exist_ok=True)
-        cand.dropped = cal._recorded_drops(cand.folder)
+        cand.dropped = cm._recorded_drops(cand.folder)
         for n in order:
             dst = cand.folder / "runs" / f"{n}.toml"
             if not dst.is_file():
                 text = (runs / f"{n}.toml").read_text()
                 dst.write_text(text.replace('model = "../models/luongo_zulli_2012.toml"', f'model = "{model}"'))
-            if skip_orbits.get(n) and not cal.scene_complete(cand.folder / "out" / n, dst):
+            if skip_orbits.get(n) and not cm.scene_complete(cand.folder / "out" / n, dst):
                 # an orbit run decides only statements that never lower a bound: a bound need not
                 # pay for it (a finished scene keeps it: its text is what made its results)
                 for k in reversed(orbit_runs(dst)):
-                    if cal._drop_run(dst, k):
+                    if cm._drop_run(dst, k):
                         cand.dropped.append(f"{n}: run[{k}] ({NOT_RUN}: {', '.join(skip_orbits[n])})")
                 atomic_write_json(cand.folder / "dropped.json", cand.dropped)
         cand.prepared = True
@@ -321,11 +322,11 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
                       cand.wall_s, goal, short, scene_s=scene_seconds(cand.folder / "out", cand.scenes_run))
         rec["computed_scenes"] = cand.computed
         rec["rule"] = rule
-        atomic_write_json(cand.folder / "bound.json", cal._finite(rec))
+        atomic_write_json(cand.folder / "bound.json", cm._finite(rec))
         records.append(rec)
         n_done += 1
         rate = n_done / max(time.perf_counter() - t_start, 1e-9) * 60
-        say(f"[{n_done}/{len(todo)}] {cal.candidate_name(cand.c)}: at most {b} yes ({status}; "
+        say(f"[{n_done}/{len(todo)}] {cm.candidate_name(cand.c)}: at most {b} yes ({status}; "
             f"{len(cand.scenes_run)} scenes; {rate:.1f} candidates/min)")
         return True
 
@@ -339,7 +340,7 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
                 continue
             scene = cand.todo.pop(0)
             path, dst = cand.folder / "runs" / f"{scene}.toml", cand.folder / "out" / scene
-            if cal.scene_complete(dst, path):
+            if cm.scene_complete(dst, path):
                 cand.scenes_run.append(scene)
                 decide(cand, scene, True, "")
                 queue.insert(0, cand)
@@ -370,10 +371,10 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
             del running[proc]
             cand.wall_s += time.perf_counter() - t0
             status, error = (msg[0], msg[1]) if msg else ("failed", f"the scene's process died (exit {proc.exitcode})")
-            k = cal._failed_start(error) if status != "ok" else None
+            k = cm._failed_start(error) if status != "ok" else None
             path = cand.folder / "runs" / f"{scene}.toml"
             if k is not None and sum(d.startswith(scene + ":") and NOT_RUN not in d for d in cand.dropped) < 2 \
-                    and cal._drop_run(path, k):
+                    and cm._drop_run(path, k):
                 # as the full evaluation: the run whose sample-tuned start failed goes, the scene reruns
                 cand.dropped.append(f"{scene}: run[{k}] ({error.split(': ', 2)[-1][:160]})")
                 atomic_write_json(cand.folder / "dropped.json", cand.dropped)
@@ -398,7 +399,7 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
 
 def _record(c: dict, bound: int, lowered: list, status: str, scenes: list, boxes: dict, failed, dropped,
             wall: float, goal: tg.Goal, short, scene_s: float = 0.0) -> dict:
-    from autocable.paper.calibration import candidate_name
+    from autocable.paper.candidates import candidate_name
     good = sum(boxes[s]["within"] + boxes[s]["at_rest"] for s in goal.boxes_scenes if s in boxes)
     points = sum(boxes[s]["points"] for s in goal.boxes_scenes if s in boxes)
     return {"name": candidate_name(c), "readings": c["readings"], "yaw_deg": c["yaw_deg"],
@@ -492,6 +493,7 @@ def merge_prior(records: list[dict], prior: list[dict]) -> list[dict]:
     return list(records) + [r for r in prior if tuple(r["readings"][k] for k in READING_KEYS) not in mine]
 
 
+@styled()      # the package's one look (autocable.plotting.style)
 def draw_map(records: list[dict], goal: tg.Goal, ceiling_yes: int, path: Path) -> Path:
     """The bound over the space: one panel per (twist ends, angle sense), bound against yaw, one
     colour per (load axes, load length), the marker saying what stopped the candidate; the goal and

@@ -58,7 +58,11 @@ from pathlib import Path
 import numpy as np
 
 from autocable.paper import targets as tg
+from autocable.paper.candidates import (Readings, _drop_run, _failed_start, _finite, _recorded_drops,
+                                        candidate_name, scene_complete, screen_score,
+                                        write_candidate_model)
 from autocable.spec import ModelSpec, SpecError, load_model, read_toml
+from autocable.plotting.style import styled
 
 #: Time units eq. (21) and the AME are integrated from rest in the screen: enough for the in-plane
 #: galloping at U* = 1.3 (growth rate ~1e-3 per unit) to saturate from a 1e-7 seed.
@@ -74,22 +78,6 @@ ORDERINGS = ("paper", "natural")
 # ================================================================================================
 # the search space
 # ================================================================================================
-@dataclass(frozen=True)
-class Readings:
-    """One choice of every reading the paper leaves open that changes eq. (21)."""
-
-    twist_ends: str
-    load_axes: str
-    angle_convention: str
-    load_length: str
-    air_density_kg_m3: float
-
-    @property
-    def label(self) -> str:
-        return (f"{self.twist_ends}-{self.load_axes}-{self.angle_convention}-{self.load_length}-"
-                f"rho{self.air_density_kg_m3:g}")
-
-
 @dataclass(frozen=True)
 class SearchSpace:
     """The declared space: each field a tuple of the values to try (module docstring)."""
@@ -582,65 +570,9 @@ def _worker(model_path: str, targets_path: str, readings: dict, yaw_deg: float, 
     return res
 
 
-def _finite(x):
-    """JSON has no inf or nan: a non-finite number is written as null (a diverged a2 ratio, say)."""
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    if isinstance(x, dict):
-        return {k: _finite(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_finite(v) for v in x]
-    return x
-
-
 # ================================================================================================
 # scoring, the full evaluation, the outputs
 # ================================================================================================
-def screen_score(c: dict) -> tuple:
-    """Rank: screen and number targets met, then the smaller AME a2 ratio."""
-    v = c["verdicts"]
-    met = sum(x["shown"] == "yes" for x in v.values())
-    ratio = v.get("a2_ratio_ame", {}).get("value")
-    ratio = ratio if isinstance(ratio, (int, float)) and math.isfinite(ratio) else math.inf
-    return (met, -ratio)
-
-
-def candidate_name(c: dict) -> str:
-    r = Readings(**c["readings"])
-    return (f"{r.label}-beta{c['yaw_deg']:+.2f}-th{c['rivulet_angle_deg']:+.3f}-{c.get('theta0_rule', 'calibrate')}"
-            f"-{c['ordering']}")
-
-
-def write_candidate_model(spec_path: Path, c: dict, out: Path) -> Path:
-    """The candidate's model file: the spec's text with the searched fields replaced."""
-    text = spec_path.read_text()
-    r = c["readings"]
-    lines, out_lines = text.splitlines(), []
-    repl = {"twist_ends": f'"{r["twist_ends"]}"', "load_axes": f'"{r["load_axes"]}"',
-            "angle_convention": f'"{r["angle_convention"]}"', "load_length": f'"{r["load_length"]}"',
-            "air_density_kg_m3": repr(float(r["air_density_kg_m3"])),
-            "yaw_deg": f"{c['yaw_deg']!r}", "rivulet_angle_deg": f"{c['rivulet_angle_deg']!r}"}
-    seen = set()
-    for line in lines:
-        key = line.split("=")[0].strip() if "=" in line and not line.lstrip().startswith("#") else ""
-        if key in repl:
-            out_lines.append(f"{key} = {repl[key]}   # set by autocable calibrate")
-            seen.add(key)
-        else:
-            out_lines.append(line)
-    text = "\n".join(out_lines) + "\n"
-    for key in ("twist_ends",):
-        if key not in seen:
-            text = text.replace("[cable]\n", f"[cable]\n{key} = {repl[key]}\n", 1)
-    for key in ("load_axes", "angle_convention", "load_length"):
-        if key not in seen:
-            text = text.replace("[aero]\n", f"[aero]\n{key} = {repl[key]}\n", 1)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text)
-    load_model(out)    # the file must be a valid spec
-    return out
-
-
 def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path, jobs: int, say) -> dict:
     """Every figure scene on the candidate's model (`autocable figures`), then every target decided
     from the output folders by the report's code. Resumable: ``folder/verdicts.json``."""
@@ -727,48 +659,6 @@ def _beyond_expansion(targets, folder: Path) -> list[str]:
     return sorted(tg.beyond_expansion(targets, scenes))
 
 
-def scene_complete(folder: Path, scene_file: Path) -> bool:
-    """The scene's output folder holds a complete run of exactly this scene file (run.json's
-    status and scene text): an evaluation that resumes reuses it instead of computing it again."""
-    try:
-        run = json.loads((folder / "run.json").read_text())
-        return run.get("status") == "complete" and (run.get("provenance") or {}).get("scene_text") == scene_file.read_text()
-    except (OSError, ValueError, AttributeError):
-        return False
-
-
-def _recorded_drops(folder: Path) -> list[str]:
-    """The drops an earlier, interrupted evaluation of this candidate made (``dropped.json``)."""
-    try:
-        return list(json.loads((folder / "dropped.json").read_text()))
-    except (OSError, ValueError, TypeError):
-        return []
-
-
-def _failed_start(error: str):
-    """k of a scene error ``...: run[k].start: ...`` (the run whose start failed), else None."""
-    import re
-    m = re.search(r"run\[(\d+)\]\.start", error)
-    return int(m.group(1)) if m else None
-
-
-def _drop_run(path: Path, k: int) -> bool:
-    """Remove the k-th ``[[run]]`` table (with its ``[run.*]`` subtables) from a scene file."""
-    lines = path.read_text().splitlines()
-    starts = [i for i, line in enumerate(lines) if line.strip() == "[[run]]"]
-    if k >= len(starts) or len(starts) < 2:
-        return False
-    i0 = starts[k]
-    i1 = len(lines)
-    for j in range(i0 + 1, len(lines)):
-        t = lines[j].strip()
-        if t.startswith("[") and not t.startswith("[run."):
-            i1 = j
-            break
-    path.write_text("\n".join(lines[:i0] + lines[i1:]) + "\n")
-    return True
-
-
 def _csv_rows(cands: list[dict], target_ids: list[str]) -> list[dict]:
     rows = []
     for c in cands:
@@ -787,6 +677,7 @@ def _csv_rows(cands: list[dict], target_ids: list[str]) -> list[dict]:
     return rows
 
 
+@styled()      # the package's one look (autocable.plotting.style)
 def _maps(cands: list[dict], out: Path, space: SearchSpace) -> list[Path]:
     """beta-Theta0 plane per reading, coloured by screen targets met, bounded at U* = 1.3 marked."""
     import matplotlib
@@ -931,6 +822,7 @@ def _full_lines(full: list, targets, statement_map: Path | None = None) -> list[
     return lines
 
 
+@styled()      # the package's one look (autocable.plotting.style)
 def _statement_map(full: list, targets, out: Path, ceiling_yes: int | None = None,
                    capped=(), goal: int | None = None) -> Path | None:
     """A picture of the full evaluation: candidates (rows, most statements shown first) against the

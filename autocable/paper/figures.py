@@ -209,13 +209,15 @@ def _error_file(folder: Path, error: str, detail: str) -> None:
 
 def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None = None,
                 timeout: float | None = None, say: Say | None = None,
-                engine: str | None = None, model: str | Path | None = None) -> list[SceneOutcome]:
+                engine: str | None = None, model: str | Path | None = None,
+                on_done: Callable[[int, int, str, str], None] | None = None) -> list[SceneOutcome]:
     """Run ``scenes`` in at most ``jobs`` processes at a time (default: every core), each into
     ``out_dir/<scene>/``, the most expensive first (`expected_cost`); copy the figures to
     ``out_dir``; write ``figures.json`` (in the order of ``scenes``). A scene still
     running after ``timeout`` seconds is stopped and reported failed. ``engine`` overrides every
     scene's continuation engine ("pycont" | "compiled", `autocable.scene.runner.run_scene`);
-    ``model`` runs every scene on that model spec instead of the one the scene names."""
+    ``model`` runs every scene on that model spec instead of the one the scene names. ``on_done(done,
+    total, name, status)`` is called as each scene finishes (a progress bar)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     jobs = max(1, int(jobs or os.cpu_count() or 1))
@@ -247,6 +249,8 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
         done = len(outcomes)
         tell(f"[{done}/{total}] {name}: {'done' if status == 'ok' else 'FAILED'} in {wall:.1f} s"
              + (f": {error}" if error else ""))
+        if on_done is not None:
+            on_done(done, total, name, status)
 
     while pending or running:
         while pending and len(running) < jobs:
@@ -349,7 +353,7 @@ def cmd_figures(args) -> int:
     # Before anything imports numpy: this process forks the scene processes after loading it.
     os.environ.update(blas_thread_env(int(args.jobs or os.cpu_count() or 1), os.cpu_count() or 1, os.environ,
                                       "numpy" in sys.modules))
-    from autocable.paper.report import write_report
+    from autocable.paper.report_md import write_report
     if args.timeout is not None and not 0 < args.timeout < float("inf"):   # also refuses nan
         raise SpecError("--timeout", "", f"expected a positive number of seconds, got {args.timeout}")
     if not str(args.out).strip():
@@ -373,10 +377,27 @@ def cmd_figures(args) -> int:
     if not os.access(out, os.W_OK | os.X_OK):
         raise SpecError("arguments", "--out", f"cannot write into {out} (read-only or not permitted); give a "
                                               "writable folder")
-    say = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    from autocable.progress import BarProgress, progress_for
+    bar = progress_for("figures", len(scenes), quiet=args.quiet)
+    if isinstance(bar, BarProgress):
+        # a terminal: the bar, and only the failures as lines
+        def say(msg):
+            if "FAILED" in msg:
+                print(msg, file=sys.stderr, flush=True)
+
+        def on_done(done, total, name, status):
+            bar.update(done, f"{name} {status}")
+    else:
+        # a log or a pipe: one line per scene started and finished
+        say = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+        on_done = None
     t0 = time.perf_counter()
-    outcomes = run_figures(scenes, out, jobs=args.jobs, timeout=args.timeout, say=say,
-                           engine=getattr(args, "engine", None), model=model)
+    try:
+        outcomes = run_figures(scenes, out, jobs=args.jobs, timeout=args.timeout, say=say,
+                               engine=getattr(args, "engine", None), model=model, on_done=on_done)
+    finally:
+        if isinstance(bar, BarProgress):
+            bar.close()
     wall = time.perf_counter() - t0
     report = write_report(out, targets)
     failed = [o for o in outcomes if o.status != "ok"]

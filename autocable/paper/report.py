@@ -9,9 +9,10 @@ Everything here is computed from the output folders alone (``DIR/<scene>/branche
 bounds of the AME-vs-(21) study (`STUDY_MAX_ERROR`, from ``docs/ame_vs_ode21.md``) and the texts
 of the known reasons why a feature may not show (`REASONS`, from that study, the README's
 "Known limit" and the model spec's comments); which reason applies is decided from the results.
-The per-figure statements go through `autocable.paper.targets` (the decision code `autocable
-calibrate` uses too), and when the model file has a ``<model>.targets.toml`` beside it the report
-counts its statements and checks the paper's printed numbers (U_c, omega1, rho) against the results.
+The per-figure statements are decided here (`_features`, called through `autocable.paper.targets`,
+the decision code `autocable calibrate` uses too); the report file itself is assembled by
+`autocable.paper.report_md`, which reads the targets file (statements counted, the paper's printed
+numbers U_c, omega1, rho checked against the results), so that this module never imports the targets.
 """
 from __future__ import annotations
 
@@ -24,9 +25,8 @@ from typing import Callable
 
 from autocable.results import is_complete, run_status
 from autocable.studies.ame_bounds import NEAR, STUDY_MAX_ERROR
-from autocable.paper import targets as targets_mod
 
-__all__ = ["SceneData", "load_scene_data", "overlay_comparison", "exact_stable", "study_bound", "build_report", "write_report",
+__all__ = ["SceneData", "load_scene_data", "overlay_comparison", "exact_stable", "study_bound",
            "stage_seconds", "FIGURE_STAGES", "PAPER_FIGURES", "STUDY_MAX_ERROR", "REASONS", "REPORT_MD"]
 
 REPORT_MD = "report.md"
@@ -1044,135 +1044,3 @@ def _validity_table(scenes: dict) -> list[str]:
             "wind-tunnel tests over a limited range of phi).", "",
             "| scene | twist per unit a2 | largest twist | largest cubic error | beyond the bound | phi range |",
             "|---|---|---|---|---|---|"] + rows
-
-
-def targets_file(scenes: dict, given: str | Path | None = None) -> Path | None:
-    """The targets file of the model the scenes used: ``given`` (``autocable figures --targets``),
-    else ``<model>.targets.toml`` beside the model file named in run.json's provenance (None if
-    there is none)."""
-    if given is not None:
-        return Path(given)
-    for d in scenes.values():
-        model = d.provenance().get("model") if d.ok else None
-        if model:
-            path = Path(model).with_suffix("").with_suffix(".targets.toml")
-            return path if path.is_file() else None
-    return None
-
-
-def _targets_summary(scenes: dict, targets: str | Path | None = None) -> list[str]:
-    """The statements of the targets file decided by `autocable.paper.targets` (the code the
-    calibration uses too), and the paper's printed numbers against the model."""
-    path = targets_file(scenes, targets)
-    if path is None:
-        return []
-    targets = targets_mod.load_targets(path)
-    verdicts = targets_mod.decide_statements(targets, scenes)
-    numbers = targets_mod.decide_numbers(targets, targets_mod.scene_numbers(scenes))
-    c = targets_mod.count_shown(verdicts)
-    lines = ["", "## The statements of Sect. 5 and the paper's numbers", "",
-             f"Decided for the {len(verdicts)} statements of {path.name} (the same code as "
-             f"`autocable calibrate`): **{c['yes']} yes**, {c['partly']} partly, {c['no']} no "
-             "(the tables per figure below)."]
-    by_id = {t.id: t for t in targets}
-    shown = {v.id: v.shown for v in verdicts}
-    for src in ("check", "beyond"):
-        ids = [t.id for t in targets if t.kind == "statement" and t.source == src]
-        if ids:
-            # said beside the count: the calibration's bound does not use these (autocable.paper.bound)
-            lines[-1] += f" {', '.join(f'{i} ({shown.get(i, chr(8212))})' for i in ids)}: {targets_mod.SOURCES[src]}."
-    beyond = targets_mod.beyond_expansion(targets, scenes)
-    if beyond:
-        rtol = next(iter(beyond.values()))["cubic_rtol"]
-        lines += ["", f"Decided where the cubic load of eq. (14) leaves its bound (error above {rtol:g} of the "
-                  f"load change at some point of the scene, the validity table below): {len(beyond)} of "
-                  f"{len(verdicts)} statements, {sum(shown.get(i) == 'yes' for i in beyond)} of them yes: "
-                  + ", ".join(f"{i} ({shown.get(i)})" for i in beyond) + "."]
-    lines += ["", "The numbers Sect. 5 prints:", "", "| number | paper | here | shown |", "|---|---|---|---|"]
-    for v in numbers:
-        t = by_id[v.id]
-        lines.append(f"| {t.id} ({t.quantity}) | {t.value:g} ± {t.tolerance:g} | {_g(v.value, 7)} | {v.shown} |")
-    return lines
-
-
-def build_report(out_dir: str | Path, targets: str | Path | None = None) -> str:
-    """The text of report.md for the figures in ``out_dir`` (see the module docstring); ``targets``:
-    the targets file to decide (default: the one beside the scenes' model, `targets_file`)."""
-    out = Path(out_dir)
-    summary = _read_json(out / "figures.json") or {}
-    listed = {s["name"]: s for s in summary.get("scenes", []) if isinstance(s, dict) and "name" in s}
-    names = list(listed) or sorted(p.name for p in out.iterdir() if p.is_dir() and p.name.startswith("fig"))
-    scenes = {}
-    for n in names:
-        s = listed.get(n, {})
-        scenes[n] = load_scene_data(out / n, status=s.get("status"), error=s.get("error", ""))
-    failed = [d for d in scenes.values() if not d.ok]
-    lines = ["# autocable against Luongo & Zulli (2012), Sect. 5", "",
-             "Generated by `autocable figures` from the output folders next to this file; every number "
-             "below is read or computed from them (branches.csv, special_points.csv, run.json, overlay.csv, "
-             "time_series.csv). Amplitudes a_k are peak modal amplitudes (peak displacement / l); "
-             "Omega = omega1 + sigma; stability is autocable's own (eigenvalues, Floquet multipliers).", "",
-             "| figure | status | wall time | figure file |", "|---|---|---|---|"]
-    for n, d in scenes.items():
-        s = listed.get(n, {})
-        wall = s.get("wall_s")
-        fig = f"[{n}.png]({n}.png)" if (out / f"{n}.png").is_file() else "—"
-        status = d.status if d.ok or d.status != "ok" else "no results"
-        lines.append(f"| {n} | {status}{': ' + d.error if d.error else ''} | "
-                     f"{_g(wall, 3) + ' s' if isinstance(wall, (int, float)) else '—'} | {fig} |")
-    if failed:
-        lines += ["", f"**{len(failed)} scene(s) failed**: " + "; ".join(f"{d.name}: {d.error or d.status}"
-                                                                        for d in failed)]
-    absent = [f for f in PAPER_FIGURES if f not in scenes]
-    if absent:
-        lines += ["", "Published figures without results here (no scene file in runs/, or not selected): "
-                  + ", ".join(absent) + "."]
-    lines += ["", "## The main result: wind cuts the out-of-plane amplitude (Fig. 10 against Fig. 6)", ""]
-    lines += _main_result(scenes)
-    lines += _targets_summary(scenes, targets)
-    lines += ["", "## Figures", "",
-              "For each figure: what Sect. 5 states (docs/model.md, F), whether autocable shows it "
-              "(yes / partly / no), where and with what numbers; where not, why."]
-    for n, d in scenes.items():
-        lines += ["", f"### {d.title if d.ok else n}", ""]
-        if not d.ok:
-            lines += [f"Not shown: {d.error or REASONS['missing']}."]
-            continue
-        fixed = d.fixed()
-        prov = d.provenance()
-        # Which AME drew the figure is a modelling choice the reader must see (docs/ordering.md).
-        ame = (f" AME: {prov['ame']}, {prov.get('ordering', 'paper')} ordering."
-               if prov.get("ame") else "")
-        lines.append("Fixed: " + (", ".join(f"{k} = {_g(v)}" for k, v in fixed.items()) or "none")
-                     + f".{ame} Stages: {_stage_line(d)}.")
-        feats = targets_mod.scene_statements(d, scenes)
-        if feats:
-            lines += ["", "| Sect. 5 states | shown | where, numbers, why |", "|---|---|---|"]
-            lines += [f"| {a} | {b} | {c} |" for a, b, c in feats]
-        if d.branches():
-            lines += [""] + _branch_table(d) + [""] + _special_table(d)
-        lines += _compare_lines(d)
-    lines += ["", "## The amplitude equations against the integration of eq. (21) at the overlay points", "",
-              "Each overlay point is a steady response of eq. (21) (swept up and down, each point from the "
-              "previous state). Beside it, the stable AME equilibrium nearest to it in (a1, a2) at the same "
-              "parameter value, solved there by Newton from the continued branches (overlay_ame.csv; "
-              "folders without it: linearly interpolated in branches.csv); "
-              "rel. error = |a1_AME - a1_21| / a1_21 (compared with the bound at its three digits). "
-              "The bound is the largest same-branch error the "
-              "AME-vs-(21) study (docs/ame_vs_ode21.md) found at that eta*: "
-              + ", ".join(f"{_e(v, 2)} at {_g(k)}" for k, v in STUDY_MAX_ERROR.items())
-              + "; between two of these eta* the bound is their log-log interpolation (marked interp.: the "
-              "study finds the error growing as eta*^1.9-2.0), outside them there is none.", ""]
-    lines += _overlay_table([d for d in scenes.values() if d.ok])
-    lines += ["", "## Where the model stops applying", ""] + _validity_table(scenes)
-    lines += ["", "## Known reasons a feature may not show", ""]
-    lines += [f"- **{k}**: {v}." for k, v in REASONS.items()]
-    return "\n".join(lines) + "\n"
-
-
-def write_report(out_dir: str | Path, targets: str | Path | None = None) -> Path:
-    """Write ``out_dir/report.md``; return its path."""
-    from autocable._store import atomic_write_text
-    path = Path(out_dir) / REPORT_MD
-    atomic_write_text(path, build_report(out_dir, targets))
-    return path

@@ -26,7 +26,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from autocable.plotting.diagrams import AXIS_LABELS, _matplotlib_quiet, _save_formats
+from autocable.plotting.style import new_figure, save_figure, styled
+from autocable.plotting.units import axis_scale
 from autocable.results import CURVE_KINDS
 from autocable.spec import SpecError
 
@@ -172,37 +173,54 @@ def agreement(regions_rows: Sequence[Mapping], x: str, y: str, response_map: Map
     return {"points": n, "agree": agree, "fraction": agree / n}
 
 
-def plot_chart(results, regions_rows: Sequence[Mapping], regions, stem: str | Path, *, x: str, y: str,
+def plot_chart(results, regions_rows: Sequence[Mapping], regions, stem: str | Path | None = None, *, x: str, y: str,
                x_range, y_range, title: str = "", response_map: Mapping | None = None,
-               min_label_cells: int | None = None) -> list[Path]:
+               min_label_cells: int | None = None, units: Mapping | None = None, ax=None):
     """Draw the chart: regions (coloured cells of the classification grid, labelled at their
     centroids when they hold at least ``min_label_cells`` cells; default 1 % of the grid, at least 2), the two-parameter curves of
     ``results`` (kinds fold, hopf, branch_point) with their codimension-2 points, the LP/H/BP
-    points of the one-parameter branches lying in the plane (open markers) and the map's classes.
-    Writes ``<stem>.png`` and ``<stem>.pdf``."""
-    with _matplotlib_quiet():
-        return _plot_chart(results, regions_rows, regions, stem, x=x, y=y, x_range=x_range, y_range=y_range,
-                           title=title, response_map=response_map, min_label_cells=min_label_cells)
+    points of the one-parameter branches lying in the plane (open markers, drawn under the
+    codimension-2 points so that none hides a GH or BT) and the map's classes, with a legend entry
+    for every marker. Returns the Figure (and writes ``<stem>.png`` and ``<stem>.pdf`` when
+    ``stem`` is given). ``units``: `autocable.plotting.units.si_scales` for SI axes; ``ax``: an
+    Axes to draw into."""
+    with styled():
+        fig = _plot_chart(results, regions_rows, regions, x=x, y=y, x_range=x_range, y_range=y_range,
+                          title=title, response_map=response_map, min_label_cells=min_label_cells,
+                          units=units, ax=ax)
+        if stem is not None:
+            save_figure(fig, stem)
+    return fig
 
 
 def _short(cls: str) -> str:
     return cls.replace("small", "small forced").replace(" + ", " +\n")
 
 
-def _plot_chart(results, regions_rows, regions, stem, *, x, y, x_range, y_range, title, response_map,
-                min_label_cells) -> list[Path]:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
+#: The one-parameter branches' points in the chart's plane: open markers, and their legend text.
+_BRANCH_POINTS = {"LP": ("o", "LP of a one-parameter branch"), "H": ("s", "H of a one-parameter branch"),
+                  "BP": ("d", "BP of a one-parameter branch")}
+
+
+def _plot_chart(results, regions_rows, regions, *, x, y, x_range, y_range, title, response_map,
+                min_label_cells, units=None, ax=None):
     from matplotlib.colors import ListedColormap
-    from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    stem = Path(stem)
-    stem.parent.mkdir(parents=True, exist_ok=True)
-    fig = Figure(figsize=(8.6, 5.4))
-    FigureCanvasAgg(fig)
-    ax = fig.add_axes([0.09, 0.11, 0.6, 0.8])
+    fx, xlabel = axis_scale(x, units)
+    fy, ylabel = axis_scale(y, units)
+    if ax is None:
+        fig = new_figure((8.6, 5.4))
+        ax = fig.add_axes([0.09, 0.11, 0.6, 0.8])
+        legend_at = dict(loc="center left", bbox_to_anchor=(0.71, 0.5))
+        legend_on = fig
+    else:
+        fig = ax.figure
+        legend_at = dict(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
+        legend_on = ax
     handles = []
+    one_param = []
     if min_label_cells is None:
         min_label_cells = max(2, len(regions_rows) // 100)
     if regions_rows:
@@ -227,11 +245,11 @@ def _plot_chart(results, regions_rows, regions, stem, *, x, y, x_range, y_range,
                              (xs[1:] + xs[:-1]) / 2, [xs[-1] + (xs[-1] - xs[-2]) / 2 if len(xs) > 1 else xs[0] + 0.5]])
         ey = np.concatenate([[ys[0] - (ys[1] - ys[0]) / 2 if len(ys) > 1 else ys[0] - 0.5],
                              (ys[1:] + ys[:-1]) / 2, [ys[-1] + (ys[-1] - ys[-2]) / 2 if len(ys) > 1 else ys[0] + 0.5]])
-        ax.pcolormesh(ex, ey, np.ma.masked_less(grid, 0), cmap=cmap, vmin=-0.5, vmax=len(classes) - 0.5,
+        ax.pcolormesh(ex * fx, ey * fy, np.ma.masked_less(grid, 0), cmap=cmap, vmin=-0.5, vmax=len(classes) - 0.5,
                       shading="flat", rasterized=True)
         for reg in regions:
             if reg.cells >= min_label_cells:
-                ax.text(reg.x, reg.y, _short(reg.label), ha="center", va="center", fontsize=7, zorder=9,
+                ax.text(reg.x * fx, reg.y * fy, _short(reg.label), ha="center", va="center", fontsize=7, zorder=9,
                         bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="0.6", alpha=0.8, lw=0.5))
         handles += [Patch(fc=colour(c), ec="0.6", lw=0.5, label=f"AME: {c.replace('small', 'small forced')}")
                     for c in classes]
@@ -239,21 +257,24 @@ def _plot_chart(results, regions_rows, regions, stem, *, x, y, x_range, y_range,
     for b in results.branches:
         if b.kind in CURVE_KINDS and x in b.table and y in b.table and len(b):
             st = _CURVE_STYLE[b.kind]
-            ax.plot(b.table[x], b.table[y], color=st["color"], ls=st["ls"], lw=1.6, zorder=4)
+            ax.plot(np.asarray(b.table[x]) * fx, np.asarray(b.table[y]) * fy, color=st["color"], ls=st["ls"], lw=1.6,
+                    zorder=4)
             if b.kind not in drawn:
                 handles.append(Line2D([], [], color=st["color"], ls=st["ls"], lw=1.6, label=st["label"]))
                 drawn.add(b.kind)
         for s in b.special_points:
             if x not in s.parameters or y not in s.parameters:
                 continue
-            px, py = s.parameters[x], s.parameters[y]
+            px, py = s.parameters[x] * fx, s.parameters[y] * fy
             if b.kind in CURVE_KINDS and s.type in _CODIM2 and s.origin == "autocable":
-                ax.plot(px, py, _CODIM2[s.type], color="black", ms=6, zorder=7)
-                ax.annotate(f"{s.type}", (px, py), textcoords="offset points", xytext=(4, 4), fontsize=7, zorder=7)
-            elif b.kind not in CURVE_KINDS and b.kind != "cycle" and s.type in ("LP", "H", "BP") \
+                # above everything else: a one-parameter H at the same place must not hide a GH
+                ax.plot(px, py, _CODIM2[s.type], color="black", ms=6, zorder=10)
+                ax.annotate(f"{s.type}", (px, py), textcoords="offset points", xytext=(4, 4), fontsize=7, zorder=10)
+            elif b.kind not in CURVE_KINDS and b.kind != "cycle" and s.type in _BRANCH_POINTS \
                     and s.origin == "autocable":
-                ax.plot(px, py, {"LP": "o", "H": "s", "BP": "d"}[s.type], color="black", mfc="white", ms=6.5,
-                        mew=1.4, zorder=8.5)
+                ax.plot(px, py, _BRANCH_POINTS[s.type][0], color="black", mfc="none", ms=7, mew=1.0, zorder=8.5)
+                if s.type not in one_param:
+                    one_param.append(s.type)
     if response_map is not None and len(response_map["x"]):
         seen = set()
         # Markers shrink on a dense map (a 40 x 40 map at full size hides the regions).
@@ -268,23 +289,24 @@ def _plot_chart(results, regions_rows, regions, stem, *, x, y, x_range, y_range,
                 style = dict(_MAP_STYLE.get(part, dict(marker="*", mfc="magenta", mec="magenta", ms=4)))
                 style["ms"] = max(1.5, style["ms"] * shrink)
                 off = (k - (len(parts) - 1) / 2) * dx / max(len(parts) - 1, 1)
-                ax.plot(px + off, py, ls="none", zorder=8, mew=0.8, **style)
+                ax.plot((px + off) * fx, py * fy, ls="none", zorder=8, mew=0.8, **style)
                 seen.add(part)
         fixed = ", ".join(f"{k} = {v:g}" for k, v in response_map.get("fixed", {}).items())
         handles += [Line2D([], [], ls="none", **_MAP_STYLE.get(c, dict(marker="*", mfc="magenta", mec="magenta")),
                            label=f"eq. (21): {c}") for c in MAP_CLASSES if c in seen]
         if fixed:
             handles.append(Line2D([], [], ls="none", label=f"(map at {fixed})"))
-    ax.set_xlim(*x_range)
-    ax.set_ylim(*y_range)
-    ax.set_xlabel(AXIS_LABELS.get(x, x))
-    ax.set_ylabel(AXIS_LABELS.get(y, y))
-    ax.tick_params(direction="in", top=True, right=True, labelsize=8)
+    ax.set_xlim(x_range[0] * fx, x_range[1] * fx)
+    ax.set_ylim(y_range[0] * fy, y_range[1] * fy)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
     ax.ticklabel_format(style="sci", scilimits=(-3, 3))
     if title:
-        ax.set_title(title, fontsize=9)
+        ax.set_title(title)
     handles += [Line2D([], [], ls="none", marker=m, color="black", label=f"{t} (codim 2)")
                 for t, m in _CODIM2.items() if t != "LP" and any(
                     s.type == t and s.origin == "autocable" and b.kind in CURVE_KINDS for b in results.branches for s in b.special_points)]
-    fig.legend(handles=handles, loc="center left", bbox_to_anchor=(0.71, 0.5), fontsize=7, frameon=False)
-    return _save_formats(fig, stem)
+    handles += [Line2D([], [], ls="none", marker=_BRANCH_POINTS[t][0], color="black", mfc="none", ms=7,
+                       label=_BRANCH_POINTS[t][1]) for t in _BRANCH_POINTS if t in one_param]
+    legend_on.legend(handles=handles, fontsize=7, frameon=False, **legend_at)
+    return fig

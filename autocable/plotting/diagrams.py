@@ -1,32 +1,51 @@
-"""Bifurcation diagrams in the style of Luongo & Zulli's Figs. 3-10.
+"""Bifurcation diagrams in the style of Luongo & Zulli's Figs. 3-10, and time histories.
 
-Continuous lines: stable equilibria of the AME (period-1 motions of eq. 21); dashed: unstable; filled
-squares: Hopf points; thin lines: the min and max of a1 (or a2) over the periodic orbits of the AME
-(quasi-periodic motions of eq. 21, as in Fig. 4); open circles: branch points; small crosses: fold,
-period-doubling and Neimark-Sacker points of cycles; markers: digitised or direct-integration points
-to compare with. Two-parameter curves (folds, Hopf points) are drawn by `plot_plane` in the plane of
-their two parameters (solid: the bifurcation happens on an otherwise stable equilibrium; dashed:
-not), with their codimension-2 points (CP, BT, GH, ZH, DH) and the one-parameter branches' LP and H
-points. Only reads `autocable.results.RunResults`; matplotlib is imported here, lazily, and
-drawn on an Agg canvas (no pyplot, no global state). Files are written atomically.
+Continuous lines: stable equilibria of the AME (period-1 motions of eq. 21); dashed: unstable; thin
+lines: the min and max of a1 (or a2) over the periodic orbits of the AME (quasi-periodic motions of
+eq. 21, as in Fig. 4); filled squares: Hopf points (H); filled circles: folds (LP, the jumps of a
+frequency response); open circles: branch points (BP); crosses: fold, period-doubling and
+Neimark-Sacker points of cycles (LPC, PD, NS); markers: digitised or direct-integration points to
+compare with, with the comparison's RMS and largest distance written in the panel. Every special
+point is labelled, no label on another, on a marker or on a tick label (`style.place_labels`), and a
+legend names every line style and marker drawn. Two-parameter curves (folds, Hopf points) are drawn
+by `plot_plane` in the plane of their two parameters (solid: the bifurcation happens on an otherwise
+stable equilibrium; dashed: not), with their codimension-2 points (CP, BT, GH, ZH, DH) and the
+one-parameter branches' LP and H points.
+
+Axes read in the paper's symbols (a_1, sigma, U*, eta*), or in SI units with ``units =
+si_scales(...)`` (`autocable.plotting.units`). Every function returns the matplotlib Figure (to
+restyle, show inline or save) and draws into ``ax=`` when given; `save_figure` writes ``<stem>.png``
+and the vector ``<stem>.pdf``. Only reads `autocable.results.RunResults`; matplotlib is imported
+lazily and drawn on an Agg canvas (no pyplot, no global state beyond the style's context).
 """
 from __future__ import annotations
 
-import contextlib
-import logging
-import os
-import tempfile
+import math
 from pathlib import Path
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 
-__all__ = ["plot_scene", "plot_plane", "plot_time_series", "AXIS_LABELS"]
+from autocable.plotting.style import new_figure, place_labels, save_figure, styled
+from autocable.plotting.units import PAPER_LABELS, axis_scale
 
-#: Axis labels in the paper's symbols (eqs. 17-18: nondimensional quantities).
-AXIS_LABELS = {"sigma": r"$\sigma$", "U": r"$U$", "eta": r"$\eta$", "a1": r"$a_1$", "a2": r"$a_2$"}
+__all__ = ["plot_scene", "plot_plane", "plot_time_series", "plot_simulation", "save_figure", "AXIS_LABELS",
+           "MARKERS"]
+
+#: Axis labels in the paper's symbols (eqs. 17-18: nondimensional quantities, starred U*, eta*).
+AXIS_LABELS = PAPER_LABELS
 
 _THICK, _THIN = 1.5, 0.7
+
+#: How each type of special point of a one-parameter branch is drawn, and its legend text.
+MARKERS = {
+    "H": (dict(marker="s", color="black", ms=5, ls="none"), "Hopf point (H)"),
+    "LP": (dict(marker="o", color="black", ms=4.5, ls="none"), "fold (LP)"),
+    "BP": (dict(marker="o", mfc="white", mec="black", ms=5, ls="none"), "branch point (BP)"),
+    "LPC": (dict(marker="x", color="black", ms=5, ls="none"), "fold of cycles (LPC)"),
+    "PD": (dict(marker="+", color="black", ms=6, ls="none"), "period doubling (PD)"),
+    "NS": (dict(marker="1", color="black", ms=7, ls="none"), "Neimark-Sacker (NS)"),
+}
 
 
 def _segments(x: np.ndarray, y: np.ndarray, stable: np.ndarray):
@@ -46,239 +65,277 @@ def _segments(x: np.ndarray, y: np.ndarray, stable: np.ndarray):
             start = i
 
 
-#: Resolution of the PNG files (and of anything rasterised in the PDF).
-_DPI = 150
+def _axes_grid(ax, n: int, figsize, ncol: int = 1, sharex=True):
+    """(figure, axes array of shape (n, ncol), whether we made the figure): ``ax`` given (one Axes, or
+    a sequence of n * ncol) or a new figure."""
+    if ax is None:
+        fig = new_figure(figsize)
+        grid = fig.subplots(n, ncol, sharex=sharex, squeeze=False)
+        return fig, grid, True
+    axes = np.atleast_1d(np.asarray(ax, dtype=object)).ravel()
+    if len(axes) != n * ncol:
+        raise ValueError(f"ax: expected {n * ncol} Axes (one per panel), got {len(axes)}")
+    return axes[0].figure, axes.reshape(n, ncol), False
 
 
-def _save_formats(fig, stem: Path) -> list[Path]:
-    """``stem``.png and ``stem``.pdf of ``fig`` (laid out by ``tight_layout``), cropped to the same
-    tight box. The box is computed once here: savefig's ``bbox_inches="tight"`` would draw the
-    figure an extra time for every format (five draws instead of three)."""
-    from matplotlib import rcParams
-    fig.set_dpi(_DPI)
-    fig.draw_without_rendering()    # what savefig does before measuring: legends placed, text laid out
-    bbox = fig.get_tightbbox(fig.canvas.get_renderer()).padded(rcParams["savefig.pad_inches"])
-    # tight_layout leaves a placeholder layout engine behind, and with any engine set savefig
-    # draws the whole figure once more per format before drawing it for real.
-    fig.set_layout_engine(None)
-    paths = []
-    for ext in (".png", ".pdf"):
-        p = Path(stem).with_suffix(ext)
-        _save(fig, p, bbox)
-        paths.append(p)
-    return paths
+def _finish(fig, made: bool, legend_ax, handles, place) -> None:
+    """Legend beside the top panel (outside the data), then the layout, then the labels (placed once
+    the axes have their final size)."""
+    if handles:
+        legend_ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
+    if made:
+        fig.tight_layout()
+    for ax, items, avoid in place:
+        place_labels(ax, items, avoid=avoid)
 
 
-def _save(fig, path: Path, bbox) -> None:
-    """savefig to a temporary file in the same folder, then os.replace (readers never see half a file)."""
-    from autocable._store import file_mode
-    # ".tmp", not the format's suffix: a run's next start recognises and removes what a kill left
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        os.fchmod(fd, file_mode())     # mkstemp's 0o600 would survive the replace
-        os.close(fd)
-        fig.savefig(tmp, format=path.suffix.lstrip("."), dpi=_DPI, bbox_inches=bbox)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+def _line_handles(stable: bool, unstable: bool, cycles: bool) -> list:
+    from matplotlib.lines import Line2D
+    out = []
+    if stable:
+        out.append(Line2D([], [], color="black", lw=_THICK, ls="-", label="stable"))
+    if unstable:
+        out.append(Line2D([], [], color="black", lw=_THICK, ls="--", label="unstable"))
+    if cycles:
+        out.append(Line2D([], [], color="black", lw=_THIN, ls="-", label="periodic orbits: min, max"))
+    return out
 
 
-@contextlib.contextmanager
-def _matplotlib_quiet():
-    """Keep matplotlib's own logging at WARNING for the block. A distutils build (PyDSTool's AUTO
-    library) can leave the root logger at DEBUG with a handler, and matplotlib would then print its
-    font-matching chatter."""
-    logger = logging.getLogger("matplotlib")
-    before = logger.level
-    logger.setLevel(logging.WARNING)
-    try:
-        yield
-    finally:
-        logger.setLevel(before)
-
-
-def plot_scene(results, stem: str | Path, *, x: str, y: Sequence[str] = ("a1",), title: str = "",
+def plot_scene(results, stem: str | Path | None = None, *, x: str, y: Sequence[str] = ("a1",), title: str = "",
                labels: bool = True, compare: Sequence[dict] | None = None, compare_panel: str | None = None,
-               compare_label: str = "digitised", overlay: Sequence[dict] | None = None) -> list[Path]:
-    """Draw every branch of ``results`` as amplitude(s) ``y`` against parameter ``x``; write
-    ``<stem>.png`` and ``<stem>.pdf``. Returns the two paths. ``overlay`` rows (methods/sweeps.py)
-    are drawn as the paper's empty boxes (Figs. 9-10), with a vertical bar over the envelope of a
-    response that is not period-1."""
-    with _matplotlib_quiet():
-        return _plot_scene(results, stem, x=x, y=y, title=title, labels=labels, compare=compare,
-                           compare_panel=compare_panel, compare_label=compare_label, overlay=overlay)
+               compare_label: str = "digitised", overlay: Sequence[dict] | None = None,
+               compare_stats: Mapping | None = None, units: Mapping | None = None, ax=None):
+    """Draw every branch of ``results`` as amplitude(s) ``y`` against parameter ``x``, one panel per
+    amplitude; return the Figure (and write ``<stem>.png`` and ``<stem>.pdf`` when ``stem`` is
+    given). ``overlay`` rows (methods/sweeps.py) are drawn as the paper's empty boxes (Figs. 9-10),
+    with a vertical bar over the envelope of a response that is not period-1; ``compare`` rows
+    (digitised points) as red circles, with ``compare_stats`` (compare.json: RMS and largest
+    distance per curve) written in their panel. ``units``: `autocable.plotting.units.si_scales`
+    for SI axes (default: the paper's nondimensional symbols). ``ax``: an Axes (or one per panel)
+    to draw into."""
+    with styled():
+        fig = _plot_scene(results, x=x, y=y, title=title, labels=labels, compare=compare,
+                          compare_panel=compare_panel, compare_label=compare_label, overlay=overlay,
+                          compare_stats=compare_stats, units=units, ax=ax)
+        if stem is not None:
+            save_figure(fig, stem)
+    return fig
 
 
-def _plot_overlay(ax, rows, x: str, amp: str) -> None:
+def _plot_overlay(ax, rows, x: str, amp: str, fx: float, fy: float) -> list:
+    from matplotlib.lines import Line2D
     mine = [r for r in rows if r["parameter"] == x]
     shown = [r for r in mine if r["steady"] and np.isfinite(r[amp])]
     # A diverged integration has no amplitude: never a box; a caret on the top edge instead.
     diverged = sorted({r["value"] for r in mine if not np.isfinite(r[amp])})
     if not mine:
-        return
+        return []
     name = "eq. (21)" if mine[0]["method"] == "ode21" else "the AME"
+    handles = []
+    box = dict(ls="none", marker="s", ms=5, mfc="none", mec="tab:blue")
     if shown:
-        ax.plot([r["value"] for r in shown], [r[amp] for r in shown], ls="none", marker="s", ms=5,
-                mfc="none", mec="tab:blue", label=f"integration of {name}")
+        ax.plot([r["value"] * fx for r in shown], [r[amp] * fy for r in shown], zorder=6, **box)
+        handles.append(Line2D([], [], label=f"integration of {name}", **box))
     for r in shown:
         if not r["periodic"]:
-            ax.plot([r["value"]] * 2, [r[f"{amp}_min"], r[f"{amp}_max"]], color="tab:blue", lw=_THIN)
+            ax.plot([r["value"] * fx] * 2, [r[f"{amp}_min"] * fy, r[f"{amp}_max"] * fy], color="tab:blue", lw=_THIN)
     if diverged:
-        ax.plot(diverged, [1.0] * len(diverged), ls="none", marker="v", ms=5, color="tab:red",
-                transform=ax.get_xaxis_transform(), clip_on=False,
-                label=f"{name} diverges ({len(diverged)} values)")
-    ax.legend(fontsize=7, frameon=False)
+        caret = dict(ls="none", marker="v", ms=5, color="tab:red")
+        ax.plot([v * fx for v in diverged], [1.0] * len(diverged), transform=ax.get_xaxis_transform(),
+                clip_on=False, **caret)
+        handles.append(Line2D([], [], label=f"{name} diverges ({len(diverged)} values)", **caret))
+    return handles
 
 
-def _plot_scene(results, stem, *, x, y, title, labels, compare, compare_panel, compare_label,
-                overlay=None) -> list[Path]:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+def _compare_text(stats: Mapping) -> str:
+    """The comparison's numbers (compare.json) as the panel's note: per curve, RMS and largest
+    distance in % of the plot (the distance's normalisation: `autocable.scene.compare`)."""
+    curves = stats.get("curves") or {}
+    lines = ["distance to the computed branches (% of the plot):"]
+    for name, c in curves.items():
+        lines.append(f"{name or 'points'}: RMS {100 * c['rms_distance']:.2g} %, max {100 * c['max_distance']:.2g} % "
+                     f"(n = {c['n_points']})")
+    return "\n".join(lines)
 
-    stem = Path(stem)
-    stem.parent.mkdir(parents=True, exist_ok=True)
+
+def _plot_scene(results, *, x, y, title, labels, compare, compare_panel, compare_label, overlay=None,
+                compare_stats=None, units=None, ax=None):
+    from matplotlib.lines import Line2D
+
     panels = list(y)
-    fig = Figure(figsize=(6.0, 3.4 * len(panels)))
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
-    for ax, amp in zip(axes, panels):
+    fig, grid, made = _axes_grid(ax, len(panels), (6.0, 3.2 * len(panels)))
+    axes = grid[:, 0]
+    fx, xlabel = axis_scale(x, units)
+    seen = {"stable": False, "unstable": False, "cycles": False}
+    types_drawn: list[str] = []
+    extra_handles: list = []
+    place = []
+    for ax_, amp in zip(axes, panels):
+        fy, ylabel = axis_scale(amp, units)
+        items, names, avoid = [], [], []     # special points' labels placed first, branch names after
         for b in results.branches:
-            if x not in b.table or len(b) == 0:
-                continue
-            xs = np.asarray(b.table[x])
-            if b.kind in ("fold", "hopf", "branch_point"):
-                continue  # two-parameter curves: see plot_plane
+            if x not in b.table or len(b) == 0 or b.kind in ("fold", "hopf", "branch_point"):
+                continue      # two-parameter curves: see plot_plane
+            xs = np.asarray(b.table[x], float) * fx
             if b.kind == "equilibrium":
                 if amp not in b.table:
                     continue
-                for sx, sy, st in _segments(xs, np.asarray(b.table[amp]), np.asarray(b.stable)):
-                    ax.plot(sx, sy, color="black", lw=_THICK, ls="-" if st else "--")
-                top = int(np.nanargmax(b.table[amp])) if np.any(np.isfinite(b.table[amp])) else 0
-                ax.annotate(b.name, (xs[top], b.table[amp][top]), textcoords="offset points",
-                            xytext=(3, 4), fontsize=8)
+                ys = np.asarray(b.table[amp], float) * fy
+                for sx, sy, st in _segments(xs, ys, np.asarray(b.stable)):
+                    ax_.plot(sx, sy, color="black", lw=_THICK, ls="-" if st else "--")
+                    seen["stable" if st else "unstable"] = True
+                if np.any(np.isfinite(ys)):        # the branch's name, labels or not (as before)
+                    top = int(np.nanargmax(ys))
+                    names.append((xs[top], ys[top], b.name))
             else:
                 for col in (f"{amp}_min", f"{amp}_max"):
                     if col not in b.table:
                         continue
-                    for sx, sy, st in _segments(xs, np.asarray(b.table[col]), np.asarray(b.stable)):
-                        ax.plot(sx, sy, color="black", lw=_THIN, ls="-" if st else "--")
+                    for sx, sy, st in _segments(xs, np.asarray(b.table[col], float) * fy, np.asarray(b.stable)):
+                        ax_.plot(sx, sy, color="black", lw=_THIN, ls="-" if st else "--")
+                        seen["cycles"] = True
+                        seen["stable" if st else "unstable"] = True
             for s in b.special_points:
-                if x not in s.parameters:
+                if x not in s.parameters or s.type not in MARKERS:
                     continue
                 px = s.parameters[x]
                 py = s.a1 if amp == "a1" else s.a2
                 if b.kind == "cycle" and f"{amp}_max" in b.table and 0 <= s.index < len(b):
                     py = b.table[f"{amp}_max"][s.index]
-                if not np.isfinite(py):
+                if not (np.isfinite(px) and np.isfinite(py)):
                     continue
-                if s.type == "H":
-                    ax.plot(px, py, "s", color="black", ms=5)
-                elif s.type == "BP":
-                    ax.plot(px, py, "o", mfc="white", mec="black", ms=5)
-                elif s.type in ("LPC", "PD", "NS"):
-                    ax.plot(px, py, "x", color="black", ms=5)
-                else:
-                    continue
+                style, _ = MARKERS[s.type]
+                ax_.plot(px * fx, py * fy, zorder=7, **style)
+                if s.type not in types_drawn:
+                    types_drawn.append(s.type)
                 if labels and s.label != "BP0":
-                    ax.annotate(s.label, (px, py), textcoords="offset points", xytext=(4, -9), fontsize=7)
+                    items.append((px * fx, py * fy, s.label))
+                else:
+                    avoid.append((px * fx, py * fy))
         if compare and (compare_panel or panels[0]) == amp:
             curves = sorted({r["curve"] for r in compare})
-            for k, c in enumerate(curves):
+            for c in curves:
                 pts = [r for r in compare if r["curve"] == c]
                 for st in (True, False):
                     sel = [r for r in pts if r["stable"] == st]
                     if sel:
-                        ax.plot([r["x"] for r in sel], [r["y"] for r in sel], ls="none", marker="o",
-                                ms=4, mec="tab:red", mfc="tab:red" if st else "white",
-                                label=f"{compare_label} {c}".strip() if st or not any(r["stable"] for r in pts) else None)
-            ax.legend(fontsize=7, frameon=False)
+                        style = dict(ls="none", marker="o", ms=4, mec="tab:red", mfc="tab:red" if st else "white")
+                        ax_.plot([r["x"] * fx for r in sel], [r["y"] * fy for r in sel], zorder=6, **style)
+                        extra_handles.append(Line2D([], [], label=f"{compare_label} {c}".strip()
+                                                    + ("" if all(r["stable"] for r in pts) and st else
+                                                       (" (stable)" if st else " (unstable)")), **style))
+            if compare_stats:
+                ax_.text(0.98, 0.97, _compare_text(compare_stats), transform=ax_.transAxes, ha="right", va="top",
+                         fontsize=6.5, color="tab:red", zorder=11,
+                         bbox=dict(boxstyle="round,pad=0.25", fc="white", ec="none", alpha=0.85))
         if overlay:
-            _plot_overlay(ax, overlay, x, amp)
-        ax.set_ylabel(AXIS_LABELS.get(amp, amp))
-        ax.margins(y=0.1)      # room for the branch names above the highest point
-        ax.set_ylim(bottom=0.0)
-        ax.tick_params(direction="in", top=True, right=True, labelsize=8)
-        ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
-    axes[-1].set_xlabel(AXIS_LABELS.get(x, x))
+            for h in _plot_overlay(ax_, overlay, x, amp, fx, fy):
+                if h.get_label() not in [e.get_label() for e in extra_handles]:
+                    extra_handles.append(h)
+        ax_.set_ylabel(ylabel)
+        ax_.margins(y=0.12)      # room for the labels above the highest point
+        ax_.set_ylim(bottom=0.0)
+        ax_.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
+        place.append((ax_, items + names, avoid))
+    axes[-1].set_xlabel(xlabel)
     if title:
-        axes[0].set_title(title, fontsize=9)
-    fig.tight_layout()
-    return _save_formats(fig, stem)
+        axes[0].set_title(title)
+    handles = _line_handles(seen["stable"], seen["unstable"], seen["cycles"])
+    handles += [Line2D([], [], label=MARKERS[t][1], **MARKERS[t][0]) for t in MARKERS if t in types_drawn]
+    handles += extra_handles
+    _finish(fig, made, axes[0], handles, place)
+    return fig
 
 
-def plot_plane(results, stem: str | Path, *, x: str, y: str, title: str = "", labels: bool = True) -> list[Path]:
-    """Draw the two-parameter curves (kinds "fold", "hopf") of ``results`` in the (``x``, ``y``)
-    parameter plane with their labelled points, and the LP/H points of the one-parameter branches
-    that lie in it; write ``<stem>.png`` and ``<stem>.pdf``. Returns the two paths."""
-    with _matplotlib_quiet():
-        return _plot_plane(results, stem, x=x, y=y, title=title, labels=labels)
+def plot_plane(results, stem: str | Path | None = None, *, x: str, y: str, title: str = "", labels: bool = True,
+               units: Mapping | None = None, ax=None):
+    """Draw the two-parameter curves (kinds "fold", "hopf", "branch_point") of ``results`` in the
+    (``x``, ``y``) parameter plane with their labelled points, and the LP/H points of the
+    one-parameter branches that lie in it; return the Figure (and write ``<stem>.png``/``.pdf``
+    when ``stem`` is given)."""
+    with styled():
+        fig = _plot_plane(results, x=x, y=y, title=title, labels=labels, units=units, ax=ax)
+        if stem is not None:
+            save_figure(fig, stem)
+    return fig
 
 
-def _plot_plane(results, stem, *, x, y, title, labels) -> list[Path]:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+#: Markers of the codimension-2 points on two-parameter curves, and of the one-parameter branches'
+#: LP and H points in a parameter plane (open).
+PLANE_MARKERS = {"CP": "^", "BT": "D", "GH": "v", "ZH": "P", "DH": "X", "LP": "o", "H": "s"}
+_CURVE_NAMES = {"fold": "folds (LP)", "hopf": "Hopf points (H)", "branch_point": "pitchforks (BP)"}
+_CURVE_COLORS = {"fold": "black", "hopf": "tab:blue", "branch_point": "tab:green"}
 
-    stem = Path(stem)
-    stem.parent.mkdir(parents=True, exist_ok=True)
-    fig = Figure(figsize=(6.0, 4.2))
-    FigureCanvasAgg(fig)
-    ax = fig.subplots()
-    styles = {"fold": dict(color="black"), "hopf": dict(color="tab:blue"), "branch_point": dict(color="tab:green")}
-    markers = {"CP": "^", "BT": "D", "GH": "v", "ZH": "P", "DH": "X", "LP": "o", "H": "s"}
-    drawn = set()
+
+def _plot_plane(results, *, x, y, title, labels, units=None, ax=None):
+    from matplotlib.lines import Line2D
+
+    fig, grid, made = _axes_grid(ax, 1, (6.0, 4.2))
+    ax_ = grid[0, 0]
+    fx, xlabel = axis_scale(x, units)
+    fy, ylabel = axis_scale(y, units)
+    drawn, dashed, kinds_pts = [], False, []
+    items = []
     for b in results.branches:
         if b.kind in ("fold", "hopf", "branch_point") and x in b.table and y in b.table and len(b):
-            for sx, sy, st in _segments(np.asarray(b.table[x]), np.asarray(b.table[y]), np.asarray(b.stable)):
-                ax.plot(sx, sy, lw=_THICK, ls="-" if st else "--",
-                        label=None if b.kind in drawn else {"fold": "folds (LP)", "hopf": "Hopf points (H)",
-                                                             "branch_point": "pitchforks (BP)"}[b.kind],
-                        **styles[b.kind])
-                drawn.add(b.kind)
+            for sx, sy, st in _segments(np.asarray(b.table[x]) * fx, np.asarray(b.table[y]) * fy, np.asarray(b.stable)):
+                ax_.plot(sx, sy, lw=_THICK, ls="-" if st else "--", color=_CURVE_COLORS[b.kind])
+                dashed |= not st
+            if b.kind not in drawn:
+                drawn.append(b.kind)
             i = len(b) // 2
-            ax.annotate(b.name, (b.table[x][i], b.table[y][i]), textcoords="offset points", xytext=(3, 4), fontsize=8)
+            if labels:
+                items.append((b.table[x][i] * fx, b.table[y][i] * fy, b.name))
         for s in b.special_points:
             if x not in s.parameters or y not in s.parameters:
                 continue
             if b.kind in ("fold", "hopf", "branch_point"):
-                if s.type not in markers:
+                if s.type not in PLANE_MARKERS:
                     continue
                 filled = s.origin == "autocable"
+                key = (s.type, "curve", filled)
             elif s.type in ("LP", "H"):
                 filled = False
+                key = (s.type, "branch", False)
             else:
                 continue
-            px, py = s.parameters[x], s.parameters[y]
-            ax.plot(px, py, markers[s.type], color="black", mfc="black" if filled else "white", ms=5)
+            px, py = s.parameters[x] * fx, s.parameters[y] * fy
+            ax_.plot(px, py, PLANE_MARKERS[s.type], color="black", mfc="black" if filled else "white", ms=5,
+                     zorder=8 if key[1] == "curve" else 7)
+            if key not in kinds_pts:
+                kinds_pts.append(key)
             if labels and b.kind in ("fold", "hopf", "branch_point"):
-                ax.annotate(s.label, (px, py), textcoords="offset points", xytext=(4, -9), fontsize=7)
-    if drawn:
-        ax.legend(fontsize=7, frameon=False)
-    ax.set_xlabel(AXIS_LABELS.get(x, x))
-    ax.set_ylabel(AXIS_LABELS.get(y, y))
-    ax.margins(0.05)
-    ax.tick_params(direction="in", top=True, right=True, labelsize=8)
-    ax.ticklabel_format(style="sci", scilimits=(-3, 3))
+                items.insert(0, (px, py, s.label))
+    handles = [Line2D([], [], color=_CURVE_COLORS[k], lw=_THICK, label=_CURVE_NAMES[k]) for k in drawn]
+    if dashed:
+        handles.append(Line2D([], [], color="black", lw=_THICK, ls="--", label="on an unstable equilibrium"))
+    for t, where, filled in kinds_pts:
+        text = (f"{t} (codim 2)" if t not in ("LP", "H") else t) if where == "curve" else f"{t} of a one-parameter branch"
+        if where == "curve" and not filled:
+            text += ", PyCont only"
+        handles.append(Line2D([], [], ls="none", marker=PLANE_MARKERS[t], color="black",
+                              mfc="black" if filled else "white", label=text))
+    ax_.set_xlabel(xlabel)
+    ax_.set_ylabel(ylabel)
+    ax_.margins(0.06)
+    ax_.ticklabel_format(style="sci", scilimits=(-3, 3))
     if title:
-        ax.set_title(title, fontsize=9)
-    fig.tight_layout()
-    return _save_formats(fig, stem)
+        ax_.set_title(title)
+    _finish(fig, made, ax_, handles, [(ax_, items, [])])
+    return fig
 
 
-def _time_panel(ax, series, amp: str, window, ode21_diverged: bool) -> None:
+def _time_panel(ax, series, amp: str, window, ode21_diverged: bool, ft: float, fa: float) -> None:
     """One amplitude against time, over the whole run or over ``window`` = (t0, t1)."""
     k = 1 if amp == "a1" else 2
 
     def part(t, a):
         t = np.asarray(t, dtype=float)
         a = np.asarray(a, dtype=float)
-        if window is None:
-            return t, a
-        keep = (t >= window[0]) & (t <= window[1])
-        return t[keep], a[keep]
+        if window is not None:
+            keep = (t >= window[0]) & (t <= window[1])
+            t, a = t[keep], a[keep]
+        return t * ft, a * fa
 
     if "ame" in series:
         t, *a = series["ame"]
@@ -289,45 +346,139 @@ def _time_panel(ax, series, amp: str, window, ode21_diverged: bool) -> None:
             ax.plot(*part(t, a[k - 1]), color="tab:blue", lw=_THIN, label="eq. (21): envelope")
         if ode21_diverged and window is None:
             t_div = float(t[-1]) if len(t) else 0.0
-            ax.plot([t_div], [1.0], marker="v", ms=6, color="tab:red", ls="none",
+            ax.plot([t_div * ft], [1.0], marker="v", ms=6, color="tab:red", ls="none",
                     transform=ax.get_xaxis_transform(), clip_on=False,
-                    label=f"eq. (21) diverges (t = {t_div:.4g})")
-    ax.set_ylabel(AXIS_LABELS.get(amp, amp))
+                    label=f"eq. (21) diverges (t = {t_div * ft:.4g})")
     ax.set_ylim(bottom=0.0)
-    ax.tick_params(direction="in", top=True, right=True, labelsize=8)
     ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
-    if window is None:
-        ax.legend(fontsize=7, frameon=False, loc="best")
 
 
-def plot_time_series(series, stem: str | Path, *, y: Sequence[str] = ("a1", "a2"), title: str = "",
+def plot_time_series(series, stem: str | Path | None = None, *, y: Sequence[str] = ("a1", "a2"), title: str = "",
                      ode21_message: str = "", ode21_diverged: bool = False,
-                     zoom: tuple[float, float] | None = None) -> list[Path]:
+                     zoom: tuple[float, float] | None = None, units: Mapping | None = None, ax=None):
     """Fig. 11: a1(t), a2(t) of the AME (thick) and the amplitude envelope of eq. (21) (thin, half
     peak-to-peak per forcing period) on the same axes, one panel per amplitude. ``series`` maps
     "ame" / "ode21" to (t, a1, a2) arrays. A divergence of eq. (21) is marked where it happens
     (a caret on the top edge) and named in the legend. ``zoom = (t0, t1)`` adds a right-hand column
-    with that window (a few modulation periods). Writes ``<stem>.png`` and ``<stem>.pdf``."""
-    with _matplotlib_quiet():
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-
-        stem = Path(stem)
-        stem.parent.mkdir(parents=True, exist_ok=True)
+    with that window (a few modulation periods). Returns the Figure (and writes ``<stem>.png`` and
+    ``<stem>.pdf`` when ``stem`` is given); ``ax``: one Axes per panel (row-major with ``zoom``)."""
+    with styled():
         panels = list(y)
         ncol = 2 if zoom else 1
-        fig = Figure(figsize=(6.5 if ncol == 1 else 10.0, 2.8 * len(panels)))
-        FigureCanvasAgg(fig)
-        grid = fig.subplots(len(panels), ncol, sharex="col", squeeze=False)
+        fig, grid, made = _axes_grid(ax, len(panels), (6.5 if ncol == 1 else 10.0, 2.6 * len(panels)), ncol,
+                                     sharex="col")
+        ft, tlabel = axis_scale("t", units)
         for col in range(ncol):
             window = zoom if col == 1 else None
-            for ax, amp in zip(grid[:, col], panels):
-                _time_panel(ax, series, amp, window, ode21_diverged)
-            grid[-1, col].set_xlabel(r"$t$")
+            for ax_, amp in zip(grid[:, col], panels):
+                fa, alabel = axis_scale(amp, units)
+                _time_panel(ax_, series, amp, window, ode21_diverged, ft, fa)
+                ax_.set_ylabel(alabel)
+            grid[-1, col].set_xlabel(tlabel)
         if zoom:
-            grid[0, 1].set_title(f"last {zoom[1] - zoom[0]:.4g} time units", fontsize=8)
+            grid[0, 1].set_title(f"last {(zoom[1] - zoom[0]) * ft:.4g} {'s' if units else 'time units'}")
         axes = grid[:, 0]
         if title:
-            (fig.suptitle if zoom else axes[0].set_title)(title, fontsize=9)
-        fig.tight_layout()
-        return _save_formats(fig, stem)
+            (fig.suptitle if zoom else axes[0].set_title)(title)
+        handles, seen = [], set()
+        for a in grid.ravel():
+            for h in a.get_legend_handles_labels()[0]:
+                if h.get_label() not in seen:
+                    seen.add(h.get_label())
+                    handles.append(h)
+        _finish(fig, made, grid[0, -1], handles, [])
+        if stem is not None:
+            save_figure(fig, stem)
+    return fig
+
+
+def poincare_section(t, q, Omega: float, t_from: float = 0.0) -> np.ndarray:
+    """The stroboscopic (Poincare) section of a time history: the state ``q`` (rows of samples,
+    columns of coordinates) at t = t_from + k 2 pi / Omega, k = 0, 1, ... (linear interpolation
+    between the samples around each time). A period-1 response is one point, a period-n response n
+    points, a quasi-periodic one a closed curve."""
+    t = np.asarray(t, float)
+    q = np.asarray(q, float)
+    if q.ndim == 1:
+        q = q[:, None]
+    period = 2 * math.pi / Omega
+    if len(t) < 2:
+        return np.zeros((0, q.shape[1]))
+    start = max(t_from, t[0])
+    times = start + period * np.arange(int(math.floor((t[-1] - start) / period)) + 1)
+    return np.column_stack([np.interp(times, t, q[:, j]) for j in range(q.shape[1])])
+
+
+def plot_simulation(history, stem: str | Path | None = None, *, Omega: float, response: str = "",
+                    steady_from: float | None = None, title: str = "", units: Mapping | None = None, ax=None,
+                    period_name: str = "forcing period"):
+    """`autocable simulate --plot`: the time history of q_1 and q_2 of eq. (21) with their envelope
+    (the max and min of q_k per forcing period), the phase plane (q_1, q_2) over the steady part,
+    and the stroboscopic Poincare section of the steady part at the
+    forcing period (`poincare_section`) in the (q_1, q_2) plane: one point for a period-1 response,
+    n for period-n, a closed curve for a quasi-periodic one.
+
+    ``history`` = (t, q1, q2, q1', q2') arrays. ``steady_from``: the time after which the response
+    is taken as steady (default: the last half). ``Omega`` = 2 pi / the period of the envelope and
+    the section, named ``period_name`` (an autonomous response at eta* = 0 has no forcing: give
+    its own period and "cycle's own period"). Returns the Figure (and writes ``<stem>.png`` /
+    ``.pdf`` when ``stem`` is given). ``ax``: 4 Axes (q1(t), q2(t), phase plane, section)."""
+    with styled():
+        t, q1, q2, v1, v2 = (np.asarray(c, float) for c in history)
+        if steady_from is None:
+            steady_from = float(t[0] + 0.5 * (t[-1] - t[0])) if len(t) else 0.0
+        if ax is None:
+            fig = new_figure((9.0, 6.0))
+            gs = fig.add_gridspec(2, 2)
+            axes = [fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[1, 0]), fig.add_subplot(gs[0, 1]),
+                    fig.add_subplot(gs[1, 1])]
+            made = True
+        else:
+            axes = list(np.atleast_1d(np.asarray(ax, dtype=object)).ravel())
+            if len(axes) != 4:
+                raise ValueError(f"ax: expected 4 Axes (q1(t), q2(t), phase plane, section), got {len(axes)}")
+            fig, made = axes[0].figure, False
+        ft, tlabel = axis_scale("t", units)
+        period = 2 * math.pi / Omega if Omega > 0 else (t[-1] - t[0] if len(t) else 1.0)
+        for a, q, name in ((axes[0], q1, "q1"), (axes[1], q2, "q2")):
+            fq, qlabel = axis_scale(name, units)
+            a.plot(t * ft, q * fq, color="0.55", lw=0.3, rasterized=len(t) > 20000, label=f"{qlabel.split(' [')[0]}")
+            if len(t) > 1:
+                edges = np.arange(t[0], t[-1] + period, period)
+                k = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, max(len(edges) - 1, 0))
+                top = np.full(len(edges), np.nan)
+                bot = np.full(len(edges), np.nan)
+                np.fmax.at(top, k, q)
+                np.fmin.at(bot, k, q)
+                mid = edges + period / 2
+                ok = np.isfinite(top)
+                a.plot(mid[ok] * ft, top[ok] * fq, color="black", lw=_THIN, label=f"envelope (max, min per {period_name})")
+                a.plot(mid[ok] * ft, bot[ok] * fq, color="black", lw=_THIN)
+            a.axvline(steady_from * ft, color="tab:blue", lw=0.6, ls=":", label="steady part from here")
+            a.set_ylabel(qlabel)
+            a.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
+        axes[1].set_xlabel(tlabel)
+        axes[0].legend(loc="upper left", bbox_to_anchor=(0.0, 1.32), ncol=2, fontsize=7)
+        keep = t >= steady_from
+        f1, l1 = axis_scale("q1", units)
+        f2, l2 = axis_scale("q2", units)
+        axes[2].plot(q1[keep] * f1, q2[keep] * f2, color="black", lw=0.4, rasterized=int(keep.sum()) > 20000)
+        axes[2].set_xlabel(l1)
+        axes[2].set_ylabel(l2)
+        axes[2].set_title("phase plane (steady part)")
+        sec = poincare_section(t, np.column_stack([q1, q2]), Omega, steady_from) if Omega > 0 else np.zeros((0, 2))
+        if len(sec):
+            axes[3].plot(sec[:, 0] * f1, sec[:, 1] * f2, ls="none", marker=".", ms=3, color="black")
+        axes[3].set_xlabel(l1)
+        axes[3].set_ylabel(l2)
+        kind = f" ({response})" if response else ""
+        axes[3].set_title(f"Poincare section at the {period_name}{kind}: {len(sec)} points")
+        for a in axes[2:]:
+            a.ticklabel_format(style="sci", scilimits=(-3, 3))
+        if title:
+            fig.suptitle(title)
+        if made:
+            fig.tight_layout()
+        if stem is not None:
+            save_figure(fig, stem)
+    return fig

@@ -574,25 +574,30 @@ def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolut
     write_results(res, out, status="running")    # "complete" once published
     stages["write_s"] = time.perf_counter() - t0
     compare = read_compare(scene.compare) if scene.compare else None
+    compare_stats = None
     if compare and branches:
-        write_compare(scene, compare, branches, out)
+        compare_stats = write_compare(scene, compare, branches, out)
     if plot and branches:
         t0 = time.perf_counter()
-        from autocable.plotting.diagrams import plot_scene
-        files = plot_scene(res, out / scene.name, x=scene.plot.x, y=scene.plot.y, title=scene.plot.title,
-                           labels=scene.plot.labels, compare=compare,
-                           compare_panel=scene.compare.panel if scene.compare else None,
-                           compare_label=scene.compare.label if scene.compare else "",
-                           overlay=overlay_rows)
+        from autocable.plotting.diagrams import plot_scene, save_figure
+        from autocable.scene.figure_units import figure_units
+        units = figure_units(scene.plot.units, deriv)
+        files = save_figure(plot_scene(res, x=scene.plot.x, y=scene.plot.y, title=scene.plot.title,
+                                       labels=scene.plot.labels, compare=compare,
+                                       compare_panel=scene.compare.panel if scene.compare else None,
+                                       compare_label=scene.compare.label if scene.compare else "",
+                                       compare_stats=compare_stats, overlay=overlay_rows, units=units),
+                            out / scene.name)
         stages["plot_s"] = time.perf_counter() - t0
         if scene.plot.plane and any(b.kind in ("fold", "hopf", "branch_point") for b in branches):
             from autocable.plotting.diagrams import plot_plane
-            files += plot_plane(res, out / f"{scene.name}_plane", x=scene.plot.plane[0], y=scene.plot.plane[1],
-                                title=scene.plot.title, labels=scene.plot.labels)
+            files += save_figure(plot_plane(res, x=scene.plot.plane[0], y=scene.plot.plane[1],
+                                            title=scene.plot.title, labels=scene.plot.labels, units=units),
+                                 out / f"{scene.name}_plane")
             stages["plot_s"] = time.perf_counter() - t0
         if chart_out is not None:
             t1 = time.perf_counter()
-            files += _plot_chart(scene, res, chart_out, out)
+            files += _plot_chart(scene, res, chart_out, out, units)
             stages["chart_plot_s"] = time.perf_counter() - t1
         say(f"plot: {', '.join(str(shown / Path(f).name) for f in files)}")
     stages["total_s"] = time.perf_counter() - t_all
@@ -690,16 +695,18 @@ def _score_map(scene: Scene, chart_out: dict, out: Path, rmap, say) -> dict | No
     return rmap
 
 
-def _plot_chart(scene: Scene, res, chart_out: dict, out: Path) -> list:
+def _plot_chart(scene: Scene, res, chart_out: dict, out: Path, units=None) -> list:
     """Draw ``<scene>_chart.png``/``.pdf`` (with the map's classes when there is one)."""
     from autocable.plotting.chart import plot_chart
+    from autocable.plotting.style import save_figure
 
     ch = scene.chart
     rmap = chart_out.get("map")
     title = scene.plot.title + "".join(f", {k} = {v:g}" for k, v in chart_out["fixed"].items()
                                        if f"{k} =" not in scene.plot.title)
-    return plot_chart(res, chart_out["rows"], chart_out["regions"], out / f"{scene.name}_chart", x=ch.x, y=ch.y,
-                      x_range=ch.x_range, y_range=ch.y_range, title=title, response_map=rmap)
+    return save_figure(plot_chart(res, chart_out["rows"], chart_out["regions"], x=ch.x, y=ch.y,
+                                  x_range=ch.x_range, y_range=ch.y_range, title=title, response_map=rmap,
+                                  units=units), out / f"{scene.name}_chart")
 
 
 def _with_twist(branches, spec, deriv):
@@ -745,17 +752,18 @@ def _with_twist(branches, spec, deriv):
     return out, validity
 
 
-def write_compare(scene: Scene, rows: list[dict], branches, out: Path) -> Path:
+def write_compare(scene: Scene, rows: list[dict], branches, out: Path) -> dict:
     """``compare.json``: per curve label of the digitised points, their distance to the computed
-    branches in the compared panel (`autocable.scene.compare`)."""
+    branches in the compared panel (`autocable.scene.compare`); returns what it wrote."""
     from autocable._store import atomic_write_json
     from autocable.scene.compare import compare_summary
     try:
         summary = compare_summary(rows, branches, scene.plot.x, scene.compare.panel)
     except ValueError as exc:
         raise SpecError(scene.path, "compare.panel", str(exc)) from None
-    return atomic_write_json(out / "compare.json", {"csv": str(scene.compare.csv), "label": scene.compare.label,
-                                                    **summary})
+    atomic_write_json(out / "compare.json", {"csv": str(scene.compare.csv), "label": scene.compare.label,
+                                             **summary})
+    return summary
 
 
 

@@ -59,6 +59,9 @@ at most 0.1, and step controls have bounded values (`_STEP_BOUNDS`).
                                       # the first curve run's parameters; only with curve runs)
     title = "..."                     # default: the scene title
     labels = true                     # write special-point labels (H1, LP1, BP1) on the plot
+    units = "paper"                   # axes in the paper's nondimensional symbols (a_1, sigma, U*, eta*)
+                                      # or "si" (a_k l [m], sigma omega/2pi [Hz], U [m/s], eta [m]);
+                                      # `autocable run --units` overrides it
     [compare]                         # optional digitised points to overlay
     csv = "fig05a_digitised.csv"      # columns x, y, curve, stable (path relative to the scene)
     panel = "a1"
@@ -124,6 +127,7 @@ __all__ = [
     "ENGINES",
     "ORDERINGS",
     "PARAMETERS",
+    "PLOT_UNITS",
     "RESOLUTIONS",
 ]
 
@@ -135,7 +139,9 @@ _TOP_KEYS = ("title", "description", "model", "ame", "ame_tol", "ordering", "eng
 _CHART_KEYS = ("plane", "x_range", "y_range", "grid", "t_end", "starts", "map")
 _RUN_KEYS = ("name", "kind", "parameter", "range", "start", "at", "directions", "cycles", "switch",
              "fixed", "steps", "parameter2", "range2")
-_PLOT_KEYS = ("x", "y", "title", "labels", "plane")
+_PLOT_KEYS = ("x", "y", "title", "labels", "plane", "units")
+#: `[plot] units`: the axes in the paper's nondimensional quantities or in SI (autocable.plotting.units).
+PLOT_UNITS = ("paper", "si")
 _COMPARE_KEYS = ("csv", "panel", "label")
 _OVERLAY_KEYS = ("method", "parameter", "range", "points", "directions", "max_time")
 _KINDS = ("equilibria", "cycles", "switch", "curve")
@@ -195,6 +201,7 @@ class PlotSpec:
     title: str
     labels: bool = True
     plane: tuple[str, str] | None = None        # (x, y) of the parameter-plane figure of the curves
+    units: str = "paper"                        # "paper" (eqs. 17-18, nondimensional) or "si"
 
 
 @dataclass(frozen=True)
@@ -574,6 +581,7 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
     if not isinstance(ptitle, str):
         raise SpecError(path, "plot.title", "expected a string")
     labels = _bool(plot.get("labels", True), path, "plot.labels")
+    units = _plot_units(plot, path)
     curves = [r for r in runs if r.kind == "curve"]
     plane = plot.get("plane")
     if plane is not None:
@@ -604,7 +612,7 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
     chart = _chart(data["chart"], path, plane, runs, fixed) if "chart" in data else None
     return Scene(path=path, name=path.stem, title=title, description=data.get("description", ""),
                  model=model, ame=ame, state_scale=scale, fixed=fixed, runs=tuple(runs),
-                 plot=PlotSpec(x, tuple(y), ptitle, labels, plane), compare=compare, text=text,
+                 plot=PlotSpec(x, tuple(y), ptitle, labels, plane, units), compare=compare, text=text,
                  overlay=overlay, engine=engine, ame_tol=float(ame_tol), ordering=ordering, chart=chart)
 
 
@@ -740,7 +748,7 @@ def _time_scene(data, path: Path, text: str, model: Path, ame: str, scale) -> Sc
     if isinstance(spp, bool) or not isinstance(spp, int) or not 1 <= spp <= 64:
         raise SpecError(path, "time.samples_per_period", f"expected a whole number from 1 to 64, got {spp!r}")
     plot = data.get("plot", {})
-    _check_keys(plot, ("title", "y"), path, "plot")
+    _check_keys(plot, ("title", "y", "units"), path, "plot")
     y = plot.get("y", ["a1", "a2"])
     y = [y] if isinstance(y, str) else y
     if not isinstance(y, list) or not y or any(v not in ("a1", "a2") for v in y):
@@ -754,7 +762,14 @@ def _time_scene(data, path: Path, text: str, model: Path, ame: str, scale) -> Sc
                     samples_per_period=spp)
     return Scene(path=path, name=path.stem, title=title, description=data.get("description", ""),
                  model=model, ame=ame, state_scale=scale, fixed=vals, runs=(),
-                 plot=PlotSpec("t", tuple(y), ptitle, False), text=text, time=spec)
+                 plot=PlotSpec("t", tuple(y), ptitle, False, units=_plot_units(plot, path)), text=text, time=spec)
+
+
+def _plot_units(plot: Mapping, path) -> str:
+    units = plot.get("units", "paper")
+    if units not in PLOT_UNITS:
+        raise SpecError(path, "plot.units", f"expected {' or '.join(repr(u) for u in PLOT_UNITS)}, got {show(units)}")
+    return units
 
 
 def load_scene(path: str | Path) -> Scene:

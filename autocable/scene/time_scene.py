@@ -149,17 +149,19 @@ def run_time_scene(scene: Scene, out_dir, say, plot: bool, resolution: str):
     files = []
     if plot:
         t0 = time.perf_counter()
-        from autocable.plotting.diagrams import plot_time_series
+        from autocable.plotting.diagrams import plot_time_series, save_figure
+        from autocable.scene.figure_units import figure_units
         # A modulation period is tens of time units against a run of tens of thousands: beside the
         # whole run, a window of the last few periods shows the periodic solution itself.
         period = summary.get("ame", {}).get("modulation_period")
         t_last = float(series["ame"][0][-1]) if len(series["ame"][0]) else 0.0
         zoom = ((t_last - 5.0 * period, t_last) if period and math.isfinite(period)
                 and 5.0 * period < t_last - spec.summary_from else None)
-        files = plot_time_series(series, out / scene.name, y=scene.plot.y, title=scene.plot.title,
-                                 zoom=zoom,
-                                 ode21_message=summary.get("ode21", {}).get("message", ""),
-                                 ode21_diverged=summary.get("ode21", {}).get("diverged", False))
+        files = save_figure(plot_time_series(series, y=scene.plot.y, title=scene.plot.title, zoom=zoom,
+                                             ode21_message=summary.get("ode21", {}).get("message", ""),
+                                             ode21_diverged=summary.get("ode21", {}).get("diverged", False),
+                                             units=figure_units(scene.plot.units, deriv)),
+                            out / scene.name)
         stages["plot_s"] = time.perf_counter() - t0
         say(f"plot: {', '.join(str(f) for f in files)}")
     stages["total_s"] = time.perf_counter() - t_all

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from autocable.studies.failure_map import STIFF_RATIO, point_class
+from autocable.plotting.style import styled
 
 _SHORT = {"same-branch": "same", "different-branch": "diff. branch", "no-ame-branch": "no AME branch",
           "quasi-periodic-21": "(21) quasi-periodic", "ame-not-equilibrium": "AME not equilibrium",
@@ -75,6 +76,7 @@ def _boundary(ax, plane, result):
             ax.clabel(cs, fmt={lv: f"{100 * level:g} %"}, fontsize=7)
 
 
+@styled()      # the package's one look (autocable.plotting.style)
 def plot_plane(plane: dict, result: dict, path) -> None:
     import matplotlib
     matplotlib.use("Agg")

@@ -17,6 +17,7 @@ from pathlib import Path
 
 
 from autocable.studies.ame_bounds import NEAR, STUDY_MAX_ERROR
+from autocable.plotting.style import styled
 
 __all__ = ["CASES", "VARIANTS", "bench_ordering", "markdown", "plot"]
 
@@ -209,6 +210,7 @@ def markdown(result: dict, png: str = "ordering.png") -> str:
     return "\n".join(lines)
 
 
+@styled()      # the package's one look (autocable.plotting.style)
 def plot(result: dict, path) -> None:
     import matplotlib
     matplotlib.use("Agg")

@@ -34,6 +34,7 @@ import numpy as np
 
 from autocable._paths import RUNS_DIR, SAMPLE_MODEL
 from autocable.studies import ladder as R
+from autocable.plotting.style import styled
 
 MATCH_TOL = 0.10            # a reference response is "found" within 10 %
 DEFAULT_SCENES = ("fig05a", "fig06", "fig09", "fig10")
@@ -382,6 +383,7 @@ def _summary(records, settings) -> dict:
     return out
 
 
+@styled()      # the package's one look (autocable.plotting.style)
 def plot_work_precision(records, settings, path: Path) -> None:
     """Error against warm wall time, log-log, one curve per method, one panel per scene."""
     import matplotlib

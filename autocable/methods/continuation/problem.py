@@ -10,7 +10,7 @@ from types import MappingProxyType
 from typing import Callable, Mapping
 
 from autocable.methods.continuation.settings import ContinuationSettings
-from autocable.methods.continuation.system import System
+from autocable.methods.continuation.system import System, auto_state_scale
 from autocable.results import Branch, SpecialPoint
 
 
@@ -24,13 +24,17 @@ class StartError(ValueError):
 @dataclass(frozen=True)
 class EquilibriumProblem:
     """What to continue: ``system`` with ``values`` (every parameter; the continued one at its start
-    value), ``parameter`` over ``bounds``, states measured on ``state_scale``."""
+    value), ``parameter`` over ``bounds``, states measured on ``state_scale``.
+
+    ``state_scale`` left out (None): for the AME of `ame_system` the size of its linear forced
+    response at ``values`` (`auto_state_scale`, what a scene's ``state_scale = "auto"`` uses; 1e-2
+    without forcing, eta = 0); 1 for any other system (states of order one)."""
 
     system: System
     parameter: str
     values: Mapping[str, float]
     bounds: tuple[float, float]
-    state_scale: float = 1.0
+    state_scale: float | None = None
 
     def __post_init__(self):
         if self.parameter not in self.system.parameter_names:
@@ -43,6 +47,9 @@ class EquilibriumProblem:
         if not lo <= values[self.parameter] <= hi:
             raise ValueError(f"start value {self.parameter} = {values[self.parameter]:g} is outside "
                              f"the range [{lo:g}, {hi:g}]")
+        if self.state_scale is None:
+            scale = auto_state_scale(self.system, values) if self.system.amplitude_equations else 1.0
+            object.__setattr__(self, "state_scale", float(scale))
         if not (self.state_scale > 0 and math.isfinite(self.state_scale)):
             raise ValueError(f"state_scale must be positive, got {self.state_scale}")
         object.__setattr__(self, "values", MappingProxyType(values))

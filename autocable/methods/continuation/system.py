@@ -48,6 +48,8 @@ class System:
     parameters: tuple[tuple[str, float], ...]
     amplitudes: tuple[tuple[str, tuple[str, ...]], ...] = ()
     description: str = ""
+    #: The AME of eq. (24) (set by `ame_system`): its continuations default to `auto_state_scale`.
+    amplitude_equations: bool = False
 
     def __post_init__(self):
         variables = tuple(str(v) for v in self.variables)
@@ -262,7 +264,8 @@ def ame_system(ame, dof: str = "2dof", *, wind: bool = True, name: str | None = 
         path = cache_dir("systems") / f"ame-system-{key}.json"
         rhs = _cached_rhs(path, len(variables))
         if rhs is not None:
-            system = System(tag, variables, rhs[1], params, tuple(amps), description=description)
+            system = System(tag, variables, rhs[1], params, tuple(amps), description=description,
+                            amplitude_equations=True)
             # The stored text is srepr of these very expressions: its hash is `rhs_key`.
             system.__dict__["_rhs_key"] = rhs_key_of_srepr(rhs[0])
             return system
@@ -281,7 +284,7 @@ def ame_system(ame, dof: str = "2dof", *, wind: bool = True, name: str | None = 
     ren[syms["eta"]] = sp.Symbol("eta")
     ren[syms["U"]] = sp.Symbol("U")
     rhs = [_plain(sp.expand(e.xreplace(rel)).xreplace(ren)) for e in exprs]
-    system = System(tag, variables, rhs, params, tuple(amps), description=description)
+    system = System(tag, variables, rhs, params, tuple(amps), description=description, amplitude_equations=True)
     if path is not None:
         store_checked_json(path, {"format": AME_SYSTEM_VERSION, "rhs": [sp.srepr(e) for e in system.rhs]})
     return system
