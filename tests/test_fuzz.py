@@ -30,7 +30,8 @@ STRATEGIES = fuzz.strategies()
 def harness(tmp_path_factory):
     """Cases run in a private tree with its own cache (writes elsewhere in it are caught)."""
     # 20 s: a hang costs less; every case that ends ends within a few seconds here
-    return fuzz.Harness(main, tmp_path_factory.mktemp("fuzz"), max_timeout=20.0)
+    from autocable.bench.fuzz_surfaces import run_mode
+    return fuzz.Harness(main, tmp_path_factory.mktemp("fuzz"), max_timeout=20.0, runner=run_mode)
 
 
 def _collect(harness, strategy, max_examples, examples=()):
@@ -150,21 +151,23 @@ def test_the_checks_catch_what_they_claim(tmp_path):
 def test_surfaces(harness):
     """Sweep files, chart tables, targets and search-space files and --map files, each read the
     way its command reads it (`autocable.bench.fuzz_surfaces`)."""
-    failures = _collect(harness, STRATEGIES["surfaces"], 60)
+    from autocable.bench.fuzz_surfaces import strategies
+    failures = _collect(harness, strategies()["surfaces"], 60)
     assert not failures, _report(failures)
 
 
 def test_api_calls(harness):
     """Calls of the Python API: a bad argument is a SpecError naming it; no NaN as a result."""
-    failures = _collect(harness, STRATEGIES["api"], 40)
+    from autocable.bench.fuzz_surfaces import strategies
+    failures = _collect(harness, strategies()["api"], 40)
     assert not failures, _report(failures)
 
 
 def test_the_surface_checks_catch_what_they_claim(tmp_path):
     """The harness flags an accepted invalid input and a NaN result, and counts a refusal that
     names the case's file as named (cases built for each)."""
-    from autocable.bench.fuzz_surfaces import SWEEP_FILE
-    h = fuzz.Harness(main, tmp_path, max_timeout=20.0)
+    from autocable.bench.fuzz_surfaces import SWEEP_FILE, run_mode
+    h = fuzz.Harness(main, tmp_path, max_timeout=20.0, runner=run_mode)
     accepted = fuzz.Case("sweep", "a valid sweep labelled invalid", fuzz.INVALID, ("max_time",),
                          {fuzz.MODEL_FILE: fuzz.SAMPLE_MODEL.read_text(),
                           SWEEP_FILE: 'model = "model.toml"\n[grid]\neta = 1e-4\n'}, mode="load_sweep")

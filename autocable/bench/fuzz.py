@@ -824,6 +824,7 @@ class Harness:
     base: Path
     runs_left: int = 1 << 30          # real runs (subprocess cases) allowed; the others are skipped
     max_timeout: float = 1e9          # caps every case's time limit (the tests: a hang costs less)
+    runner: Callable | None = None    # (case, input folder) -> (exit, stdout, stderr) of the other modes
     _count: int = 0
     _seen: dict = field(default_factory=dict)
 
@@ -961,10 +962,12 @@ class Harness:
         return code, "", se.getvalue()
 
     def _surface(self, case, inp, cwd, timeout):
-        from autocable.bench.fuzz_surfaces import run_mode
+        if self.runner is None:
+            raise ValueError(f"a case of mode {case.mode!r} needs the harness's runner "
+                             "(autocable.bench.fuzz_surfaces.run_mode)")
         try:
             with self._in(cwd, timeout):
-                return run_mode(case, inp)
+                return self.runner(case, inp)
         except _Hang:
             return None, "", ""
 
@@ -1043,21 +1046,17 @@ def strategies():
     # the vectors that end before any long computation (no run, figures, chart or sweep)
     quick = st.builds(args_case, st.sampled_from([i for i, c in enumerate(ARG_CASES)
                                                   if c[3][:1] not in (("run",), ("figures",), ("chart",), ("sweep",))]))
-    from autocable.bench.fuzz_surfaces import SURFACE_KINDS, api_case, surface_case
-    surfaces = st.builds(surface_case, st.sampled_from(sorted(SURFACE_KINDS)), rnd)
-    api = st.builds(api_case, rnd)
-    return {"specs": specs, "scenes": scenes, "scene_runs": runs, "args": args, "quick_args": quick,
-            "surfaces": surfaces, "api": api}
+    return {"specs": specs, "scenes": scenes, "scene_runs": runs, "args": args, "quick_args": quick}
 
 
 def run_fuzz(main: Callable, specs: int = 1000, scenes: int = 300, args: int = 60, seed: int = 0,
-             out: str | os.PathLike | None = None, real_runs: int = 16, log=None, surfaces: int = 0,
-             api: int = 0) -> dict:
+             out: str | os.PathLike | None = None, real_runs: int = 16, log=None, extra=(),
+             runner: Callable | None = None) -> dict:
     """The long fuzz run (``autocable bench fuzz``): ``specs`` mutated models through ``derive --json``,
     ``scenes`` mutated scenes through `load_scene` (of which up to ``real_runs`` real coarse runs),
-    ``args`` argument vectors, ``surfaces`` cases of each kind of `fuzz_surfaces.SURFACE_KINDS`
-    (sweep files, chart tables, targets and search-space files, --map files) and ``api`` calls of
-    the Python API; counts and the first problems."""
+    ``args`` argument vectors, then the ``extra`` cases ((count key, case) pairs: the sweep files,
+    chart tables, targets and search-space files, --map files and API calls of
+    `autocable.bench.fuzz_surfaces`, run by ``runner``); counts and the first problems."""
     say = log or (lambda s: None)
     t0 = time.perf_counter()
     tmp = None
@@ -1069,11 +1068,11 @@ def run_fuzz(main: Callable, specs: int = 1000, scenes: int = 300, args: int = 6
         if base.exists():
             shutil.rmtree(base)
         base.mkdir(parents=True)
-    h = Harness(main, base, runs_left=real_runs)
+    h = Harness(main, base, runs_left=real_runs, runner=runner)
     counts = {"specs": 0, "scenes": 0, "scene_real_runs": 0, "args": 0, "invalid": 0, "odd": 0,
               "rejected": 0, "accepted": 0, "tracebacks": 0, "unforeseen_exceptions": 0, "exit0_invalid": 0,
               "unnamed_rejections": 0, "long_messages": 0, "bad_json": 0, "escaped_writes": 0, "hangs": 0,
-              "nan_results": 0, "skipped_real_runs": 0, "surfaces": {}, "api": 0}
+              "nan_results": 0, "skipped_real_runs": 0, "surfaces": {}}
     kind_count = {"traceback": "tracebacks", "unforeseen_exception": "unforeseen_exceptions",
                   "exit0_invalid": "exit0_invalid", "unnamed_rejection": "unnamed_rejections",
                   "long_message": "long_messages", "bad_json": "bad_json", "escaped_write": "escaped_writes",
@@ -1124,18 +1123,11 @@ def run_fuzz(main: Callable, specs: int = 1000, scenes: int = 300, args: int = 6
         counts["args"] += 1
         record(case, h.run(case))
     say(f"arguments {args} ({time.perf_counter() - t0:.0f} s)")
-    if surfaces or api:
-        from autocable.bench.fuzz_surfaces import SURFACE_KINDS, api_case, surface_case
-        for kind in SURFACE_KINDS:
-            for i in range(surfaces):
-                case = surface_case(kind, random.Random(f"{seed}:{kind}:{i}"))
-                counts["surfaces"][kind] = counts["surfaces"].get(kind, 0) + 1
-                record(case, h.run(case))
-            say(f"{kind} files {surfaces} ({time.perf_counter() - t0:.0f} s)")
-        for i in range(api):
-            counts["api"] += 1
-            record(api_case(random.Random(f"{seed}:api:{i}")), h.run(api_case(random.Random(f"{seed}:api:{i}"))))
-        say(f"API calls {api} ({time.perf_counter() - t0:.0f} s)")
+    for key, case in extra:
+        counts["surfaces"][key] = counts["surfaces"].get(key, 0) + 1
+        record(case, h.run(case))
+    if extra:
+        say(f"surfaces {dict(counts['surfaces'])} ({time.perf_counter() - t0:.0f} s)")
     if tmp:
         shutil.rmtree(tmp, ignore_errors=True)
     n_problems = sum(counts[k] for k in kind_count.values())

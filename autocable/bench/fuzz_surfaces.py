@@ -22,7 +22,7 @@ from autocable._paths import RUNS_DIR, SAMPLE_MODEL
 from autocable.bench.fuzz import (INVALID, MODEL_FILE, ODD, SCENE_FILE, Case, InlineTable, Raw, _inline,
                                   dump_toml)
 
-__all__ = ["SURFACE_KINDS", "surface_case", "api_case", "run_mode"]
+__all__ = ["SURFACE_KINDS", "surface_case", "api_case", "run_mode", "cases", "strategies"]
 
 SWEEP_FILE = "sweep.toml"
 TARGETS_FILE = "t.targets.toml"
@@ -353,3 +353,21 @@ def run_mode(case: Case, inp) -> tuple[int, str, str]:
         err.write(f"autocable: error ({type(exc).__name__}): {first}\n")
         return 2, out.getvalue(), err.getvalue()
     return 0, out.getvalue(), err.getvalue()
+
+
+def cases(surfaces: int, api: int, seed: int = 0):
+    """(count key, case) pairs for `autocable.bench.fuzz.run_fuzz`'s ``extra``: ``surfaces`` cases of
+    each kind of `SURFACE_KINDS`, then ``api`` calls (seeded generators)."""
+    for kind in SURFACE_KINDS:
+        for i in range(surfaces):
+            yield kind, surface_case(kind, random.Random(f"{seed}:{kind}:{i}"))
+    for i in range(api):
+        yield "api", api_case(random.Random(f"{seed}:api:{i}"))
+
+
+def strategies():
+    """Hypothesis strategies of surface cases and API calls (hypothesis imported lazily)."""
+    from hypothesis import strategies as st
+    rnd = st.randoms(use_true_random=False)
+    return {"surfaces": st.builds(surface_case, st.sampled_from(sorted(SURFACE_KINDS)), rnd),
+            "api": st.builds(api_case, rnd)}

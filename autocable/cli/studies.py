@@ -68,8 +68,10 @@ def cmd_fuzz(args) -> int:
     from autocable.cli import main          # the whole command line is what the fuzz cases run
     check_number("--surfaces", args.surfaces, 0, 10**6, integer=True)
     check_number("--api", args.api, 0, 10**6, integer=True)
+    from autocable.bench.fuzz_surfaces import cases, run_mode
     result = run_fuzz(main, specs=args.specs, scenes=args.scenes, args=args.args, seed=args.seed,
-                      out=args.out, real_runs=args.runs, surfaces=args.surfaces, api=args.api,
+                      out=args.out, real_runs=args.runs, extra=list(cases(args.surfaces, args.api, args.seed)),
+                      runner=run_mode,
                       log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
     if args.out:
         from autocable._store import atomic_write_json
