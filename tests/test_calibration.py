@@ -115,10 +115,10 @@ def test_readings_agree_without_wind(spec):
 
 def test_no_wind_difference_over_the_space_is_round_off(spec):
     """The premise of the calibration's no-wind ceiling, as the study measures it: eq. (21)'s
-    non-aerodynamic terms over every reading of the sample's declared space (16: both twist ends,
-    load axes, angle senses and load lengths) differ by round-off only."""
+    non-aerodynamic terms over every reading of the sample's declared space (24: both twist ends,
+    load axes and load lengths, three angle senses) differ by round-off only."""
     space = study.load_space("models/luongo_zulli_2012.search.toml")
-    assert len(space.readings()) == 16
+    assert len(space.readings()) == 24
     assert study.no_wind_difference(spec, space) < 1e-12
 
 
@@ -190,14 +190,18 @@ def test_fast_ode_equals_derive(spec):
         assert b[key] == pytest.approx(v, abs=1e-9 * scale[key[0]]), key
 
 
-def test_generic_integrators_against_the_scene_engines(spec):
+def test_generic_integrators_against_the_scene_engines(legacy_derivation):
     """The screen's generic compiled integrators (coefficients as parameters) against the engines
     the scenes use: eq. (21) at Fig. 7's sigma = 0 (steady, period-1) and the AME's stable
-    equilibrium at U = 0, eta* = 1.4e-3, sigma = -0.02 (Fig. 6)."""
+    equilibrium at U = 0, eta* = 1.4e-3, sigma = -0.02 (Fig. 6); above U_c, a divergence both see.
+    On the legacy-sense sample (conftest.legacy_sample), where this check was established: a
+    period-1 response at Fig. 7 and a known divergence at Fig. 8. (On the sample, "mirrored", Fig. 8
+    is bounded, and at Fig. 7's sigma = 0 the screen's fixed window and the steady-state run differ
+    by 1.6e-3 in a1: the screen's 20000 time units do not settle that response to 1e-3.)"""
     from autocable.methods.integration.ame import AmeIntegrator
     from autocable.methods.integration.ode21 import Ode21Integrator
     from autocable.model import multiscale
-    d = derive(spec)
+    d = legacy_derivation
     ref = Ode21Integrator(d.ode, engine="compiled").simulate(0.7, 4.1e-4, 0.0)
     got = study.integrate_ode(d.ode, 0.7, 4.1e-4, 0.0)
     assert ref.steady and got["bounded"]
@@ -207,8 +211,9 @@ def test_generic_integrators_against_the_scene_engines(spec):
     r = AmeIntegrator(ame, method="LSODA", compiled=False).simulate(0.0, 1.4e-3, -0.02, max_time=20000)
     g = study.integrate_ame(ame, 0.0, 1.4e-3, -0.02)
     assert r.steady and g["a2"] == pytest.approx(r.a2, rel=1e-6)
-    # above U_c the sample (natural twist) diverges: the known limit the calibration addresses
+    # above U_c the legacy sense (natural twist) diverges, in both integrators
     assert not study.integrate_ode(d.ode, 1.3, 4.1e-4, 0.0)["bounded"]
+    assert not Ode21Integrator(d.ode, engine="compiled").simulate(1.3, 4.1e-4, 0.0).steady
 
 
 def test_literal_sense_can_gallop_supercritically(spec):
@@ -413,7 +418,8 @@ def test_full_evaluation_tables_and_statement_map(tmp_path):
     assert [r.split(" | ")[1:4] for r in rows] == [["2", "0", str(len(stmts) - 2)],
                                                     ["1", "1", str(len(stmts) - 2)],
                                                     ["0", "2", str(len(stmts) - 2)]]
-    assert "beta+0.00" in rows[0] and rows[0].endswith("| 3 of 22 / — | — |")
+    # the last column: the yes decided where the cubic load leaves its bound (none recorded here)
+    assert "beta+0.00" in rows[0] and rows[0].endswith("| 3 of 22 / — | — | 0 of 2 |")
     assert f"Most statements shown: 2 of {len(stmts)}**" in text
     assert "meet U_c = 36 m/s: 1 (" in text and "2: 1, 1: 1, 0: 1" in text
     assert f"| {a} | " in text and f"| 2 | 1 | 0 |" in text          # statement a: yes, yes, partly

@@ -37,6 +37,14 @@ def eq21():
     return d, Ode21Integrator(d.ode, "dopri"), Ode21Integrator(d.ode, "compiled")
 
 
+@pytest.fixture(scope="module")
+def eq21_legacy(legacy_derivation):
+    """The legacy-sense sample (conftest.legacy_sample), which diverges at Fig. 10's carets."""
+    from autocable.methods.integration.ode21 import Ode21Integrator
+    d = legacy_derivation
+    return d, Ode21Integrator(d.ode, "dopri"), Ode21Integrator(d.ode, "compiled")
+
+
 # -- the integrator itself ---------------------------------------------------------------------------
 def test_closed_form_forced_oscillator_at_every_sample(oscillator):
     """Adaptive steps at rtol 1e-10 and dense output between them: the forced undamped response
@@ -144,10 +152,10 @@ def test_compiled_equals_dopri_on_steady_amplitudes(eq21, U, eta, sigma):
     assert abs(b.a2_max - a.a2_max) <= 1e-8 * a.a1
 
 
-def test_both_engines_report_the_divergence(eq21):
-    """U = 1.3, sigma = 0.03 (Fig. 10's carets): both diverge; the compiled engine stops at
-    |q| > 0.1 within the same or an earlier chunk instead of spending the step budget."""
-    _, dopri, compiled = eq21
+def test_both_engines_report_the_divergence(eq21_legacy):
+    """U = 1.3, sigma = 0.03 (Fig. 10's carets with the legacy sense): both diverge; the compiled
+    engine stops at |q| > 0.1 within the same or an earlier chunk instead of spending the step budget."""
+    _, dopri, compiled = eq21_legacy
     a, b = dopri.simulate(1.3, 1.4e-3, 0.03), compiled.simulate(1.3, 1.4e-3, 0.03)
     assert math.isinf(a.a1) and math.isinf(b.a1) and not a.steady and not b.steady
     assert "diverged" in a.message and "|q_k| > 0.1" in b.message
@@ -184,8 +192,8 @@ def test_envelope_equals_per_period_loop(eq21):
     assert np.allclose(e1, loop, rtol=1e-9, atol=0)
 
 
-def test_envelope_reports_divergence(eq21):
-    _, _, compiled = eq21
+def test_envelope_reports_divergence(eq21_legacy):
+    _, _, compiled = eq21_legacy
     t, a1, a2, msg = compiled.envelope(1.3, 1.4e-3, 0.03, (0.0, 1e-6, 0.0, 0.0), 5000.0)
     assert msg.startswith("eq. (21) diverges at t = ") and len(t) == len(a1) and len(t) > 0
     assert np.all(a1 < 0.1) and t[-1] < 5000.0

@@ -17,6 +17,7 @@ from autocable.errors import BudgetExceeded, ComputationError
 from conftest import SAMPLE, two_run_scene
 
 #: Fig. 10's carets: above U_c eq. (21) grows past |q| = 0.1 (tests/test_compiled_integration.py).
+#: Diverging with the legacy-sense sample (conftest.legacy_sample); the sample stays bounded there.
 DIVERGING = ["--U", "1.3", "--eta", "1.4e-3", "--sigma", "0.03"]
 
 
@@ -93,8 +94,8 @@ def test_figures_refuses_bad_options(capsys, tmp_path, monkeypatch, argv, option
 
 
 # -- a divergence is a result: exit 0, strict JSON, status, nulls ---------------------------------
-def test_divergence_is_a_result_in_strict_json(capsys):
-    code, out, err = run_cli(capsys, "simulate", SAMPLE, *DIVERGING, "--json", "--quiet")
+def test_divergence_is_a_result_in_strict_json(capsys, legacy_sample):
+    code, out, err = run_cli(capsys, "simulate", legacy_sample, *DIVERGING, "--json", "--quiet")
     assert code == 0
     r = strict_json(out)
     assert r["status"] == "diverged" and r["a1"] is None and r["a2"] is None
@@ -117,11 +118,11 @@ def test_not_steady_status_when_time_runs_out(capsys):
     assert code == 0 and r["status"] == "not_steady" and r["t_end"] == pytest.approx(50, abs=0.2)
 
 
-def test_csv_of_a_diverging_response_keeps_the_rows(capsys, tmp_path):
+def test_csv_of_a_diverging_response_keeps_the_rows(capsys, legacy_sample, tmp_path):
     """--csv on a divergence writes the history up to it (every row inside |q| <= 0.1, the last
     within one sample interval of t_end) and still prints the result."""
     path = tmp_path / "h.csv"
-    code, out, _ = run_cli(capsys, "simulate", SAMPLE, *DIVERGING, "--json", "--quiet", "--csv", path)
+    code, out, _ = run_cli(capsys, "simulate", legacy_sample, *DIVERGING, "--json", "--quiet", "--csv", path)
     assert code == 0
     r = strict_json(out)
     assert r["status"] == "diverged"
@@ -136,11 +137,11 @@ def test_csv_of_a_diverging_response_keeps_the_rows(capsys, tmp_path):
     assert r["t_end"] - dt <= data[-1, 0] <= r["t_end"]
 
 
-def test_csv_of_an_immediate_divergence_is_the_header(capsys, tmp_path):
+def test_csv_of_an_immediate_divergence_is_the_header(capsys, legacy_sample, tmp_path):
     """Diverging within the first sample interval: the csv holds the start row or only the header
     (not the old "not enough values to unpack"), the result is printed."""
     path = tmp_path / "h.csv"
-    code, out, _ = run_cli(capsys, "simulate", SAMPLE, *DIVERGING, "--q0", "0.099", "0.09", "0.099", "0.09",
+    code, out, _ = run_cli(capsys, "simulate", legacy_sample, *DIVERGING, "--q0", "0.099", "0.09", "0.099", "0.09",
                            "--json", "--quiet", "--csv", path)
     assert code == 0 and strict_json(out)["status"] == "diverged"
     lines = path.read_text().splitlines()

@@ -70,8 +70,9 @@ def test_unsafe_model_name_is_refused_with_the_rule(tmp_path, capsys, name):
 
 def test_dropped_angle_convention_is_refused_naming_both_senses(tmp_path, capsys):
     """Without it the literal sense was taken silently (Theta0 -13.9 -> 58.2 deg)."""
-    path = _spec(tmp_path, 'angle_convention = "reversed"', "")
-    _refused(capsys, ["derive", str(path)], str(path), "aero.angle_convention", '"eq12"', '"reversed"')
+    path = _spec(tmp_path, 'angle_convention = "mirrored"', "")
+    _refused(capsys, ["derive", str(path)], str(path), "aero.angle_convention", '"eq12"', '"mirrored"',
+             '"reversed"')
 
 
 def test_non_utf8_file_names_the_file(tmp_path, capsys):
@@ -262,10 +263,11 @@ def test_every_step_key_has_bounds():
 
 
 def test_a_calibration_no_angle_satisfies_names_the_file_and_field(capsys, tmp_path):
-    """A horizontal chord (alpha = 0) leaves no rivulet angle with the onset at U_c and the
-    out-of-plane mode stable: an input the user must change, so exit 2 naming the file and field
-    (it went through the catch-all as a CalibrationError before)."""
-    path = _spec(tmp_path, "chord_slope_deg = -35.2", "chord_slope_deg = 0.0")
+    """A structural damping of 30 % leaves no rivulet angle with the onset at U_c (the wind's
+    damping cannot cancel it at U_c): an input the user must change, so exit 2 naming the file and
+    field (it went through the catch-all as a CalibrationError before). (The horizontal chord this
+    test used has no such angle with the legacy "reversed" sense only.)"""
+    path = _spec(tmp_path, "damping_ratio = 0.004 ", "damping_ratio = 0.3 ")
     err = _refused(capsys, ["derive", str(path), "--json"], str(path), "aero.rivulet_angle_deg", "no angle")
     assert "CalibrationError" not in err
 

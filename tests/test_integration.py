@@ -162,11 +162,12 @@ def test_cli_csv_history(tmp_path, capsys):
     assert run["a1"] * (1 - (1 - math.cos(math.pi / 64))) <= a1_csv <= run["a1"] * (1 + 1e-9)
 
 
-def test_divergence_is_a_result_not_a_crash(ode, compiled):
-    """Above U_c the sample table's galloping drives the out-of-plane mode into a finite-time
-    blow-up of the cubic model (a finding recorded in the notes): `simulate` reports it as a
-    diverged response instead of raising or hanging (its speed is measured by `autocable bench
-    derive`, target 60 s, not here)."""
+def test_divergence_is_a_result_not_a_crash(legacy_derivation):
+    """Above U_c the legacy-sense sample's galloping drives the out-of-plane mode into a finite-time
+    blow-up of the cubic model (conftest.legacy_sample): `simulate` reports it as a diverged
+    response instead of raising or hanging (its speed is measured by `autocable bench derive`,
+    target 60 s, not here)."""
+    compiled = Ode21Integrator(legacy_derivation.ode)
     r = compiled.simulate(1.1, 0.0, 0.0, (0.01, 0.0, 1e-6, 0.0), max_time=5000.0)
     assert not r.steady and math.isinf(r.a1)
     assert "diverged" in r.message

@@ -43,26 +43,22 @@ REASONS = {
     "msm": "MSM limit: at eta* = 1.4e-3 the parametric modulation that the Multiple Scales ordering "
            "takes small is not small; docs/ame_vs_ode21.md finds same-branch errors up to 2.65e-1 "
            "there and, near resonance, no AME equilibrium close to eq. (21)'s response",
-    "divergence": "eq. (21) diverges above U_c with this calibration: the slaved twist makes the "
-                  "out-of-plane cubic stiffness large and softening, and integrations above U* = 1 "
-                  "blow up in finite time (README, 'Known limit'; docs/ame_vs_ode21.md); the AME with the "
-                  "natural ordering diverges there too (Fig. 8: at every sigma), the paper-ordering AME "
-                  "does not (docs/ordering.md); the calibration (docs/calibration/calibration.md) finds "
-                  "readings where eq. (21) stays bounded (twist restrained at the anchorages; natural "
-                  "twist with twisted load axes and a large yaw); of the candidates it evaluated on "
-                  "every scene, none that keeps the paper's U_c = 36 m/s shows more of Sect. 5 than the "
-                  "sample, and those that show more miss U_c; bounded over the whole space on the "
-                  "statements the paper prints, no candidate can show 40 of the 48, even with any one "
-                  "decision not counted",
+    "divergence": "eq. (21) diverges above U_c with this model: the twist slaved to the out-of-plane mode "
+                  "(about -477 rad per unit q2 with natural twist ends) makes the wind terms odd in the twist "
+                  "large, and where the out-of-plane cubic wind stiffness h32 softens (the legacy 'reversed' "
+                  "angle sense) integrations above U* = 1 blow up in finite time; with the frame-indifferent "
+                  "'mirrored' sense it hardens and eq. (21) stays bounded at U* = 1.3 (docs/model.md, U4 and "
+                  "M11); the AME with the natural ordering can diverge where the paper ordering does not "
+                  "(docs/ordering.md); bounded over the whole space of readings on the statements the paper "
+                  "prints, no candidate can show 40 of the 48 (docs/calibration/calibration.md)",
     "inputs": "unknown paper inputs: the yaw beta, the rivulet angle Theta0 and the air density are "
               "not printed; the sample model calibrates Theta0 to U_c = 36 m/s on one member of a "
               "one-parameter family (models/luongo_zulli_2012.toml; docs/model.md, U1-U4), so the "
               "aerodynamic coefficients, and with them Hopf points and islands under wind, need not "
               "be the paper's; `autocable calibrate` screened them against Sect. 5 and ran the best-ranked "
-              "on every figure: none that keeps the paper's U_c shows more of it than the sample, and "
+              "on every figure (docs/calibration/calibration.md compares them with the sample), and "
               "bounded over the whole space on the statements the paper prints none can show 40 of the "
-              "48, even with any one decision not counted "
-              "(docs/calibration/calibration.md)",
+              "48, even with any one decision not counted",
     "missing": "the scene did not run, failed or has no results (see its error)",
     "reduction": "modelling choice: the scene uses the A2 = 0 (1-dof) AME; the study's bound is the 2-dof "
                  "AME's, and on large responses the reduction adds its own error (on Fig. 4c's island "
