@@ -4,6 +4,7 @@ per test session (each is content-cached on disk as well, so a warm cache makes 
 Test modules import the paths (``from conftest import REPO, SAMPLE``) and request the fixtures by
 name; a module that needs a variant (another integrator, no cache) builds its own.
 """
+import functools
 from pathlib import Path
 
 import pytest
@@ -135,3 +136,24 @@ def legacy_derivation(legacy_sample):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return derive(legacy_sample)
+
+
+@functools.lru_cache(maxsize=1)
+def legacy_path() -> Path:
+    """`legacy_text` written once per test session (for the helpers that take no fixture)."""
+    import tempfile
+    path = Path(tempfile.mkdtemp(prefix="autocable-legacy-")) / "luongo_zulli_2012_reversed.toml"
+    path.write_text(legacy_text())
+    return path
+
+
+def load_legacy_scene(path):
+    """A figure scene (runs/*.toml) on the legacy-sense sample. The tests of the wind scenes'
+    branches, special points, overlays and orbits were measured on that reading (their numbers are
+    regression pins of it, and their cross-checks between engines and methods were established
+    there); they keep testing the code on that known model. The sample itself ("mirrored") runs
+    every scene in tests/test_figures.py and the report's decisions in tests/test_targets.py."""
+    from dataclasses import replace
+
+    from autocable.scene.schema import load_scene
+    return replace(load_scene(path), model=legacy_path())

@@ -265,11 +265,12 @@ def test_fig11_ame_series_statistics(eq21):
         assert s2[key] == pytest.approx(s[key], rel=10 * rtol), key
     # The values (regression pins; tests/test_scene_figures.py::test_fig11_time_evolution pins the
     # scene's to the same digits).
-    assert s["a1_min"] == pytest.approx(2.1401e-3, rel=1e-4)
-    assert s["a1_max"] == pytest.approx(5.3423e-3, rel=1e-4)
-    assert s["a2_min"] == pytest.approx(2.8625e-3, rel=1e-4)
-    assert s["a2_max"] == pytest.approx(3.6053e-3, rel=1e-4)
-    assert s["modulation_period"] == pytest.approx(35.968, rel=1e-4)
+    # (the "mirrored" sample; the legacy sense gave 2.1401e-3, 5.3423e-3, 2.8625e-3, 3.6053e-3, 35.968)
+    assert s["a1_min"] == pytest.approx(2.8566e-3, rel=1e-4)
+    assert s["a1_max"] == pytest.approx(5.1474e-3, rel=1e-4)
+    assert s["a2_min"] == pytest.approx(3.4121e-3, rel=1e-4)
+    assert s["a2_max"] == pytest.approx(3.8345e-3, rel=1e-4)
+    assert s["modulation_period"] == pytest.approx(20.069, rel=1e-4)
 
 
 # -- AmeIntegrator: the same LSODA run on a compiled f and J ------------------------------------------

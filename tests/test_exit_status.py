@@ -173,7 +173,7 @@ def test_compiled_step_budget_is_a_failure_not_a_divergence(derivation, monkeypa
 
 def test_non_finite_parameters_in_the_library_are_failures(derivation, sample_ame):
     """The library does not call a NaN a divergence either: as the CLI, it refuses it before any
-    work, naming the argument (`ArgumentError`, issue 29 item 14; was a `ComputationError` from
+    work, naming the argument (`ArgumentError`; was a `ComputationError` from
     the integration)."""
     from autocable.methods.integration.ame import AmeIntegrator
     from autocable.methods.integration.ode21 import Ode21Integrator

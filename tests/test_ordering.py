@@ -89,10 +89,10 @@ def test_natural_ordering_treats_aerodynamic_terms_like_the_others():
 
 
 @pytest.fixture(scope="module")
-def derivation():
-    from autocable.model.derive import derive as derive21
-    from autocable.spec import load_model
-    return derive21(load_model(SAMPLE))
+def derivation(legacy_derivation):
+    """The legacy-sense sample (conftest.legacy_sample): Fig. 4c's island and the ordering study's
+    numbers were measured on it (docs/ordering.md)."""
+    return legacy_derivation
 
 
 def test_named_orderings_are_cached_apart(derivation):
@@ -168,7 +168,7 @@ def test_the_scene_key_and_the_cli_flag(tmp_path, capsys):
     assert out["ame"]["ordering"]["zeta62"] == 2 and out["ame"]["ordering"]["zeta8"] == 3
 
 
-def test_bench_ordering_tables_are_its_measurements(tmp_path):
+def test_bench_ordering_tables_are_its_measurements(tmp_path, legacy_sample):
     """`autocable bench ordering` on a two-value case on Fig. 4c's island (eq. (21) swept in U over
     0.9, 1.0 at sigma = 0.01, eta* = 4.1e-4): the natural 2-dof AME within 0.5 % at every compared
     point, the A2 = 0 reduction over 10 %; the markdown table and the summary give the JSON's
@@ -176,7 +176,7 @@ def test_bench_ordering_tables_are_its_measurements(tmp_path):
     from autocable.studies.ordering import _summary, bench_ordering, write
     case = ("island", "U", (0.9, 1.0), {"sigma": 0.01, "eta": 4.1e-4})
     above = ("above", "sigma", (0.0,), {"U": 1.3, "eta": 4.1e-4})        # Fig. 8 at sigma = 0
-    result = bench_ordering(str(SAMPLE), cases=(case,), bound_cases=(above,))
+    result = bench_ordering(str(legacy_sample), cases=(case,), bound_cases=(above,))
     # eq. (21) diverges there; so does the natural AME, the paper's stays bounded (Fig. 8's P)
     assert result["bounded"][0]["rows"] == [{"value": 0.0, "eq21": False, "paper, 2-dof": True,
                                              "natural, 2-dof": False}]

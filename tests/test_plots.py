@@ -195,7 +195,7 @@ def test_simulation_figure_has_history_phase_plane_and_section():
     assert "envelope (max, min per forcing period)" in _legend(fig)
 
 
-def test_the_folds_of_figure_7s_frequency_response_are_labelled():
+def test_the_folds_of_figure_7s_frequency_response_are_labelled(legacy_sample):
     """Fig. 7's setting (U* = 0.7, eta* = 4.1e-4) computed: branch I folds twice (at an LP the
     continued sigma turns back: its value is an extreme of sigma along the branch, within the
     branch's own points around it), and the diagram names both folds in its texts and its legend."""
@@ -205,7 +205,8 @@ def test_the_folds_of_figure_7s_frequency_response_are_labelled():
     from conftest import SAMPLE
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = ac.frequency_response(SAMPLE, U=0.7, eta=4.1e-4, sigma=(-0.05, 0.05), switch=False)
+        # the legacy-sense sample (conftest.legacy_sample): its Fig. 7 branch I has two folds
+        res = ac.frequency_response(legacy_sample, U=0.7, eta=4.1e-4, sigma=(-0.05, 0.05), switch=False)
     I = res.branch("I")
     lps = I.of_type("LP")
     assert len(lps) == 2

@@ -436,11 +436,13 @@ def test_time_scene_schema_errors(tmp_path):
 
 
 def test_a_time_scene_keeps_an_ame_that_blows_up(tmp_path):
-    """The natural-ordering AME of the sample at U* = 1.3, eta* = 4.1e-4 leaves every bound (its step
-    size collapses near t = 1070): the scene is complete, the AME series ends there with the reason,
-    and eq. (21)'s envelope is still written. (It used to fail the scene and lose both series.)"""
+    """The natural-ordering AME of the legacy-sense sample (conftest.legacy_path) at U* = 1.3,
+    eta* = 4.1e-4 leaves every bound (its step size collapses near t = 1070): the scene is complete,
+    the AME series ends there with the reason, and eq. (21)'s envelope is still written. (It used to
+    fail the scene and lose both series.)"""
+    from conftest import legacy_path
     scene = tmp_path / "t.toml"
-    scene.write_text(f'title = "t"\nmodel = "{MODEL}"\nordering = "natural"\n[time]\nU = 1.3\neta = 4.1e-4\n'
+    scene.write_text(f'title = "t"\nmodel = "{legacy_path()}"\nordering = "natural"\n[time]\nU = 1.3\neta = 4.1e-4\n'
                      'sigma = 0.0\nt_end = 3000.0\nstart = "rest"\node21 = true\nsummary_from = 1000.0\n'
                      'samples_per_period = 6\n')
     out = tmp_path / "o"

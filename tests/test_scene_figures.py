@@ -7,7 +7,8 @@ are asserted against the values measured at full resolution (``autocable run run
 1e-4 relative; peak amplitudes (the largest sampled point of a branch, which depends on the
 sampling) to 2e-3 relative. The issue's acceptance is asserted too: Fig. 3 equals the closed form of
 eq. (25), Figs. 5a-b are mono-modal, Fig. 6's bi-modal branches are born at pitchfork points, and
-Fig. 10's largest a2 is smaller than Fig. 6's by the measured ratio.
+Fig. 10's largest a2 is smaller than Fig. 6's by the measured ratio. The scenes run on the
+legacy-sense sample (conftest.load_legacy_scene), on which these numbers were measured.
 """
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ import numpy as np
 import pytest
 
 from autocable.scene.runner import load_scene, run_scene
-from conftest import REPO
+from conftest import REPO, load_legacy_scene
 
 RUNS = REPO / "runs"
 SPECIAL_RTOL = 1e-4
@@ -84,7 +85,7 @@ def scene_results(tmp_path_factory):
     def get(name):
         if name not in done:
             out = tmp_path_factory.mktemp(name)
-            done[name] = (run_scene(load_scene(RUNS / f"{name}.toml"), out, resolution="coarse"), out)
+            done[name] = (run_scene(load_legacy_scene(RUNS / f"{name}.toml"), out, resolution="coarse"), out)
         return done[name]
     return get
 

@@ -2,11 +2,14 @@
 integration, the Floquet multipliers of `floquet21`, and the response classes."""
 import json
 import math
+import warnings
 from itertools import permutations
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from conftest import legacy_path
 
 from autocable.cli import main
 from autocable.methods.integration.floquet21 import floquet_multipliers, multipliers_of
@@ -16,12 +19,17 @@ from autocable.model.derive import derive
 from autocable.model.equations import Term, TwoModeODE
 from autocable.spec import load_model
 
-SAMPLE = Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml"
+#: The legacy-sense sample (conftest.legacy_path): the known cases of this module (a long transient
+#: that diverges past a stable orbit, the coexisting orbits of Fig. 9, the diverged class) were found
+#: on that reading; the sample ("mirrored") stays bounded where they diverge.
+SAMPLE = legacy_path()
 
 
 @pytest.fixture(scope="module")
 def sample():
-    return derive(load_model(SAMPLE))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return derive(load_model(SAMPLE))
 
 
 @pytest.fixture(scope="module")

@@ -20,7 +20,9 @@ MODEL_MD = REPO / "docs" / "model.md"
 #: Folders never scanned when walking the tree (build output, caches, environments).
 SKIP_DIRS = {".git", ".venv", "venv", "out", ".cache", "__pycache__", ".pytest_cache", "build", "dist"}
 #: Markdown files the code writes into output folders (not tracked, but legitimately named).
-GENERATED_MD = {"report.md"}
+#: Markdown files written by the tools, not kept in the repository: report.md (`autocable figures`)
+#: and the file references the docs site generates from the schemas (docs/_hooks/generate.py).
+GENERATED_MD = {"report.md", "scene.md", "chart.md", "sweep.md"}
 
 _ERR = "ERR" + "ATA"
 #: (pattern, what it is) for references to documents that live outside the repository.

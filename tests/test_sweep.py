@@ -16,9 +16,12 @@ from autocable.cli import main
 from autocable.scene.sweep_schema import DEFAULT_Q0, load_sweep
 from autocable.spec import SpecError
 from autocable.studies.sweep import RESPONSE_CLASSES, run_sweep
+from conftest import legacy_path
 
 REPO = Path(__file__).resolve().parents[1]
-MODEL = REPO / "models" / "luongo_zulli_2012.toml"
+#: The legacy-sense sample (conftest.legacy_path): the known classes below (diverged at U* = 1.3)
+#: are that reading's; the sample ("mirrored") stays bounded there.
+MODEL = legacy_path()
 
 xr = pytest.importorskip("xarray")
 pytest.importorskip("dask.distributed")
@@ -183,7 +186,7 @@ def test_bad_model_path_names_the_field(tmp_path):
 def test_relative_model_path_and_ranges(tmp_path):
     """The model path is relative to the sweep file; {from, to, num} is linspace (ends included)."""
     spec = load_sweep(REPO / "runs" / "sweep_fig05a.toml")
-    assert spec.model == MODEL and spec.method == "shooting"
+    assert spec.model == REPO / "models" / "luongo_zulli_2012.toml" and spec.method == "shooting"
     assert spec.shape == (1, 1, 21) and spec.sigma[0] == -0.05 and spec.sigma[-1] == 0.05
     assert spec.sigma[10] == pytest.approx(0.0, abs=1e-17)
 

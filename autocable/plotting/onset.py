@@ -6,16 +6,14 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from autocable.plotting.diagrams import _matplotlib_quiet, _save_formats
+from autocable.plotting.style import new_figure, save_figure, styled
 
 
 def plot_onset(study: dict, stem: str | Path, title: str = "") -> list[Path]:
     """``stem``.png/.pdf from the dict `autocable.cli.onset` writes as onset.json."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    with _matplotlib_quiet():
-        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    with styled():
+        fig = new_figure((11, 4.2))
+        ax1, ax2 = fig.subplots(1, 2)
         rows = study.get("damping", [])
         styles = {"supercritical": ("o", "C0"), "subcritical": ("s", "C3")}
         for crit, (marker, color) in styles.items():
@@ -67,6 +65,5 @@ def plot_onset(study: dict, stem: str | Path, title: str = "") -> list[Path]:
         if title:
             fig.suptitle(title, fontsize=10)
         fig.tight_layout()
-        paths = _save_formats(fig, Path(stem))
-        plt.close(fig)
+        paths = save_figure(fig, Path(stem))
     return paths
