@@ -157,3 +157,23 @@ def load_legacy_scene(path):
 
     from autocable.scene.schema import load_scene
     return replace(load_scene(path), model=legacy_path())
+
+
+#: One continuation run of Fig. 3's galloping equation (the 1-dof amplitude equation, a second with a
+#: warm cache): the body of the small scenes of the run-folder and filesystem-fault tests.
+TRIVIAL_GALLOPING_RUN = f'''
+model = "{SAMPLE.as_posix()}"
+ame = "1dof-amplitude"
+state_scale = 0.01
+
+[fixed]
+eta = 0.0
+sigma = 0.0
+
+[[run]]
+name = "trivial"
+parameter = "U"
+range = [0.2, 0.9999]
+at = 0.5
+start = {{ state = [0.0] }}
+'''

@@ -12,25 +12,12 @@ from pathlib import Path
 import pytest
 
 from autocable.cli import main
-from conftest import SAMPLE
+from conftest import SAMPLE, TRIVIAL_GALLOPING_RUN
 
 REPO = Path(__file__).resolve().parents[1]
 
 # One continuation run of Fig. 3's galloping equation (a second, warm cache).
-_SCENE = f'''title = "fs"
-model = "{SAMPLE.as_posix()}"
-ame = "1dof-amplitude"
-state_scale = 0.01
-[fixed]
-eta = 0.0
-sigma = 0.0
-[[run]]
-name = "trivial"
-parameter = "U"
-range = [0.2, 0.9999]
-at = 0.5
-start = {{ state = [0.0] }}
-[plot]
+_SCENE = 'title = "fs"\n' + TRIVIAL_GALLOPING_RUN + '''[plot]
 x = "U"
 y = ["a1"]
 '''

@@ -19,25 +19,10 @@ from autocable.run_folder import STAGING_PREFIX
 from autocable.scene.runner import run_scene
 from autocable.scene.schema import load_scene
 from autocable.spec import SpecError
-from conftest import SAMPLE
+from conftest import TRIVIAL_GALLOPING_RUN
 
 # Two one-variable continuation runs of Fig. 3's galloping equation (a second or two each, warm cache).
-_RUNS = f'''
-model = "{SAMPLE.as_posix()}"
-ame = "1dof-amplitude"
-state_scale = 0.01
-
-[fixed]
-eta = 0.0
-sigma = 0.0
-
-[[run]]
-name = "trivial"
-parameter = "U"
-range = [0.2, 0.9999]
-at = 0.5
-start = {{ state = [0.0] }}
-'''
+_RUNS = TRIVIAL_GALLOPING_RUN
 _GALLOP = '''
 [[run]]
 name = "galloping"
