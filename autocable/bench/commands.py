@@ -495,7 +495,7 @@ def _figures_pass(out_dir: str, env: dict, runs: str | None, jobs: int | None, o
     if runs:
         cmd += ["--runs", runs]
     if jobs:
-        cmd += ["--jobs", str(jobs)]
+        cmd += ["--workers", str(jobs)]
     load = os.getloadavg()[0]
     ru0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()

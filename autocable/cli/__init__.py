@@ -142,7 +142,12 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--out", required=True, help="output folder (resumable: finished points are reused)")
     cal.add_argument("--space", help="search-space file (default: <model>.search.toml beside the model if "
                                      "it exists, else the built-in space)")
-    cal.add_argument("--jobs", type=int, default=2, help="processes (default 2)")
+    cal.add_argument("--workers", type=int, help="Dask worker processes of a LocalCluster for every stage (screen "
+                                                 "points, full evaluations, bound scenes; default: one per "
+                                                 "core; 0: in this process, one task after the other)")
+    cal.add_argument("--jobs", type=int, dest="workers", help=argparse.SUPPRESS)   # the older name of --workers
+    cal.add_argument("--scheduler", metavar="ADDRESS", help="run every stage on an existing Dask cluster: its "
+                     "scheduler's address (tcp://host:8786) or scheduler file (docs/cluster.md)")
     cal.add_argument("--full", type=int, help="candidates evaluated on every figure scene (overrides the space's)")
     cal.add_argument("--bound", action="store_true",
                      help="then ask of every candidate whether it can reach the targets file's [goal] (branch "
