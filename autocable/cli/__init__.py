@@ -78,7 +78,7 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
     b.add_argument("what", nargs="?", default=None,
                    choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "ordering", "engines",
-                            "shooting", "sweep", "kill", "kill-surfaces", "fuzz", "onset"],
+                            "shooting", "sweep", "kill", "kill-surfaces", "fuzz", "onset", "calibration"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
                         "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
@@ -96,7 +96,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "times each, checked not to read as complete and to leave no orphaned process; "
                         "onset: the onset report and a 50-point damping grid of `autocable onset` (target under 2 s "
                         "warm); fuzz: hostile model specs, scenes and arguments, counts of tracebacks, exit-0 "
-                        "results for invalid input, unnamed rejections and hangs. "
+                        "results for invalid input, unnamed rejections and hangs; calibration: the screen of "
+                        "8 points on 1 and 2 workers (the scaling) and the bound stage on 20 candidate models "
+                        "(stage wall time and summed scene time). "
                         "Without a subcommand "
                         "(--out DIR): the work-precision bench of the method ladder (bench.json, "
                         "work_precision.png, work_precision.md)")

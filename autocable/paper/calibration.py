@@ -585,8 +585,8 @@ def _worker(model_path: str, targets_path: str, readings: dict, yaw_deg: float, 
 # ================================================================================================
 def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path, executor, say) -> dict:
     """Every figure scene on the candidate's model (`autocable.paper.figures.run_figures` on
-    ``executor``), then every target decided from the output folders by the report's code.
-    Resumable: ``folder/verdicts.json``."""
+    ``executor``, an `autocable.executor.Executor` or a worker count), then every target decided
+    from the output folders by the report's code. Resumable: ``folder/verdicts.json``."""
     from autocable._store import atomic_write_json
     from autocable.paper.figures import run_figures
     done = folder / "verdicts.json"
@@ -605,7 +605,9 @@ def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path
     errors: list[str] = []
 
     def figures(only):
-        outcomes = run_figures([scene_dir / f"{n}.toml" for n in only], folder / "out", executor=executor)
+        where = {"executor": executor} if hasattr(executor, "submit") else {"workers": int(executor)}
+        outcomes = run_figures([scene_dir / f"{n}.toml" for n in only], folder / "out",
+                               say=lambda m: None if m.endswith(".toml)") else say(f"  {m}"), **where)
         errors.extend(f"{o.name}: {o.error}" for o in outcomes if o.status != "ok")
         return {o.name: {"name": o.name, "status": o.status, "error": o.error} for o in outcomes}
 

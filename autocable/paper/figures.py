@@ -304,7 +304,8 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
         atomic_write_json(_timings_file(), recorded)
     except OSError:
         pass    # a shared read-only cache: the times only order the next run's scenes
-    atomic_write_json(out / SUMMARY_JSON, {"format": "autocable.paper.figures/2", "where": where,
+    n_workers = where.get("workers") or where.get("workers_seen") or 1
+    atomic_write_json(out / SUMMARY_JSON, {"format": "autocable.paper.figures/2", "where": where, "jobs": n_workers,
                                            "recomputed": recomputed,
                                            "scenes": [asdict(o) for o in ordered]})
     return ordered
@@ -407,7 +408,7 @@ def cmd_figures(args) -> int:
         raise SpecError("arguments", "--out", f"cannot write into {out} (read-only or not permitted); give a "
                                               "writable folder")
     from autocable.progress import BarProgress, progress_for
-    bar = progress_for("figures", len(scenes), quiet=args.quiet)
+    bar = progress_for("figures", len(scenes), quiet=args.quiet, count=True)
     if isinstance(bar, BarProgress):
         # a terminal: the bar, and only the failures as lines
         def say(msg):
