@@ -189,7 +189,12 @@ def sweep(integrator, parameter: str, values, fixed: dict, *, directions=("up", 
     """Steady responses of ``integrator`` at ``values`` of ``parameter`` (one of sigma, U, eta),
     the other two from ``fixed``; ``options`` go to ``simulate`` (e.g. max_time). ``shortcut``
     (eq. (21) only): a `PeriodOneShortcut` that ends each integration once it converges to a
-    stable period-1 orbit."""
+    stable period-1 orbit.
+
+    A point that starts from ``q0`` itself (the first of a direction, or one after a point with
+    no steady response) is the same computation in both directions: it is integrated once and its
+    response reused (``wall_seconds`` 0 where reused). Above the critical wind, where every point
+    is modulated or diverges, that halves the sweep."""
     if parameter not in PARAMETERS:
         raise ValueError(f"sweep parameter must be one of {PARAMETERS}, got {parameter!r}")
     values = sorted(float(v) for v in values)
@@ -203,14 +208,20 @@ def sweep(integrator, parameter: str, values, fixed: dict, *, directions=("up", 
     is_ode21 = isinstance(integrator, Ode21Integrator)
     method = "ode21" if is_ode21 else "ame"
     out = []
+    from_q0: dict = {}      # value -> the response from q0 (deterministic: reused by the other direction)
     for direction in directions:
         if direction not in ("up", "down"):
             raise ValueError(f"sweep direction must be 'up' or 'down', got {direction!r}")
         carried = None
         for value in (values if direction == "up" else values[::-1]):
             point = dict(base, **{parameter: value})
+            wall = None
             try:
-                if is_ode21:
+                if carried is None and value in from_q0:
+                    r, wall = from_q0[value], 0.0
+                    ok = r.steady and math.isfinite(r.a1)
+                    carried = _carried(r, is_ode21) if ok else None
+                elif is_ode21:
                     start = q0 if carried is None else tuple(c + d for c, d in zip(carried, q0))
                     if shortcut is not None:
                         shortcut.start_point()
@@ -218,16 +229,18 @@ def sweep(integrator, parameter: str, values, fixed: dict, *, directions=("up", 
                                                 shortcut=shortcut, **options)
                     else:
                         r = integrator.simulate(point["U"], point["eta"], point["sigma"], start, **options)
+                    if carried is None:
+                        from_q0[value] = r
                     ok = r.steady and math.isfinite(r.a1)
-                    # simulate takes (q1, q1', q2, q2'); its final state is (q1, q2, q1', q2').
-                    carried = (r.final_state[0], r.final_state[2], r.final_state[1], r.final_state[3]) if ok else None
+                    carried = _carried(r, is_ode21) if ok else None
                 else:
                     if carried is None:
                         r = integrator.simulate(point["U"], point["eta"], point["sigma"], q0, **options)
+                        from_q0[value] = r
                     else:
                         r = integrator.simulate(point["U"], point["eta"], point["sigma"], y0=carried, **options)
                     ok = r.steady and math.isfinite(r.a1)
-                    carried = tuple(r.final_state) if ok else None
+                    carried = _carried(r, is_ode21) if ok else None
             except ComputationError as exc:
                 # One point the integrator cannot carry (its step size collapses, a budget runs out)
                 # is that point's result, kept with the reason; it must not take the sweep's other
@@ -241,12 +254,21 @@ def sweep(integrator, parameter: str, values, fixed: dict, *, directions=("up", 
                                   a1=r.a1, a2=r.a2, a1_min=r.a1_min, a1_max=r.a1_max,
                                   a2_min=r.a2_min, a2_max=r.a2_max, steady=r.steady,
                                   periodic=r.periodic, message=r.message,
-                                  wall_seconds=r.wall_seconds, period=getattr(r, "period", math.nan),
+                                  wall_seconds=r.wall_seconds if wall is None else wall,
+                                  period=getattr(r, "period", math.nan),
                                   a1_error=getattr(r, "a1_error", math.nan),
                                   a2_error=getattr(r, "a2_error", math.nan)))
             if progress:
                 progress(out[-1])
     return tuple(out)
+
+
+def _carried(r, is_ode21: bool) -> tuple:
+    """The state a steady response hands the next point: eq. (21)'s simulate takes (q1, q1', q2, q2')
+    and ends in (q1, q2, q1', q2'); the AME's carries its own state."""
+    if is_ode21:
+        return (r.final_state[0], r.final_state[2], r.final_state[1], r.final_state[3])
+    return tuple(r.final_state)
 
 
 def _failed_point(parameter, value, direction, method, why: str) -> SweepPoint:
