@@ -3,8 +3,10 @@
 The scenes' overlays end an integration once Newton on the period map finds the stable period-1
 orbit it converges to. Cross-check on the real overlay points of two figure scenes, each swept
 both ways from the same starts with and without the shortcut: Fig. 7 (U* = 0.7, a resonance with
-hysteresis: the jumps must land on the same attractor) and Fig. 9 (amplitude-modulated responses
-between period-1 ones: those must stay "not steady"). Stated tolerance: the same class at every
+hysteresis: the jumps must land on the same attractor), Fig. 9 (amplitude-modulated responses
+between period-1 ones: those must stay "not steady") and Fig. 4c (U* = 0.9, near the Hopf point:
+an approach to a stable orbit too slow for the integration to call steady by max_time, which must
+stay "not steady", and so must the next point's start). Stated tolerance: the same class at every
 point, and at the periodic ones the amplitudes and their envelope within 1e-6 of max(a1, a2)
 (the full integration stops once they change by less than 1e-8 between chunks of 100 periods).
 """
@@ -40,7 +42,7 @@ def _both(name: str):
     return full, fast, shortcut
 
 
-@pytest.mark.parametrize("name", ["fig07", "fig09"])
+@pytest.mark.parametrize("name", ["fig07", "fig09", "fig04c"])
 def test_shortcut_gives_the_full_integrations_answer(name):
     full, fast, shortcut = _both(name)
     assert len(full) == len(fast)
@@ -104,3 +106,22 @@ def test_a_point_started_from_q0_is_integrated_once_for_both_directions():
     for a, b in zip(again, down):
         assert {k: v for k, v in a.__dict__.items() if k != "wall_seconds"} == \
                {k: v for k, v in b.__dict__.items() if k != "wall_seconds"}
+
+
+def test_settle_prediction_sees_a_slow_mode_with_a_small_share():
+    """`_settles_in_time` on a diagonal monodromy: a deviation 1e-6 along a mode contracting by 0.5
+    a period reaches a tenth of the tolerance (1e-9 of a_k = 1e-3, i.e. 1e-12) in 20 periods and is
+    accepted; the same plus 1e-9 along a mode contracting by 0.9999 needs ln(1e-3) / ln(0.9999) =
+    69000 periods, more than the 4775 periods left before max_time = 30000: refused."""
+    short = PeriodOneShortcut.__new__(PeriodOneShortcut)
+    M = np.diag([0.5, 0.5, 0.9999, 0.9999])
+    period = 2 * math.pi
+    fast = np.array([1e-6, 1e-6, 0.0, 0.0])
+    assert short._settles_in_time((1e-3, 1e-3), fast, M, period, 0.0, 30000.0, 1e-8)
+    assert not short._settles_in_time((1e-3, 1e-3), fast + np.array([0, 0, 1e-9, 0]), M, period, 0.0,
+                                      30000.0, 1e-8)
+    # the margin: 20 periods doubled plus SETTLE_MARGIN_PERIODS must fit before max_time
+    early = 30000.0 - (2 * 20 + PeriodOneShortcut.SETTLE_MARGIN_PERIODS + 2) * period
+    late = 30000.0 - (2 * 20 + PeriodOneShortcut.SETTLE_MARGIN_PERIODS - 5) * period
+    assert short._settles_in_time((1e-3, 1e-3), fast, M, period, early, 30000.0, 1e-8)
+    assert not short._settles_in_time((1e-3, 1e-3), fast, M, period, late, 30000.0, 1e-8)

@@ -316,8 +316,9 @@ class Ode21Integrator:
         atol and not growing). Stops at ``max_time`` otherwise.
 
         ``shortcut`` (forced responses only, eta* != 0): called after every chunk as
-        ``shortcut(U, eta, Omega, ends)`` with ``ends`` the states (q1, q2, q1', q2') at the last
-        ``window_periods + 1`` period ends, oldest first; it returns None (integrate on) or
+        ``shortcut(U, eta, Omega, ends, t, max_time, steady_tol)`` with ``ends`` the states (q1, q2,
+        q1', q2') at the last ``window_periods + 1`` period ends, oldest first, ``t`` the time
+        reached; it returns None (integrate on) or
         ``((a1, a2), state, note)``: the period-1 orbit this integration is converging to, which
         ends the run as a steady periodic response with those amplitudes, ``state`` as its final
         state and ``note`` in its message (`autocable.methods.integration.sweeps.PeriodOneShortcut`).
@@ -410,7 +411,7 @@ class Ode21Integrator:
             if progress:
                 progress(t, amps)
             if shortcut is not None and not autonomous and len(window) == keep:
-                got = shortcut(U, eta, Omega, window[::samples_per_period])
+                got = shortcut(U, eta, Omega, window[::samples_per_period], t, max_time, steady_tol)
                 if got is not None:
                     orbit_amps, orbit_state, note = got
                     return self._response(U, eta, sigma, Omega, orbit_amps, True, True, t, None,

@@ -67,10 +67,14 @@ class PeriodOneShortcut:
     same compiled DOP853 at rtol 1e-11, the monodromy by central differences). It is accepted
     only when it is stable with a margin (every Floquet multiplier of modulus below `MU_MAX`),
     the integration's own state is within `CLOSE` of |y*| of it and that distance shrank over the
-    last 20 periods. The integration at its full tolerance has then already chosen the attractor
-    (no loose-tolerance transient decides which side of a basin boundary it lands on, unlike
-    `ShootingSolver.steady`'s stages); the amplitudes are y*'s, from 64 samples over its period
-    from phase 0 as in the integration's window. At most `ATTEMPTS` Newton solves per point.
+    last 20 periods, and when the integration would itself have called the response steady before
+    max_time (`_settles_in_time`, from the deviation and the monodromy): a slow approach that the
+    integration reports "not steady" stays so, and so does the next point's start. The
+    integration at its full tolerance has then already chosen the attractor (no loose-tolerance
+    transient decides which side of a basin boundary it lands on, unlike `ShootingSolver.steady`'s
+    stages); the amplitudes are y*'s, from 64 samples over its period from phase 0 as in the
+    integration's window. At most `ATTEMPTS` Newton solves per point; a stable orbit found too
+    far away is kept and the distance measured again after the next chunks.
 
     Checked against the full integration on the overlay points of the figure scenes
     (tests/test_sweep_shortcut.py): the same class (periodic, steady, diverged) at every point and
@@ -95,11 +99,13 @@ class PeriodOneShortcut:
         self.integrator = integrator
         self.accepted = 0
         self._tries = 0
+        self._orbit = None          # the stable orbit Newton found at this point, not yet reached
         self._runs: dict = {}
 
     def start_point(self) -> None:
         """A new sweep point: its Newton budget anew."""
         self._tries = 0
+        self._orbit = None
 
     def _run(self, U: float, eta: float, Omega: float, samples: int):
         """A prepared compiled run over one forcing period (``samples`` + 1 grid times)."""
@@ -135,37 +141,83 @@ class PeriodOneShortcut:
             M[:, j] = (plus - minus) / (2 * h)
         return M
 
-    def __call__(self, U: float, eta: float, Omega: float, ends):
+    #: the prediction's margins: twice the predicted periods, plus this many, must fit before max_time
+    SETTLE_MARGIN_PERIODS = 200
+
+    def _settles_in_time(self, amps, delta, M, period: float, t: float, max_time: float,
+                         steady_tol: float) -> bool:
+        """Whether integrating on would call the response steady before ``max_time``, so that the
+        shortcut never turns a slow approach that the integration reports "not steady" (and whose
+        next point then starts from q0) into a steady one. `Ode21Integrator.simulate` stops when
+        each a_k changes by less than steady_tol of max(a_k, 1e-14) between chunks. The state's
+        deviation ``delta`` from the orbit evolves by the monodromy ``M`` (linear theory, the
+        deviation being below `CLOSE`): written in M's eigenvectors, delta_n = sum_i c_i mu_i^n v_i,
+        mode k's part |(q_k, q_k')| is at most sum_i |c_i| |mu_i|^n (|v_i,q_k| + |v_i,q_k'|), which
+        also sees a slow mode with a small share of the deviation. The periods until that bound is
+        below a tenth of the tolerance for both modes, doubled, plus `SETTLE_MARGIN_PERIODS`, must
+        fit before max_time."""
+        import numpy as np
+
+        try:
+            mu, V = np.linalg.eig(M)
+            c = np.abs(np.linalg.solve(V, delta))
+        except np.linalg.LinAlgError:
+            return False
+        if not np.all(np.isfinite(c)) or not float(np.max(np.abs(mu))) < 1.0:
+            return False
+        left = int((max_time - t) / period) - self.SETTLE_MARGIN_PERIODS
+        if left <= 0:
+            return False
+        n = np.arange(0, left // 2 + 1, dtype=float)
+        decay = np.abs(mu)[None, :] ** n[:, None]                   # periods x eigenvalues
+        for k in (0, 1):
+            share = c * (np.abs(V[k]) + np.abs(V[k + 2]))
+            need = 0.1 * steady_tol * max(amps[k], 1e-14)
+            if not float((decay @ share)[-1]) <= need:
+                return False
+        return True
+
+    def __call__(self, U: float, eta: float, Omega: float, ends, t: float, max_time: float,
+                 steady_tol: float = 1e-8):
         import numpy as np
 
         from autocable.methods.integration.shooting import periodic_half_range
 
         ends = np.asarray(ends, float)
-        y = ends[-1].copy()
-        size = float(np.linalg.norm(y))
-        if self._tries >= self.ATTEMPTS or not size > 0 or not np.all(np.isfinite(ends)):
+        if not np.all(np.isfinite(ends)):
             return None
-        if not float(np.max(np.linalg.norm(np.diff(ends, axis=0), axis=1))) < self.TRY_STEP * size:
-            return None
-        self._tries += 1
-        run = self._run(U, eta, Omega, 1)
-        for its in range(8):
-            yT = self._phi(run, y)
-            M = None if yT is None else self._monodromy(run, y)
-            if M is None:
-                return None
-            res = float(np.linalg.norm(yT - y)) / float(np.linalg.norm(y))
-            if res < self.TOL:
-                break
-            try:
-                y = y - np.linalg.solve(M - np.eye(4), yT - y)
-            except np.linalg.LinAlgError:
-                return None
+        key = (U, eta, Omega)
+        if self._orbit is not None and self._orbit[0] == key:
+            # Newton found this point's stable orbit at an earlier chunk, the integration was still
+            # too far from it: only the distance is measured again
+            _, y, M, mu_max, its, res = self._orbit
         else:
-            return None
-        mu_max = float(np.max(np.abs(np.linalg.eigvals(M))))
-        if not mu_max < self.MU_MAX:
-            return None
+            y = ends[-1].copy()
+            size = float(np.linalg.norm(y))
+            if self._tries >= self.ATTEMPTS or not size > 0:
+                return None
+            if not float(np.max(np.linalg.norm(np.diff(ends, axis=0), axis=1))) < self.TRY_STEP * size:
+                return None
+            self._tries += 1
+            run = self._run(U, eta, Omega, 1)
+            for its in range(8):
+                yT = self._phi(run, y)
+                M = None if yT is None else self._monodromy(run, y)
+                if M is None:
+                    return None
+                res = float(np.linalg.norm(yT - y)) / float(np.linalg.norm(y))
+                if res < self.TOL:
+                    break
+                try:
+                    y = y - np.linalg.solve(M - np.eye(4), yT - y)
+                except np.linalg.LinAlgError:
+                    return None
+            else:
+                return None
+            mu_max = float(np.max(np.abs(np.linalg.eigvals(M))))
+            if not mu_max < self.MU_MAX:
+                return None
+            self._orbit = (key, y, M, mu_max, its, res)
         d = np.linalg.norm(ends - y, axis=1)
         y_size = float(np.linalg.norm(y))
         if not (d[-1] <= self.CLOSE * y_size and d[-1] < d[0]):
@@ -176,6 +228,8 @@ class PeriodOneShortcut:
             return None
         w = sampled[:-1, :2]
         amps = (periodic_half_range(w[:, 0]), periodic_half_range(w[:, 1]))
+        if not self._settles_in_time(amps, ends[-1] - y, M, 2 * math.pi / Omega, t, max_time, steady_tol):
+            return None
         self.accepted += 1
         return (amps, tuple(float(v) for v in y),
                 f"period-1 orbit by Newton on the period map from the integration's state ({its} steps, "
