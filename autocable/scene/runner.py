@@ -734,7 +734,7 @@ def _with_twist(branches, spec, deriv):
             a2 = np.abs(np.asarray(b.table["a2"], dtype=float))
             U = np.asarray(b.table["U"], dtype=float) if "U" in b.table else np.zeros_like(a2)
             tw = per_q2 * a2
-            ce = np.array([err(t, nu * om * x1, nu * om * x2, u) for t, x1, x2, u in zip(tw, a1, a2, U)])
+            ce = err.many(tw, nu * om * a1, nu * om * a2, U)
             ok = np.isfinite(tw)
             largest = max(largest, float(tw[ok].max()) if ok.any() else 0.0)
             fin = ce[np.isfinite(ce)]
