@@ -60,6 +60,18 @@ class _KernelChart(_Chart):
     def F(self, Y) -> np.ndarray:
         return self._both(Y)[0].copy()
 
+    def locate_test(self, kind: str, Ya, Yb, tol: float) -> tuple[np.ndarray, bool]:
+        """`chart._locate` with `_analyse_equilibria`'s test function of ``kind`` (LP, BP, H),
+        the whole Brent search in one C call (`CKernel.locate`)."""
+        return self.kernel.locate(self.cfg, Ya, Yb, _KINDS[kind], tol)
+
+    def lam_tangent(self, Y) -> np.ndarray | None:
+        """The unit tangent at Y with a positive parameter component (None when [DF~; e_lam] is
+        singular: a fold at Y)."""
+        e = np.zeros(len(Y))
+        e[-1] = 1.0
+        return self.kernel.tangent(self.cfg, Y, e)
+
     def DF(self, Y) -> np.ndarray:
         return self._both(Y)[1].copy()
 
@@ -73,7 +85,9 @@ class _KSide:
     message: str
 
 
-_EMPTY_KEYS = ("Y", "T", "tests", "npos", "J", "polished")
+_EMPTY_KEYS = ("Y", "T", "tests", "npos", "J", "E", "polished")
+#: The test-function codes of the C locator (`CKernel.locate`).
+_KINDS = {"LP": 0, "BP": 1, "H": 2}
 
 
 def _single(chart: _KernelChart, Y: np.ndarray, t: np.ndarray) -> dict:
@@ -83,7 +97,8 @@ def _single(chart: _KernelChart, Y: np.ndarray, t: np.ndarray) -> dict:
     ev = np.linalg.eigvals(J)
     return {"Y": Y[None, :].copy(), "T": t[None, :].copy(),
             "tests": np.array([[t[-1], np.linalg.det(np.vstack([chart.DF(Y), t])), _hopf_test(J)]]),
-            "npos": np.array([int(np.sum(ev.real > 0))]), "J": J[None], "polished": np.zeros(1, bool)}
+            "npos": np.array([int(np.sum(ev.real > 0))]), "J": J[None], "E": -np.sort(-ev)[None],
+            "polished": np.zeros(1, bool)}
 
 
 def _run_side(chart: _KernelChart, problem: EquilibriumProblem, settings: ContinuationSettings,
@@ -130,12 +145,16 @@ def _analysis_inputs(chart: _KernelChart, arr: dict) -> tuple[dict, dict]:
     Y = arr["Y"]
     P = np.repeat(chart.base[None, :], len(Y), axis=0)
     P[:, chart.k] += chart.pscale * Y[:, -1]
-    ev = np.linalg.eigvals(J) if len(J) else np.zeros((0, J.shape[-1]), complex)
-    # Each row by decreasing real part, then decreasing imaginary part (as the PyCont path sorts).
-    ev = -np.sort(-ev, axis=1)
-    numpy_count = np.sum(ev.real > 0, axis=1)
     count = arr["npos"]
     decided = count >= 0
+    # The kernel's eigenvalues (each row by decreasing real part, then decreasing imaginary part,
+    # as the PyCont path sorts numpy's); numpy's where the Routh count is undecided (an
+    # eigenvalue next to the imaginary axis: LAPACK decides its sign) or the kernel's QR failed.
+    ev = arr["E"].copy()
+    redo = ~decided | ~np.all(np.isfinite(ev), axis=1)
+    if np.any(redo):
+        ev[redo] = -np.sort(-np.linalg.eigvals(J[redo]), axis=1)
+    numpy_count = np.sum(ev.real > 0, axis=1)
     used = np.where(decided, count, numpy_count)
     stable = used == 0
     pre = {"X": Y[:, :-1] * chart.xscale, "P": P, "eigen": ev, "stable": stable, "T": arr["T"],
@@ -159,7 +178,8 @@ def continue_equilibria_compiled(problem: EquilibriumProblem,
     kernel = compiled_kernel(sysm)
     chart = _KernelChart.around(_Chart.of(problem), kernel)
     # Newton on the kernel's F and J (equilibrium_near only calls f and jac).
-    Y0, v0 = _start_on_chart(problem, settings, start, chart, kernel)
+    Y0, v0 = _start_on_chart(problem, settings, start, chart, kernel, newton=kernel.newton,
+                             tangent=chart.lam_tangent)
     wanted = {"both": ("forward", "backward"), "forward": ("forward",), "backward": ("backward",)}[directions]
     t_setup = time.perf_counter()
     sides: dict[str, _KSide] = {}

@@ -127,7 +127,10 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
             def tau(Y):
                 x, p = chart.to_phys(Y)
                 return _hopf_test(sysm.jac(x, p))
-        Y, ok = _locate(chart, Ya, Yb, tau, settings.newton_tol)
+        # A chart that locates the same test functions itself (the compiled engine's, in C).
+        located = getattr(chart, "locate_test", None)
+        Y, ok = located(kind, Ya, Yb, settings.newton_tol) if located is not None else \
+            _locate(chart, Ya, Yb, tau, settings.newton_tol)
         if kind == "BP":
             Y, ok = _sharpen_branch_point(chart, Y, ok, float(np.linalg.norm(ref)), settings.newton_tol)
         x, p = chart.to_phys(Y)
@@ -296,20 +299,27 @@ def _relabel(points: Sequence[SpecialPoint]) -> tuple[SpecialPoint, ...]:
 
 
 def _start_on_chart(problem: EquilibriumProblem, settings: ContinuationSettings, start, chart,
-                    fields) -> tuple[np.ndarray, np.ndarray]:
+                    fields, newton=None, tangent=None) -> tuple[np.ndarray, np.ndarray]:
     """The start state corrected by Newton at the run's start value, on ``chart``, and the unit
     tangent there, oriented towards increasing parameter. ``fields`` gives f and jac: the
-    `System` (PyCont engine) or the compiled kernel."""
+    `System` (PyCont engine) or the compiled kernel; ``newton`` (x0, p, tol=, scale=) -> (x,
+    converged, residual) replaces `equilibrium_near` on ``fields`` and ``tangent`` (Y) -> the unit
+    tangent with a positive parameter component (or None) the SVD, when given (the compiled
+    engine's C versions of both)."""
     sysm = problem.system
     x0 = np.zeros(sysm.dimension) if start is None else np.asarray(start, float)
     if x0.shape != (sysm.dimension,):
         raise StartError(f"start state must have {sysm.dimension} entries {sysm.variables}, got {x0.shape}")
-    x, ok, res = equilibrium_near(fields, x0, chart.p(0.0), tol=settings.newton_tol, scale=chart.xscale)
+    x, ok, res = (newton or (lambda *a, **k: equilibrium_near(fields, *a, **k)))(
+        x0, chart.p(0.0), tol=settings.newton_tol, scale=chart.xscale)
     if not ok:
         raise StartError(f"Newton from the start state did not converge to an equilibrium at "
                          f"{problem.parameter} = {chart.value(0.0):g} (residual {res:.3g}); start by "
                          f"integration or from a labelled point")
     Y0 = chart.to_chart(x, chart.value(0.0))
+    v0 = tangent(Y0) if tangent is not None else None
+    if v0 is not None and v0[-1] > 1e-12:
+        return Y0, v0
     v0 = _tangent(chart.DF(Y0))
     if abs(v0[-1]) > 1e-12:
         v0 = v0 * np.sign(v0[-1])
