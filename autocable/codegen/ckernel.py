@@ -62,7 +62,7 @@ __all__ = ["KERNEL_VERSION", "KernelBuildError", "CKernel", "kernel_source", "co
            "build_timing", "REASONS"]
 
 #: Bump when the emitted C changes meaning: it is part of the content hash.
-KERNEL_VERSION = "5"
+KERNEL_VERSION = "6"
 CFLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Werror=implicit-function-declaration")
 
 #: How a side of the branch ended (the ``reason`` code returned by the C loop).
@@ -126,8 +126,11 @@ def kernel_source(variables: Sequence[str], parameters: Sequence[str], rhs: Sequ
     body_f = _block(pr, list(F), [f"out[{i}]" for i in range(n)], "ac_tf")
     body_j = _block(pr, [J[i, j] for i in range(n) for j in range(n)],
                     [f"out[{i * n + j}]" for i in range(n) for j in range(n)], "ac_tj")
-    body_p = _block(pr, [Jp[i, j] for i in range(n) for j in range(m)],
-                    [f"out[{i * m + j}]" for i in range(n) for j in range(m)], "ac_tp") if m else []
+    # J_p one column per parameter: the chart needs only the continued parameter's.
+    cols = []
+    for j in range(m):
+        body = _block(pr, [Jp[i, j] for i in range(n)], [f"out[{i}]" for i in range(n)], f"ac_tp{j}_")
+        cols.append(f"    case {j}: {{\n" + "\n".join("    " + ln for ln in body) + "\n        break;\n    }")
     head = f"""/* autocable C kernel (version {KERNEL_VERSION}): x = ({', '.join(variables)}),
    p = ({', '.join(parameters)}). Generated from sympy; do not edit. */
 #include <math.h>
@@ -146,9 +149,22 @@ static void jac_eval(const double *x, const double *p, double *out) {{
 {chr(10).join(body_j)}
 }}
 
-static void jacp_eval(const double *x, const double *p, double *out) {{
+/* Column j of J_p (n entries). */
+static void jacp_col_eval(const double *x, const double *p, int j, double *out) {{
     (void)x; (void)p; (void)out;
-{chr(10).join(body_p)}
+    switch (j) {{
+{chr(10).join(cols)}
+    default: break;
+    }}
+}}
+
+static void jacp_eval(const double *x, const double *p, double *out) {{
+    double col[N];
+    int i, j;
+    for (j = 0; j < NP; j++) {{
+        jacp_col_eval(x, p, j, col);
+        for (i = 0; i < N; i++) out[i * M + j] = col[i];
+    }}
 }}
 """
     return head + _GENERIC
@@ -172,7 +188,7 @@ static void chart_of(const double *cfg, chart_t *c) {
 
 /* F~(Y) (n), DF~(Y) (n x (n+1), row major, may be NULL), J_x physical (n x n, may be NULL). */
 static void chart_eval(const chart_t *c, const double *Y, double *Fo, double *DF, double *Jx) {
-    double x[N], p[M], f[N], J[N * N], Jp[N * M];
+    double x[N], p[M], f[N], J[N * N], Jp[N];
     int i, j;
     for (i = 0; i < N; i++) x[i] = Y[i] * c->xs;
     for (j = 0; j < NP; j++) p[j] = c->base[j];
@@ -182,10 +198,10 @@ static void chart_eval(const chart_t *c, const double *Y, double *Fo, double *DF
         jac_eval(x, p, J);
         if (Jx) memcpy(Jx, J, sizeof(J));
         if (DF) {
-            if (NP) jacp_eval(x, p, Jp);
+            if (NP) jacp_col_eval(x, p, c->k, Jp);
             for (i = 0; i < N; i++) {
                 for (j = 0; j < N; j++) DF[i * (N + 1) + j] = J[i * N + j];
-                DF[i * (N + 1) + N] = NP ? Jp[i * M + c->k] * c->ps / c->xs : 0.0;
+                DF[i * (N + 1) + N] = NP ? Jp[i] * c->ps / c->xs : 0.0;
             }
         }
     }

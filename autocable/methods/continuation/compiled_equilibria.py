@@ -60,6 +60,9 @@ class _KernelChart(_Chart):
     def F(self, Y) -> np.ndarray:
         return self._both(Y)[0].copy()
 
+    def jac(self, x, p) -> np.ndarray:
+        return self.kernel.jac(x, p)
+
     def locate_test(self, kind: str, Ya, Yb, tol: float) -> tuple[np.ndarray, bool]:
         """`chart._locate` with `_analyse_equilibria`'s test function of ``kind`` (LP, BP, H),
         the whole Brent search in one C call (`CKernel.locate`)."""
@@ -151,17 +154,18 @@ def _analysis_inputs(chart: _KernelChart, arr: dict) -> tuple[dict, dict]:
     # as the PyCont path sorts numpy's); numpy's where the Routh count is undecided (an
     # eigenvalue next to the imaginary axis: LAPACK decides its sign) or the kernel's QR failed.
     ev = arr["E"].copy()
-    redo = ~decided | ~np.all(np.isfinite(ev), axis=1)
-    if np.any(redo):
+    redo = ~decided
+    if np.isnan(ev.real.sum()):           # the kernel's QR iteration failed somewhere
+        redo |= np.isnan(ev.real).any(axis=1)
+    if redo.any():
         ev[redo] = -np.sort(-np.linalg.eigvals(J[redo]), axis=1)
-    numpy_count = np.sum(ev.real > 0, axis=1)
-    used = np.where(decided, count, numpy_count)
-    stable = used == 0
+    numpy_count = np.count_nonzero(ev.real > 0, axis=1)
+    stable = np.where(decided, count, numpy_count) == 0
     pre = {"X": Y[:, :-1] * chart.xscale, "P": P, "eigen": ev, "stable": stable, "T": arr["T"],
            "hopf": arr["tests"][:, 2], "bdet": arr["tests"][:, 1]}
-    info = {"engine": "compiled", "kernel_undecided_stability": int(np.sum(~decided)),
-            "kernel_stability_disagreements": int(np.sum(decided & (count != numpy_count))),
-            "kernel_unstable_counts": [int(c) for c in count]}
+    info = {"engine": "compiled", "kernel_undecided_stability": int(np.count_nonzero(~decided)),
+            "kernel_stability_disagreements": int(np.count_nonzero(decided & (count != numpy_count))),
+            "kernel_unstable_counts": count.tolist()}
     return pre, info
 
 

@@ -131,17 +131,24 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
         located = getattr(chart, "locate_test", None)
         Y, ok = located(kind, Ya, Yb, settings.newton_tol) if located is not None else \
             _locate(chart, Ya, Yb, tau, settings.newton_tol)
+        sv = None
         if kind == "BP":
-            Y, ok = _sharpen_branch_point(chart, Y, ok, float(np.linalg.norm(ref)), settings.newton_tol)
+            # The rank test below on the located point is also `_sharpen_branch_point`'s test for
+            # a point that needs no sharpening: one SVD for both.
+            sv = np.linalg.svd(chart.DF(Y), compute_uv=False)
+            if not (ok and sv[-1] <= 1e-7 * sv[0]):
+                Y, ok = _sharpen_branch_point(chart, Y, ok, float(np.linalg.norm(ref)), settings.newton_tol)
+                sv = None
         x, p = chart.to_phys(Y)
-        J = sysm.jac(x, p)
+        J = chart.jac(x, p)
         ev = np.linalg.eigvals(J)
         extra: dict[str, Any] = {"eigenvalues": [complex(e) for e in ev]}
         message = ""
         if kind in ("LP", "BP"):
             # Fold or branch point is decided by the rank of [J_x, J_p]: full at a fold, deficient at
             # a BP (where a pitchfork's new branch also turns in the parameter: vp changes sign there).
-            sv = np.linalg.svd(chart.DF(Y), compute_uv=False)
+            if sv is None:
+                sv = np.linalg.svd(chart.DF(Y), compute_uv=False)
             deficient = sv[-1] <= 1e-7 * sv[0]
             if kind == "BP" and not deficient:
                 rejected.append(("BP", chart.value(Y[-1])))
@@ -247,9 +254,10 @@ def _sharpen_branch_point(chart: _Chart, Y: np.ndarray, ok: bool, reach: float, 
     point is used when Newton converges within ``reach`` (the bracket's length) of the located
     point with sigma_min/sigma_max of DF below 1e-7; otherwise the located point is kept."""
     DF = chart.DF(Y)
-    U_, sv, _ = np.linalg.svd(DF)
+    sv = np.linalg.svd(DF, compute_uv=False)
     if ok and sv[-1] <= 1e-7 * sv[0]:
         return Y, ok
+    U_ = np.linalg.svd(DF)[0]
     n = DF.shape[0]
     psi = U_[:, -1].copy()
     Z = np.concatenate([Y, [0.0], psi])
