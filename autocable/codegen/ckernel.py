@@ -62,7 +62,7 @@ __all__ = ["KERNEL_VERSION", "KernelBuildError", "CKernel", "kernel_source", "co
            "build_timing", "REASONS"]
 
 #: Bump when the emitted C changes meaning: it is part of the content hash.
-KERNEL_VERSION = "6"
+KERNEL_VERSION = "7"
 CFLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Werror=implicit-function-declaration")
 
 #: How a side of the branch ended (the ``reason`` code returned by the C loop).
@@ -219,8 +219,9 @@ void ac_chart_batch(const double *cfg, int K, const double *Y, double *Fo, doubl
 }
 
 /* Gaussian elimination with partial pivoting of the n x n row-major A (destroyed); solves A z = b
-   in place when b is not NULL; returns det A (0 on an exactly singular pivot). */
-static double lu_solve(int n, double *A, double *b) {
+   in place when b is not NULL; returns det A (0 on an exactly singular pivot). Inlined: every
+   caller passes a constant n (N, N + 1, the bialternate order), which the compiler unrolls. */
+static inline __attribute__((always_inline)) double lu_solve(int n, double *A, double *b) {
     int i, j, r, piv;
     double det = 1.0;
     for (j = 0; j < n; j++) {
@@ -228,7 +229,8 @@ static double lu_solve(int n, double *A, double *b) {
         for (r = j + 1; r < n; r++) if (fabs(A[r * n + j]) > fabs(A[piv * n + j])) piv = r;
         if (A[piv * n + j] == 0.0) return 0.0;
         if (piv != j) {
-            for (i = 0; i < n; i++) { double t = A[j * n + i]; A[j * n + i] = A[piv * n + i]; A[piv * n + i] = t; }
+            /* Columns before j are no longer read. */
+            for (i = j; i < n; i++) { double t = A[j * n + i]; A[j * n + i] = A[piv * n + i]; A[piv * n + i] = t; }
             if (b) { double t = b[j]; b[j] = b[piv]; b[piv] = t; }
             det = -det;
         }
@@ -881,7 +883,8 @@ def cached_library(folder: Path, build: Callable[[], None], what: str) -> tuple[
 
 
 def _key(name: str, variables, parameters, rhs, cc: str) -> str:
-    return cache.content_hash({"version": KERNEL_VERSION, "variables": list(variables),
+    # The system-independent C text too: an edit to it that forgets KERNEL_VERSION still rebuilds.
+    return cache.content_hash({"version": KERNEL_VERSION, "generic": _GENERIC, "variables": list(variables),
                                "parameters": list(parameters), "rhs": [sp.srepr(e) for e in rhs],
                                "cc": cc, "cflags": list(CFLAGS), "name": name})
 
@@ -933,19 +936,19 @@ class CKernel:
     def f(self, x, p) -> np.ndarray:
         out = np.empty(self.n)
         x, p = _c(x), _c(p)   # named: a temporary copy would be freed before the call
-        self.lib.ac_f(x.ctypes.data, p.ctypes.data, out.ctypes.data)
+        self.lib.ac_f(_ptr(x), _ptr(p), _ptr(out))
         return out
 
     def jac(self, x, p) -> np.ndarray:
         out = np.empty((self.n, self.n))
         x, p = _c(x), _c(p)   # named: a temporary copy would be freed before the call
-        self.lib.ac_jac(x.ctypes.data, p.ctypes.data, out.ctypes.data)
+        self.lib.ac_jac(_ptr(x), _ptr(p), _ptr(out))
         return out
 
     def jac_p(self, x, p) -> np.ndarray:
         out = np.empty((self.n, max(self.m, 1)))
         x, p = _c(x), _c(p)   # named: a temporary copy would be freed before the call
-        self.lib.ac_jacp(x.ctypes.data, p.ctypes.data, out.ctypes.data)
+        self.lib.ac_jacp(_ptr(x), _ptr(p), _ptr(out))
         return out[:, :self.m]
 
     def chart(self, cfg: np.ndarray, Y, derivative: bool) -> np.ndarray:
@@ -953,27 +956,27 @@ class CKernel:
         Y = np.ascontiguousarray(Y, float)
         if derivative:
             out = np.empty((self.n, self.n + 1))
-            self.lib.ac_chart(cfg.ctypes.data, Y.ctypes.data, None, out.ctypes.data)
+            self.lib.ac_chart(_ptr(cfg), _ptr(Y), None, _ptr(out))
         else:
             out = np.empty(self.n)
-            self.lib.ac_chart(cfg.ctypes.data, Y.ctypes.data, out.ctypes.data, None)
+            self.lib.ac_chart(_ptr(cfg), _ptr(Y), _ptr(out), None)
         return out
 
     def hopf_test(self, J) -> float:
         """det(2J (.) I) as the loop computes it (1 for n = 1)."""
         J = _c(J)
-        return float(self.lib.ac_hopf(J.ctypes.data))
+        return float(self.lib.ac_hopf(_ptr(J)))
 
     def unstable_count(self, J) -> int:
         """Eigenvalues of J with positive real part by the loop's Routh count (-1: undecided)."""
         J = _c(J)
-        return int(self.lib.ac_count(J.ctypes.data))
+        return int(self.lib.ac_count(_ptr(J)))
 
     def both(self, cfg: np.ndarray, Y) -> tuple[np.ndarray, np.ndarray]:
         """(F~(Y), DF~(Y)) in one call."""
         Y = np.ascontiguousarray(Y, float)
         f, df = np.empty(self.n), np.empty((self.n, self.n + 1))
-        self.lib.ac_chart(cfg.ctypes.data, Y.ctypes.data, f.ctypes.data, df.ctypes.data)
+        self.lib.ac_chart(_ptr(cfg), _ptr(Y), _ptr(f), _ptr(df))
         return f, df
 
     def chart_batch(self, cfg: np.ndarray, Y) -> tuple[np.ndarray, np.ndarray]:
@@ -981,7 +984,7 @@ class CKernel:
         Y = np.ascontiguousarray(Y, float)
         K = Y.shape[0]
         f, df = np.empty((K, self.n)), np.empty((K, self.n, self.n + 1))
-        self.lib.ac_chart_batch(cfg.ctypes.data, K, Y.ctypes.data, f.ctypes.data, df.ctypes.data)
+        self.lib.ac_chart_batch(_ptr(cfg), K, _ptr(Y), _ptr(f), _ptr(df))
         return f, df
 
     def eigenvalues(self, J) -> np.ndarray:
@@ -989,7 +992,7 @@ class CKernel:
         decreasing real part, then decreasing imaginary part; NaN when QR did not converge."""
         J = _c(J)
         out = np.empty(2 * self.n)
-        self.lib.ac_eig(J.ctypes.data, out.ctypes.data)
+        self.lib.ac_eig(_ptr(J), _ptr(out))
         return out[:self.n] + 1j * out[self.n:]
 
     def locate(self, cfg: np.ndarray, Ya, Yb, kind: int, tol: float) -> tuple[np.ndarray, bool]:
@@ -997,23 +1000,23 @@ class CKernel:
         `equilibrium_analysis`) between the branch points Ya and Yb, in C: (Y, converged)."""
         Ya, Yb = _c(Ya), _c(Yb)
         Y = np.empty(self.n + 1)
-        ok = self.lib.ac_locate(cfg.ctypes.data, Ya.ctypes.data, Yb.ctypes.data, int(kind), float(tol),
-                                Y.ctypes.data)
+        ok = self.lib.ac_locate(_ptr(cfg), _ptr(Ya), _ptr(Yb), int(kind), float(tol),
+                                _ptr(Y))
         return Y, bool(ok)
 
     def newton(self, x0, p, tol: float, scale: float, maxiter: int = 50) -> tuple[np.ndarray, bool, float]:
         """`equilibria.equilibrium_near` on the kernel's f and J_x: (x, converged, max|f|)."""
         x0, p = _c(x0), _c(p)
         x, res = np.empty(self.n), np.empty(1)
-        ok = self.lib.ac_newton(x0.ctypes.data, p.ctypes.data, float(tol), float(scale), int(maxiter),
-                                x.ctypes.data, res.ctypes.data)
+        ok = self.lib.ac_newton(_ptr(x0), _ptr(p), float(tol), float(scale), int(maxiter),
+                                _ptr(x), _ptr(res))
         return x, bool(ok), float(res[0])
 
     def tangent(self, cfg: np.ndarray, Y, tref) -> np.ndarray | None:
         """The unit tangent at Y with t . tref > 0 ([DF~; tref] t = e_{n+1}), or None when singular."""
         Y, tref = _c(Y), _c(tref)
         t = np.empty(self.n + 1)
-        ok = self.lib.ac_tangent(cfg.ctypes.data, Y.ctypes.data, tref.ctypes.data, t.ctypes.data)
+        ok = self.lib.ac_tangent(_ptr(cfg), _ptr(Y), _ptr(tref), _ptr(t))
         return t if ok else None
 
     def continue_side(self, cfg: np.ndarray, Y0, d0, opts: Sequence[float], max_points: int) -> dict:
@@ -1025,12 +1028,25 @@ class CKernel:
         npos, pol, reason = np.empty(mp, np.intc), np.empty(mp, np.intc), np.zeros(1, np.intc)
         o = np.ascontiguousarray(opts, float)
         Y0, d0 = _c(Y0), _c(d0)
-        k = self.lib.ac_continue(cfg.ctypes.data, Y0.ctypes.data, d0.ctypes.data, o.ctypes.data, mp,
-                                 Ys.ctypes.data, Ts.ctypes.data, tests.ctypes.data, npos.ctypes.data,
-                                 Js.ctypes.data, Es.ctypes.data, pol.ctypes.data, reason.ctypes.data)
+        k = self.lib.ac_continue(_ptr(cfg), _ptr(Y0), _ptr(d0), _ptr(o), mp,
+                                 _ptr(Ys), _ptr(Ts), _ptr(tests), _ptr(npos),
+                                 _ptr(Js), _ptr(Es), _ptr(pol), _ptr(reason))
         return {"Y": Ys[:k], "T": Ts[:k], "tests": tests[:k], "npos": npos[:k].astype(int), "J": Js[:k],
                 "E": Es[:k, 0] + 1j * Es[:k, 1], "polished": pol[:k].astype(bool),
                 "reason": REASONS.get(int(reason[0]), "error")}
+
+
+_CHAR = ctypes.c_char
+
+
+def _ptr(a: np.ndarray) -> int:
+    """The address of ``a``'s data. ``a.ctypes.data`` builds a Python object and imports a module
+    on every access (about 1 us, several per kernel call); a ctypes view of a writable buffer is a
+    few times cheaper. The caller keeps ``a`` alive until the C call returns (as with .ctypes)."""
+    try:
+        return ctypes.addressof(_CHAR.from_buffer(a))
+    except (TypeError, ValueError, BufferError):   # read-only or empty arrays
+        return a.ctypes.data
 
 
 def _c(a) -> np.ndarray:
@@ -1089,7 +1105,7 @@ def _load(path: Path, n: int, m: int, timings) -> CKernel:
     lib.ac_count.argtypes = [vp]
     lib.ac_count.restype = ip
     dims = np.zeros(2, np.intc)
-    lib.ac_dims(dims.ctypes.data)
+    lib.ac_dims(_ptr(dims))
     if (int(dims[0]), int(dims[1])) != (n, m):
         raise KernelBuildError(f"C kernel {path}: built for n = {dims[0]}, m = {dims[1]}, expected "
                                f"{n}, {m}; delete {path.parent} to rebuild it")
