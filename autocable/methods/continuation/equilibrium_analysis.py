@@ -72,22 +72,24 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
         else:
             polished.append(np.asarray(Y, float).copy())
             moved += 1
-    Ys = polished if precomputed is None else [np.asarray(Y, float) for Y in Ys]
-    X = np.array([chart.to_phys(Y)[0] for Y in Ys]) if precomputed is None else precomputed["X"]
-    P = np.array([chart.to_phys(Y)[1] for Y in Ys]) if precomputed is None else precomputed["P"]
-    eig = np.zeros((len(Ys), n), dtype=complex)
-    detJ = np.zeros(len(Ys))
-    hopf = np.zeros(len(Ys))
-    for i in range(len(Ys) if precomputed is None else 0):
-        J = sysm.jac(X[i], P[i])
-        ev = np.linalg.eigvals(J)
-        eig[i] = ev[np.lexsort((-ev.imag, -ev.real))]
-        detJ[i] = np.linalg.det(J)
-        hopf[i] = _hopf_test(J)
-    stable = np.max(eig.real, axis=1) < 0 if n else np.ones(len(Ys), bool)
-    T = _oriented_tangents(chart, Ys) if len(Ys) > 1 and precomputed is None else np.zeros((len(Ys), n + 1))
     if precomputed is not None:
+        # The compiled engine's rows of one float array: nothing to convert.
+        Ys = list(Ys)
+        X, P = precomputed["X"], precomputed["P"]
         eig, stable, T, hopf = (np.asarray(precomputed[k]) for k in ("eigen", "stable", "T", "hopf"))
+    else:
+        Ys = polished
+        X = np.array([chart.to_phys(Y)[0] for Y in Ys])
+        P = np.array([chart.to_phys(Y)[1] for Y in Ys])
+        eig = np.zeros((len(Ys), n), dtype=complex)
+        hopf = np.zeros(len(Ys))
+        for i in range(len(Ys)):
+            J = sysm.jac(X[i], P[i])
+            ev = np.linalg.eigvals(J)
+            eig[i] = ev[np.lexsort((-ev.imag, -ev.real))]
+            hopf[i] = _hopf_test(J)
+        stable = np.max(eig.real, axis=1) < 0 if n else np.ones(len(Ys), bool)
+        T = _oriented_tangents(chart, Ys) if len(Ys) > 1 else np.zeros((len(Ys), n + 1))
     vp = T[:, -1]
     # The branch-point test function det([J_x, J_p; v]) changes sign at simple BPs, not at folds.
     bdet = np.array([np.linalg.det(np.vstack([chart.DF(Y), t])) for Y, t in zip(Ys, T)]) \
@@ -231,10 +233,11 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
             state=tuple(x), parameters=sysm.parameter_dict(p), index=int(i), converged=bool(ok),
             confirmed_by_pycont=None if confirmed is None else bool(confirmed), origin=origin, message=message,
             extra=extra))
-    disagree = [i for i, s in enumerate(pycont_stab) if s is not None and (s == "S") != bool(stable[i])]
+    checked = [i for i, s in enumerate(pycont_stab) if s is not None]
+    disagree = [i for i in checked if (pycont_stab[i] == "S") != bool(stable[i])]
     info = {"pycont_stability_disagreements": len(disagree),
             "pycont_stability_disagreement_points": disagree[:50],
-            "pycont_stability_checked": sum(s is not None for s in pycont_stab),
+            "pycont_stability_checked": len(checked),
             "neutral_saddles": neutral, "rejected_candidates": rejected,
             "lp_merged_into_bp": [chart.value(f[2][-1]) for f in merged], "points_kept_unpolished": moved}
     return _Analysis(tuple(Ys), X, P, eig, stable, tuple(specials), info)
