@@ -58,6 +58,8 @@ AUTO_PYTHON_ENV = "AUTOCABLE_AUTO_PYTHON"
 #: The cases of the benchmark: (label, U, eta), sigma in SIGMA_RANGE.
 CASES = (("fig6", 0.0, 1.4e-3), ("fig5a", 0.0, 8.2e-5))
 SIGMA_RANGE = (-0.05, 0.05)
+#: The compiled engine's goal: at most this many times AUTO-07p's cost per point, on every case.
+COMPILED_TARGET = 0.5
 #: sigma values where a1 is compared (AUTO labels them as UZ points in a separate, untimed run).
 CHECK_SIGMAS = (-0.04, -0.02, 0.0, 0.02, 0.04)
 
@@ -720,12 +722,12 @@ def bench_auto(model_path: str, auto_python: str | None = None, repeats: int = 3
     one_time = build_timing(system)
     return {
         "compiled": {"one_time": one_time, "ratio_to_auto_worst": worst_c,
-                     "target": {"ratio_to_auto": 2.0, "met": bool(worst_c <= 2.0)},
+                     "target": {"ratio_to_auto": COMPILED_TARGET, "met": bool(worst_c <= COMPILED_TARGET)},
                      "timing": "seconds_per_point: the whole continue_equilibria(engine='compiled') call "
-                               "(start Newton, C loop with test functions and Routh counts, numpy "
-                               "eigenvalues of every point, special points located by _locate, l1, "
-                               "Branch) over its steps, best of the timed runs (wall); "
-                               "cpu_seconds_per_point the same in process CPU time"},
+                               "(start Newton, C loop with test functions, Routh counts and "
+                               "eigenvalues of every point, special points located (C) and "
+                               "classified, l1, Branch) over its steps, best of the timed runs "
+                               "(wall); cpu_seconds_per_point the same in process CPU time"},
         "model": model_path, "system": system.name, "parameter": "sigma", "range": list(SIGMA_RANGE),
         "auto": {"python": python, "bifpy_version": auto.get("bifpy_version"),
                  "gfortran": auto.get("gfortran"), "equation_file_fflags": auto.get("fflags"),

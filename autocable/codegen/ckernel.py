@@ -22,7 +22,13 @@ Luongo & Zulli, or any `autocable.methods.continuation.system.System`) it writes
 * inside a step where a test function changes sign, an extra point on its zero (Illinois regula
   falsi in the arclength of the step, each trial point by Keller's corrector), as AUTO puts its
   special points on the branch: the special point is then bracketed tightly for autocable's
-  locator, which makes the final location (Python) cheap.
+  locator;
+* per point the eigenvalues of J (balancing, Hessenberg reduction by stabilised elimination,
+  Francis double-shift QR: EISPACK's balanc/elmhes/hqr sequence), sorted by decreasing real part;
+* autocable's locator itself (``ac_locate``: `chart._locate`'s Brent search on the chord, each
+  trial point corrected orthogonally to it, with the analysis's LP, BP and Hopf test functions),
+  Newton at fixed parameters (``ac_newton``, `equilibria.equilibrium_near`) and the tangent at
+  a point (``ac_tangent``), so that a branch costs a few Python calls besides the loop.
 
 Degenerate Routh arrays. The characteristic polynomial (Faddeev-LeVerrier) is taken for J / ||J||_F
 so that its coefficients are O(1); when an entry of the Routh array's first column is below 1e-9

@@ -5,18 +5,23 @@ What runs where. `autocable.codegen.ckernel` compiles, from the same sympy right
 continues, F, J_x, J_p, the scaled chart (x~ = x / xscale, lam = (p - p0) / pscale) and a Keller
 pseudo-arclength loop with PyCont's step control; per point it returns the polished point, its
 tangent, the test functions autocable uses (the tangent's parameter component for LP,
-det [DF~; t] for BP, det(2J (.) I) for Hopf) and the count of eigenvalues with positive real part
-(Routh array; -1 when undecided), and it puts an extra point on each zero of a test function
-inside a step (as AUTO does). Python then does what the PyCont path does with PyCont's points,
-with the same code (`_analyse_equilibria` given the kernel's arrays): sign changes of the test
-functions, location by `continuation_chart._locate` (Brent on the chord, `_correct` onto the
-branch, here on the compiled chart), the rank test that tells LP from BP, the Hopf pair check,
-l1 at Hopf points (`first_lyapunov`, exact sympy derivatives), and the `Branch` record.
+det [DF~; t] for BP, det(2J (.) I) for Hopf), the count of eigenvalues with positive real part
+(Routh array; -1 when undecided) and the eigenvalues of J, and it puts an extra point on each
+zero of a test function inside a step (as AUTO does). The start (Newton at the start value and
+the tangent there) is the kernel's too. Python then does what the PyCont path does with
+PyCont's points, with the same code (`_analyse_equilibria` given the kernel's arrays): sign
+changes of the test functions, location of each zero (`continuation_chart._locate`'s Brent search
+on the chord with `_correct` onto the branch and the same test functions, run in C by
+`CKernel.locate`: `_KernelChart.locate_test`), the rank test that tells LP from BP, the Hopf pair
+check, l1 at Hopf points (`first_lyapunov`, exact sympy derivatives), and the `Branch` record.
 
-Eigenvalues. The `Branch` keeps every point's eigenvalues (numpy, one batched call on the kernel's
-Jacobians). Stability is the kernel's count (stable when 0); where the count is undecided (an
-eigenvalue or a pair sum within ~1e-9 ||J|| of the imaginary axis) it is numpy's, and
-``info["kernel_stability_disagreements"]`` counts decided points where the two differ.
+Eigenvalues. The `Branch` keeps every point's eigenvalues: the kernel's (balancing, Hessenberg
+reduction, double-shift QR; the same values as LAPACK's to rounding), sorted as the PyCont path
+sorts numpy's. Stability is the kernel's Routh count (stable when 0); where the count is
+undecided (an eigenvalue or a pair sum within ~1e-9 ||J|| of the imaginary axis) numpy's
+(LAPACK's) eigenvalues of that point replace the kernel's and decide, and
+``info["kernel_stability_disagreements"]`` counts decided points where the count and the
+eigenvalues differ.
 
 No PyCont runs, so every special point has ``confirmed_by_pycont = None``."""
 from __future__ import annotations
