@@ -186,7 +186,7 @@ def continue_equilibria_compiled(problem: EquilibriumProblem,
     sysm = problem.system
     kernel = compiled_kernel(sysm)
     chart = _KernelChart.around(_Chart.of(problem), kernel)
-    # Newton on the kernel's F and J (equilibrium_near only calls f and jac).
+    # Newton (equilibrium_near's) and the start tangent, both in C.
     Y0, v0 = _start_on_chart(problem, settings, start, chart, kernel, newton=kernel.newton,
                              tangent=chart.lam_tangent)
     wanted = {"both": ("forward", "backward"), "forward": ("forward",), "backward": ("backward",)}[directions]
