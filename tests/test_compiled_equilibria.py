@@ -351,6 +351,23 @@ def test_kernel_eigenvalues_equal_closed_forms_and_numpys():
         T = np.triu(rng.normal(size=(n, n)))
         np.testing.assert_allclose(k.eigenvalues(T), _sorted_eig(np.diag(T)), rtol=0, atol=1e-14)
         assert np.all(k.eigenvalues(np.zeros((n, n))) == 0)
+        T.setflags(write=False)               # a read-only array is passed by its address too
+        np.testing.assert_allclose(k.eigenvalues(T), _sorted_eig(np.diag(T)), rtol=0, atol=1e-14)
+        J = rng.normal(size=(n, n))
+        J[0, 0] = np.nan                      # no eigenvalues: NaN, never a hang
+        assert np.all(np.isnan(k.eigenvalues(J)))
+
+
+def test_sign_changes_skip_zeros_and_non_finite_values():
+    """`chart._sign_changes` (the segments the analysis locates in): the index before each change
+    of sign between consecutive nonzero finite values; zeros, NaN and inf are skipped."""
+    from autocable.methods.continuation.chart import _sign_changes
+    assert _sign_changes([]) == [] and _sign_changes([1.0]) == []
+    assert _sign_changes([1.0, 2.0, -1.0, -3.0, 4.0]) == [1, 3]
+    assert _sign_changes([1.0, 0.0, 0.0, -1.0]) == [0]               # a zero at a point counts once
+    assert _sign_changes([-1.0, np.nan, np.inf, 2.0, 0.0, 5.0]) == [0]
+    assert _sign_changes([0.0, -2.0, 0.0, 3.0, -np.inf, -1e-300]) == [1, 3]
+    assert all(isinstance(i, int) for i in _sign_changes([1.0, -1.0]))
 
 
 def test_c_locator_equals_the_python_one():
