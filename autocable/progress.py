@@ -37,15 +37,21 @@ class LineProgress:
 
 
 class BarProgress:
-    """A `rich` progress bar (terminal only), with the latest note beside it."""
+    """A `rich` progress bar (terminal only), with the latest note beside it; with ``count`` (work
+    counted in tasks) also done / total and an estimate of the time left."""
 
-    def __init__(self, label: str, total: float, stream: TextIO):
+    def __init__(self, label: str, total: float, stream: TextIO, count: bool = False):
         from rich.console import Console
-        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+        from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
+                                   TimeRemainingColumn)
 
-        self._bar = Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f} %"),
-                             TimeElapsedColumn(), TextColumn("{task.fields[note]}"),
-                             console=Console(file=stream), transient=False)
+        columns = [TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f} %")]
+        if count:
+            columns += [MofNCompleteColumn(), TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn()]
+        else:
+            columns += [TimeElapsedColumn()]
+        self._bar = Progress(*columns, TextColumn("{task.fields[note]}"), console=Console(file=stream),
+                             transient=False)
         self._task = self._bar.add_task(label, total=float(total), note="")
         self._bar.start()
 
@@ -66,14 +72,16 @@ class _Silent:
         pass
 
 
-def progress_for(label: str, total: float, *, quiet: bool = False, stream: TextIO | None = None):
+def progress_for(label: str, total: float, *, quiet: bool = False, stream: TextIO | None = None,
+                 count: bool = False):
     """The progress of a piece of work of size ``total``: nothing when ``quiet``, a bar when
-    ``stream`` (default stderr) is a terminal, whole lines otherwise. It has ``update(done, note)``
-    and ``close(note)``."""
+    ``stream`` (default stderr) is a terminal (``count``: the work is ``total`` tasks, shown as
+    done / total with the time left), whole lines otherwise. It has ``update(done, note)`` and
+    ``close(note)``."""
     stream = sys.stderr if stream is None else stream
     if quiet:
         return _Silent()
     isatty = getattr(stream, "isatty", None)
     if isatty is not None and isatty():
-        return BarProgress(label, total, stream)
+        return BarProgress(label, total, stream, count=count)
     return LineProgress(label, total, stream)

@@ -1,5 +1,5 @@
-"""Killing `autocable calibrate` (or `figures`) leaves no orphaned workers: the screen pool's
-processes and the scene processes die with their parent (`autocable._children`)."""
+"""Killing `autocable calibrate` (or `figures`) leaves no orphaned workers: the executor's worker
+processes and the scene processes they fork die with their parent (`autocable._children`)."""
 from __future__ import annotations
 
 import os
@@ -16,15 +16,28 @@ REPO = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux's")
 
 _PARENT = '''
-import os, sys, time
-from autocable.paper.calibration import screen_pool
-pool = screen_pool(2)
-futures = [pool.submit(time.sleep, 120) for _ in range(2)]
-while len(pool._processes) < 2:
-    time.sleep(0.01)
-time.sleep(0.3)
-print(" ".join(str(p) for p in pool._processes), flush=True)
-time.sleep(120)
+import os, sys, tempfile, time
+from autocable.executor import Executor, run_forked
+
+def nap(path):
+    import os, time
+    from autocable.executor import run_forked
+
+    def child():
+        with open(path, "w") as fh:
+            fh.write(str(os.getpid()))
+        time.sleep(120)
+    return run_forked(child)
+
+if __name__ == "__main__":
+    path = os.path.join(tempfile.mkdtemp(), "child")
+    with Executor(workers=2) as ex:
+        pids = ex.worker_pids()
+        ex.submit("nap", nap, path)
+        while not (os.path.isfile(path) and open(path).read()):
+            time.sleep(0.01)
+        print(" ".join(str(p) for p in pids + [int(open(path).read())]), flush=True)
+        time.sleep(120)
 '''
 
 _PARENT_OF_SUBPROCESS = '''
@@ -46,10 +59,14 @@ def _alive(pid: int) -> bool:
         return False
 
 
-@pytest.mark.parametrize("script", [_PARENT, _PARENT_OF_SUBPROCESS], ids=["screen pool", "subprocess"])
-def test_workers_die_when_their_parent_is_killed(script):
+@pytest.mark.parametrize("script", [_PARENT, _PARENT_OF_SUBPROCESS], ids=["executor", "subprocess"])
+def test_workers_die_when_their_parent_is_killed(script, tmp_path):
+    """The executor's LocalCluster workers and the scene child a worker forked (`run_forked`), or
+    a subprocess started with `die_with_parent`, end within 10 s of a SIGKILL of their parent."""
     env = dict(os.environ, PYTHONPATH=str(REPO))
-    parent = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True, env=env)
+    path = tmp_path / "parent.py"       # a file: the workers of a LocalCluster import the main module
+    path.write_text(script)
+    parent = subprocess.Popen([sys.executable, str(path)], stdout=subprocess.PIPE, text=True, env=env)
     try:
         children = [int(p) for p in parent.stdout.readline().split()]
         assert children and all(_alive(p) for p in children)

@@ -175,3 +175,63 @@ def test_memoized_name_map_maps_like_pydstools_own():
     back = pickle.loads(pickle.dumps(memo))
     assert type(back) is symbolMapClass and back.lookupDict == memo.lookupDict
     assert np.allclose(gen.Rhs(0.0, {"x": 1.0, "y": 2.0}), [1.0, -2.0])
+
+
+_FULL_DISK_AT_EXIT = """
+import atexit, errno, sys
+from numpy.distutils import ccompiler_opt
+from autocable.codegen import compat
+
+class FullDisk:
+    def cache_flush(self):
+        print("flush", flush=True)
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+opt = FullDisk()
+ccompiler_opt._share_cache["full-disk"] = opt
+atexit.register(opt.cache_flush)            # what CCompilerOpt.__init__ does
+if sys.argv[1] == "session":
+    with compat._compiler_opt_caches_written():
+        pass
+print("end", flush=True)
+"""
+
+
+@pytest.mark.parametrize("how", ["session", "bare"])
+def test_compiler_opt_caches_are_written_at_the_end_of_a_build_and_not_at_exit(how):
+    """numpy.distutils' CCompilerOpt writes its cache from an atexit hook; on a full disk the hook's
+    traceback came after autocable's own message. The session writes it when the build ends (an
+    OSError is swallowed: the cache is optional) and takes the hook off; without it (the control)
+    the traceback is printed at exit."""
+    repo = Path(__file__).resolve().parents[1]
+    proc = subprocess.run([sys.executable, "-c", _FULL_DISK_AT_EXIT, how], capture_output=True, text=True,
+                          env=dict(os.environ, PYTHONPATH=str(repo)), timeout=120)
+    assert proc.returncode == 0
+    if how == "session":
+        assert proc.stdout.split() == ["flush", "end"]          # written in the session, not at exit
+        assert "Traceback" not in proc.stderr and "No space left" not in proc.stderr
+    else:
+        assert proc.stdout.split() == ["end", "flush"]
+        assert "Exception ignored in atexit callback" in proc.stderr and "No space left" in proc.stderr
+
+
+def test_a_full_disk_with_a_cold_cache_prints_one_line_and_no_traceback(tmp_path):
+    """A cold cache on a 1.2 MB file system (a tmpfs; skipped where mounting is not permitted):
+    exit 2 or 3 with autocable's one line naming the place, and no traceback from numpy.distutils'
+    exit hooks after it."""
+    mnt = tmp_path / "small"
+    mnt.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1200k", "tmpfs", str(mnt)],
+                      capture_output=True).returncode != 0:
+        pytest.skip("mounting a small tmpfs is not permitted here")
+    try:
+        repo = Path(__file__).resolve().parents[1]
+        env = dict(os.environ, AUTOCABLE_CACHE=str(mnt / "cache"), PYTHONPATH=str(repo))
+        proc = subprocess.run([sys.executable, "-m", "autocable.cli", "run", str(repo / "runs" / "fig05a.toml"),
+                               "--out", str(mnt / "out"), "--quiet"], capture_output=True, text=True, env=env,
+                              timeout=600)
+    finally:
+        subprocess.run(["umount", str(mnt)], capture_output=True)
+    assert proc.returncode in (2, 3), proc.stderr
+    assert "No space left on device" in proc.stderr
+    assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1, proc.stderr

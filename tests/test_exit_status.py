@@ -66,7 +66,7 @@ def test_simulate_refuses_invalid_numbers(capsys, args, option):
     (["bench", "derive", "--out", " "], "--out"),
     (["sweep", "SWEEP", "--out", "o", "--workers", "-1"], "--workers"),
     (["sweep", "SWEEP", "--out", "o", "--chunk", "0"], "--chunk"),
-    (["calibrate", "MODEL", "TARGETS", "--out", "o", "--jobs", "0"], "--jobs"),
+    (["calibrate", "MODEL", "TARGETS", "--out", "o", "--workers", "-1"], "--workers"),
     (["calibrate", "MODEL", "TARGETS", "--out", "o", "--bound-margin", "-1"], "--bound-margin"),
     (["calibrate", "MODEL", "TARGETS", "--out", "o", "--bound-minutes", "nan"], "--bound-minutes"),
     (["failure-map", "--out", ""], "--out"),

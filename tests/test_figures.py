@@ -63,7 +63,7 @@ def figures(tmp_path_factory):
     (runs / "figt9.toml").write_text(BROKEN)
     (runs / "other.toml").write_text(BROKEN)          # not fig*.toml: not a figure scene
     out = tmp_path_factory.mktemp("figures")
-    status = main(["figures", "--out", str(out), "--runs", str(runs), "--jobs", "2", "--quiet"])
+    status = main(["figures", "--out", str(out), "--runs", str(runs), "--workers", "2", "--quiet"])
     return status, out, runs
 
 

@@ -186,8 +186,8 @@ def test_scheduler_that_is_not_dask_is_refused_at_once_naming_the_option(tmp_pat
                                                                          kind, words):
     import time
 
-    from autocable.studies import sweep as sw
-    monkeypatch.setattr(sw, "SCHEDULER_TIMEOUT", 1.0)
+    from autocable import executor
+    monkeypatch.setattr(executor, "SCHEDULER_TIMEOUT", 1.0)
     close = None
     if kind in ("silent", "garbage"):
         address, close = _server(kind)

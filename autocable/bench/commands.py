@@ -128,6 +128,9 @@ def run_bench(what: str, model_path: str, repeats: int = 3, log=None, out=None) 
         return bench_sweep(model_path, repeats=repeats, log=log)
     if what == "onset":
         return bench_onset(model_path, repeats, log)
+    if what == "calibration":
+        from autocable.bench.calibration import bench_calibration
+        return bench_calibration(model_path, log=log, out=out)
     if what == "continuation":
         from autocable.bench.continuation import bench_continuation
         return bench_continuation(model_path, repeats=repeats, cold=True, progress=log)
@@ -498,7 +501,7 @@ def _figures_pass(out_dir: str, env: dict, runs: str | None, jobs: int | None, o
     if runs:
         cmd += ["--runs", runs]
     if jobs:
-        cmd += ["--jobs", str(jobs)]
+        cmd += ["--workers", str(jobs)]
     load = os.getloadavg()[0]
     ru0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()

@@ -209,7 +209,7 @@ def kill_calibrate(trials: int = 6, *, jobs: int = 2, seed: int = 0, log: Callab
         out = Path(tmp) / "out"
         targets = SAMPLE_MODEL.with_suffix("").with_suffix(".targets.toml")
         cmd = [sys.executable, "-m", "autocable.cli", "calibrate", str(SAMPLE_MODEL), str(targets), "--out", str(out),
-               "--space", str(space), "--jobs", str(jobs), "--quiet"]
+               "--space", str(space), "--workers", str(jobs), "--quiet"]
 
         def state():
             try:

@@ -78,8 +78,7 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
     b.add_argument("what", nargs="?", default=None,
                    choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "bound-scenes", "ordering",
-                            "engines",
-                            "shooting", "sweep", "kill", "kill-surfaces", "fuzz", "onset"],
+                            "engines", "shooting", "sweep", "kill", "kill-surfaces", "fuzz", "onset", "calibration"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
                         "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
@@ -99,7 +98,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "times each, checked not to read as complete and to leave no orphaned process; "
                         "onset: the onset report and a 50-point damping grid of `autocable onset` (target under 2 s "
                         "warm); fuzz: hostile model specs, scenes and arguments, counts of tracebacks, exit-0 "
-                        "results for invalid input, unnamed rejections and hangs. "
+                        "results for invalid input, unnamed rejections and hangs; calibration: the screen of "
+                        "8 points on 1 and 2 workers (the scaling) and the bound stage on 20 candidate models "
+                        "(stage wall time and summed scene time). "
                         "Without a subcommand "
                         "(--out DIR): the work-precision bench of the method ladder (bench.json, "
                         "work_precision.png, work_precision.md)")
@@ -145,7 +146,12 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--out", required=True, help="output folder (resumable: finished points are reused)")
     cal.add_argument("--space", help="search-space file (default: <model>.search.toml beside the model if "
                                      "it exists, else the built-in space)")
-    cal.add_argument("--jobs", type=int, default=2, help="processes (default 2)")
+    cal.add_argument("--workers", type=int, help="Dask worker processes of a LocalCluster for every stage (screen "
+                                                 "points, full evaluations, bound scenes; default: one per "
+                                                 "core; 0: in this process, one task after the other)")
+    cal.add_argument("--jobs", type=int, dest="workers", help=argparse.SUPPRESS)   # the older name of --workers
+    cal.add_argument("--scheduler", metavar="ADDRESS", help="run every stage on an existing Dask cluster: its "
+                     "scheduler's address (tcp://host:8786) or scheduler file (docs/cluster.md)")
     cal.add_argument("--full", type=int, help="candidates evaluated on every figure scene (overrides the space's)")
     cal.add_argument("--bound", action="store_true",
                      help="then ask of every candidate whether it can reach the targets file's [goal] (branch "

@@ -12,6 +12,8 @@ import os
 import re
 
 from autocable.errors import EXIT_FAILED, EXIT_INPUT
+# one rule for the worker count of every command (re-exported)
+from autocable.executor import WORKERS_LIMIT, check_workers  # noqa: F401
 from autocable.model.premises import MAX_INTEGRATION_TIME
 from autocable.spec import SpecError
 
@@ -23,21 +25,6 @@ MODES_LIMIT = 6
 
 #: Repeats of a benchmark: each costs up to minutes.
 REPEATS_LIMIT = 100
-#: Processes or Dask workers: more than this is a typing error on any machine autocable targets.
-WORKERS_LIMIT = 1024
-
-
-def check_workers(option: str, value) -> None:
-    """Worker processes: at most twice the cores (each is a process of its own; more than the
-    cores only share them, and a thousand start for minutes before the first point)."""
-    if value is None:
-        return
-    cores = os.cpu_count() or 1
-    check_number(option, value, 0, WORKERS_LIMIT, integer=True)
-    if value > 2 * cores:
-        raise refuse(option, f"{value} worker processes on {cores} cores; give at most {2 * cores} "
-                             f"(twice the cores)")
-
 
 def refuse(option: str, message: str):
     """The one-line input error for a command-line option (exit 2)."""

@@ -108,8 +108,10 @@ def cmd_calibrate(args) -> int:
 
     from autocable.paper import calibration as study
     check_out("--out", args.out)
-    check_number("--jobs", args.jobs, 1, WORKERS_LIMIT, integer=True)
-    check_workers("--jobs", args.jobs)
+    check_workers("--workers", args.workers)           # 0: this process, one task after the other
+    if args.scheduler is not None:
+        from autocable.executor import check_scheduler
+        check_scheduler(args.scheduler)
     check_number("--full", args.full, 0, 10**6, integer=True)
     check_number("--bound-margin", args.bound_margin, 0, 10**3, integer=True)
     if args.bound_minutes is not None:
@@ -135,7 +137,8 @@ def cmd_calibrate(args) -> int:
         raise study.tg.TargetsError(args.targets, "goal", "--bound needs a [goal] table "
                                                           "(statements_yes, boxes_share, boxes_scenes)")
     check_folder("--out", args.out)
-    stats = study.calibrate(args.model, args.targets, args.out, space=space, jobs=args.jobs, quiet=args.quiet,
+    stats = study.calibrate(args.model, args.targets, args.out, space=space, workers=args.workers,
+                            scheduler=args.scheduler, quiet=args.quiet,
                             bound=args.bound or args.bound_minutes is not None or args.bound_margin > 0,
                             bound_minutes=args.bound_minutes, bound_margin=args.bound_margin,
                             prior_bound=Path(args.prior_bound) if args.prior_bound else None)

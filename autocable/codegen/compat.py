@@ -22,6 +22,7 @@ these helpers are not thread-safe; PyDSTool itself is not either.
 """
 from __future__ import annotations
 
+import atexit
 import contextlib
 import functools
 import logging
@@ -443,8 +444,33 @@ def pydstool_session(what: str, folder: str | os.PathLike) -> Iterator[Chatter]:
     (LC-C), e.g. ``with pydstool_session("continuing cycles", pydstool_cache()): cc.newCurve(...)``.
     """
     with build_dir(folder), _distutils_log_restored(), quiet() as chatter, \
-            pydstool_errors(what, chatter):
+            pydstool_errors(what, chatter), _compiler_opt_caches_written():
         yield chatter
+
+
+@contextlib.contextmanager
+def _compiler_opt_caches_written() -> Iterator[None]:
+    """Write numpy.distutils' compiler-option caches at the end of the build, not at exit.
+
+    A numpy.distutils build makes a ``CCompilerOpt`` that writes its cache file from an ``atexit``
+    hook. On a full disk that write fails after autocable has printed its own one-line message,
+    and Python prints the hook's traceback at exit. Here the cache is written when the build ends,
+    inside `quiet` (a cache that cannot be written is simply not kept: it only saves probing the
+    compiler next time), and the hook is taken off (``atexit.unregister``; numpy is not modified).
+    """
+    try:
+        yield
+    finally:
+        module = sys.modules.get("numpy.distutils.ccompiler_opt")
+        for opt in list(getattr(module, "_share_cache", {}).values()) if module is not None else []:
+            flush = getattr(opt, "cache_flush", None)
+            if flush is None:
+                continue
+            atexit.unregister(flush)
+            try:
+                flush()
+            except OSError:
+                pass
 
 
 @contextlib.contextmanager

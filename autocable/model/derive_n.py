@@ -7,7 +7,7 @@ only the trial functions change (`modes_n.mode_set`).
 from __future__ import annotations
 
 from autocable._store import cache_dir, content_hash, load_checked_json, store_checked_json
-from autocable.model.aero import expand_load
+from autocable.model.aero import expand_load_jet
 from autocable.model.derive import DERIVATION_VERSION, Derivation, derive
 from autocable.model.galerkin_n import ExactZeroIntegrator, project_n
 from autocable.model.modes_n import mode_set
@@ -40,8 +40,8 @@ def derive_nmode(source: Derivation | ModelSpec, n_in: int, n_out: int,
         return NModeODE.from_dict(data)
     st = d.statics
     ms = mode_set(st, n_in, n_out, spec.cable.twist_ends)
-    aero = expand_load(spec.aero.lift, spec.aero.drag, st.alpha, d.beta, d.theta0, spec.aero.angle_convention,
-                       spec.aero.load_axes)
+    aero = expand_load_jet(spec.aero.lift, spec.aero.drag, st.alpha, d.beta, d.theta0, spec.aero.angle_convention,
+                           spec.aero.load_axes)
     ode = project_n(st, ms, aero, d.aero_scale, d.velocity_ratio, spec.cable.damping_ratio,
                     ExactZeroIntegrator(ms.shapes) if integrator == "closed-form"
                     else QuadratureIntegrator(ms.shapes, nodes=128),

@@ -29,18 +29,23 @@ overlay's steady test and the study has no bound at eta* = 0.
 
 A run whose statements can never lower a bound is not run: the orbit-started runs (the AME's cycle
 branch P of Figs. 8 and 10, beyond Sect. 5) are dropped from a candidate's scene copies before the
-scene runs (`NOT_RUN`, recorded in ``dropped.json``), about half of those scenes' time.
+scene runs (`NOT_RUN`, recorded in ``dropped.json``), about half of those scenes' time. So is the
+eq. (21) overlay of a scene whose only statement that reads it (``<scene>.boxes``) never lowers a
+bound and whose boxes the goal does not count: Fig. 3's (its ``boxes`` cannot be shown by any model
+today, `NOT_USED_TO_PRUNE`), the first scene every candidate runs; the scene's other statements are
+decided from its branches alone (tests/test_bound.py checks they are decided the same without it).
 
 Resumable: one ``bound.json`` per candidate model under ``DIR/bound/``, stamped with the rule that
 decided it (`rule_of`: a record of another rule, e.g. after the targets file changed, is decided
-again); the scene folders of a candidate are reused (`candidates.scene_complete`). Parallel: at most ``jobs`` scene
-processes at a time, over candidates.
+again); the scene folders of a candidate are reused (`candidates.scene_complete`). Parallel: each scene is a
+task of the calibration's executor (`autocable.executor`: a LocalCluster, or the workers of a
+``--scheduler``), as many in flight as there are workers, over candidates; a lost worker costs its
+scene only.
 """
 from __future__ import annotations
 
 import json
 import math
-import multiprocessing
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -189,7 +194,7 @@ def model_key(c: dict) -> str:
 
 
 def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list, out: Path, runs: Path,
-              reference_out: Path, capped: set, jobs: int, say, order: tuple = ORDER,
+              reference_out: Path, capped: set, executor, say, order: tuple = ORDER,
               minutes: float | None = None, margin: int = 0) -> list[dict]:
     """The bound stage over ``cands`` (the screen's candidates); ``full`` are the fully evaluated
     ones (their verdicts give their bound directly), ``reference_out`` an output folder holding the
@@ -198,10 +203,19 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
     record "not bounded (time budget)" with the bound so far (not stored: a rerun goes on with them).
     ``margin``: a candidate stops on statements only when its bound is below the goal by more than
     this (0: as soon as it is below), so that the conclusion survives any ``margin`` of the decisions
-    that lowered it being wrong. Returns one record per candidate model."""
+    that lowered it being wrong. ``executor``: the `autocable.executor.Executor` the scenes run on,
+    or a worker count (an executor of that many workers is made for this call; 0: this process).
+    Returns one record per candidate model."""
+    if not hasattr(executor, "submit"):
+        from autocable.executor import Executor
+        from autocable.paper.figures import _preload
+        with Executor(int(executor), warm=_preload) as own:
+            return run_bound(model_path, targets, goal, cands, full, out, runs, reference_out, capped, own, say,
+                             order, minutes, margin)
     from autocable._store import atomic_write_json
     from autocable.paper import candidates as cm
-    from autocable.paper.figures import _preload, _worker, receive
+    from autocable.executor import time_left
+    from autocable.paper.figures import scene_task
     from autocable.paper.report import load_scene_data, overlay_summary
 
     stmt_ids = [t.id for t in targets if t.kind == "statement"]
@@ -213,6 +227,9 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
         ids = [f"{n}.{x}" for x in IF_DROPPED if f"{n}.{x}" in stmt_ids]
         if ids and all(i in unused for i in ids):
             skip_orbits[n] = ids
+    # the scenes whose eq. (21) overlay decides only statements that never lower a bound
+    skip_overlay = {n: f"{n}.boxes" for n in order
+                    if n not in goal.boxes_scenes and (f"{n}.boxes" not in stmt_ids or f"{n}.boxes" in unused)}
     stop_below = goal.statements_yes - int(margin)
     by_scene: dict[str, list] = {}
     for t in targets:
@@ -282,14 +299,15 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
                     if cm._drop_run(dst, k):
                         cand.dropped.append(f"{n}: run[{k}] ({NOT_RUN}: {', '.join(skip_orbits[n])})")
                 atomic_write_json(cand.folder / "dropped.json", cand.dropped)
+            if skip_overlay.get(n) and not cm.scene_complete(cand.folder / "out" / n, dst) \
+                    and cm._drop_table(dst, "overlay"):
+                cand.dropped.append(f"{n}: overlay ({NOT_RUN}: {skip_overlay[n]})")
+                atomic_write_json(cand.folder / "dropped.json", cand.dropped)
         cand.prepared = True
-    fork = "fork" in multiprocessing.get_all_start_methods()
-    ctx = multiprocessing.get_context("fork" if fork else "spawn")
-    if fork:
-        _preload()
     queue = list(todo)          # candidates waiting for their next scene
-    running: dict = {}          # process -> (candidate, scene, pipe, t0)
-    n_done, t_start = 0, time.perf_counter()
+    running: dict = {}          # task label -> (candidate, scene)
+    n_done, t_start, n_started = 0, time.perf_counter(), 0
+    capacity = max(1, executor.n_workers)
 
     def over_budget() -> bool:
         return minutes is not None and time.perf_counter() - t_start >= 60.0 * minutes
@@ -325,13 +343,16 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
         atomic_write_json(cand.folder / "bound.json", cm._finite(rec))
         records.append(rec)
         n_done += 1
-        rate = n_done / max(time.perf_counter() - t_start, 1e-9) * 60
+        elapsed = time.perf_counter() - t_start
+        rate = n_done / max(elapsed, 1e-9) * 60
+        left = time_left(n_done, len(todo), elapsed)
         say(f"[{n_done}/{len(todo)}] {cm.candidate_name(cand.c)}: at most {b} yes ({status}; "
-            f"{len(cand.scenes_run)} scenes; {rate:.1f} candidates/min)")
+            f"{len(cand.scenes_run)} scenes; {rate:.1f} candidates/min" + (f"; {left}" if left else "") + ")")
         return True
 
     def start_next() -> bool:
-        """Start the next scene of the first waiting candidate (or settle it); False if none waits."""
+        """Submit the next scene of the first waiting candidate (or settle it); False if none waits."""
+        nonlocal n_started
         while queue and not over_budget():
             cand = queue.pop(0)
             if not cand.prepared:
@@ -345,44 +366,38 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
                 decide(cand, scene, True, "")
                 queue.insert(0, cand)
                 continue
-            recv, send = ctx.Pipe(duplex=False)
             # no figure: a bound needs the scene's results only (a reader runs the scene to see it)
-            proc = ctx.Process(target=_worker, args=(str(path), str(dst), send, None, None, False), daemon=True)
-            proc.start()
-            send.close()
+            n_started += 1
+            label = f"bound:{n_started}:{scene}"
+            executor.submit(label, scene_task, str(path.resolve()), str(dst.resolve()), None, None, False,
+                            SCENE_TIMEOUT_S)
             cand.computed += 1
-            running[proc] = (cand, scene, recv, time.perf_counter())
+            running[label] = (cand, scene)
             return True
         return False
 
-    while running or (queue and not over_budget()):
-        while len(running) < jobs and start_next():
+    while len(running) < capacity and start_next():
+        pass
+    for done in executor.completed():
+        if done.label not in running:
+            continue
+        cand, scene = running.pop(done.label)
+        status, error, _detail, wall = done.value if done.ok else ("failed", done.error, "", 0.0)
+        cand.wall_s += wall
+        k = cm._failed_start(error) if status != "ok" else None
+        path = cand.folder / "runs" / f"{scene}.toml"
+        if k is not None and sum(d.startswith(scene + ":") and NOT_RUN not in d for d in cand.dropped) < 2 \
+                and cm._drop_run(path, k):
+            # as the full evaluation: the run whose sample-tuned start failed goes, the scene reruns
+            cand.dropped.append(f"{scene}: run[{k}] ({error.split(': ', 2)[-1][:160]})")
+            atomic_write_json(cand.folder / "dropped.json", cand.dropped)
+            cand.todo.insert(0, scene)
+        else:
+            cand.scenes_run.append(scene)
+            decide(cand, scene, status == "ok", error)
+        queue.insert(0, cand)
+        while len(running) < capacity and start_next():
             pass
-        time.sleep(0.02)
-        for proc, (cand, scene, recv, t0) in list(running.items()):
-            msg = receive(recv)
-            if msg is None and proc.is_alive():
-                if time.perf_counter() - t0 < SCENE_TIMEOUT_S:
-                    continue
-                proc.terminate()
-                msg = ("failed", f"stopped after the time limit of {SCENE_TIMEOUT_S:g} s", "")
-            proc.join()
-            recv.close()
-            del running[proc]
-            cand.wall_s += time.perf_counter() - t0
-            status, error = (msg[0], msg[1]) if msg else ("failed", f"the scene's process died (exit {proc.exitcode})")
-            k = cm._failed_start(error) if status != "ok" else None
-            path = cand.folder / "runs" / f"{scene}.toml"
-            if k is not None and sum(d.startswith(scene + ":") and NOT_RUN not in d for d in cand.dropped) < 2 \
-                    and cm._drop_run(path, k):
-                # as the full evaluation: the run whose sample-tuned start failed goes, the scene reruns
-                cand.dropped.append(f"{scene}: run[{k}] ({error.split(': ', 2)[-1][:160]})")
-                atomic_write_json(cand.folder / "dropped.json", cand.dropped)
-                cand.todo.insert(0, scene)
-            else:
-                cand.scenes_run.append(scene)
-                decide(cand, scene, status == "ok", error)
-            queue.insert(0, cand)
     left = list(queue)
     for cand in left:
         b, lowered = bound_of(cand.verdicts, stmt_ids, capped, unused, cand.failed, cand.dropped)

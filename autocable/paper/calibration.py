@@ -34,7 +34,10 @@ the answer to "can any candidate of the space get there?".
 Resumable: each finished (readings, beta) point is one JSON file under ``DIR/screen/``, each fully
 evaluated candidate one folder under ``DIR/full/`` (a candidate stopped part-way reuses its finished
 scenes); a rerun reads them and recomputes none. A point
-that fails prints one line and the search goes on. Parallel over a process pool (``jobs``).
+that fails prints one line and the search goes on. Parallel: every screen point, every scene of a
+full evaluation and every scene of the bound is a task of one executor (`autocable.executor`: a
+LocalCluster of ``workers`` processes, or an existing Dask cluster's ``scheduler``); a lost worker
+costs its task only.
 
 Output: ``calibration.csv`` (one row per candidate: inputs, each target's value and verdict),
 ``map_<readings>.png`` (beta-Theta0 plane per reading, coloured by the screen targets met, the
@@ -50,13 +53,13 @@ import math
 import os
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, replace
 from itertools import product
 from pathlib import Path
 
 import numpy as np
 
+from autocable.errors import EXIT_FAILED
 from autocable.paper import targets as tg
 from autocable.paper.candidates import (Readings, _drop_run, _failed_start, _finite, _recorded_drops,
                                         candidate_name, scene_complete, screen_score,
@@ -549,14 +552,21 @@ def screen_point(spec: ModelSpec, targets, readings: Readings, yaw_deg: float, t
             "rejected_roots": rejected, "candidates": cands, "seconds": time.perf_counter() - t0}
 
 
-def screen_pool(jobs: int) -> ProcessPoolExecutor:
-    """The screen's process pool; its workers die with this process (`autocable._children`)."""
-    from autocable._children import die_with_parent
-    return ProcessPoolExecutor(max_workers=max(1, jobs), initializer=die_with_parent, initargs=(os.getpid(),))
+#: The task starts of the last calibrate call in its folder (`autocable.executor.attempts`).
+TASKS_JOURNAL = ".tasks.jsonl"
+
+
+def _warm_worker() -> None:
+    """What every worker loads once before its first task: the compiled generic integrators of the
+    screen (built by the caller first: here they are only loaded) and the scene stack."""
+    from autocable.paper.figures import _preload
+    _ode_integrator()
+    _ame_integrator()
+    _preload()
 
 
 def _worker(model_path: str, targets_path: str, readings: dict, yaw_deg: float, theta0, orderings, out_file: str):
-    """One screen task in a pool process: compute, then write its file atomically."""
+    """One screen task on a worker: compute, then write its file atomically."""
     from autocable._store import atomic_write_json
     spec = load_model(model_path)
     targets = tg.load_targets(targets_path)
@@ -573,12 +583,12 @@ def _worker(model_path: str, targets_path: str, readings: dict, yaw_deg: float, 
 # ================================================================================================
 # scoring, the full evaluation, the outputs
 # ================================================================================================
-def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path, jobs: int, say) -> dict:
-    """Every figure scene on the candidate's model (`autocable figures`), then every target decided
+def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path, executor, say) -> dict:
+    """Every figure scene on the candidate's model (`autocable.paper.figures.run_figures` on
+    ``executor``, an `autocable.executor.Executor` or a worker count), then every target decided
     from the output folders by the report's code. Resumable: ``folder/verdicts.json``."""
-    import subprocess
-
     from autocable._store import atomic_write_json
+    from autocable.paper.figures import run_figures
     done = folder / "verdicts.json"
     if done.is_file():
         return json.loads(done.read_text())
@@ -592,27 +602,20 @@ def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path
             text = f.read_text().replace('model = "../models/luongo_zulli_2012.toml"', f'model = "{model}"')
             (scene_dir / f.name).write_text(text)
     t0 = time.perf_counter()
+    errors: list[str] = []
 
-    def figures(only=None):
-        cmd = [sys.executable, "-m", "autocable.cli", "figures", "--runs", str(scene_dir), "--out",
-               str(folder / "out"), "--jobs", str(jobs), "--quiet"] + (["--only", ",".join(only)] if only else [])
-        from autocable._children import die_with_parent
-        parent = os.getpid()
-        proc = subprocess.run(cmd, capture_output=True, text=True, env=dict(os.environ),
-                              preexec_fn=lambda: die_with_parent(parent))
-        try:
-            summary = json.loads((folder / "out" / "figures.json").read_text())
-        except (OSError, ValueError):
-            summary = {}
-        return proc, {x["name"]: x for x in summary.get("scenes", [])}
+    def figures(only):
+        where = {"executor": executor} if hasattr(executor, "submit") else {"workers": int(executor)}
+        outcomes = run_figures([scene_dir / f"{n}.toml" for n in only], folder / "out",
+                               say=lambda m: None if m.endswith(".toml)") else say(f"  {m}"), **where)
+        errors.extend(f"{o.name}: {o.error}" for o in outcomes if o.status != "ok")
+        return {o.name: {"name": o.name, "status": o.status, "error": o.error} for o in outcomes}
 
     names = [f.stem for f in sorted(scene_dir.glob("fig*.toml"))]
     listed = {n: {"name": n, "status": "ok", "error": ""} for n in names
               if scene_complete(folder / "out" / n, scene_dir / f"{n}.toml")}
-    proc = None
     if len(listed) < len(names):
-        proc, got = figures([n for n in names if n not in listed] if listed else None)
-        listed.update(got)
+        listed.update(figures([n for n in names if n not in listed]))
     # Isolas and disconnected branches start from a search (Newton from a fixed grid), not from a
     # state tuned to the sample; the orbits of Figs. 8 and 10's P still start from amplitudes chosen
     # on the sample, and on another model such a run can fail and take its whole scene with it.
@@ -629,8 +632,7 @@ def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path
                 retry.append(name)
         if not retry:
             break
-        proc, again = figures(retry)
-        listed.update(again)
+        listed.update(figures(retry))
     wall = time.perf_counter() - t0
     from autocable.paper.report import load_scene_data
     scenes = {n: load_scene_data(folder / "out" / n, status=s.get("status"), error=s.get("error", ""))
@@ -643,8 +645,9 @@ def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path
             s = overlay_summary(scenes[n])
             boxes[n] = {"points": s["points"], "within": s["within"], "at_rest": s["at_rest"],
                         "not_steady": s["not_steady"]}
-    res = {"name": candidate_name(c), "wall_s": wall, "returncode": proc.returncode if proc else 0,
-           "dropped_runs": dropped, "stderr_tail": proc.stderr[-500:] if proc else "",
+    failed_now = [n for n, x in listed.items() if x.get("status") != "ok"]
+    res = {"name": candidate_name(c), "wall_s": wall, "returncode": EXIT_FAILED if failed_now else 0,
+           "dropped_runs": dropped, "stderr_tail": "\n".join(errors)[-500:],
            "verdicts": {v.id: asdict(v) for v in verdicts}, "boxes": boxes}
     res = _finite(res)
     atomic_write_json(done, res)
@@ -938,7 +941,7 @@ def _markdown(cands, full, target_ids, targets, space, stats, maps, failed, ceil
     return "\n".join(lines) + "\n"
 
 
-def _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, jobs, say, stats,
+def _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, executor, say, stats,
                  minutes=None, margin: int = 0, prior: Path | None = None) -> list[str]:
     """`autocable.paper.bound` over every candidate; writes bound.csv and bound.png, returns the
     markdown lines and puts the summary in ``stats``."""
@@ -952,7 +955,7 @@ def _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, job
     reference = out / "full" / candidate_name(full[0]) / "out"
     capped = {c["id"] for c in ceiling["capped"]}
     t0 = time.perf_counter()
-    records = bd.run_bound(model_path, targets, goal, cands, full, out, runs, reference, capped, jobs, say,
+    records = bd.run_bound(model_path, targets, goal, cands, full, out, runs, reference, capped, executor, say,
                            minutes=minutes, margin=margin)
     wall = time.perf_counter() - t0
     if prior is not None:
@@ -964,7 +967,7 @@ def _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, job
     stats["bound"]["not_bounded"] = sum(r["status"] == bd.NOT_BOUNDED for r in records)
     stats["bound"]["wall_s"] = wall
     stats["bound"]["margin"] = margin
-    return bd.markdown(records, goal, ceiling["at_most_yes"], n_stmt, wall, jobs, pic, "bound.csv",
+    return bd.markdown(records, goal, ceiling["at_most_yes"], n_stmt, wall, executor.n_workers, pic, "bound.csv",
                        bd.not_used_to_prune(targets), margin)
 
 
@@ -987,10 +990,13 @@ def _fmt(x) -> str:
     return f"{x:.4g}" if isinstance(x, (int, float)) else "—"
 
 
-def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = None, jobs: int = 2,
+def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = None, jobs: int | None = None,
               runs: Path | None = None, quiet: bool = False, bound: bool = False,
-              bound_minutes: float | None = None, bound_margin: int = 0, prior_bound: Path | None = None) -> dict:
-    """The whole study (module docstring). Returns counts and the output paths. ``bound``: then ask
+              bound_minutes: float | None = None, bound_margin: int = 0, prior_bound: Path | None = None,
+              workers: int | None = None, scheduler: str | None = None) -> dict:
+    """The whole study (module docstring). Returns counts and the output paths. Every stage's tasks
+    run on one executor (`autocable.executor`): ``workers`` LocalCluster processes (``jobs`` is the
+    older name; default one per core; 0: this process alone) or the cluster of ``scheduler``. ``bound``: then ask
     of every candidate whether it can reach the targets file's ``[goal]`` (`autocable.paper.bound`),
     starting no scene after ``bound_minutes`` of that stage, stopping a candidate when its bound is
     below the goal by more than ``bound_margin``; ``prior_bound``: an earlier call's bound.csv whose
@@ -1018,9 +1024,29 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     say = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     (out / "screen").mkdir(parents=True, exist_ok=True)
     t_all = time.perf_counter()
-    # build both generic integrators once, before the pool starts (they are cached on disk)
+    # build both generic integrators once, before the workers start (they are cached on disk)
     _ode_integrator()
     _ame_integrator()
+    from autocable.executor import Executor, attempts
+    if workers is None:
+        workers = jobs
+    executor = Executor(workers, scheduler, warm=_warm_worker, journal=out / TASKS_JOURNAL)
+    with executor:
+        stats = _stages(model_path, targets_path, targets, goal, out, space, runs, executor, say, t_all, bound,
+                        bound_minutes, bound_margin, prior_bound)
+    # a task started more than once lost its worker (the journal counts starts, not results)
+    recomputed = {k: n - 1 for k, n in attempts(out / TASKS_JOURNAL).items() if n > 1}
+    stats["recomputed_tasks"] = recomputed
+    (out / "calibration.json").write_text(json.dumps(stats, indent=2))
+    if recomputed:
+        say(f"calibrate: {sum(recomputed.values())} task(s) computed again after a worker was lost")
+    return stats
+
+
+def _stages(model_path, targets_path, targets, goal, out, space, runs, executor, say, t_all, bound,
+            bound_minutes, bound_margin, prior_bound) -> dict:
+    """The screen, the full evaluation and the bound on ``executor`` (`calibrate`)."""
+    from autocable.executor import time_left
     tasks, results = [], []
     signature = compute_signature(targets)
     for readings, beta in space.points():
@@ -1032,24 +1058,30 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
                     continue
                 except ValueError:
                     pass
-            tasks.append((str(model_path), str(targets_path), asdict(readings), beta, theta0, list(space.ordering), str(f)))
+            tasks.append((str(model_path), str(targets_path), asdict(readings), beta, theta0, list(space.ordering), str(f.resolve())))
     reused = len(results)
-    say(f"calibrate: {len(tasks) + reused} points ({reused} already on disk), {jobs} processes")
+    where = executor.where
+    say(f"calibrate: {len(tasks) + reused} points ({reused} already on disk), "
+        + (f"on the scheduler {where.get('address')}, {executor.n_workers} workers" if where.get("mode") == "scheduler"
+           else f"{where.get('workers')} worker processes" if where.get("mode") == "LocalCluster"
+           else "in this process"))
     t0 = time.perf_counter()
     failed = []
-    if tasks:
-        with screen_pool(jobs) as pool:
-            futs = [pool.submit(_worker, *t) for t in tasks]
-            for i, fut in enumerate(as_completed(futs), 1):
-                res = fut.result()
-                results.append(res)
-                lab = f"{Readings(**res['readings']).label} beta {res['yaw_deg']:+.2f}"
-                if res["status"] != "ok":
-                    say(f"[{i}/{len(tasks)}] FAILED {lab}: {res['error']}")
-                else:
-                    best = max((screen_score(c)[0] for c in res["candidates"]), default=0)
-                    say(f"[{i}/{len(tasks)}] {lab}: {len(res['candidates'])} candidates, best {best} targets met "
-                        f"({res['seconds']:.1f} s)")
+    for k, t in enumerate(tasks):
+        executor.submit(f"screen:{k}", _worker, *t)
+    for i, done in enumerate(executor.completed(), 1):
+        k = int(done.label.split(":", 1)[1])
+        res = done.value if done.ok else {"readings": tasks[k][2], "yaw_deg": tasks[k][3], "theta0": tasks[k][4],
+                                          "status": "failed", "error": done.error, "candidates": []}
+        results.append(res)
+        lab = f"{Readings(**res['readings']).label} beta {res['yaw_deg']:+.2f}"
+        left = time_left(i, len(tasks), time.perf_counter() - t0)
+        if res["status"] != "ok":
+            say(f"[{i}/{len(tasks)}] FAILED {lab}: {res['error']}")
+        else:
+            best = max((screen_score(c)[0] for c in res["candidates"]), default=0)
+            say(f"[{i}/{len(tasks)}] {lab}: {len(res['candidates'])} candidates, best {best} targets met "
+                f"({res['seconds']:.1f} s" + (f"; {left}" if left else "") + ")")
     screen_s = time.perf_counter() - t0
     failed = [f"{Readings(**r['readings']).label} beta {r['yaw_deg']:+.2f}: {r['error']}"
               for r in results if r["status"] != "ok"]
@@ -1082,7 +1114,7 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     for c in chosen:
         say(f"full evaluation of {candidate_name(c)} (every figure scene)")
         try:
-            c["full"] = full_evaluation(model_path, targets, c, out / "full" / candidate_name(c), runs, jobs, say)
+            c["full"] = full_evaluation(model_path, targets, c, out / "full" / candidate_name(c), runs, executor, say)
         except Exception as exc:  # noqa: BLE001 - one line per failed candidate, and the study goes on
             say(f"FAILED full evaluation of {candidate_name(c)}: {type(exc).__name__}: {' '.join(str(exc).split())[:300]}")
             continue
@@ -1098,7 +1130,8 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
             w.writeheader()
             w.writerows(rows)
     maps = _maps(cands, out, space)
-    stats = {"points": len(results), "computed": len(tasks), "reused": reused, "screen_s": screen_s, "jobs": jobs,
+    stats = {"points": len(results), "computed": len(tasks), "reused": reused, "screen_s": screen_s, "jobs": executor.n_workers,
+             "where": {k: v for k, v in executor.where.items() if k != "startup_seconds"},
              "candidates": len(cands), "full": len(full), "wall_s": time.perf_counter() - t_all}
     if ceiling is not None:
         stats["ceiling"] = {k: v for k, v in ceiling.items() if k != "capped"}
@@ -1109,7 +1142,7 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
                           goal.statements_yes if goal else None)
     bound_lines = []
     if bound:
-        bound_lines = _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, jobs, say, stats,
+        bound_lines = _bound_stage(model_path, targets, goal, cands, full, out, runs, ceiling, executor, say, stats,
                                    bound_minutes, bound_margin, prior_bound)
     stats["wall_s"] = time.perf_counter() - t_all          # with the bound stage, if it ran
     (out / "calibration.md").write_text(_markdown(cands, full, target_ids, targets, space, stats, maps, failed,

@@ -9,8 +9,8 @@ the traceback below it), to ``DIR/figures.json`` and to the report, and the comm
 """
 from __future__ import annotations
 
+import argparse
 import math
-import multiprocessing
 import os
 import sys
 import time
@@ -33,6 +33,7 @@ QUICK = ("fig03", "fig05a", "fig05b")
 SUMMARY_JSON = "figures.json"
 WALL_JSON = "wall_s.json"            # in cache_dir("figures"): the last wall time of each scene
 ERROR_TXT = "error.txt"
+TASKS_JOURNAL = ".tasks.jsonl"    # the scene starts of the last run (`autocable.executor.attempts`)
 
 Say = Callable[[str], None]
 
@@ -102,12 +103,10 @@ def _copy_atomic(src: Path, dst: Path) -> None:
     atomic_write_bytes(dst, src.read_bytes(), fsync=False)
 
 
-def _worker(scene_path: str, scene_out: str, conn, engine: str | None = None, model: str | None = None,
-            plot: bool = True) -> None:
-    """Child process: run one scene (on ``model`` instead of the scene's own, if given; without its
-    figure if not ``plot``); send (status, one-line error, traceback) back."""
-    from autocable._children import die_with_parent
-    die_with_parent()                  # a killed `figures` or `calibrate` takes its scenes with it
+def _run_scene(scene_path: str, scene_out: str, engine: str | None, model: str | None,
+               plot: bool) -> tuple[str, str, str]:
+    """In the scene's own child process: run one scene (on ``model`` instead of the scene's own, if
+    given; without its figure if not ``plot``); (status, one-line error, traceback)."""
     try:
         from dataclasses import replace
 
@@ -117,22 +116,25 @@ def _worker(scene_path: str, scene_out: str, conn, engine: str | None = None, mo
         if model is not None:
             scene = replace(scene, model=Path(model))
         run_scene(scene, scene_out, progress=None, engine=engine, choose_ame=choose_ame, plot=plot)
-        conn.send(("ok", "", ""))
+        return ("ok", "", "")
     except BaseException as exc:   # everything: the parent must learn why, and go on
-        conn.send(("failed", _one_line(exc), traceback.format_exc()))
-    finally:
-        conn.close()
+        return ("failed", _one_line(exc), traceback.format_exc())
 
 
-def receive(recv):
-    """A scene process's message (`_worker`) if it has sent one, else None (also when its end of the
-    pipe closed without one: it died)."""
-    if not recv.poll():
-        return None
-    try:
-        return recv.recv()
-    except EOFError:
-        return None
+def scene_task(scene_path: str, scene_out: str, engine: str | None = None, model: str | None = None,
+               plot: bool = True, timeout: float | None = None) -> tuple[str, str, str, float]:
+    """One scene as an executor task (`autocable.executor`), run in a child forked by the worker
+    (`executor.run_forked`: PyDSTool's working folder is process-wide, a crash in compiled code
+    fails this scene only, a scene over ``timeout`` seconds is stopped). Returns (status "ok" |
+    "failed", one-line error, traceback, wall seconds)."""
+    from autocable.executor import run_forked
+    t0 = time.perf_counter()
+    status, value, detail = run_forked(_run_scene, (scene_path, scene_out, engine, model, plot), timeout,
+                                       what="scene")
+    wall = time.perf_counter() - t0
+    if status == "ok":
+        return (*value, wall)
+    return ("failed", f"{scene_path}: {value}", detail, wall)     # killed, or over the time limit
 
 
 def _preload() -> None:
@@ -210,87 +212,90 @@ def _error_file(folder: Path, error: str, detail: str) -> None:
 def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None = None,
                 timeout: float | None = None, say: Say | None = None,
                 engine: str | None = None, model: str | Path | None = None,
-                on_done: Callable[[int, int, str, str], None] | None = None) -> list[SceneOutcome]:
-    """Run ``scenes`` in at most ``jobs`` processes at a time (default: every core), each into
-    ``out_dir/<scene>/``, the most expensive first (`expected_cost`); copy the figures to
-    ``out_dir``; write ``figures.json`` (in the order of ``scenes``). A scene still
-    running after ``timeout`` seconds is stopped and reported failed. ``engine`` overrides every
-    scene's continuation engine ("pycont" | "compiled", `autocable.scene.runner.run_scene`);
-    ``model`` runs every scene on that model spec instead of the one the scene names. ``on_done(done,
-    total, name, status)`` is called as each scene finishes (a progress bar)."""
+                on_done: Callable[[int, int, str, str], None] | None = None,
+                workers: int | None = None, scheduler: str | None = None, executor=None,
+                plot: bool = True) -> list[SceneOutcome]:
+    """Run ``scenes``, each into ``out_dir/<scene>/``, as tasks of one executor
+    (`autocable.executor`: ``executor`` if given, else a LocalCluster of ``workers`` processes --
+    ``jobs`` is the older name -- default one per core, 0 for this process alone, or the cluster
+    of ``scheduler``), the most expensive first (`expected_cost`); copy the figures to
+    ``out_dir``; write ``figures.json`` (in the order of ``scenes``, with the scenes computed more
+    than once because a worker was lost). A scene still running after ``timeout`` seconds is
+    stopped and reported failed. ``engine`` overrides every scene's continuation engine ("pycont" |
+    "compiled", `autocable.scene.runner.run_scene`); ``model`` runs every scene on that model spec
+    instead of the one the scene names; ``plot=False`` skips the figures. ``on_done(done, total,
+    name, status)`` is called as each scene finishes (a progress bar)."""
+    from autocable.executor import Executor, attempts, time_left
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = max(1, int(jobs or os.cpu_count() or 1))
     tell = say or (lambda msg: None)
-    # One process per scene: PyDSTool's working folder is process-wide. With fork the children
-    # inherit the parent's imports; the longest scenes start first.
-    fork = "fork" in multiprocessing.get_all_start_methods()
-    ctx = multiprocessing.get_context("fork" if fork else "spawn")
-    if fork and len(scenes) > 1:
-        _preload()
+    if workers is None:
+        workers = jobs
     recorded = recorded_wall_times()
     pending = sorted(scenes, key=lambda p: expected_cost(p, recorded), reverse=True)
-    running: dict[str, tuple] = {}
     outcomes: dict[str, SceneOutcome] = {}
     total = len(pending)
-
-    def finish(name, path, status, error, detail, t0):
-        wall = time.perf_counter() - t0
-        folder = out / name
-        if status != "ok":
-            _error_file(folder, error, detail)
-            files = []
-        else:
-            stale = folder / ERROR_TXT
-            if stale.exists():
-                stale.unlink()
-            files = _collect(name, folder, out)
-        outcomes[name] = SceneOutcome(name, str(path), status, wall, error, files)
-        done = len(outcomes)
-        tell(f"[{done}/{total}] {name}: {'done' if status == 'ok' else 'FAILED'} in {wall:.1f} s"
-             + (f": {error}" if error else ""))
-        if on_done is not None:
-            on_done(done, total, name, status)
-
-    while pending or running:
-        while pending and len(running) < jobs:
-            path = pending.pop(0)
+    model_arg = None if model is None else str(Path(model).resolve())
+    journal = out / TASKS_JOURNAL
+    if executor is None:
+        if workers is None and scheduler is None and len(scenes) <= 1:
+            workers = 0      # one scene: no cluster to start, it still runs in its own child process
+        elif workers and not scheduler:
+            workers = min(workers, max(len(scenes), 1))
+        elif workers is None and not scheduler:
+            workers = min(os.cpu_count() or 1, max(len(scenes), 1))
+        executor = Executor(workers, scheduler, warm=_preload if len(scenes) > 1 else None, journal=journal)
+        owned = True
+    else:
+        owned = False
+    t_start = time.perf_counter()
+    paths = {}
+    try:
+        if owned:
+            executor.__enter__()
+        for rank, path in enumerate(pending):
             name = path.stem
             folder = out / name
+            paths[name] = path
             # The scene's run marks its folder incomplete before it computes and publishes its files
             # at the end (`autocable.run_folder.output_folder`); the error file is ours to clear.
             (folder / ERROR_TXT).unlink(missing_ok=True)
-            recv, send = ctx.Pipe(duplex=False)
-            proc = ctx.Process(target=_worker, args=(str(path), str(folder), send, engine,
-                                                     None if model is None else str(Path(model).resolve())),
-                               daemon=True)
-            t0 = time.perf_counter()
-            proc.start()
-            send.close()
-            running[name] = (proc, recv, path, t0)
-            tell(f"{name}: started ({path.name})")
-        time.sleep(0.05)
-        for name, (proc, recv, path, t0) in list(running.items()):
-            message = receive(recv)
-            if message is None and proc.is_alive():
-                if timeout and time.perf_counter() - t0 > timeout:
-                    proc.terminate()
-                    proc.join(5)
-                    recv.close()
-                    del running[name]
-                    finish(name, path, "failed", f"{path}: stopped after the time limit of {timeout:g} s",
-                           "", t0)
-                continue
-            proc.join()
-            recv.close()
-            del running[name]
-            if message is None:
-                code = proc.exitcode
-                why = f"killed by signal {-code}" if code and code < 0 else f"exit status {code}"
-                finish(name, path, "failed", f"{path}: the scene's process died ({why}) without a result", "", t0)
+            executor.submit(f"scene:{name}", scene_task, str(Path(path).resolve()), str(folder.resolve()), engine,
+                            model_arg, plot, timeout, priority=total - rank)
+            tell(f"{name}: queued ({path.name})")
+        for done in executor.completed():
+            name = done.label.split(":", 1)[1]
+            path = paths[name]
+            if done.ok:
+                status, error, detail, wall = done.value
             else:
-                finish(name, path, *message, t0)
+                status, error, detail, wall = "failed", f"{path}: {done.error}", "", time.perf_counter() - t_start
+            folder = out / name
+            if status != "ok":
+                _error_file(folder, error, detail)
+                files = []
+            else:
+                stale = folder / ERROR_TXT
+                if stale.exists():
+                    stale.unlink()
+                files = _collect(name, folder, out)
+            outcomes[name] = SceneOutcome(name, str(path), status, wall, error, files)
+            n = len(outcomes)
+            left = time_left(n, total, time.perf_counter() - t_start)
+            tell(f"[{n}/{total}] {name}: {'done' if status == 'ok' else 'FAILED'} in {wall:.1f} s"
+                 + (f": {error}" if error else "") + (f" ({left})" if left else ""))
+            if on_done is not None:
+                on_done(n, total, name, status)
+    finally:
+        where = dict(executor.where)
+        if owned:
+            executor.close()
     ordered = [outcomes[p.stem] for p in scenes]
+    counts = attempts(journal) if owned else {}
+    recomputed = {k.split(":", 1)[1]: n - 1 for k, n in counts.items() if n > 1}
+    if recomputed:
+        tell(f"figures: {sum(recomputed.values())} scene(s) computed again after a worker was lost: "
+             f"{', '.join(sorted(recomputed))}")
     from autocable._store import atomic_write_json
     recorded = recorded_wall_times()
     recorded.update({o.name: round(o.wall_s, 3) for o in ordered if o.status == "ok"})
@@ -298,7 +303,9 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
         atomic_write_json(_timings_file(), recorded)
     except OSError:
         pass    # a shared read-only cache: the times only order the next run's scenes
-    atomic_write_json(out / SUMMARY_JSON, {"format": "autocable.paper.figures/1", "jobs": jobs,
+    n_workers = where.get("workers") or where.get("workers_seen") or 1
+    atomic_write_json(out / SUMMARY_JSON, {"format": "autocable.paper.figures/2", "where": where, "jobs": n_workers,
+                                           "recomputed": recomputed,
                                            "scenes": [asdict(o) for o in ordered]})
     return ordered
 
@@ -307,14 +314,20 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
 # command line
 # ================================================================================================
 def add_figures_parser(subparsers) -> None:
-    """``autocable figures --out DIR [--runs DIR] [--only a,b] [--quick] [--jobs N] [--quiet]``."""
+    """``autocable figures --out DIR [--runs DIR] [--only a,b] [--quick] [--workers N] [--scheduler A] [--quiet]``."""
     f = subparsers.add_parser("figures", help="run every figure scene (runs/fig*.toml) in parallel, "
                                               "collect figNN.png/.pdf and write report.md")
     f.add_argument("--out", required=True, help="output folder: figNN.png/.pdf, <scene>/ data, report.md")
     f.add_argument("--runs", help="folder of the scene files fig*.toml (default: the repository's runs/)")
     f.add_argument("--only", help="comma-separated scene names, e.g. fig05a,fig06")
     f.add_argument("--quick", action="store_true", help=f"the quick subset: {', '.join(QUICK)}")
-    f.add_argument("--jobs", type=int, help="processes at a time (default: the number of cores)")
+    f.add_argument("--workers", type=int, help="Dask worker processes of a LocalCluster, one scene at a time "
+                                               "each (default: one per core; 0: in this process, one "
+                                               "scene after the other)")
+    f.add_argument("--jobs", type=int, dest="workers", help=argparse.SUPPRESS)    # the older name of --workers
+    f.add_argument("--scheduler", metavar="ADDRESS", help="run the scenes on an existing Dask cluster: its "
+                   "scheduler's address (tcp://host:8786) or scheduler file (its workers need autocable "
+                   "installed and this folder's paths)")
     f.add_argument("--timeout", type=float, help="stop a scene after this many seconds (default: none)")
     f.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     f.add_argument("--model", help="run every scene on this model spec instead of the one each scene names "
@@ -345,13 +358,29 @@ def blas_thread_env(jobs: int, cores: int, environ, numpy_loaded: bool) -> dict[
     return {v: str(per) for v in BLAS_THREAD_VARS if v not in environ}
 
 
+def _where_text(out: Path) -> str:
+    """Where the scenes ran, from figures.json: "2 workers", "serial", "scheduler tcp://...". """
+    from autocable._store import read_json
+    where = (read_json(out / SUMMARY_JSON) or {}).get("where") or {}
+    mode = where.get("mode")
+    if mode == "scheduler":
+        return f"on the scheduler {where.get('address')}, {where.get('workers_seen', '?')} workers"
+    if mode == "LocalCluster":
+        return f"{where.get('workers')} worker processes"
+    return "in this process, one at a time"
+
+
 def cmd_figures(args) -> int:
     """Run the scenes, write report.md, print the summary; exit status 3 (`EXIT_FAILED`: what was
     computed is kept) if any scene failed."""
-    if args.jobs is not None and args.jobs < 1:
-        raise SpecError("--jobs", "", f"expected a whole number >= 1, got {args.jobs}")
-    # Before anything imports numpy: this process forks the scene processes after loading it.
-    os.environ.update(blas_thread_env(int(args.jobs or os.cpu_count() or 1), os.cpu_count() or 1, os.environ,
+    from autocable.executor import check_workers
+    check_workers("--workers", args.workers)           # 0: this process, one scene after the other
+    if args.scheduler is not None:
+        from autocable.executor import check_scheduler
+        check_scheduler(args.scheduler)
+    # Before anything imports numpy: on the serial path this process forks the scene processes
+    # after loading it (a LocalCluster's workers get one BLAS thread each from Dask's nanny).
+    os.environ.update(blas_thread_env(int(args.workers or os.cpu_count() or 1), os.cpu_count() or 1, os.environ,
                                       "numpy" in sys.modules))
     from autocable.paper.report_md import write_report
     if args.timeout is not None and not 0 < args.timeout < float("inf"):   # also refuses nan
@@ -378,7 +407,7 @@ def cmd_figures(args) -> int:
         raise SpecError("arguments", "--out", f"cannot write into {out} (read-only or not permitted); give a "
                                               "writable folder")
     from autocable.progress import BarProgress, progress_for
-    bar = progress_for("figures", len(scenes), quiet=args.quiet)
+    bar = progress_for("figures", len(scenes), quiet=args.quiet, count=True)
     if isinstance(bar, BarProgress):
         # a terminal: the bar, and only the failures as lines
         def say(msg):
@@ -393,7 +422,8 @@ def cmd_figures(args) -> int:
         on_done = None
     t0 = time.perf_counter()
     try:
-        outcomes = run_figures(scenes, out, jobs=args.jobs, timeout=args.timeout, say=say,
+        outcomes = run_figures(scenes, out, workers=args.workers, scheduler=args.scheduler, timeout=args.timeout,
+                               say=say,
                                engine=getattr(args, "engine", None), model=model, on_done=on_done)
     finally:
         if isinstance(bar, BarProgress):
@@ -403,7 +433,7 @@ def cmd_figures(args) -> int:
     failed = [o for o in outcomes if o.status != "ok"]
     if not args.quiet:
         print(f"{len(outcomes) - len(failed)} of {len(outcomes)} scenes done in {wall:.1f} s "
-              f"({min(len(outcomes), max(1, int(args.jobs or os.cpu_count() or 1)))} at a time); report: {report}")
+              f"({_where_text(out)}); report: {report}")
         for o in outcomes:
             print(f"  {o.name:<8} {o.status:<6} {o.wall_s:7.1f} s  "
                   + (", ".join(o.files) if o.status == "ok" else o.error))

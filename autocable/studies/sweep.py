@@ -45,6 +45,8 @@ from pathlib import Path
 import numpy as np
 
 from autocable._store import atomic_write_json, atomic_write_text, content_hash
+# the scheduler check lives with the executor every command shares (re-exported for older imports)
+from autocable.executor import SCHEDULER_TIMEOUT, check_scheduler  # noqa: F401
 from autocable.scene.sweep_schema import AXES, SweepSpec
 
 #: Bump when a point record changes meaning (part of every point key). 2: eta* = 0 cycles are
@@ -555,111 +557,46 @@ def run_sweep_unlocked(spec: SweepSpec, out_dir, *, workers: int | None = None, 
     return summary
 
 
-#: Seconds to reach a Dask scheduler and hear it answer (`check_scheduler`): a refused port, a
-#: service that is not Dask or a peer that never answers is named at once, not after minutes.
-SCHEDULER_TIMEOUT = 10.0
-
-
-def check_scheduler(address: str, timeout: float | None = None) -> None:
-    """Refuse (`SpecError` naming ``--scheduler``) an address where no Dask scheduler answers
-    within ``timeout`` seconds (default `SCHEDULER_TIMEOUT`): an empty or malformed address, a
-    refused port (found at once), a service that never answers, or one that answers with other
-    bytes (Dask would read its first bytes as a frame length and try to allocate exabytes)."""
-    import asyncio
-    import socket
-
-    from autocable.spec import SpecError
-    timeout = SCHEDULER_TIMEOUT if timeout is None else timeout
-
-    def refuse(why: str):
-        return SpecError("arguments", "--scheduler", f"{why}; give the address of a running Dask scheduler, "
-                                                     "e.g. tcp://host:8786 (or leave --scheduler out)")
-
-    if not isinstance(address, str) or not address.strip() or any(c.isspace() for c in address):
-        raise refuse(f"expected an address like tcp://host:8786, got {address!r}")
-    if "://" not in address or address.startswith("tcp://"):
-        hostport = address.split("://", 1)[-1]
-        host, _, port = hostport.rpartition(":")
-        if not host or not port.isdigit() or not 0 < int(port) < 65536:
-            raise refuse(f"expected host:port, got {address!r}")
-        try:
-            socket.create_connection((host.strip("[]"), int(port)), timeout=timeout).close()
-        except OSError as exc:
-            raise refuse(f"cannot connect to {address}: {exc.strerror or exc}") from None
-
-    async def identity():
-        from distributed.comm import connect
-        comm = await connect(address, timeout=timeout)
-        try:
-            await comm.write({"op": "identity", "reply": True})
-            return await comm.read()
-        finally:
-            comm.abort()
-
-    try:
-        reply = asyncio.run(asyncio.wait_for(identity(), timeout))
-    except (asyncio.TimeoutError, TimeoutError):
-        raise refuse(f"{address} did not answer as a Dask scheduler within {timeout:g} s") from None
-    except Exception as exc:  # noqa: BLE001 - whatever the peer sent, it is not a Dask scheduler
-        first = (str(exc).strip().splitlines() or [""])[0][:100]
-        raise refuse(f"{address} is not a Dask scheduler ({type(exc).__name__}: {first})") from None
-    if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
-        raise refuse(f"{address} answered, but not as a Dask scheduler")
-
-
 def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs, on_client):
-    import logging
+    import functools
 
-    import dask
-    from dask.distributed import Client, LocalCluster, as_completed
-
-    from autocable._store import cache_dir
-    cluster = None
+    from autocable.executor import Executor
     t_start = time.perf_counter()
-    # Dask's scratch space (spilled data, worker folders) inside autocable's cache, not the system
-    # temporary folder: a sweep writes nowhere but its --out and the cache.
-    scratch = str(cache_dir("dask-scratch"))
-    with dask.config.set({"temporary-directory": scratch}):
-        if scheduler:
-            client = Client(scheduler, timeout=SCHEDULER_TIMEOUT)
-            where = {"mode": "scheduler", "address": scheduler}
-        else:
-            n = workers if workers else (os.cpu_count() or 1)
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                                   silence_logs=logging.ERROR, local_directory=scratch, **cluster_kwargs)
-            client = Client(cluster)
-            where = {"mode": "LocalCluster", "workers": n}
-    try:
-        nw = max(len(client.scheduler_info().get("workers", {})), 1)
+    # Every worker derives the model and loads the compiled integrators before the clock of the
+    # tasks starts (a worker that joins later does it in its first task).
+    with Executor(workers, scheduler, warm=functools.partial(_warm, model, spec.method),
+                  cluster_kwargs=cluster_kwargs) as ex:
+        client = ex.client
+        where = {k: v for k, v in ex.where.items() if k not in ("startup_seconds", "workers_seen")}
+        nw = ex.n_workers
         # units per task: single points (about 8 tasks per worker, at most 16 points each), or
         # with follow ``chunk`` consecutive points of a line (default 1), chained line by line
         size = chunk or (1 if spec.follow else max(1, min(16, math.ceil(len(todo) / (8 * nw)))))
         where["chunk"] = size
-        # Every worker derives the model and loads the compiled integrators before the clock of
-        # the tasks starts (a worker that joins later does it in its first task).
-        client.run(_warm, model, spec.method)
         where["startup_seconds"] = time.perf_counter() - t_start
         cpu0 = client.run(time.process_time)
         t_tasks, own0 = time.perf_counter(), time.process_time()
         sink.progress.start()
+        n = 0
         if spec.follow:
-            futures = []
             for carried, points in todo:
                 previous = None
                 for k in range(0, len(points), size):
-                    previous = client.submit(compute_segment, model, spec.method, spec.max_time,
-                                             points[k:k + size], previous, carried, pure=False)
-                    futures.append(previous)
+                    n += 1
+                    previous = ex.submit(f"sweep:{n}", compute_segment, model, spec.method, spec.max_time,
+                                         points[k:k + size], previous, carried)
         else:
-            futures = [client.submit(compute_chunk, model, spec.method, spec.max_time, part, False, pure=False)
-                       for part in _chunks(todo, size)]
-        where["tasks"] = len(futures)
+            for part in _chunks(todo, size):
+                n += 1
+                ex.submit(f"sweep:{n}", compute_chunk, model, spec.method, spec.max_time, part, False)
+        where["tasks"] = n
         if on_client is not None:
             on_client(client)
-        for fut in as_completed(futures):
-            for key, rec in fut.result():
+        for done in ex.completed():
+            if not done.ok:
+                raise RuntimeError(done.error)
+            for key, rec in done.value:
                 sink.take(key, rec)
-            fut.release()
         where["compute_seconds"] = time.perf_counter() - t_tasks
         where["compute_points_per_second"] = (sink.computed + len(sink.failed)) / where["compute_seconds"]
         # CPU time the workers got during the task phase (a restarted worker's is partial): on a
@@ -668,11 +605,7 @@ def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs
         where["cpu_seconds"] = sum(v - cpu0.get(k, 0.0) for k, v in cpu1.items())
         # this process: the client, and the scheduler of a LocalCluster (Dask's overhead)
         where["client_cpu_seconds"] = time.process_time() - own0
-        where["worker_pids"] = sorted({p for p in client.run(os.getpid).values()})
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        where["worker_pids"] = ex.worker_pids()
     return where
 
 

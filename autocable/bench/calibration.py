@@ -1,0 +1,118 @@
+"""`autocable bench calibration`: the calibration's parallel stages on the executor, measured.
+
+Two parts, each `autocable calibrate` in a subprocess on the sample model and its targets file,
+into fresh folders with the same (warm) compile cache:
+
+* **screen scaling**: a space of `SCREEN_POINTS` (readings, beta) points, screen only (``full =
+  0``), once with 1 worker and once with 2; the screen's wall time (``screen_s`` of
+  calibration.json), its points per minute and the speed-up from 1 to 2 workers.
+* **bound on 20 candidate models**: a space whose screen gives at least 20 candidate models
+  (`BOUND_SPACE`), one of them fully evaluated (the bound needs the no-wind scenes once), the rest
+  bounded against the targets file's goal; the bound stage's wall time (calibration.json) and its
+  scene time (the summed ``scene_s`` of bound.csv: each scene's own recorded time).
+
+The command line is the one both older and newer versions accept (``--jobs`` is the older name of
+``--workers``), so that the same bench measures a checkout before and after a change
+(``PYTHONPATH=<checkout>``).
+"""
+from __future__ import annotations
+
+import csv
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Callable
+
+__all__ = ["bench_calibration", "SCREEN_SPACE", "BOUND_SPACE"]
+
+SCREEN_POINTS = 8
+SCREEN_SPACE = """\
+twist_ends = ["natural", "restrained"]
+load_axes = ["reference"]
+angle_convention = ["mirrored"]
+load_length = ["diameter"]
+air_density_kg_m3 = [1.25]
+ordering = ["paper"]
+yaw_deg = [-10.0, -5.0, 0.0, 5.0]
+rivulet_angle_deg = ["calibrate"]
+full = 0
+"""
+BOUND_SPACE = """\
+twist_ends = ["natural"]
+load_axes = ["reference"]
+angle_convention = ["mirrored"]
+load_length = ["diameter"]
+air_density_kg_m3 = [1.25]
+ordering = ["paper"]
+yaw_deg = [-30.0, -25.0, -20.0, -15.0, -10.0, -5.0, 0.0, 5.0, 10.0, 15.0]
+rivulet_angle_deg = ["calibrate"]
+full = 1
+"""
+
+
+def _calibrate(model: Path, targets: Path, space: Path, out: Path, workers: int, bound: bool, env: dict) -> dict:
+    cmd = [sys.executable, "-m", "autocable.cli", "calibrate", str(model), str(targets), "--space", str(space),
+           "--out", str(out), "--jobs", str(workers), "--quiet"] + (["--bound"] if bound else [])
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    wall = time.perf_counter() - t0
+    try:
+        stats = json.loads((out / "calibration.json").read_text())
+    except (OSError, ValueError):
+        stats = {}
+    return {"exit_status": proc.returncode, "wall_s": wall, "stats": stats,
+            "stderr_tail": proc.stderr.strip().splitlines()[-5:]}
+
+
+def bench_calibration(model_path: str, log: Callable[[str], None] | None = None, out=None) -> dict:
+    """The screen's scaling from 1 to 2 workers and the bound stage on 20 candidate models
+    (module docstring); the calibrations run in a temporary folder (``out`` is unused: the
+    command writes the JSON there)."""
+    say = log or (lambda s: None)
+    model = Path(model_path).resolve()
+    targets = model.with_suffix("").with_suffix(".targets.toml")
+    env = dict(os.environ)
+    result = {"what": "autocable calibrate: screen scaling and the bound stage", "cpu_count": os.cpu_count(),
+              "load_average_before": os.getloadavg()[0]}
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        (root / "screen.search.toml").write_text(SCREEN_SPACE)
+        (root / "bound.search.toml").write_text(BOUND_SPACE)
+        # one warm-up screen point, so that neither timed pass builds the integrators
+        warm = root / "warm.search.toml"
+        warm.write_text(SCREEN_SPACE.replace("yaw_deg = [-10.0, -5.0, 0.0, 5.0]", "yaw_deg = [20.0]")
+                        .replace('["natural", "restrained"]', '["natural"]'))
+        _calibrate(model, targets, warm, root / "warm", 1, False, env)
+        screen = {}
+        for n in (1, 2):
+            say(f"screen of {SCREEN_POINTS} points on {n} worker(s) ...")
+            r = _calibrate(model, targets, root / "screen.search.toml", root / f"screen_{n}", n, False, env)
+            s = r["stats"]
+            screen[n] = {"exit_status": r["exit_status"], "wall_s": r["wall_s"], "screen_s": s.get("screen_s"),
+                         "points": s.get("computed"),
+                         "points_per_min": (60 * s["computed"] / s["screen_s"]) if s.get("screen_s") else None}
+            say(f"  screen {s.get('screen_s', float('nan')):.1f} s, command {r['wall_s']:.1f} s")
+        speedup = (screen[1]["screen_s"] / screen[2]["screen_s"]
+                   if screen[1]["screen_s"] and screen[2]["screen_s"] else None)
+        result["screen"] = {"points": SCREEN_POINTS, "by_workers": screen, "speedup_1_to_2": speedup}
+        say("bound stage on the candidate models of a 10-point space, 2 workers ...")
+        r = _calibrate(model, targets, root / "bound.search.toml", root / "bound", 2, True, env)
+        b = (r["stats"] or {}).get("bound") or {}
+        rows = []
+        try:
+            with open(root / "bound" / "bound.csv", newline="") as fh:
+                rows = [x for x in csv.DictReader(fh) if x.get("status") != "fully evaluated"]
+        except OSError:
+            pass
+        scene_s = sum(float(x.get("scene_s") or 0.0) for x in rows)
+        result["bound"] = {"exit_status": r["exit_status"], "command_wall_s": r["wall_s"],
+                           "models": b.get("models"), "bounded_here": len(rows), "wall_s": b.get("wall_s"),
+                           "scene_s": scene_s, "scenes": sum(len((x.get("scenes_run") or "").split()) for x in rows),
+                           "by_status": b.get("by_status"), "highest_bound": b.get("highest_bound"),
+                           "stderr_tail": r["stderr_tail"]}
+        say(f"  {len(rows)} models bounded: stage {b.get('wall_s') or float('nan'):.1f} s wall, scene time {scene_s:.1f} s")
+    return result

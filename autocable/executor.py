@@ -1,0 +1,431 @@
+"""One executor for every parallel job of autocable: the figure scenes (`autocable figures`), the
+calibration's screen points, its full evaluations and its bound scenes (`autocable calibrate`), and
+the sweeps (`autocable sweep`) are all tasks on Dask.
+
+Where the tasks run (`Executor`):
+
+* by default a ``LocalCluster`` of one single-threaded worker process per core (``workers=N``:
+  N of them);
+* ``scheduler="tcp://host:8786"`` (or the path of a scheduler file written by
+  ``dask scheduler --scheduler-file``): the workers of an existing Dask cluster, on this machine or
+  on many (docs/cluster.md: what each worker needs);
+* ``workers=0``: in this process, one task after the other in the order submitted (the serial
+  path, which the tests compare with the others, and a debugger can step through).
+
+What a lost worker costs. A worker process that dies (killed, out of memory, its machine gone)
+loses only the task it was running: the scheduler gives that task to another worker (Dask retries a
+task whose worker died, up to ``distributed.scheduler.allowed-failures`` times). Results are
+written by the tasks into the output folder as they finish, so a rerun of an interrupted command
+resumes as before. With ``journal`` each task start is appended to that file (``label`` and the
+worker's pid), so that a command can count the tasks computed more than once (`attempts`).
+
+Isolation of a scene. A figure scene runs in a child forked by its worker (`run_forked`): PyDSTool's
+build changes the process's working folder, a crash in generated C code must fail its scene rather
+than kill the worker, and a scene over its time limit must be stoppable. The child dies with its
+worker (`autocable._children.die_with_parent`).
+"""
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+import pickle
+import select
+import signal
+import time
+import traceback
+import uuid
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Iterator
+
+__all__ = ["Executor", "Done", "run_forked", "attempts", "check_scheduler", "check_workers", "scheduler_address",
+           "SCHEDULER_TIMEOUT", "time_left"]
+
+#: Seconds to reach a Dask scheduler and hear it answer (`check_scheduler`): a refused port, a
+#: service that is not Dask or a peer that never answers is named at once, not after minutes.
+SCHEDULER_TIMEOUT = 10.0
+
+
+@dataclass
+class Done:
+    """A finished task: its ``label``, the function's return ``value``, or ``error`` (one line) when
+    the task raised or its workers kept dying (Dask's ``KilledWorker``)."""
+
+    label: str
+    value: Any = None
+    error: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return not self.error
+
+
+#: Worker processes: more than this is a typing error on any machine autocable targets.
+WORKERS_LIMIT = 1024
+
+
+def check_workers(option: str, value) -> None:
+    """Refuse (`SpecError` naming ``option``) a worker count that is not a whole number in [0,
+    twice the cores]: each worker is a process of its own; more than the cores only share them,
+    and a thousand start for minutes before the first task."""
+    from autocable.spec import SpecError
+    if value is None:
+        return
+    cores = os.cpu_count() or 1
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= WORKERS_LIMIT:
+        raise SpecError("arguments", option, f"expected an integer in [0, {WORKERS_LIMIT}], got {value!r}")
+    if value > 2 * cores:
+        raise SpecError("arguments", option, f"{value} worker processes on {cores} cores; give at most "
+                                             f"{2 * cores} (twice the cores)")
+
+
+# ------------------------------------------------------------------------------------------------
+# the scheduler's address
+# ------------------------------------------------------------------------------------------------
+def scheduler_address(where: str) -> str:
+    """The address of a scheduler given as an address (``tcp://host:8786``, ``host:8786``) or as
+    the path of a scheduler file (``dask scheduler --scheduler-file F``: JSON with ``address``)."""
+    from autocable.spec import SpecError
+    if isinstance(where, str) and "://" not in where and (where.endswith(".json") or os.path.isfile(where)):
+        try:
+            data = json.loads(Path(where).read_text())
+        except (OSError, ValueError) as exc:
+            raise SpecError("arguments", "--scheduler", f"cannot read the scheduler file {where}: "
+                                                        f"{getattr(exc, 'strerror', None) or exc}; give the file "
+                                                        "`dask scheduler --scheduler-file` wrote, or an address "
+                                                        "like tcp://host:8786") from None
+        address = data.get("address") if isinstance(data, dict) else None
+        if not isinstance(address, str) or not address:
+            raise SpecError("arguments", "--scheduler", f"the scheduler file {where} names no address; give the "
+                                                        "file `dask scheduler --scheduler-file` wrote")
+        return address
+    return where
+
+
+def check_scheduler(address: str, timeout: float | None = None) -> None:
+    """Refuse (`SpecError` naming ``--scheduler``) an address where no Dask scheduler answers
+    within ``timeout`` seconds (default `SCHEDULER_TIMEOUT`): an empty or malformed address, a
+    refused port (found at once), a service that never answers, or one that answers with other
+    bytes (Dask would read its first bytes as a frame length and try to allocate exabytes). A
+    scheduler file is read for its address first (`scheduler_address`)."""
+    import asyncio
+    import socket
+
+    from autocable.spec import SpecError
+    timeout = SCHEDULER_TIMEOUT if timeout is None else timeout
+
+    def refuse(why: str):
+        return SpecError("arguments", "--scheduler", f"{why}; give the address of a running Dask scheduler, "
+                                                     "e.g. tcp://host:8786, or its scheduler file "
+                                                     "(or leave --scheduler out)")
+
+    if not isinstance(address, str) or not address.strip() or any(c.isspace() for c in address):
+        raise refuse(f"expected an address like tcp://host:8786, got {address!r}")
+    address = scheduler_address(address)
+    if "://" not in address or address.startswith("tcp://"):
+        hostport = address.split("://", 1)[-1]
+        host, _, port = hostport.rpartition(":")
+        if not host or not port.isdigit() or not 0 < int(port) < 65536:
+            raise refuse(f"expected host:port, got {address!r}")
+        try:
+            socket.create_connection((host.strip("[]"), int(port)), timeout=timeout).close()
+        except OSError as exc:
+            raise refuse(f"cannot connect to {address}: {exc.strerror or exc}") from None
+
+    async def identity():
+        from distributed.comm import connect
+        comm = await connect(address, timeout=timeout)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    try:
+        reply = asyncio.run(asyncio.wait_for(identity(), timeout))
+    except (asyncio.TimeoutError, TimeoutError):
+        raise refuse(f"{address} did not answer as a Dask scheduler within {timeout:g} s") from None
+    except Exception as exc:  # noqa: BLE001 - whatever the peer sent, it is not a Dask scheduler
+        first = (str(exc).strip().splitlines() or [""])[0][:100]
+        raise refuse(f"{address} is not a Dask scheduler ({type(exc).__name__}: {first})") from None
+    if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+        raise refuse(f"{address} answered, but not as a Dask scheduler")
+
+
+# ------------------------------------------------------------------------------------------------
+# the journal of task starts
+# ------------------------------------------------------------------------------------------------
+def _journaled(journal: str | None, label: str, fn: Callable, *args):
+    """Run ``fn(*args)`` on a worker after appending ``label`` to the journal (one short line, one
+    ``write`` on a file opened for appending: lines of concurrent workers do not interleave)."""
+    if journal:
+        try:
+            fd = os.open(journal, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+            try:
+                os.write(fd, (json.dumps({"label": label, "pid": os.getpid()}) + "\n").encode())
+            finally:
+                os.close(fd)
+        except OSError:
+            pass    # a worker without the shared folder: the journal only counts, the task still runs
+    return fn(*args)
+
+
+def attempts(journal: str | Path) -> Counter:
+    """How many times each task label was started, from a journal (`Executor` ``journal``)."""
+    counts: Counter = Counter()
+    try:
+        text = Path(journal).read_text()
+    except OSError:
+        return counts
+    for line in text.splitlines():
+        try:
+            counts[json.loads(line)["label"]] += 1
+        except (ValueError, KeyError, TypeError):
+            continue    # a line cut by a kill
+    return counts
+
+
+# ------------------------------------------------------------------------------------------------
+# the executor
+# ------------------------------------------------------------------------------------------------
+class Executor:
+    """Tasks on Dask (module docstring). Use as a context manager::
+
+        with Executor(workers=2) as ex:
+            for item in items:
+                ex.submit(label, fn, item)
+            for done in ex.completed():        # as they finish; tasks submitted meanwhile join
+                ...
+
+    ``workers``: LocalCluster worker processes (None: one per core; 0: serial, in this process);
+    ``scheduler``: an existing scheduler's address or scheduler file (``workers`` is then
+    ignored); ``warm``: a function every worker runs once before the first task (imports,
+    compiled integrators), none of whose result is kept; ``journal``: a file the task starts are
+    appended to (`attempts`), emptied at the start; ``cluster_kwargs``: more LocalCluster
+    arguments."""
+
+    def __init__(self, workers: int | None = None, scheduler: str | None = None, *,
+                 warm: Callable[[], Any] | None = None, journal: str | Path | None = None,
+                 cluster_kwargs: dict | None = None):
+        self.workers, self.scheduler, self.warm = workers, scheduler, warm
+        self.journal = str(Path(journal).resolve()) if journal else None
+        self.cluster_kwargs = dict(cluster_kwargs or {})
+        self.client = self._cluster = self._ac = None
+        self._queue: list = []          # the serial path's tasks, in order
+        self._pending = 0
+        self.where: dict = {}
+
+    @property
+    def serial(self) -> bool:
+        return self.workers == 0 and not self.scheduler
+
+    @property
+    def n_workers(self) -> int:
+        """Workers at hand now (1 on the serial path)."""
+        if self.client is None:
+            return 1
+        return max(len(self.client.scheduler_info().get("workers", {})), 1)
+
+    def __enter__(self) -> "Executor":
+        t0 = time.perf_counter()
+        if self.journal:
+            try:
+                Path(self.journal).parent.mkdir(parents=True, exist_ok=True)
+                Path(self.journal).write_text("")
+            except OSError:
+                self.journal = None
+        if self.serial:
+            self.where = {"mode": "serial"}
+            if self.warm is not None:
+                self.warm()
+        else:
+            import dask
+            from dask.distributed import Client, LocalCluster
+
+            from autocable._store import cache_dir
+            # Dask's scratch space (spilled data, worker folders) inside autocable's cache, not the
+            # system temporary folder: a command writes nowhere but its --out and the cache.
+            scratch = str(cache_dir("dask-scratch"))
+            with dask.config.set({"temporary-directory": scratch}):
+                if self.scheduler:
+                    address = scheduler_address(self.scheduler)
+                    self.client = Client(address, timeout=SCHEDULER_TIMEOUT)
+                    self.where = {"mode": "scheduler", "address": address}
+                else:
+                    n = self.workers if self.workers else (os.cpu_count() or 1)
+                    self._cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                                 dashboard_address=None, silence_logs=logging.ERROR,
+                                                 local_directory=scratch, **self.cluster_kwargs)
+                    self.client = Client(self._cluster)
+                    self.where = {"mode": "LocalCluster", "workers": n}
+            if self.warm is not None:
+                # every worker at hand now; one that joins later does it in its first task
+                self.client.run(self.warm)
+            self.where["workers_seen"] = self.n_workers
+        self.where["startup_seconds"] = time.perf_counter() - t0
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        if self.client is not None:
+            self.client.close()
+            self.client = None
+        if self._cluster is not None:
+            self._cluster.close()
+            self._cluster = None
+
+    def submit(self, label: str, fn: Callable, *args, priority: int = 0):
+        """Queue ``fn(*args)`` (a module-level function: it travels to the workers by reference,
+        its arguments by value; paths must be absolute). ``priority``: higher starts first.
+        Returns the Dask future (None on the serial path)."""
+        self._pending += 1
+        if self.client is None:
+            self._queue.append((label, fn, args))
+            return None
+        fut = self.client.submit(_journaled, self.journal, label, fn, *args, pure=False, priority=priority,
+                                 key=f"{label}-{uuid.uuid4().hex[:12]}")
+        fut._autocable_label = label
+        if self._ac is not None:
+            self._ac.add(fut)
+        else:
+            self._queue.append(fut)
+        return fut
+
+    @property
+    def pending(self) -> int:
+        """Tasks submitted and not yet handed back by `completed`."""
+        return self._pending
+
+    def completed(self) -> Iterator[Done]:
+        """The tasks as they finish (on the serial path: run now, in order), including the tasks
+        submitted while iterating; a task that raised, or whose workers kept dying, comes back with
+        its ``error``."""
+        if self.client is None:
+            while self._queue:
+                label, fn, args = self._queue.pop(0)
+                try:
+                    value = _journaled(self.journal, label, fn, *args)
+                    done = Done(label, value)
+                except Exception as exc:  # noqa: BLE001 - the caller decides what a failed task means
+                    done = Done(label, None, _one_line(exc))
+                self._pending -= 1
+                yield done
+            return
+        from dask.distributed import as_completed
+        self._ac = as_completed(self._queue)
+        self._queue = []
+        try:
+            for fut in self._ac:
+                label = getattr(fut, "_autocable_label", str(fut.key))
+                try:
+                    done = Done(label, fut.result())
+                except Exception as exc:  # noqa: BLE001 - KilledWorker, or the task's own error
+                    done = Done(label, None, _one_line(exc))
+                fut.release()
+                self._pending -= 1
+                yield done
+        finally:
+            self._ac = None
+
+    def worker_pids(self) -> list[int]:
+        """The pids of the worker processes (this process on the serial path)."""
+        if self.client is None:
+            return [os.getpid()]
+        return sorted(set(self.client.run(os.getpid).values()))
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text[:300]}" if text else type(exc).__name__
+
+
+# ------------------------------------------------------------------------------------------------
+# a task in a forked child
+# ------------------------------------------------------------------------------------------------
+def run_forked(fn: Callable, args: tuple = (), timeout: float | None = None,
+               what: str = "task") -> tuple[str, Any, str]:
+    """Run ``fn(*args)`` in a child forked from this process and return ``("ok", value, "")``, or
+    ``("failed", one-line error, traceback)`` when it raised, died (a signal, e.g. a segfault in
+    compiled code) or ran past ``timeout`` seconds (then it is killed); ``what`` names the work in
+    those messages. The value must pickle.
+
+    ``os.fork`` rather than `multiprocessing`: a Dask worker is a daemonic process, and
+    multiprocessing refuses children to those. The child ends with ``os._exit`` (no exit handlers of
+    the worker run in it) and dies with its parent."""
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:                                     # the child
+        code = 0
+        try:
+            os.close(r)
+            from autocable._children import die_with_parent
+            die_with_parent()
+            try:
+                msg = ("ok", fn(*args), "")
+            except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent
+                msg = ("failed", _one_line(exc), traceback.format_exc())
+            try:
+                data = pickle.dumps(msg)
+            except Exception as exc:  # noqa: BLE001
+                data = pickle.dumps(("failed", f"the result does not pickle: {_one_line(exc)}", ""))
+            view = memoryview(data)
+            while view:
+                view = view[os.write(w, view):]
+        except BaseException:  # noqa: BLE001
+            code = 1
+        finally:
+            os._exit(code)
+    os.close(w)
+    chunks, deadline = [], (time.monotonic() + timeout) if timeout else math.inf
+    timed_out = False
+    try:
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                timed_out = True
+                break
+            ready, _, _ = select.select([r], [], [], min(left, 3600.0))
+            if not ready:
+                continue
+            chunk = os.read(r, 1 << 16)
+            if not chunk:
+                break
+            chunks.append(chunk)
+    finally:
+        os.close(r)
+        if timed_out:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        _, status = os.waitpid(pid, 0)
+    if timed_out:
+        return ("failed", f"stopped after the time limit of {timeout:g} s", "")
+    try:
+        return pickle.loads(b"".join(chunks))
+    except Exception:  # noqa: BLE001 - nothing (or half a message) came back: the child died
+        if os.WIFSIGNALED(status):
+            why = f"killed by signal {os.WTERMSIG(status)}"
+        else:
+            why = f"exit status {os.WEXITSTATUS(status)}"
+        return ("failed", f"the {what}'s process died ({why}) without a result", "")
+
+
+# ------------------------------------------------------------------------------------------------
+# progress
+# ------------------------------------------------------------------------------------------------
+def time_left(done: int, total: int, elapsed: float) -> str:
+    """``"about 3 min left"`` at the mean rate so far ("" before the first task is done)."""
+    if done <= 0 or total <= done or elapsed <= 0:
+        return ""
+    s = elapsed / done * (total - done)
+    if s < 90:
+        return f"about {s:.0f} s left"
+    if s < 5400:
+        return f"about {s / 60:.0f} min left"
+    return f"about {s / 3600:.1f} h left"
