@@ -88,6 +88,20 @@ def orbit_runs(path: Path) -> list[int]:
             and isinstance(r.get("start"), dict) and "orbit" in r["start"]]
 
 
+def scene_copy(src: Path, dst: Path, model: Path, drop_orbits: bool, drop_overlay: bool) -> list[str]:
+    """A copy of the scene file ``src`` at ``dst`` on ``model``, without its orbit-started runs
+    (``drop_orbits``) and its eq. (21) overlay (``drop_overlay``), as `run_bound` prepares a
+    candidate's scenes; returns the notes of what was dropped (for `autocable bench bound-scenes`)."""
+    from autocable.paper import candidates as cm
+    dst.write_text(src.read_text().replace('model = "../models/luongo_zulli_2012.toml"', f'model = "{model}"'))
+    notes = []
+    if drop_orbits:
+        notes += [f"{src.stem}: run[{k}]" for k in reversed(orbit_runs(dst)) if cm._drop_run(dst, k)]
+    if drop_overlay and cm._drop_table(dst, "overlay"):
+        notes.append(f"{src.stem}: overlay")
+    return notes
+
+
 @dataclass
 class Candidate:
     """One candidate model in the bound stage."""
