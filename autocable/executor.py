@@ -347,10 +347,12 @@ def _one_line(exc: BaseException) -> str:
 # ------------------------------------------------------------------------------------------------
 # a task in a forked child
 # ------------------------------------------------------------------------------------------------
-def run_forked(fn: Callable, args: tuple = (), timeout: float | None = None) -> tuple[str, Any, str]:
+def run_forked(fn: Callable, args: tuple = (), timeout: float | None = None,
+               what: str = "task") -> tuple[str, Any, str]:
     """Run ``fn(*args)`` in a child forked from this process and return ``("ok", value, "")``, or
     ``("failed", one-line error, traceback)`` when it raised, died (a signal, e.g. a segfault in
-    compiled code) or ran past ``timeout`` seconds (then it is killed). The value must pickle.
+    compiled code) or ran past ``timeout`` seconds (then it is killed); ``what`` names the work in
+    those messages. The value must pickle.
 
     ``os.fork`` rather than `multiprocessing`: a Dask worker is a daemonic process, and
     multiprocessing refuses children to those. The child ends with ``os._exit`` (no exit handlers of
@@ -411,7 +413,7 @@ def run_forked(fn: Callable, args: tuple = (), timeout: float | None = None) -> 
             why = f"killed by signal {os.WTERMSIG(status)}"
         else:
             why = f"exit status {os.WEXITSTATUS(status)}"
-        return ("failed", f"the task's process died ({why}) without a result", "")
+        return ("failed", f"the {what}'s process died ({why}) without a result", "")
 
 
 # ------------------------------------------------------------------------------------------------

@@ -156,6 +156,10 @@ def test_bound_stage_stops_resumes_and_agrees_with_the_report(tmp_path):
         assert r["bound"] == 46 - len(not_yes) and sorted(r["lowered_by"]) == sorted(not_yes)
         assert r["status"] == ("stopped: statements" if not_yes else "every scene run")
         assert r["scenes_run"] == ["fig03"] and r["computed_scenes"] == 1
+        # fig03's overlay decides fig03.boxes only, which never lowers a bound: not run
+        assert "[overlay]" not in (folder / "runs" / "fig03.toml").read_text()
+        assert any(d.startswith("fig03: overlay (not run") for d in r["dropped_runs"])
+        assert not (folder / "out" / "fig03" / "overlay.csv").exists()
     # a rerun reads the records: nothing computed
     again = bd.run_bound(Path(SAMPLE).resolve(), targets, strict, cands, [], tmp_path / "a", runs, ref, capped, 2,
                          says.append, order=("fig03",))
@@ -254,3 +258,27 @@ def test_prior_bound_records_round_trip_and_merge(tmp_path):
     with pytest.raises(SpecError) as err:
         bd.read_csv(bad)
     assert "bad.csv" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_fig03_statements_other_than_boxes_are_decided_without_the_overlay(tmp_path):
+    """The bound drops Fig. 3's eq. (21) overlay (`run_bound`, ``skip_overlay``): fig03's statements
+    other than fig03.boxes must be decided the same from the scene without its overlay as with it
+    (the sample's Fig. 3, run both ways)."""
+    from autocable.paper.candidates import _drop_table
+    from autocable.paper.figures import run_figures
+    from autocable.paper.report import load_scene_data
+    runs = Path.cwd() / "runs"
+    targets = [t for t in tg.load_targets(TARGETS) if t.kind == "statement" and t.scene == "fig03"]
+    (tmp_path / "runs").mkdir()
+    bare = tmp_path / "runs" / "fig03.toml"
+    bare.write_text((runs / "fig03.toml").read_text().replace('model = "../models/', f'model = "{runs.parent}/models/'))
+    assert _drop_table(bare, "overlay") and "[overlay]" not in bare.read_text()
+    assert not _drop_table(bare, "overlay")                     # nothing left to drop
+    full = run_figures([runs / "fig03.toml"], tmp_path / "full", workers=0)
+    without = run_figures([bare], tmp_path / "bare", workers=0)
+    assert full[0].status == without[0].status == "ok"
+    a = {v.id: v.shown for v in tg.decide_statements(targets, {"fig03": load_scene_data(tmp_path / "full" / "fig03")})}
+    b = {v.id: v.shown for v in tg.decide_statements(targets, {"fig03": load_scene_data(tmp_path / "bare" / "fig03")})}
+    assert set(a) == set(b) == {"fig03.galloping", "fig03.trivial", "fig03.boxes"}
+    assert {k: v for k, v in a.items() if k != "fig03.boxes"} == {k: v for k, v in b.items() if k != "fig03.boxes"}
+    assert a["fig03.galloping"] == "yes"                        # the sample's Fig. 3 (a real decision)

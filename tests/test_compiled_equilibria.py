@@ -306,3 +306,110 @@ def test_a_kernel_that_does_not_compile_is_a_one_line_error(tmp_path, monkeypatc
     problem = EquilibriumProblem(bad, "k", {"k": 1.0}, (0.0, 2.0))
     with pytest.raises(ValueError, match="engine must be one of"):
         continue_equilibria(problem, engine="fortran")
+
+
+def _four() -> System:
+    u, v, s, c = sp.symbols("u v s c")
+    return System("four_compiled", ("u", "v", "s", "c"),
+                  (-u + v * s - c**3, u * c - 2 * v + s, u * v * s - c + sp.sin(u), s * s - u * c - v),
+                  {"mu": 0.3}, ())
+
+
+def _sorted_eig(ev) -> np.ndarray:
+    return -np.sort(-np.asarray(ev))          # decreasing real part, then imaginary part
+
+
+def test_kernel_eigenvalues_equal_closed_forms_and_numpys():
+    """The kernel's eigenvalues (balancing, Hessenberg, double-shift QR in C): against closed forms
+    (V diag(lambda) V^-1 with known real and complex-pair lambda, 1e-12 of |lambda|max), against
+    numpy's LAPACK on random and badly scaled (graded) matrices (1e-12 relative to ||J||), sorted
+    as the branch keeps them; a triangular and the zero matrix exactly."""
+    rng = np.random.default_rng(11)
+    for sysm in (duffing(), _four()):
+        k = compiled_kernel(sysm)
+        n = sysm.dimension
+        for _ in range(50):                   # closed form: prescribed eigenvalues
+            lam = list(rng.normal(size=n - 2)) + [complex(rng.normal(), abs(rng.normal()) + 0.1)]
+            lam = lam + [np.conj(lam[-1])]
+            D = np.zeros((n, n))
+            for i, l_ in enumerate(lam[:-2]):
+                D[i, i] = l_.real if isinstance(l_, complex) else l_
+            a, b = lam[-2].real, lam[-2].imag
+            D[n - 2:, n - 2:] = [[a, b], [-b, a]]
+            V = np.eye(n) + 0.3 * rng.normal(size=(n, n))
+            J = V @ D @ np.linalg.inv(V)
+            want = _sorted_eig(np.array(lam, complex))
+            np.testing.assert_allclose(k.eigenvalues(J), want, rtol=0, atol=1e-12 * np.max(np.abs(want)))
+        for scale in (1.0, 1e-6, 1e6):
+            for _ in range(100):
+                J = scale * rng.normal(size=(n, n))
+                G = np.diag(10.0 ** rng.uniform(-4, 4, size=n))
+                for M in (J, G @ J @ np.linalg.inv(G)):
+                    ev = k.eigenvalues(M)
+                    ref = _sorted_eig(np.linalg.eigvals(M))
+                    np.testing.assert_allclose(ev, ref, rtol=0, atol=1e-12 * np.linalg.norm(J) + 1e-300)
+        T = np.triu(rng.normal(size=(n, n)))
+        np.testing.assert_allclose(k.eigenvalues(T), _sorted_eig(np.diag(T)), rtol=0, atol=1e-14)
+        assert np.all(k.eigenvalues(np.zeros((n, n))) == 0)
+        T.setflags(write=False)               # a read-only array is passed by its address too
+        np.testing.assert_allclose(k.eigenvalues(T), _sorted_eig(np.diag(T)), rtol=0, atol=1e-14)
+        J = rng.normal(size=(n, n))
+        J[0, 0] = np.nan                      # no eigenvalues: NaN, never a hang
+        assert np.all(np.isnan(k.eigenvalues(J)))
+
+
+def test_sign_changes_skip_zeros_and_non_finite_values():
+    """`chart._sign_changes` (the segments the analysis locates in): the index before each change
+    of sign between consecutive nonzero finite values; zeros, NaN and inf are skipped."""
+    from autocable.methods.continuation.chart import _sign_changes
+    assert _sign_changes([]) == [] and _sign_changes([1.0]) == []
+    assert _sign_changes([1.0, 2.0, -1.0, -3.0, 4.0]) == [1, 3]
+    assert _sign_changes([1.0, 0.0, 0.0, -1.0]) == [0]               # a zero at a point counts once
+    assert _sign_changes([-1.0, np.nan, np.inf, 2.0, 0.0, 5.0]) == [0]
+    assert _sign_changes([0.0, -2.0, 0.0, 3.0, -np.inf, -1e-300]) == [1, 3]
+    assert all(isinstance(i, int) for i in _sign_changes([1.0, -1.0]))
+
+
+def test_c_locator_equals_the_python_one():
+    """`CKernel.locate` (chart._locate with equilibrium_analysis's test functions, in C) lands
+    where `chart._locate` with the test functions written here in numpy (the SVD tangent, det
+    [DF; chord], det 2J(.)I) lands, to 1e-12 in chart units, for each special point of Fig. 6's
+    branch I (BP), the Duffing folds (LP) and the Hopf normal form (H)."""
+    from autocable.methods.continuation.chart import _locate, _tangent
+    from autocable.methods.continuation.compiled_equilibria import _KernelChart
+    from autocable.methods.continuation.events import _hopf_test
+
+    def tau(kind, chart, ref):
+        if kind == "LP":
+            return lambda Y: float(np.sign(_tangent(chart.DF(Y)) @ ref) * _tangent(chart.DF(Y))[-1])
+        if kind == "BP":
+            return lambda Y: float(np.linalg.det(np.vstack([chart.DF(Y), ref / np.linalg.norm(ref)])))
+        return lambda Y: _hopf_test(chart.system.jac(*chart.to_phys(Y)))
+
+    w_h, a_h = 2.0, -1.0
+    x, y, mu = sp.symbols("x y mu")
+    r2 = x * x + y * y
+    hopf = System("hopf_nf_compiled", ("x", "y"), (mu * x - w_h * y + a_h * x * r2, w_h * x + mu * y + a_h * y * r2),
+                  {"mu": -0.2}, (("a1", ("x", "y")),))
+    fig6, settings, _, _ = first_run_problem("fig06.toml")
+    cases = [(fig6, settings, "BP"),
+             (EquilibriumProblem(duffing(), "sigma", {"sigma": -1.0}, (-1.0, 6.0)),
+              ContinuationSettings(max_step=4e-2), "LP"),
+             (EquilibriumProblem(hopf, "mu", {"mu": -0.2}, (-0.2, 0.3)), ContinuationSettings(), "H")]
+    for problem, settings, kind in cases:
+        b = continue_equilibria(problem, settings, engine="compiled").branch
+        chart = _KernelChart.around(_Chart.of(problem), compiled_kernel(problem.system))
+        Ys = [chart.to_chart(x_, v_) for x_, v_ in zip(b.states, b.values)]
+        found = 0
+        for sp_ in b.of_type(kind):
+            # The bracket the analysis used is on the branch next to the point; take the steps
+            # around it, wide enough that Brent iterates (not only the zero the kernel put there).
+            i = sp_.index
+            for Ya, Yb in ((Ys[max(i - 1, 0)], Ys[min(i + 1, len(Ys) - 1)]),
+                           (Ys[max(i - 2, 0)], Ys[min(i + 2, len(Ys) - 1)])):
+                Yc, okc = chart.locate_test(kind, Ya, Yb, settings.newton_tol)
+                Yp, okp = _locate(chart, Ya, Yb, tau(kind, chart, Yb - Ya), settings.newton_tol)
+                assert okc == okp
+                np.testing.assert_allclose(Yc, Yp, rtol=0, atol=1e-12)
+                found += okc
+        assert found >= 2, kind

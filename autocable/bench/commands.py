@@ -108,6 +108,9 @@ def run_bench(what: str, model_path: str, repeats: int = 3, log=None, out=None) 
         return bench_auto(model_path, repeats=repeats, log=log)
     if what == "figures":
         return bench_figures(log=log, out=out)
+    if what == "bound-scenes":
+        from autocable.bench.bound_scenes import bench_bound_scenes
+        return bench_bound_scenes(model_path, log=log)
     if what == "ordering":
         from autocable.studies.ordering import bench_ordering, write
         result = bench_ordering(model_path, log=log)

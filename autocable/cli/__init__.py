@@ -77,14 +77,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
     b.add_argument("what", nargs="?", default=None,
-                   choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "ordering", "engines",
-                            "shooting", "sweep", "kill", "kill-surfaces", "fuzz", "onset", "calibration"],
+                   choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "bound-scenes", "ordering",
+                            "engines", "shooting", "sweep", "kill", "kill-surfaces", "fuzz", "onset", "calibration"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
                         "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
                         "auto: EP-C cost per point against AUTO-07p (bifpy; set AUTOCABLE_AUTO_PYTHON "
                         "or install autocable[auto]); figures: wall time of `autocable figures` (all scenes), "
-                        "cold and warm cache, with the share of each stage; ordering: the paper's and the "
+                        "cold and warm cache, with the share of each stage; bound-scenes: the calibration "
+                        "bound stage's wind scenes of one model (--model) as the stage runs them (no figures, "
+                        "orbit-started runs dropped), wall, CPU and scene seconds per scene; ordering: the paper's and the "
                         "natural Multiple Scales ordering (2-dof and A2 = 0) against eq. (21) at Figs. 4c, 7, 9 "
                         "(with --out, also ordering.md/.png); engines: every figure scene on PyCont and on the compiled "
                         "kernel (coarse), their special points compared; shooting: steady points of eq. (21) by "

@@ -22,7 +22,13 @@ Luongo & Zulli, or any `autocable.methods.continuation.system.System`) it writes
 * inside a step where a test function changes sign, an extra point on its zero (Illinois regula
   falsi in the arclength of the step, each trial point by Keller's corrector), as AUTO puts its
   special points on the branch: the special point is then bracketed tightly for autocable's
-  locator, which makes the final location (Python) cheap.
+  locator;
+* per point the eigenvalues of J (balancing, Hessenberg reduction by stabilised elimination,
+  Francis double-shift QR: EISPACK's balanc/elmhes/hqr sequence), sorted by decreasing real part;
+* autocable's locator itself (``ac_locate``: `chart._locate`'s Brent search on the chord, each
+  trial point corrected orthogonally to it, with the analysis's LP, BP and Hopf test functions),
+  Newton at fixed parameters (``ac_newton``, `equilibria.equilibrium_near`) and the tangent at
+  a point (``ac_tangent``), so that a branch costs a few Python calls besides the loop.
 
 Degenerate Routh arrays. The characteristic polynomial (Faddeev-LeVerrier) is taken for J / ||J||_F
 so that its coefficients are O(1); when an entry of the Routh array's first column is below 1e-9
@@ -62,7 +68,7 @@ __all__ = ["KERNEL_VERSION", "KernelBuildError", "CKernel", "kernel_source", "co
            "build_timing", "REASONS"]
 
 #: Bump when the emitted C changes meaning: it is part of the content hash.
-KERNEL_VERSION = "4"
+KERNEL_VERSION = "9"
 CFLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Werror=implicit-function-declaration")
 
 #: How a side of the branch ended (the ``reason`` code returned by the C loop).
@@ -104,7 +110,10 @@ class _Printer(C99CodePrinter):
 
 
 def _block(printer: _Printer, exprs, targets: Sequence[str], prefix: str) -> list[str]:
-    subs, red = sp.cse(list(exprs), symbols=sp.numbered_symbols(prefix), optimizations="basic")
+    # No cse pre-optimisations: sympy's "basic" ones (factor_terms) cost three quarters of the
+    # emission (4.5 s -> 1.3 s CPU for the 2-dof wind AME, paid once per model) and saved no
+    # operation (5383 against 5372 '*' and '+' in that kernel's C).
+    subs, red = sp.cse(list(exprs), symbols=sp.numbered_symbols(prefix), optimizations=None)
     lines = [f"    const double {s.name} = {printer.doprint(e)};" for s, e in subs]
     lines += [f"    {t} = {printer.doprint(e)};" for t, e in zip(targets, red)]
     return lines
@@ -126,8 +135,11 @@ def kernel_source(variables: Sequence[str], parameters: Sequence[str], rhs: Sequ
     body_f = _block(pr, list(F), [f"out[{i}]" for i in range(n)], "ac_tf")
     body_j = _block(pr, [J[i, j] for i in range(n) for j in range(n)],
                     [f"out[{i * n + j}]" for i in range(n) for j in range(n)], "ac_tj")
-    body_p = _block(pr, [Jp[i, j] for i in range(n) for j in range(m)],
-                    [f"out[{i * m + j}]" for i in range(n) for j in range(m)], "ac_tp") if m else []
+    # J_p one column per parameter: the chart needs only the continued parameter's.
+    cols = []
+    for j in range(m):
+        body = _block(pr, [Jp[i, j] for i in range(n)], [f"out[{i}]" for i in range(n)], f"ac_tp{j}_")
+        cols.append(f"    case {j}: {{\n" + "\n".join("    " + ln for ln in body) + "\n        break;\n    }")
     head = f"""/* autocable C kernel (version {KERNEL_VERSION}): x = ({', '.join(variables)}),
    p = ({', '.join(parameters)}). Generated from sympy; do not edit. */
 #include <math.h>
@@ -146,9 +158,22 @@ static void jac_eval(const double *x, const double *p, double *out) {{
 {chr(10).join(body_j)}
 }}
 
-static void jacp_eval(const double *x, const double *p, double *out) {{
+/* Column j of J_p (n entries). */
+static void jacp_col_eval(const double *x, const double *p, int j, double *out) {{
     (void)x; (void)p; (void)out;
-{chr(10).join(body_p)}
+    switch (j) {{
+{chr(10).join(cols)}
+    default: break;
+    }}
+}}
+
+static void jacp_eval(const double *x, const double *p, double *out) {{
+    double col[N];
+    int i, j;
+    for (j = 0; j < NP; j++) {{
+        jacp_col_eval(x, p, j, col);
+        for (i = 0; i < N; i++) out[i * M + j] = col[i];
+    }}
 }}
 """
     return head + _GENERIC
@@ -172,7 +197,7 @@ static void chart_of(const double *cfg, chart_t *c) {
 
 /* F~(Y) (n), DF~(Y) (n x (n+1), row major, may be NULL), J_x physical (n x n, may be NULL). */
 static void chart_eval(const chart_t *c, const double *Y, double *Fo, double *DF, double *Jx) {
-    double x[N], p[M], f[N], J[N * N], Jp[N * M];
+    double x[N], p[M], f[N], J[N * N], Jp[N];
     int i, j;
     for (i = 0; i < N; i++) x[i] = Y[i] * c->xs;
     for (j = 0; j < NP; j++) p[j] = c->base[j];
@@ -182,10 +207,10 @@ static void chart_eval(const chart_t *c, const double *Y, double *Fo, double *DF
         jac_eval(x, p, J);
         if (Jx) memcpy(Jx, J, sizeof(J));
         if (DF) {
-            if (NP) jacp_eval(x, p, Jp);
+            if (NP) jacp_col_eval(x, p, c->k, Jp);
             for (i = 0; i < N; i++) {
                 for (j = 0; j < N; j++) DF[i * (N + 1) + j] = J[i * N + j];
-                DF[i * (N + 1) + N] = NP ? Jp[i * M + c->k] * c->ps / c->xs : 0.0;
+                DF[i * (N + 1) + N] = NP ? Jp[i] * c->ps / c->xs : 0.0;
             }
         }
     }
@@ -203,7 +228,9 @@ void ac_chart_batch(const double *cfg, int K, const double *Y, double *Fo, doubl
 }
 
 /* Gaussian elimination with partial pivoting of the n x n row-major A (destroyed); solves A z = b
-   in place when b is not NULL; returns det A (0 on an exactly singular pivot). */
+   in place when b is not NULL; returns det A (0 on an exactly singular pivot). (Forcing it
+   inline at its constant-size call sites saves ~8% of the loop's instructions but adds ~0.2 s of
+   gcc time to every kernel build: not worth it.) */
 static double lu_solve(int n, double *A, double *b) {
     int i, j, r, piv;
     double det = 1.0;
@@ -212,7 +239,8 @@ static double lu_solve(int n, double *A, double *b) {
         for (r = j + 1; r < n; r++) if (fabs(A[r * n + j]) > fabs(A[piv * n + j])) piv = r;
         if (A[piv * n + j] == 0.0) return 0.0;
         if (piv != j) {
-            for (i = 0; i < n; i++) { double t = A[j * n + i]; A[j * n + i] = A[piv * n + i]; A[piv * n + i] = t; }
+            /* Columns before j are no longer read. */
+            for (i = j; i < n; i++) { double t = A[j * n + i]; A[j * n + i] = A[piv * n + i]; A[piv * n + i] = t; }
             if (b) { double t = b[j]; b[j] = b[piv]; b[piv] = t; }
             det = -det;
         }
@@ -294,8 +322,159 @@ static int unstable_count(const double *J) {
     return changes;
 }
 
+/* Eigenvalues of the n x n row-major J (EISPACK's sequence: balancing by powers of 2, reduction
+   to upper Hessenberg form by stabilised elimination, the Francis double-shift QR iteration).
+   out = (re[0..n-1], im[0..n-1]) by decreasing real part, then decreasing imaginary part (the
+   order autocable sorts numpy's eigenvalues in); NaN when the QR iteration does not converge. */
+#define EH(i, j) a[(i) - 1][(j) - 1]
+#define ESIGN(x, y) ((y) >= 0.0 ? fabs(x) : -fabs(x))
+static void eigenvalues(const double *J, double *out) {
+    double a[N][N], wr[N], wi[N];
+    double anorm, p = 0, q = 0, r = 0, s, t, u, v, w, x, y, z;
+    int i, j, k, l, m, nn, its, done;
+    for (i = 0; i < N; i++) for (j = 0; j < N; j++) a[i][j] = J[i * N + j];
+    do {                                    /* balance: rows and columns of equal norms */
+        done = 1;
+        for (i = 0; i < N; i++) {
+            double cn = 0.0, rn = 0.0, f = 1.0, g, sum;
+            for (j = 0; j < N; j++) if (j != i) { cn += fabs(a[j][i]); rn += fabs(a[i][j]); }
+            if (cn == 0.0 || rn == 0.0 || !isfinite(cn + rn)) continue;
+            g = rn / 2.0; sum = cn + rn;
+            while (cn < g) { f *= 2.0; cn *= 4.0; }
+            g = rn * 2.0;
+            while (cn > g) { f /= 2.0; cn /= 4.0; }
+            if ((cn + rn) / f < 0.95 * sum) {
+                done = 0;
+                for (j = 0; j < N; j++) a[i][j] /= f;
+                for (j = 0; j < N; j++) a[j][i] *= f;
+            }
+        }
+    } while (!done);
+    for (m = 1; m < N - 1; m++) {           /* Hessenberg form, pivoting on the largest entry */
+        x = 0.0; i = m;
+        for (j = m; j < N; j++) if (fabs(a[j][m - 1]) > fabs(x)) { x = a[j][m - 1]; i = j; }
+        if (i != m) {
+            for (j = m - 1; j < N; j++) { y = a[i][j]; a[i][j] = a[m][j]; a[m][j] = y; }
+            for (j = 0; j < N; j++) { y = a[j][i]; a[j][i] = a[j][m]; a[j][m] = y; }
+        }
+        if (x != 0.0) for (i = m + 1; i < N; i++) {
+            y = a[i][m - 1];
+            if (y == 0.0) continue;
+            y /= x;
+            a[i][m - 1] = 0.0;
+            for (j = m; j < N; j++) a[i][j] -= y * a[m][j];
+            for (j = 0; j < N; j++) a[j][m] += y * a[j][i];
+        }
+    }
+    anorm = 0.0;                            /* QR iteration on the Hessenberg matrix (1-based EH) */
+    for (i = 1; i <= N; i++) for (j = (i > 1 ? i - 1 : 1); j <= N; j++) anorm += fabs(EH(i, j));
+    nn = N; t = 0.0;
+    while (nn >= 1) {
+        its = 0;
+        do {
+            for (l = nn; l >= 2; l--) {
+                s = fabs(EH(l - 1, l - 1)) + fabs(EH(l, l));
+                if (s == 0.0) s = anorm;
+                if (fabs(EH(l, l - 1)) + s == s) { EH(l, l - 1) = 0.0; break; }
+            }
+            x = EH(nn, nn);
+            if (l == nn) {                  /* one root */
+                wr[nn - 1] = x + t; wi[nn - 1] = 0.0; nn--;
+            } else {
+                y = EH(nn - 1, nn - 1);
+                w = EH(nn, nn - 1) * EH(nn - 1, nn);
+                if (l == nn - 1) {          /* two roots */
+                    p = 0.5 * (y - x);
+                    q = p * p + w;
+                    z = sqrt(fabs(q));
+                    x += t;
+                    if (q >= 0.0) {
+                        z = p + ESIGN(z, p);
+                        wr[nn - 2] = wr[nn - 1] = x + z;
+                        if (z != 0.0) wr[nn - 1] = x - w / z;
+                        wi[nn - 2] = wi[nn - 1] = 0.0;
+                    } else {
+                        wr[nn - 2] = wr[nn - 1] = x + p;
+                        wi[nn - 2] = z; wi[nn - 1] = -z;
+                    }
+                    nn -= 2;
+                } else {
+                    if (its == 60 || !isfinite(x + y + w)) {
+                        for (i = 0; i < 2 * N; i++) out[i] = NAN;
+                        return;
+                    }
+                    if (its == 10 || its == 20) {   /* exceptional shift */
+                        t += x;
+                        for (i = 1; i <= nn; i++) EH(i, i) -= x;
+                        s = fabs(EH(nn, nn - 1)) + fabs(EH(nn - 1, nn - 2));
+                        y = x = 0.75 * s;
+                        w = -0.4375 * s * s;
+                    }
+                    ++its;
+                    for (m = nn - 2; m >= l; m--) { /* two small consecutive subdiagonal entries */
+                        z = EH(m, m);
+                        r = x - z;
+                        s = y - z;
+                        p = (r * s - w) / EH(m + 1, m) + EH(m, m + 1);
+                        q = EH(m + 1, m + 1) - z - r - s;
+                        r = EH(m + 2, m + 1);
+                        s = fabs(p) + fabs(q) + fabs(r);
+                        p /= s; q /= s; r /= s;
+                        if (m == l) break;
+                        u = fabs(EH(m, m - 1)) * (fabs(q) + fabs(r));
+                        v = fabs(p) * (fabs(EH(m - 1, m - 1)) + fabs(z) + fabs(EH(m + 1, m + 1)));
+                        if (u + v == v) break;
+                    }
+                    for (i = m + 2; i <= nn; i++) {
+                        EH(i, i - 2) = 0.0;
+                        if (i != m + 2) EH(i, i - 3) = 0.0;
+                    }
+                    for (k = m; k <= nn - 1; k++) {  /* the double QR step on rows l..nn */
+                        if (k != m) {
+                            p = EH(k, k - 1);
+                            q = EH(k + 1, k - 1);
+                            r = k != nn - 1 ? EH(k + 2, k - 1) : 0.0;
+                            if ((x = fabs(p) + fabs(q) + fabs(r)) != 0.0) { p /= x; q /= x; r /= x; }
+                        }
+                        s = ESIGN(sqrt(p * p + q * q + r * r), p);
+                        if (s == 0.0) continue;
+                        if (k == m) { if (l != m) EH(k, k - 1) = -EH(k, k - 1); }
+                        else EH(k, k - 1) = -s * x;
+                        p += s;
+                        x = p / s; y = q / s; z = r / s;
+                        q /= p; r /= p;
+                        for (j = k; j <= nn; j++) {
+                            p = EH(k, j) + q * EH(k + 1, j);
+                            if (k != nn - 1) { p += r * EH(k + 2, j); EH(k + 2, j) -= p * z; }
+                            EH(k + 1, j) -= p * y;
+                            EH(k, j) -= p * x;
+                        }
+                        for (i = l; i <= (nn < k + 3 ? nn : k + 3); i++) {
+                            p = x * EH(i, k) + y * EH(i, k + 1);
+                            if (k != nn - 1) { p += z * EH(i, k + 2); EH(i, k + 2) -= p * r; }
+                            EH(i, k + 1) -= p * q;
+                            EH(i, k) -= p;
+                        }
+                    }
+                }
+            }
+        } while (l < nn - 1);
+    }
+    for (i = 1; i < N; i++) {               /* by decreasing real, then imaginary part */
+        double ar = wr[i], ai = wi[i];
+        for (j = i; j > 0 && (wr[j - 1] < ar || (wr[j - 1] == ar && wi[j - 1] < ai)); j--) {
+            wr[j] = wr[j - 1]; wi[j] = wi[j - 1];
+        }
+        wr[j] = ar; wi[j] = ai;
+    }
+    for (i = 0; i < N; i++) { out[i] = wr[i]; out[N + i] = wi[i]; }
+}
+#undef EH
+#undef ESIGN
+
 /* For tests: the Hopf test function and the unstable count of an n x n row-major J. */
 double ac_hopf(const double *J) { return hopf_test(J); }
+void ac_eig(const double *J, double *out) { eigenvalues(J, out); }
 int ac_count(const double *J) { return unstable_count(J); }
 
 /* Unit tangent t with [DF; tref] t = e_{n+1} (so t . tref > 0); returns 0 on a singular system. */
@@ -329,14 +508,15 @@ static int correct(const chart_t *c, double *Y, const double *target, const doub
 }
 
 /* Newton at fixed lam (equilibria.equilibrium_near in chart units, 8 iterations); the polished
-   point is kept when it converged and moved by at most 1e-6 (|x~| + 1), as autocable does. */
-static int polish(const chart_t *c, double *Y, double tol) {
-    double Z[N + 1], F[N], J[N * N], DF[N * (N + 1)];
-    int it, i, j, ok = 0;
+   point is kept when it converged and moved by at most 1e-6 (|x~| + 1), as autocable does.
+   F0 is F~(Y), already known to the caller (the corrector's last residual). */
+static int polish(const chart_t *c, double *Y, double tol, const double *F0) {
+    double Z[N + 1], F[N], J[N * N];
+    int it, i, ok = 0;
     memcpy(Z, Y, sizeof(Z));
     for (it = 0; it < 8; it++) {
-        chart_eval(c, Z, F, DF, NULL);
-        for (i = 0; i < N; i++) for (j = 0; j < N; j++) J[i * N + j] = DF[i * (N + 1) + j];
+        if (it == 0) { memcpy(F, F0, sizeof(F)); chart_eval(c, Z, NULL, NULL, J); }
+        else chart_eval(c, Z, F, NULL, J);
         if (lu_solve(N, J, F) == 0.0) break;
         for (i = 0; i < N; i++) Z[i] -= F[i];
         if (!all_finite(N + 1, Z)) return 0;
@@ -349,20 +529,34 @@ static int polish(const chart_t *c, double *Y, double tol) {
     return 1;
 }
 
-/* Store point i: Y, its tangent, the tests (vp, det[DF; t], det 2J(.)I), the unstable count, J. */
-static void store(const chart_t *c, int i, const double *Y, const double *t, double *Ys, double *Ts,
-                  double *tests, int *npos, double *Js) {
-    double DF[N * (N + 1)], A[(N + 1) * (N + 1)], J[N * N];
-    chart_eval(c, Y, NULL, DF, J);
+/* (vp, det [DF; t], det 2J(.)I) from DF~ and J_x at a point with tangent t. */
+static void point_tests(const double *DF, const double *J, const double *t, double *v) {
+    double A[(N + 1) * (N + 1)];
+    memcpy(A, DF, sizeof(double) * N * (N + 1));
+    memcpy(A + N * (N + 1), t, sizeof(double) * (N + 1));
+    v[0] = t[N];
+    v[1] = lu_solve(N + 1, A, NULL);
+    v[2] = hopf_test(J);
+}
+
+/* Store point i: Y, its tangent, the tests v (from point_tests), the unstable count, J and its
+   eigenvalues. */
+static void store_at(int i, const double *Y, const double *t, const double *J, const double *v,
+                     double *Ys, double *Ts, double *tests, int *npos, double *Js, double *Es) {
     memcpy(Ys + i * (N + 1), Y, sizeof(double) * (N + 1));
     memcpy(Ts + i * (N + 1), t, sizeof(double) * (N + 1));
-    memcpy(A, DF, sizeof(DF));
-    memcpy(A + N * (N + 1), t, sizeof(double) * (N + 1));
-    tests[3 * i] = t[N];
-    tests[3 * i + 1] = lu_solve(N + 1, A, NULL);
-    tests[3 * i + 2] = hopf_test(J);
+    memcpy(tests + 3 * i, v, sizeof(double) * 3);
     npos[i] = unstable_count(J);
-    memcpy(Js + i * N * N, J, sizeof(J));
+    memcpy(Js + i * N * N, J, sizeof(double) * N * N);
+    eigenvalues(J, Es + 2 * N * i);
+}
+
+static void store(const chart_t *c, int i, const double *Y, const double *t, double *Ys, double *Ts,
+                  double *tests, int *npos, double *Js, double *Es) {
+    double DF[N * (N + 1)], J[N * N], v[3];
+    chart_eval(c, Y, NULL, DF, J);
+    point_tests(DF, J, t, v);
+    store_at(i, Y, t, J, v, Ys, Ts, tests, npos, Js, Es);
 }
 
 /* The point where the hyperplane t . (Z - Y) = s meets the branch (Keller's corrector, to tol). */
@@ -384,13 +578,9 @@ static int keller(const chart_t *c, const double *Y, const double *t, double s, 
 
 /* (vp, det [DF; t], det 2J(.)I) at Y with tangent t. */
 static void tests_at(const chart_t *c, const double *Y, const double *t, double *v) {
-    double DF[N * (N + 1)], A[(N + 1) * (N + 1)], J[N * N];
+    double DF[N * (N + 1)], J[N * N];
     chart_eval(c, Y, NULL, DF, J);
-    memcpy(A, DF, sizeof(DF));
-    memcpy(A + N * (N + 1), t, sizeof(double) * (N + 1));
-    v[0] = t[N];
-    v[1] = lu_solve(N + 1, A, NULL);
-    v[2] = hopf_test(J);
+    point_tests(DF, J, t, v);
 }
 
 /* A zero of test k inside the step from (Y, t) (value f0) to the point at s = ds (value f1, end
@@ -424,23 +614,160 @@ static double locate_zero(const chart_t *c, const double *Y, const double *t, co
     return -1.0;
 }
 
+/* ---- chart._locate in C: a test function's zero on the branch between two of its points ---- */
+typedef struct { const chart_t *c; const double *Ya; double d[N + 1], dn[N + 1]; int kind; double tol; } seg_t;
+
+/* The branch point of chord parameter s: Newton orthogonally to the chord from Ya + s d
+   (chart._correct); the uncorrected point when Newton fails. */
+static void seg_point(const seg_t *g, double s, double *Y) {
+    double T[N + 1];
+    int i;
+    for (i = 0; i <= N; i++) T[i] = g->Ya[i] + s * g->d[i];
+    if (!correct(g->c, Y, T, g->d, g->tol, 25)) memcpy(Y, T, sizeof(T));
+}
+
+/* The test functions of equilibrium_analysis at Y: kind 0 (LP) the unit tangent's parameter
+   component, the tangent oriented along the chord; 1 (BP) det [DF~; chord / |chord|];
+   2 (H) det 2J(.)I. */
+static double seg_test(const seg_t *g, const double *Y) {
+    double DF[N * (N + 1)], J[N * N], A[(N + 1) * (N + 1)], t[N + 1];
+    if (g->kind == 2) { chart_eval(g->c, Y, NULL, NULL, J); return hopf_test(J); }
+    chart_eval(g->c, Y, NULL, DF, NULL);
+    if (g->kind == 0) return tangent(DF, g->d, t) ? t[N] : NAN;
+    memcpy(A, DF, sizeof(DF));
+    memcpy(A + N * (N + 1), g->dn, sizeof(double) * (N + 1));
+    return lu_solve(N + 1, A, NULL);
+}
+
+static double seg_value(const seg_t *g, double s) { double Y[N + 1]; seg_point(g, s, Y); return seg_test(g, Y); }
+
+static int sgn(double v) { return (v == 0.0 || !isfinite(v)) ? 0 : (v > 0.0 ? 1 : -1); }
+
+/* Brent's root finder on [xa, xb] (fa, fb: the values there, of opposite signs) with the step
+   rules and stopping test of scipy.optimize.brentq (tolerance xtol + rtol |x|), so that it visits
+   the trial points the Python locator visits. *conv = 1 when converged within maxiter. */
+static double brent(const seg_t *g, double xa, double xb, double fa, double fb, double xtol, double rtol,
+                    int maxiter, int *conv) {
+    double xp = xa, fp = fa, xc = xb, fc = fb, xk = 0.0, fk = 0.0, sp = 0.0, sc = 0.0;
+    int it;
+    *conv = 1;
+    if (fp == 0.0) return xp;
+    if (fc == 0.0) return xc;
+    *conv = 0;
+    for (it = 0; it < maxiter; it++) {
+        double del, half, trial, lim;
+        if (fp * fc < 0.0) { xk = xp; fk = fp; sp = sc = xc - xp; }  /* xk: the other end of the bracket */
+        if (fabs(fk) < fabs(fc)) {                                       /* xc: the best estimate */
+            xp = xc; xc = xk; xk = xp;
+            fp = fc; fc = fk; fk = fp;
+        }
+        del = (xtol + rtol * fabs(xc)) / 2.0;
+        half = (xk - xc) / 2.0;
+        if (fc == 0.0 || fabs(half) < del) { *conv = 1; return xc; }
+        if (fabs(sp) > del && fabs(fc) < fabs(fp)) {
+            if (xp == xk) trial = -fc * (xc - xp) / (fc - fp);       /* secant */
+            else {                                                     /* inverse quadratic */
+                double dp = (fp - fc) / (xp - xc), dk = (fk - fc) / (xk - xc);
+                trial = -fc * (fk * dk - fp * dp) / (dk * dp * (fk - fp));
+            }
+            lim = 3.0 * fabs(half) - del;
+            if (fabs(sp) < lim) lim = fabs(sp);
+            if (2.0 * fabs(trial) < lim) { sp = sc; sc = trial; }
+            else { sp = half; sc = half; }
+        } else { sp = half; sc = half; }
+        xp = xc; fp = fc;
+        xc += fabs(sc) > del ? sc : (half > 0.0 ? del : -del);
+        fc = seg_value(g, xc);
+    }
+    return xc;
+}
+
+/* chart._locate (with equilibrium_analysis's test functions) for test `kind` between the branch
+   points Ya and Yb: Y gets the point; returns 1 when the zero was bracketed and Brent converged. */
+int ac_locate(const double *cfg, const double *Ya, const double *Yb, int kind, double tol, double *Y) {
+    chart_t c;
+    seg_t g;
+    double ga, gb, s, nd = 0.0;
+    int i, conv;
+    chart_of(cfg, &c);
+    g.c = &c; g.Ya = Ya; g.kind = kind; g.tol = tol;
+    for (i = 0; i <= N; i++) { g.d[i] = Yb[i] - Ya[i]; nd += g.d[i] * g.d[i]; }
+    nd = sqrt(nd);
+    for (i = 0; i <= N; i++) g.dn[i] = g.d[i] / nd;
+    ga = seg_value(&g, 0.0);
+    gb = seg_value(&g, 1.0);
+    if (isfinite(ga) && isfinite(gb) && sgn(ga) * sgn(gb) > 0) {
+        /* A point already on the zero (the kernel's located point): an end whose test value is
+           negligible against the other's. */
+        int a_small = fabs(ga) <= fabs(gb);
+        if ((a_small ? fabs(ga) : fabs(gb)) <= 1e-9 * (a_small ? fabs(gb) : fabs(ga))) {
+            seg_point(&g, a_small ? 0.0 : 1.0, Y);
+            return 1;
+        }
+    }
+    if (!(isfinite(ga) && isfinite(gb)) || sgn(ga) * sgn(gb) > 0) {
+        s = ga == gb ? 0.5 : ga / (ga - gb);
+        s = s > 0.0 ? (s < 1.0 ? s : 1.0) : 0.0;
+        seg_point(&g, s, Y);
+        return 0;
+    }
+    if (ga == 0.0) { seg_point(&g, 0.0, Y); return 1; }
+    if (gb == 0.0) { seg_point(&g, 1.0, Y); return 1; }
+    s = brent(&g, 0.0, 1.0, ga, gb, 1e-14, 1e-15, 100, &conv);
+    seg_point(&g, s, Y);
+    return conv;
+}
+
+/* equilibria.equilibrium_near on the kernel's f and J_x: Newton at fixed p from x0 (the step
+   criterion relative to |x| + scale); res = max |f(x)| (infinite when an iterate is not finite,
+   x then x0). Returns 1 when converged. */
+int ac_newton(const double *x0, const double *p, double tol, double scale, int maxiter, double *x, double *res) {
+    double f[N], J[N * N];
+    int it, i, conv = 0;
+    memcpy(x, x0, sizeof(double) * N);
+    for (it = 0; it < maxiter; it++) {
+        f_eval(x, p, f);
+        jac_eval(x, p, J);
+        if (lu_solve(N, J, f) == 0.0) break;
+        for (i = 0; i < N; i++) x[i] -= f[i];
+        if (!all_finite(N, x)) { memcpy(x, x0, sizeof(double) * N); *res = INFINITY; return 0; }
+        if (norm(N, f) <= tol * (norm(N, x) + scale)) { conv = 1; break; }
+    }
+    f_eval(x, p, f);
+    *res = 0.0;
+    for (i = 0; i < N; i++) if (!(fabs(f[i]) <= *res)) *res = fabs(f[i]);
+    return conv;
+}
+
+/* The unit tangent at Y with [DF~; tref] t = e_{n+1} (t . tref > 0); 0 when singular. */
+int ac_tangent(const double *cfg, const double *Y, const double *tref, double *t) {
+    chart_t c;
+    double DF[N * (N + 1)];
+    chart_of(cfg, &c);
+    chart_eval(&c, Y, NULL, DF, NULL);
+    return tangent(DF, tref, t);
+}
+
 /* One side of a branch from Y0 along the unit direction d0.
    opts = (step, min_step, max_step, tol, max_corrector_iters, lam_lo, lam_hi, newton_tol,
            locate): locate = 1 puts a point on every zero of a test function inside a step.
    Outputs, max_points rows each: Ys, Ts (n+1), tests (3), npos, Js (n*n), polished (1/0).
    Returns the number of points (the first is Y0); *reason gets a REASONS code. */
 int ac_continue(const double *cfg, const double *Y0, const double *d0, const double *opts, int max_points,
-                double *Ys, double *Ts, double *tests, int *npos, double *Js, int *polished, int *reason) {
+                double *Ys, double *Ts, double *tests, int *npos, double *Js, double *Es, int *polished,
+                int *reason) {
     chart_t c;
     double Y[N + 1], Yp[N + 1], Yc[N + 1], t[N + 1], tn[N + 1], F[N], DF[N * (N + 1)], A[(N + 1) * (N + 1)], g[N + 1];
+    double J[N * N], v1[3];
     double ds = opts[0], dsmin = opts[1], dsmax = opts[2], tol = opts[3], lo = opts[5], hi = opts[6], ntol = opts[7];
     double span = 0.0, used = ds;
     int maxit = (int)opts[4], np_ = 0, i, k, conv, locate = opts[8] != 0.0;
     chart_of(cfg, &c);
     memcpy(Y, Y0, sizeof(Y));
-    chart_eval(&c, Y, NULL, DF, NULL);
+    chart_eval(&c, Y, NULL, DF, J);
     if (!tangent(DF, d0, t)) memcpy(t, d0, sizeof(t));
-    store(&c, 0, Y, t, Ys, Ts, tests, npos, Js);
+    point_tests(DF, J, t, v1);
+    store_at(0, Y, t, J, v1, Ys, Ts, tests, npos, Js, Es);
     polished[0] = 0;
     np_ = 1;
     *reason = 3;
@@ -449,7 +776,8 @@ int ac_continue(const double *cfg, const double *Y0, const double *d0, const dou
         memcpy(Yc, Yp, sizeof(Yc));
         conv = 0;
         for (k = 1; k <= maxit; k++) {
-            chart_eval(&c, Yc, F, DF, NULL);
+            /* After the first iteration F~(Yc) is the residual just checked below. */
+            chart_eval(&c, Yc, k == 1 ? F : NULL, DF, NULL);
             memcpy(A, DF, sizeof(DF));
             for (i = 0; i < N; i++) g[i] = F[i];
             g[N] = 0; for (i = 0; i <= N; i++) { g[N] += t[i] * (Yc[i] - Yp[i]); A[N * (N + 1) + i] = t[i]; }
@@ -467,8 +795,8 @@ int ac_continue(const double *cfg, const double *Y0, const double *d0, const dou
         }
         used = ds;
         if (ds < dsmax && k < 6) ds = fmin(dsmax, ds * 1.2);
-        polished[np_] = polish(&c, Yc, ntol);
-        chart_eval(&c, Yc, NULL, DF, NULL);
+        polished[np_] = polish(&c, Yc, ntol, F);
+        chart_eval(&c, Yc, NULL, DF, J);
         if (!tangent(DF, t, tn)) memcpy(tn, t, sizeof(tn));
         if (!(lo - 1e-12 <= Yc[N] && Yc[N] <= hi + 1e-12)) {
             double bound = Yc[N] > hi ? hi : lo;
@@ -479,16 +807,16 @@ int ac_continue(const double *cfg, const double *Y0, const double *d0, const dou
             if (!correct(&c, Yb, guess, e, ntol, 25)) memcpy(Yb, guess, sizeof(Yb));
             chart_eval(&c, Yb, NULL, DF, NULL);
             if (!tangent(DF, t, tn)) memcpy(tn, t, sizeof(tn));
-            store(&c, np_, Yb, tn, Ys, Ts, tests, npos, Js);
+            store(&c, np_, Yb, tn, Ys, Ts, tests, npos, Js, Es);
             polished[np_] = 0;
             *reason = 1;
             return np_ + 1;
         }
+        point_tests(DF, J, tn, v1);
         if (locate) {
             /* Zeros of the test functions inside this step, in order of s, become points. */
-            double v1[3], sz[3], Zs[3][N + 1], Tz[3][N + 1];
+            double sz[3], Zs[3][N + 1], Tz[3][N + 1];
             int kk, m = 0, order[3];
-            tests_at(&c, Yc, tn, v1);
             for (kk = 0; kk < (N >= 2 ? 3 : 2); kk++) {
                 double f0 = tests[3 * (np_ - 1) + kk];
                 if (!(f0 * v1[kk] < 0.0)) continue;
@@ -499,12 +827,12 @@ int ac_continue(const double *cfg, const double *Y0, const double *d0, const dou
                 int tmp = order[k]; order[k] = order[k - 1]; order[k - 1] = tmp;
             }
             for (i = 0; i < m && np_ + 1 < max_points; i++) {
-                store(&c, np_, Zs[order[i]], Tz[order[i]], Ys, Ts, tests, npos, Js);
+                store(&c, np_, Zs[order[i]], Tz[order[i]], Ys, Ts, tests, npos, Js, Es);
                 polished[np_] = 1;
                 np_++;
             }
         }
-        store(&c, np_, Yc, tn, Ys, Ts, tests, npos, Js);
+        store_at(np_, Yc, tn, J, v1, Ys, Ts, tests, npos, Js, Es);
         np_++;
         memcpy(Y, Yc, sizeof(Y));
         memcpy(t, tn, sizeof(t));
@@ -516,7 +844,7 @@ int ac_continue(const double *cfg, const double *Y0, const double *d0, const dou
             double DF0[N * (N + 1)], t0[N + 1];
             chart_eval(&c, Y0, NULL, DF0, NULL);
             if (!tangent(DF0, t, t0)) memcpy(t0, t, sizeof(t0));
-            store(&c, np_, Y0, t0, Ys, Ts, tests, npos, Js);
+            store(&c, np_, Y0, t0, Ys, Ts, tests, npos, Js, Es);
             polished[np_] = 0;
             *reason = 2;
             return np_ + 1;
@@ -565,7 +893,8 @@ def cached_library(folder: Path, build: Callable[[], None], what: str) -> tuple[
 
 
 def _key(name: str, variables, parameters, rhs, cc: str) -> str:
-    return cache.content_hash({"version": KERNEL_VERSION, "variables": list(variables),
+    # The system-independent C text too: an edit to it that forgets KERNEL_VERSION still rebuilds.
+    return cache.content_hash({"version": KERNEL_VERSION, "generic": _GENERIC, "variables": list(variables),
                                "parameters": list(parameters), "rhs": [sp.srepr(e) for e in rhs],
                                "cc": cc, "cflags": list(CFLAGS), "name": name})
 
@@ -617,19 +946,19 @@ class CKernel:
     def f(self, x, p) -> np.ndarray:
         out = np.empty(self.n)
         x, p = _c(x), _c(p)   # named: a temporary copy would be freed before the call
-        self.lib.ac_f(x.ctypes.data, p.ctypes.data, out.ctypes.data)
+        self.lib.ac_f(_ptr(x), _ptr(p), _ptr(out))
         return out
 
     def jac(self, x, p) -> np.ndarray:
         out = np.empty((self.n, self.n))
         x, p = _c(x), _c(p)   # named: a temporary copy would be freed before the call
-        self.lib.ac_jac(x.ctypes.data, p.ctypes.data, out.ctypes.data)
+        self.lib.ac_jac(_ptr(x), _ptr(p), _ptr(out))
         return out
 
     def jac_p(self, x, p) -> np.ndarray:
         out = np.empty((self.n, max(self.m, 1)))
         x, p = _c(x), _c(p)   # named: a temporary copy would be freed before the call
-        self.lib.ac_jacp(x.ctypes.data, p.ctypes.data, out.ctypes.data)
+        self.lib.ac_jacp(_ptr(x), _ptr(p), _ptr(out))
         return out[:, :self.m]
 
     def chart(self, cfg: np.ndarray, Y, derivative: bool) -> np.ndarray:
@@ -637,27 +966,27 @@ class CKernel:
         Y = np.ascontiguousarray(Y, float)
         if derivative:
             out = np.empty((self.n, self.n + 1))
-            self.lib.ac_chart(cfg.ctypes.data, Y.ctypes.data, None, out.ctypes.data)
+            self.lib.ac_chart(_ptr(cfg), _ptr(Y), None, _ptr(out))
         else:
             out = np.empty(self.n)
-            self.lib.ac_chart(cfg.ctypes.data, Y.ctypes.data, out.ctypes.data, None)
+            self.lib.ac_chart(_ptr(cfg), _ptr(Y), _ptr(out), None)
         return out
 
     def hopf_test(self, J) -> float:
         """det(2J (.) I) as the loop computes it (1 for n = 1)."""
         J = _c(J)
-        return float(self.lib.ac_hopf(J.ctypes.data))
+        return float(self.lib.ac_hopf(_ptr(J)))
 
     def unstable_count(self, J) -> int:
         """Eigenvalues of J with positive real part by the loop's Routh count (-1: undecided)."""
         J = _c(J)
-        return int(self.lib.ac_count(J.ctypes.data))
+        return int(self.lib.ac_count(_ptr(J)))
 
     def both(self, cfg: np.ndarray, Y) -> tuple[np.ndarray, np.ndarray]:
         """(F~(Y), DF~(Y)) in one call."""
         Y = np.ascontiguousarray(Y, float)
         f, df = np.empty(self.n), np.empty((self.n, self.n + 1))
-        self.lib.ac_chart(cfg.ctypes.data, Y.ctypes.data, f.ctypes.data, df.ctypes.data)
+        self.lib.ac_chart(_ptr(cfg), _ptr(Y), _ptr(f), _ptr(df))
         return f, df
 
     def chart_batch(self, cfg: np.ndarray, Y) -> tuple[np.ndarray, np.ndarray]:
@@ -665,22 +994,69 @@ class CKernel:
         Y = np.ascontiguousarray(Y, float)
         K = Y.shape[0]
         f, df = np.empty((K, self.n)), np.empty((K, self.n, self.n + 1))
-        self.lib.ac_chart_batch(cfg.ctypes.data, K, Y.ctypes.data, f.ctypes.data, df.ctypes.data)
+        self.lib.ac_chart_batch(_ptr(cfg), K, _ptr(Y), _ptr(f), _ptr(df))
         return f, df
 
+    def eigenvalues(self, J) -> np.ndarray:
+        """Eigenvalues of J as the loop computes them (balancing, Hessenberg, double-shift QR), by
+        decreasing real part, then decreasing imaginary part; NaN when QR did not converge."""
+        J = _c(J)
+        out = np.empty(2 * self.n)
+        self.lib.ac_eig(_ptr(J), _ptr(out))
+        return out[:self.n] + 1j * out[self.n:]
+
+    def locate(self, cfg: np.ndarray, Ya, Yb, kind: int, tol: float) -> tuple[np.ndarray, bool]:
+        """`chart._locate` of test ``kind`` (0 LP, 1 BP, 2 H: the test functions of
+        `equilibrium_analysis`) between the branch points Ya and Yb, in C: (Y, converged)."""
+        Ya, Yb = _c(Ya), _c(Yb)
+        Y = np.empty(self.n + 1)
+        ok = self.lib.ac_locate(_ptr(cfg), _ptr(Ya), _ptr(Yb), int(kind), float(tol),
+                                _ptr(Y))
+        return Y, bool(ok)
+
+    def newton(self, x0, p, tol: float, scale: float, maxiter: int = 50) -> tuple[np.ndarray, bool, float]:
+        """`equilibria.equilibrium_near` on the kernel's f and J_x: (x, converged, max|f|)."""
+        x0, p = _c(x0), _c(p)
+        x, res = np.empty(self.n), np.empty(1)
+        ok = self.lib.ac_newton(_ptr(x0), _ptr(p), float(tol), float(scale), int(maxiter),
+                                _ptr(x), _ptr(res))
+        return x, bool(ok), float(res[0])
+
+    def tangent(self, cfg: np.ndarray, Y, tref) -> np.ndarray | None:
+        """The unit tangent at Y with t . tref > 0 ([DF~; tref] t = e_{n+1}), or None when singular."""
+        Y, tref = _c(Y), _c(tref)
+        t = np.empty(self.n + 1)
+        ok = self.lib.ac_tangent(_ptr(cfg), _ptr(Y), _ptr(tref), _ptr(t))
+        return t if ok else None
+
     def continue_side(self, cfg: np.ndarray, Y0, d0, opts: Sequence[float], max_points: int) -> dict:
-        """One side of a branch (see the C ``ac_continue``): arrays of the points and their tests."""
+        """One side of a branch (see the C ``ac_continue``): arrays of the points, their tests and
+        the eigenvalues of J at each (``E``, sorted as `eigenvalues` sorts them)."""
         n1, mp = self.n + 1, max(int(max_points), 1)
         Ys, Ts = np.empty((mp, n1)), np.empty((mp, n1))
-        tests, Js = np.empty((mp, 3)), np.empty((mp, self.n, self.n))
+        tests, Js, Es = np.empty((mp, 3)), np.empty((mp, self.n, self.n)), np.empty((mp, 2, self.n))
         npos, pol, reason = np.empty(mp, np.intc), np.empty(mp, np.intc), np.zeros(1, np.intc)
         o = np.ascontiguousarray(opts, float)
         Y0, d0 = _c(Y0), _c(d0)
-        k = self.lib.ac_continue(cfg.ctypes.data, Y0.ctypes.data, d0.ctypes.data, o.ctypes.data, mp,
-                                 Ys.ctypes.data, Ts.ctypes.data, tests.ctypes.data, npos.ctypes.data,
-                                 Js.ctypes.data, pol.ctypes.data, reason.ctypes.data)
+        k = self.lib.ac_continue(_ptr(cfg), _ptr(Y0), _ptr(d0), _ptr(o), mp,
+                                 _ptr(Ys), _ptr(Ts), _ptr(tests), _ptr(npos),
+                                 _ptr(Js), _ptr(Es), _ptr(pol), _ptr(reason))
         return {"Y": Ys[:k], "T": Ts[:k], "tests": tests[:k], "npos": npos[:k].astype(int), "J": Js[:k],
-                "polished": pol[:k].astype(bool), "reason": REASONS.get(int(reason[0]), "error")}
+                "E": Es[:k, 0] + 1j * Es[:k, 1], "polished": pol[:k].astype(bool),
+                "reason": REASONS.get(int(reason[0]), "error")}
+
+
+_CHAR = ctypes.c_char
+
+
+def _ptr(a: np.ndarray) -> int:
+    """The address of ``a``'s data. ``a.ctypes.data`` builds a Python object and imports a module
+    on every access (about 1 us, several per kernel call); a ctypes view of a writable buffer is a
+    few times cheaper. The caller keeps ``a`` alive until the C call returns (as with .ctypes)."""
+    try:
+        return ctypes.addressof(_CHAR.from_buffer(a))
+    except (TypeError, ValueError, BufferError):   # read-only or empty arrays
+        return a.ctypes.data
 
 
 def _c(a) -> np.ndarray:
@@ -723,15 +1099,23 @@ def _load(path: Path, n: int, m: int, timings) -> CKernel:
     lib.ac_chart.restype = None
     lib.ac_chart_batch.argtypes = [vp, ip, vp, vp, vp]
     lib.ac_chart_batch.restype = None
-    lib.ac_continue.argtypes = [vp, vp, vp, vp, ip, vp, vp, vp, vp, vp, vp, vp]
+    lib.ac_continue.argtypes = [vp, vp, vp, vp, ip, vp, vp, vp, vp, vp, vp, vp, vp]
     lib.ac_continue.restype = ip
+    lib.ac_locate.argtypes = [vp, vp, vp, ip, ctypes.c_double, vp]
+    lib.ac_locate.restype = ip
+    lib.ac_newton.argtypes = [vp, vp, ctypes.c_double, ctypes.c_double, ip, vp, vp]
+    lib.ac_newton.restype = ip
+    lib.ac_tangent.argtypes = [vp, vp, vp, vp]
+    lib.ac_tangent.restype = ip
+    lib.ac_eig.argtypes = [vp, vp]
+    lib.ac_eig.restype = None
     lib.ac_dims.argtypes = [vp]
     lib.ac_hopf.argtypes = [vp]
     lib.ac_hopf.restype = ctypes.c_double
     lib.ac_count.argtypes = [vp]
     lib.ac_count.restype = ip
     dims = np.zeros(2, np.intc)
-    lib.ac_dims(dims.ctypes.data)
+    lib.ac_dims(_ptr(dims))
     if (int(dims[0]), int(dims[1])) != (n, m):
         raise KernelBuildError(f"C kernel {path}: built for n = {dims[0]}, m = {dims[1]}, expected "
                                f"{n}, {m}; delete {path.parent} to rebuild it")

@@ -20,8 +20,10 @@ import sympy as sp
 
 from autocable._store import atomic_write_text, cache_dir, cache_error, content_hash, report_rebuilt
 
-#: What `numeric_function` can build from a right-hand side F(x; p).
+#: What `numeric_function` can build from any right-hand side F(x; p).
 KINDS = ("f", "jac", "jac_p", "d2", "d3")
+#: What it can build from a right-hand side that is a polynomial in x only.
+POLYNOMIAL_KINDS = ("poly",)
 
 
 def _expression(kind: str, rhs: Sequence[sp.Expr], xs, ps):
@@ -33,6 +35,12 @@ def _expression(kind: str, rhs: Sequence[sp.Expr], xs, ps):
         return F.jacobian(xs)
     if kind == "jac_p":
         return F.jacobian(ps)
+    if kind == "poly":
+        # F as a polynomial in x: [C, E] with F_i = sum_m C[i][m](p) prod_j x_j^E[m][j]
+        # (sympy.PolynomialError when some F_i is not a polynomial in x)
+        polys = [sp.Poly(e, *xs) for e in rhs]
+        monoms = sorted(set().union(*(q.monoms() for q in polys)))
+        return [[[q.coeff_monomial(m) for m in monoms] for q in polys], [list(m) for m in monoms]]
     d2 = sp.derive_by_array(sp.derive_by_array(list(rhs), xs), xs)
     if kind == "d2":
         return d2.tolist()
@@ -64,12 +72,14 @@ def numeric_function(kind: str, variables: Sequence[str], parameters: Sequence[s
                      rhs: Sequence[sp.Expr], *, key: str | None = None,
                      use_cache: bool = True) -> Callable:
     """``g(x, p)`` for ``kind`` in `KINDS`: f -> F (n x 1), jac -> dF/dx (n x n), jac_p -> dF/dp,
-    d2 / d3 -> nested lists of the second / third derivatives (derivative indices first).
+    d2 / d3 -> nested lists of the second / third derivatives (derivative indices first), poly ->
+    [C, E], F as a polynomial in x (C[i][m] the coefficient of F_i at the monomial of exponents
+    E[m], x unused; `sympy.PolynomialError` when F is not polynomial in x).
 
     ``rhs`` holds plain symbols named as ``variables`` and ``parameters``; ``key`` is its `rhs_key`
     when the caller has it already (hashing a long right-hand side takes a tenth of a second)."""
-    if kind not in KINDS:
-        raise ValueError(f"unknown numeric function {kind!r}: expected one of {KINDS}")
+    if kind not in KINDS + POLYNOMIAL_KINDS:
+        raise ValueError(f"unknown numeric function {kind!r}: expected one of {KINDS + POLYNOMIAL_KINDS}")
     xs = [sp.Symbol(v) for v in variables]
     ps = [sp.Symbol(p) for p in parameters]
     if not use_cache:

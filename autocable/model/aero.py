@@ -380,3 +380,30 @@ class CubicLoadError:
         d2, d3 = e2 - z2, e3 - z3
         scale = max(float(np.max(np.abs(d2))), float(np.max(np.abs(d3))), 1e-300)
         return float(max(np.max(np.abs(c2 - d2)), np.max(np.abs(c3 - d3))) / scale)
+
+    def many(self, theta_amps, vdot_amps, wdot_amps, U, block: int = 256):
+        """The error at many motions at once (arrays of one length; ``U`` an array or a number):
+        the same operations as calling the object point by point, a block of points at a time
+        (a branch of a scene has hundreds of points)."""
+        import numpy as np
+        th_a, vd_a, wd_a = (np.asarray(x, dtype=float).ravel() for x in (theta_amps, vdot_amps, wdot_amps))
+        Us = np.broadcast_to(np.asarray(U, dtype=float), th_a.shape).astype(float)
+        out = np.full(th_a.shape, np.nan)
+        out[Us == 0.0] = 0.0
+        todo = np.flatnonzero((Us != 0.0) & np.isfinite(th_a) & np.isfinite(vd_a) & np.isfinite(wd_a)
+                              & np.isfinite(Us))
+        cos2, sin2, sin1 = np.cos(self.p2), np.sin(self.p2), np.sin(self.p1)
+        for i0 in range(0, len(todo), block):
+            idx = todo[i0:i0 + block]
+            u = Us[idx, None]
+            th = th_a[idx, None] * cos2
+            wd = -wd_a[idx, None] * sin2
+            vd = -vd_a[idx, None] * sin1
+            e2, e3 = exact_load(*self.args, th, vd, wd, self.convention, self.axes, u)
+            z2, z3 = exact_load(*self.args, 0.0, 0.0, 0.0, self.convention, self.axes, u)
+            c2 = sum(c * u ** (2 - b - cc) * th**a * vd**b * wd**cc for (a, b, cc), c in self.exp.b2.items())
+            c3 = sum(c * u ** (2 - b - cc) * th**a * vd**b * wd**cc for (a, b, cc), c in self.exp.b3.items())
+            d2, d3 = e2 - z2, e3 - z3
+            scale = np.maximum(np.maximum(np.max(np.abs(d2), axis=1), np.max(np.abs(d3), axis=1)), 1e-300)
+            out[idx] = np.maximum(np.max(np.abs(c2 - d2), axis=1), np.max(np.abs(c3 - d3), axis=1)) / scale
+        return out

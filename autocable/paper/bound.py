@@ -29,7 +29,11 @@ overlay's steady test and the study has no bound at eta* = 0.
 
 A run whose statements can never lower a bound is not run: the orbit-started runs (the AME's cycle
 branch P of Figs. 8 and 10, beyond Sect. 5) are dropped from a candidate's scene copies before the
-scene runs (`NOT_RUN`, recorded in ``dropped.json``), about half of those scenes' time.
+scene runs (`NOT_RUN`, recorded in ``dropped.json``), about half of those scenes' time. So is the
+eq. (21) overlay of a scene whose only statement that reads it (``<scene>.boxes``) never lowers a
+bound and whose boxes the goal does not count: Fig. 3's (its ``boxes`` cannot be shown by any model
+today, `NOT_USED_TO_PRUNE`), the first scene every candidate runs; the scene's other statements are
+decided from its branches alone (tests/test_bound.py checks they are decided the same without it).
 
 Resumable: one ``bound.json`` per candidate model under ``DIR/bound/``, stamped with the rule that
 decided it (`rule_of`: a record of another rule, e.g. after the targets file changed, is decided
@@ -82,6 +86,20 @@ def orbit_runs(path: Path) -> list[int]:
     data, _ = read_toml(path)
     return [k for k, r in enumerate(data.get("run") or []) if isinstance(r, dict)
             and isinstance(r.get("start"), dict) and "orbit" in r["start"]]
+
+
+def scene_copy(src: Path, dst: Path, model: Path, drop_orbits: bool, drop_overlay: bool) -> list[str]:
+    """A copy of the scene file ``src`` at ``dst`` on ``model``, without its orbit-started runs
+    (``drop_orbits``) and its eq. (21) overlay (``drop_overlay``), as `run_bound` prepares a
+    candidate's scenes; returns the notes of what was dropped (for `autocable bench bound-scenes`)."""
+    from autocable.paper import candidates as cm
+    dst.write_text(src.read_text().replace('model = "../models/luongo_zulli_2012.toml"', f'model = "{model}"'))
+    notes = []
+    if drop_orbits:
+        notes += [f"{src.stem}: run[{k}]" for k in reversed(orbit_runs(dst)) if cm._drop_run(dst, k)]
+    if drop_overlay and cm._drop_table(dst, "overlay"):
+        notes.append(f"{src.stem}: overlay")
+    return notes
 
 
 @dataclass
@@ -223,6 +241,9 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
         ids = [f"{n}.{x}" for x in IF_DROPPED if f"{n}.{x}" in stmt_ids]
         if ids and all(i in unused for i in ids):
             skip_orbits[n] = ids
+    # the scenes whose eq. (21) overlay decides only statements that never lower a bound
+    skip_overlay = {n: f"{n}.boxes" for n in order
+                    if n not in goal.boxes_scenes and (f"{n}.boxes" not in stmt_ids or f"{n}.boxes" in unused)}
     stop_below = goal.statements_yes - int(margin)
     by_scene: dict[str, list] = {}
     for t in targets:
@@ -291,6 +312,10 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
                 for k in reversed(orbit_runs(dst)):
                     if cm._drop_run(dst, k):
                         cand.dropped.append(f"{n}: run[{k}] ({NOT_RUN}: {', '.join(skip_orbits[n])})")
+                atomic_write_json(cand.folder / "dropped.json", cand.dropped)
+            if skip_overlay.get(n) and not cm.scene_complete(cand.folder / "out" / n, dst) \
+                    and cm._drop_table(dst, "overlay"):
+                cand.dropped.append(f"{n}: overlay ({NOT_RUN}: {skip_overlay[n]})")
                 atomic_write_json(cand.folder / "dropped.json", cand.dropped)
         cand.prepared = True
     queue = list(todo)          # candidates waiting for their next scene

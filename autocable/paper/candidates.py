@@ -108,6 +108,23 @@ def _failed_start(error: str):
     return int(m.group(1)) if m else None
 
 
+def _drop_table(path: Path, name: str) -> bool:
+    """Remove the ``[name]`` table (with its ``[name.*]`` subtables) from a scene file; False if it
+    has none."""
+    lines = path.read_text().splitlines()
+    starts = [i for i, line in enumerate(lines) if line.split("#", 1)[0].strip() == f"[{name}]"]
+    if not starts:
+        return False
+    i0, i1 = starts[0], len(lines)
+    for j in range(i0 + 1, len(lines)):
+        t = lines[j].strip()
+        if t.startswith("[") and not t.startswith(f"[{name}."):
+            i1 = j
+            break
+    path.write_text("\n".join(lines[:i0] + lines[i1:]) + "\n")
+    return True
+
+
 def _drop_run(path: Path, k: int) -> bool:
     """Remove the k-th ``[[run]]`` table (with its ``[run.*]`` subtables) from a scene file."""
     lines = path.read_text().splitlines()

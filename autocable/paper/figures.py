@@ -129,13 +129,12 @@ def scene_task(scene_path: str, scene_out: str, engine: str | None = None, model
     "failed", one-line error, traceback, wall seconds)."""
     from autocable.executor import run_forked
     t0 = time.perf_counter()
-    status, value, detail = run_forked(_run_scene, (scene_path, scene_out, engine, model, plot), timeout)
+    status, value, detail = run_forked(_run_scene, (scene_path, scene_out, engine, model, plot), timeout,
+                                       what="scene")
     wall = time.perf_counter() - t0
     if status == "ok":
         return (*value, wall)
-    if str(value).startswith("stopped after"):
-        return ("failed", f"{scene_path}: {value}", "", wall)
-    return ("failed", f"{scene_path}: {str(value).replace('task', 'scene', 1)}", detail, wall)
+    return ("failed", f"{scene_path}: {value}", detail, wall)     # killed, or over the time limit
 
 
 def _preload() -> None:

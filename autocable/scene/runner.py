@@ -734,7 +734,7 @@ def _with_twist(branches, spec, deriv):
             a2 = np.abs(np.asarray(b.table["a2"], dtype=float))
             U = np.asarray(b.table["U"], dtype=float) if "U" in b.table else np.zeros_like(a2)
             tw = per_q2 * a2
-            ce = np.array([err(t, nu * om * x1, nu * om * x2, u) for t, x1, x2, u in zip(tw, a1, a2, U)])
+            ce = err.many(tw, nu * om * a1, nu * om * a2, U)
             ok = np.isfinite(tw)
             largest = max(largest, float(tw[ok].max()) if ok.any() else 0.0)
             fin = ce[np.isfinite(ce)]
@@ -768,10 +768,12 @@ def write_compare(scene: Scene, rows: list[dict], branches, out: Path) -> dict:
 
 
 def _run_overlay(scene: Scene, deriv, ame, say, resolution: str = "full") -> list[dict]:
-    """Sweep the overlay's method up and down over its parameter values (methods/sweeps.py)."""
+    """Sweep the overlay's method up and down over its parameter values (methods/sweeps.py).
+    An eq. (21) integration that is seen converging to a stable period-1 orbit ends there
+    (`sweeps.PeriodOneShortcut`: the same class and amplitudes as integrating on, to 1e-6)."""
     import numpy as np
 
-    from autocable.methods.integration.sweeps import sweep, to_rows
+    from autocable.methods.integration.sweeps import PeriodOneShortcut, sweep, to_rows
     ov = scene.overlay
     values = np.linspace(ov.range[0], ov.range[1], ov.points)
     if resolution == "coarse":
@@ -780,9 +782,11 @@ def _run_overlay(scene: Scene, deriv, ame, say, resolution: str = "full") -> lis
     if ov.method == "ode21":
         from autocable.methods.integration.ode21 import SCENE_ENGINE, Ode21Integrator
         integrator = Ode21Integrator(deriv.ode, engine=SCENE_ENGINE)
+        shortcut = PeriodOneShortcut(integrator)
     else:
         from autocable.methods.integration.ame import AmeIntegrator
         integrator = AmeIntegrator(ame)
+        shortcut = None
     say(f"overlay: {ov.method} swept in {ov.parameter} over [{ov.range[0]:g}, {ov.range[1]:g}], "
         f"{ov.points} points, {'/'.join(ov.directions)}")
 
@@ -791,7 +795,7 @@ def _run_overlay(scene: Scene, deriv, ame, say, resolution: str = "full") -> lis
         say(f"  {p.direction:>4} {ov.parameter} = {p.value:+.5f}: a1 = {p.a1:.4e}, a2 = {p.a2:.4e} ({state})")
 
     return to_rows(sweep(integrator, ov.parameter, values, fixed, directions=ov.directions,
-                         progress=tell, max_time=ov.max_time))
+                         progress=tell, max_time=ov.max_time, shortcut=shortcut))
 
 
 def _write_overlay(rows: list[dict], path: Path, columns=("parameter",)) -> None:

@@ -59,6 +59,10 @@ class _Chart:
         x, p = self.to_phys(Y)
         return self.system.f(x, p) / self.xscale
 
+    def jac(self, x, p) -> np.ndarray:
+        """J_x at the physical (x, p)."""
+        return self.system.jac(x, p)
+
     def DF(self, Y) -> np.ndarray:
         """n x (n+1): [J_x, dF/dlam] in chart units."""
         x, p = self.to_phys(Y)
@@ -112,16 +116,11 @@ def _sign(v: float) -> int:
 def _sign_changes(values: Sequence[float]) -> list[int]:
     """Indices i such that the sign changes between point i and the next point with a nonzero value
     (exact zeros are skipped, so a zero at a point does not count twice)."""
-    out = []
-    last_i, last_s = None, 0
-    for i, v in enumerate(values):
-        s = _sign(v)
-        if s == 0:
-            continue
-        if last_s and s != last_s:
-            out.append(last_i)
-        last_i, last_s = i, s
-    return out
+    v = np.asarray(values, float).ravel()
+    s = np.sign(v)
+    s[~np.isfinite(v)] = 0.0
+    idx = np.flatnonzero(s)
+    return idx[:-1][s[idx[1:]] != s[idx[:-1]]].tolist()
 
 
 def _oriented_tangents(chart: _Chart, Ys: Sequence[np.ndarray]) -> np.ndarray:

@@ -5,18 +5,23 @@ What runs where. `autocable.codegen.ckernel` compiles, from the same sympy right
 continues, F, J_x, J_p, the scaled chart (x~ = x / xscale, lam = (p - p0) / pscale) and a Keller
 pseudo-arclength loop with PyCont's step control; per point it returns the polished point, its
 tangent, the test functions autocable uses (the tangent's parameter component for LP,
-det [DF~; t] for BP, det(2J (.) I) for Hopf) and the count of eigenvalues with positive real part
-(Routh array; -1 when undecided), and it puts an extra point on each zero of a test function
-inside a step (as AUTO does). Python then does what the PyCont path does with PyCont's points,
-with the same code (`_analyse_equilibria` given the kernel's arrays): sign changes of the test
-functions, location by `continuation_chart._locate` (Brent on the chord, `_correct` onto the
-branch, here on the compiled chart), the rank test that tells LP from BP, the Hopf pair check,
-l1 at Hopf points (`first_lyapunov`, exact sympy derivatives), and the `Branch` record.
+det [DF~; t] for BP, det(2J (.) I) for Hopf), the count of eigenvalues with positive real part
+(Routh array; -1 when undecided) and the eigenvalues of J, and it puts an extra point on each
+zero of a test function inside a step (as AUTO does). The start (Newton at the start value and
+the tangent there) is the kernel's too. Python then does what the PyCont path does with
+PyCont's points, with the same code (`_analyse_equilibria` given the kernel's arrays): sign
+changes of the test functions, location of each zero (`continuation_chart._locate`'s Brent search
+on the chord with `_correct` onto the branch and the same test functions, run in C by
+`CKernel.locate`: `_KernelChart.locate_test`), the rank test that tells LP from BP, the Hopf pair
+check, l1 at Hopf points (`first_lyapunov`, exact sympy derivatives), and the `Branch` record.
 
-Eigenvalues. The `Branch` keeps every point's eigenvalues (numpy, one batched call on the kernel's
-Jacobians). Stability is the kernel's count (stable when 0); where the count is undecided (an
-eigenvalue or a pair sum within ~1e-9 ||J|| of the imaginary axis) it is numpy's, and
-``info["kernel_stability_disagreements"]`` counts decided points where the two differ.
+Eigenvalues. The `Branch` keeps every point's eigenvalues: the kernel's (balancing, Hessenberg
+reduction, double-shift QR; the same values as LAPACK's to rounding), sorted as the PyCont path
+sorts numpy's. Stability is the kernel's Routh count (stable when 0); where the count is
+undecided (an eigenvalue or a pair sum within ~1e-9 ||J|| of the imaginary axis) numpy's
+(LAPACK's) eigenvalues of that point replace the kernel's and decide, and
+``info["kernel_stability_disagreements"]`` counts decided points where the count and the
+eigenvalues differ.
 
 No PyCont runs, so every special point has ``confirmed_by_pycont = None``."""
 from __future__ import annotations
@@ -60,6 +65,21 @@ class _KernelChart(_Chart):
     def F(self, Y) -> np.ndarray:
         return self._both(Y)[0].copy()
 
+    def jac(self, x, p) -> np.ndarray:
+        return self.kernel.jac(x, p)
+
+    def locate_test(self, kind: str, Ya, Yb, tol: float) -> tuple[np.ndarray, bool]:
+        """`chart._locate` with `_analyse_equilibria`'s test function of ``kind`` (LP, BP, H),
+        the whole Brent search in one C call (`CKernel.locate`)."""
+        return self.kernel.locate(self.cfg, Ya, Yb, _KINDS[kind], tol)
+
+    def lam_tangent(self, Y) -> np.ndarray | None:
+        """The unit tangent at Y with a positive parameter component (None when [DF~; e_lam] is
+        singular: a fold at Y)."""
+        e = np.zeros(len(Y))
+        e[-1] = 1.0
+        return self.kernel.tangent(self.cfg, Y, e)
+
     def DF(self, Y) -> np.ndarray:
         return self._both(Y)[1].copy()
 
@@ -73,7 +93,9 @@ class _KSide:
     message: str
 
 
-_EMPTY_KEYS = ("Y", "T", "tests", "npos", "J", "polished")
+_EMPTY_KEYS = ("Y", "T", "tests", "npos", "J", "E", "polished")
+#: The test-function codes of the C locator (`CKernel.locate`).
+_KINDS = {"LP": 0, "BP": 1, "H": 2}
 
 
 def _single(chart: _KernelChart, Y: np.ndarray, t: np.ndarray) -> dict:
@@ -83,7 +105,8 @@ def _single(chart: _KernelChart, Y: np.ndarray, t: np.ndarray) -> dict:
     ev = np.linalg.eigvals(J)
     return {"Y": Y[None, :].copy(), "T": t[None, :].copy(),
             "tests": np.array([[t[-1], np.linalg.det(np.vstack([chart.DF(Y), t])), _hopf_test(J)]]),
-            "npos": np.array([int(np.sum(ev.real > 0))]), "J": J[None], "polished": np.zeros(1, bool)}
+            "npos": np.array([int(np.sum(ev.real > 0))]), "J": J[None], "E": -np.sort(-ev)[None],
+            "polished": np.zeros(1, bool)}
 
 
 def _run_side(chart: _KernelChart, problem: EquilibriumProblem, settings: ContinuationSettings,
@@ -130,19 +153,24 @@ def _analysis_inputs(chart: _KernelChart, arr: dict) -> tuple[dict, dict]:
     Y = arr["Y"]
     P = np.repeat(chart.base[None, :], len(Y), axis=0)
     P[:, chart.k] += chart.pscale * Y[:, -1]
-    ev = np.linalg.eigvals(J) if len(J) else np.zeros((0, J.shape[-1]), complex)
-    # Each row by decreasing real part, then decreasing imaginary part (as the PyCont path sorts).
-    ev = -np.sort(-ev, axis=1)
-    numpy_count = np.sum(ev.real > 0, axis=1)
     count = arr["npos"]
     decided = count >= 0
-    used = np.where(decided, count, numpy_count)
-    stable = used == 0
+    # The kernel's eigenvalues (each row by decreasing real part, then decreasing imaginary part,
+    # as the PyCont path sorts numpy's); numpy's where the Routh count is undecided (an
+    # eigenvalue next to the imaginary axis: LAPACK decides its sign) or the kernel's QR failed.
+    ev = arr["E"].copy()
+    redo = ~decided
+    if np.isnan(ev.real.sum()):           # the kernel's QR iteration failed somewhere
+        redo |= np.isnan(ev.real).any(axis=1)
+    if redo.any():
+        ev[redo] = -np.sort(-np.linalg.eigvals(J[redo]), axis=1)
+    numpy_count = np.count_nonzero(ev.real > 0, axis=1)
+    stable = np.where(decided, count, numpy_count) == 0
     pre = {"X": Y[:, :-1] * chart.xscale, "P": P, "eigen": ev, "stable": stable, "T": arr["T"],
            "hopf": arr["tests"][:, 2], "bdet": arr["tests"][:, 1]}
-    info = {"engine": "compiled", "kernel_undecided_stability": int(np.sum(~decided)),
-            "kernel_stability_disagreements": int(np.sum(decided & (count != numpy_count))),
-            "kernel_unstable_counts": [int(c) for c in count]}
+    info = {"engine": "compiled", "kernel_undecided_stability": int(np.count_nonzero(~decided)),
+            "kernel_stability_disagreements": int(np.count_nonzero(decided & (count != numpy_count))),
+            "kernel_unstable_counts": count.tolist()}
     return pre, info
 
 
@@ -158,8 +186,9 @@ def continue_equilibria_compiled(problem: EquilibriumProblem,
     sysm = problem.system
     kernel = compiled_kernel(sysm)
     chart = _KernelChart.around(_Chart.of(problem), kernel)
-    # Newton on the kernel's F and J (equilibrium_near only calls f and jac).
-    Y0, v0 = _start_on_chart(problem, settings, start, chart, kernel)
+    # Newton (equilibrium_near's) and the start tangent, both in C.
+    Y0, v0 = _start_on_chart(problem, settings, start, chart, kernel, newton=kernel.newton,
+                             tangent=chart.lam_tangent)
     wanted = {"both": ("forward", "backward"), "forward": ("forward",), "backward": ("backward",)}[directions]
     t_setup = time.perf_counter()
     sides: dict[str, _KSide] = {}

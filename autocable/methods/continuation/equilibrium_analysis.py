@@ -72,22 +72,24 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
         else:
             polished.append(np.asarray(Y, float).copy())
             moved += 1
-    Ys = polished if precomputed is None else [np.asarray(Y, float) for Y in Ys]
-    X = np.array([chart.to_phys(Y)[0] for Y in Ys]) if precomputed is None else precomputed["X"]
-    P = np.array([chart.to_phys(Y)[1] for Y in Ys]) if precomputed is None else precomputed["P"]
-    eig = np.zeros((len(Ys), n), dtype=complex)
-    detJ = np.zeros(len(Ys))
-    hopf = np.zeros(len(Ys))
-    for i in range(len(Ys) if precomputed is None else 0):
-        J = sysm.jac(X[i], P[i])
-        ev = np.linalg.eigvals(J)
-        eig[i] = ev[np.lexsort((-ev.imag, -ev.real))]
-        detJ[i] = np.linalg.det(J)
-        hopf[i] = _hopf_test(J)
-    stable = np.max(eig.real, axis=1) < 0 if n else np.ones(len(Ys), bool)
-    T = _oriented_tangents(chart, Ys) if len(Ys) > 1 and precomputed is None else np.zeros((len(Ys), n + 1))
     if precomputed is not None:
+        # The compiled engine's rows of one float array: nothing to convert.
+        Ys = list(Ys)
+        X, P = precomputed["X"], precomputed["P"]
         eig, stable, T, hopf = (np.asarray(precomputed[k]) for k in ("eigen", "stable", "T", "hopf"))
+    else:
+        Ys = polished
+        X = np.array([chart.to_phys(Y)[0] for Y in Ys])
+        P = np.array([chart.to_phys(Y)[1] for Y in Ys])
+        eig = np.zeros((len(Ys), n), dtype=complex)
+        hopf = np.zeros(len(Ys))
+        for i in range(len(Ys)):
+            J = sysm.jac(X[i], P[i])
+            ev = np.linalg.eigvals(J)
+            eig[i] = ev[np.lexsort((-ev.imag, -ev.real))]
+            hopf[i] = _hopf_test(J)
+        stable = np.max(eig.real, axis=1) < 0 if n else np.ones(len(Ys), bool)
+        T = _oriented_tangents(chart, Ys) if len(Ys) > 1 else np.zeros((len(Ys), n + 1))
     vp = T[:, -1]
     # The branch-point test function det([J_x, J_p; v]) changes sign at simple BPs, not at folds.
     bdet = np.array([np.linalg.det(np.vstack([chart.DF(Y), t])) for Y, t in zip(Ys, T)]) \
@@ -127,18 +129,28 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
             def tau(Y):
                 x, p = chart.to_phys(Y)
                 return _hopf_test(sysm.jac(x, p))
-        Y, ok = _locate(chart, Ya, Yb, tau, settings.newton_tol)
+        # A chart that locates the same test functions itself (the compiled engine's, in C).
+        located = getattr(chart, "locate_test", None)
+        Y, ok = located(kind, Ya, Yb, settings.newton_tol) if located is not None else \
+            _locate(chart, Ya, Yb, tau, settings.newton_tol)
+        sv = None
         if kind == "BP":
-            Y, ok = _sharpen_branch_point(chart, Y, ok, float(np.linalg.norm(ref)), settings.newton_tol)
+            # The rank test below on the located point is also `_sharpen_branch_point`'s test for
+            # a point that needs no sharpening: one SVD for both.
+            sv = np.linalg.svd(chart.DF(Y), compute_uv=False)
+            if not (ok and sv[-1] <= 1e-7 * sv[0]):
+                Y, ok = _sharpen_branch_point(chart, Y, ok, float(np.linalg.norm(ref)), settings.newton_tol)
+                sv = None
         x, p = chart.to_phys(Y)
-        J = sysm.jac(x, p)
+        J = chart.jac(x, p)
         ev = np.linalg.eigvals(J)
         extra: dict[str, Any] = {"eigenvalues": [complex(e) for e in ev]}
         message = ""
         if kind in ("LP", "BP"):
             # Fold or branch point is decided by the rank of [J_x, J_p]: full at a fold, deficient at
             # a BP (where a pitchfork's new branch also turns in the parameter: vp changes sign there).
-            sv = np.linalg.svd(chart.DF(Y), compute_uv=False)
+            if sv is None:
+                sv = np.linalg.svd(chart.DF(Y), compute_uv=False)
             deficient = sv[-1] <= 1e-7 * sv[0]
             if kind == "BP" and not deficient:
                 rejected.append(("BP", chart.value(Y[-1])))
@@ -221,10 +233,11 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
             state=tuple(x), parameters=sysm.parameter_dict(p), index=int(i), converged=bool(ok),
             confirmed_by_pycont=None if confirmed is None else bool(confirmed), origin=origin, message=message,
             extra=extra))
-    disagree = [i for i, s in enumerate(pycont_stab) if s is not None and (s == "S") != bool(stable[i])]
+    checked = [i for i, s in enumerate(pycont_stab) if s is not None]
+    disagree = [i for i in checked if (pycont_stab[i] == "S") != bool(stable[i])]
     info = {"pycont_stability_disagreements": len(disagree),
             "pycont_stability_disagreement_points": disagree[:50],
-            "pycont_stability_checked": sum(s is not None for s in pycont_stab),
+            "pycont_stability_checked": len(checked),
             "neutral_saddles": neutral, "rejected_candidates": rejected,
             "lp_merged_into_bp": [chart.value(f[2][-1]) for f in merged], "points_kept_unpolished": moved}
     return _Analysis(tuple(Ys), X, P, eig, stable, tuple(specials), info)
@@ -244,9 +257,10 @@ def _sharpen_branch_point(chart: _Chart, Y: np.ndarray, ok: bool, reach: float, 
     point is used when Newton converges within ``reach`` (the bracket's length) of the located
     point with sigma_min/sigma_max of DF below 1e-7; otherwise the located point is kept."""
     DF = chart.DF(Y)
-    U_, sv, _ = np.linalg.svd(DF)
+    sv = np.linalg.svd(DF, compute_uv=False)
     if ok and sv[-1] <= 1e-7 * sv[0]:
         return Y, ok
+    U_ = np.linalg.svd(DF)[0]
     n = DF.shape[0]
     psi = U_[:, -1].copy()
     Z = np.concatenate([Y, [0.0], psi])
@@ -296,20 +310,27 @@ def _relabel(points: Sequence[SpecialPoint]) -> tuple[SpecialPoint, ...]:
 
 
 def _start_on_chart(problem: EquilibriumProblem, settings: ContinuationSettings, start, chart,
-                    fields) -> tuple[np.ndarray, np.ndarray]:
+                    fields, newton=None, tangent=None) -> tuple[np.ndarray, np.ndarray]:
     """The start state corrected by Newton at the run's start value, on ``chart``, and the unit
     tangent there, oriented towards increasing parameter. ``fields`` gives f and jac: the
-    `System` (PyCont engine) or the compiled kernel."""
+    `System` (PyCont engine) or the compiled kernel; ``newton`` (x0, p, tol=, scale=) -> (x,
+    converged, residual) replaces `equilibrium_near` on ``fields`` and ``tangent`` (Y) -> the unit
+    tangent with a positive parameter component (or None) the SVD, when given (the compiled
+    engine's C versions of both)."""
     sysm = problem.system
     x0 = np.zeros(sysm.dimension) if start is None else np.asarray(start, float)
     if x0.shape != (sysm.dimension,):
         raise StartError(f"start state must have {sysm.dimension} entries {sysm.variables}, got {x0.shape}")
-    x, ok, res = equilibrium_near(fields, x0, chart.p(0.0), tol=settings.newton_tol, scale=chart.xscale)
+    x, ok, res = (newton or (lambda *a, **k: equilibrium_near(fields, *a, **k)))(
+        x0, chart.p(0.0), tol=settings.newton_tol, scale=chart.xscale)
     if not ok:
         raise StartError(f"Newton from the start state did not converge to an equilibrium at "
                          f"{problem.parameter} = {chart.value(0.0):g} (residual {res:.3g}); start by "
                          f"integration or from a labelled point")
     Y0 = chart.to_chart(x, chart.value(0.0))
+    v0 = tangent(Y0) if tangent is not None else None
+    if v0 is not None and v0[-1] > 1e-12:
+        return Y0, v0
     v0 = _tangent(chart.DF(Y0))
     if abs(v0[-1]) > 1e-12:
         v0 = v0 * np.sign(v0[-1])

@@ -308,12 +308,20 @@ class Ode21Integrator:
     def simulate(self, U: float, eta: float, sigma: float, q0=DEFAULT_Q0, *,
                  periods_per_chunk: int = 100, window_periods: int = 20, max_time: float = 60000.0,
                  steady_tol: float = 1e-8, samples_per_period: int = 64,
-                 keep_history: bool = False, progress=None) -> Response:
+                 keep_history: bool = False, progress=None, shortcut=None) -> Response:
         """Integrate from ``q0`` = (q1, q1', q2, q2') until the amplitudes are steady.
 
         Steady: the amplitudes over the last ``window_periods`` forcing periods change by less than
         ``steady_tol`` (relative) between two consecutive chunks, or are at rest (all below 1e3 x
         atol and not growing). Stops at ``max_time`` otherwise.
+
+        ``shortcut`` (forced responses only, eta* != 0): called after every chunk as
+        ``shortcut(U, eta, Omega, ends, t, max_time, steady_tol)`` with ``ends`` the states (q1, q2,
+        q1', q2') at the last ``window_periods + 1`` period ends, oldest first, ``t`` the time
+        reached; it returns None (integrate on) or
+        ``((a1, a2), state, note)``: the period-1 orbit this integration is converging to, which
+        ends the run as a steady periodic response with those amplitudes, ``state`` as its final
+        state and ``note`` in its message (`autocable.methods.integration.sweeps.PeriodOneShortcut`).
         """
         check_call("Ode21Integrator.simulate", U=U, eta=eta, sigma=sigma, q0=q0, max_time=max_time,
                    omega1=self.ode.omega1)
@@ -402,6 +410,13 @@ class Ode21Integrator:
                     amps = cycles.amplitudes
             if progress:
                 progress(t, amps)
+            if shortcut is not None and not autonomous and len(window) == keep:
+                got = shortcut(U, eta, Omega, window[::samples_per_period], t, max_time, steady_tol)
+                if got is not None:
+                    orbit_amps, orbit_state, note = got
+                    return self._response(U, eta, sigma, Omega, orbit_amps, True, True, t, None,
+                                          f"steady: {note}", start, orbit_state, history,
+                                          samples_per_period, period=period)
             if previous is not None:
                 steps.append([abs(a - b) for a, b in zip(amps, previous)])
                 change = max(abs(a - b) / max(abs(a), 1e-14) for a, b in zip(amps, previous))
