@@ -1,7 +1,10 @@
 """`autocable bench calibration`: the calibration's parallel stages on the executor, measured.
 
 Two parts, each `autocable calibrate` in a subprocess on the sample model and its targets file,
-into fresh folders with the same (warm) compile cache:
+into fresh folders, with a compile cache (``AUTOCABLE_CACHE``) of the bench's own that starts empty:
+a real calibration meets every candidate model for the first time, so its derivation and compiled
+code are part of what the bound costs; one warm-up screen point builds the model-independent
+integrators before anything is timed.
 
 * **screen scaling**: a space of `SCREEN_POINTS` (readings, beta) points, screen only (``full =
   0``), once with 1 worker and once with 2; the screen's wall time (``screen_s`` of
@@ -75,11 +78,11 @@ def bench_calibration(model_path: str, log: Callable[[str], None] | None = None,
     say = log or (lambda s: None)
     model = Path(model_path).resolve()
     targets = model.with_suffix("").with_suffix(".targets.toml")
-    env = dict(os.environ)
     result = {"what": "autocable calibrate: screen scaling and the bound stage", "cpu_count": os.cpu_count(),
               "load_average_before": os.getloadavg()[0]}
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
+        env = dict(os.environ, AUTOCABLE_CACHE=str(root / "cache"))
         (root / "screen.search.toml").write_text(SCREEN_SPACE)
         (root / "bound.search.toml").write_text(BOUND_SPACE)
         # one warm-up screen point, so that neither timed pass builds the integrators
