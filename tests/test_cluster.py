@@ -17,19 +17,11 @@ import pytest
 
 from conftest import REPO, SAMPLE
 
+from autocable.bench.calibration import space_text
+
 TARGETS = REPO / "models" / "luongo_zulli_2012.targets.toml"
 SCENES = "fig03,fig06"
-SPACE = """\
-twist_ends = ["natural"]
-load_axes = ["reference"]
-angle_convention = ["mirrored"]
-load_length = ["diameter"]
-air_density_kg_m3 = [1.25]
-ordering = ["paper"]
-yaw_deg = [-6.569711, 0.0]
-rivulet_angle_deg = ["calibrate"]
-full = 0
-"""
+SPACE = space_text([-6.569711, 0.0])     # the sample's mirrored reading at these yaws, screen only
 
 
 def _dask() -> str:

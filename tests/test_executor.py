@@ -17,6 +17,8 @@ import pytest
 
 from conftest import REPO, SAMPLE
 
+from autocable.bench.calibration import space_text
+
 from autocable.executor import Done, Executor, attempts, run_forked, time_left
 
 RUNS = REPO / "runs"
@@ -213,17 +215,7 @@ def test_figures_json_counts_the_scene_a_lost_worker_cost(tmp_path):
     assert data["recomputed"] == {} and data["where"]["mode"] == "LocalCluster"
 
 
-TINY_SPACE = """\
-twist_ends = ["natural"]
-load_axes = ["reference"]
-angle_convention = ["mirrored"]
-load_length = ["diameter"]
-air_density_kg_m3 = [1.25]
-ordering = ["paper"]
-yaw_deg = [-6.569711, 0.0, 5.0]
-rivulet_angle_deg = ["calibrate"]
-full = 0
-"""
+TINY_SPACE = space_text([-6.569711, 0.0, 5.0])     # the sample's mirrored reading at these yaws, screen only
 
 
 def _screen_rows(folder: Path) -> list[str]:

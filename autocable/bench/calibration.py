@@ -30,31 +30,22 @@ import time
 from pathlib import Path
 from typing import Callable
 
-__all__ = ["bench_calibration", "SCREEN_SPACE", "BOUND_SPACE"]
+__all__ = ["bench_calibration", "space_text", "SCREEN_SPACE", "BOUND_SPACE"]
+
+def space_text(yaw_deg, twist_ends=("natural",), full: int = 0) -> str:
+    """A search-space file for the sample's mirrored reading: reference axes, diameter, one air
+    density, the paper's ordering, Theta0 by the sample's rule, at the given yaws."""
+    return (f"twist_ends = {list(twist_ends)!r}\n"
+            'load_axes = ["reference"]\nangle_convention = ["mirrored"]\nload_length = ["diameter"]\n'
+            'air_density_kg_m3 = [1.25]\nordering = ["paper"]\n'
+            f"yaw_deg = {[float(y) for y in yaw_deg]!r}\n"
+            'rivulet_angle_deg = ["calibrate"]\n'
+            f"full = {int(full)}\n").replace("'", '"')
+
 
 SCREEN_POINTS = 8
-SCREEN_SPACE = """\
-twist_ends = ["natural", "restrained"]
-load_axes = ["reference"]
-angle_convention = ["mirrored"]
-load_length = ["diameter"]
-air_density_kg_m3 = [1.25]
-ordering = ["paper"]
-yaw_deg = [-10.0, -5.0, 0.0, 5.0]
-rivulet_angle_deg = ["calibrate"]
-full = 0
-"""
-BOUND_SPACE = """\
-twist_ends = ["natural"]
-load_axes = ["reference"]
-angle_convention = ["mirrored"]
-load_length = ["diameter"]
-air_density_kg_m3 = [1.25]
-ordering = ["paper"]
-yaw_deg = [-30.0, -25.0, -20.0, -15.0, -10.0, -5.0, 0.0, 5.0, 10.0, 15.0]
-rivulet_angle_deg = ["calibrate"]
-full = 1
-"""
+SCREEN_SPACE = space_text([-10.0, -5.0, 0.0, 5.0], ("natural", "restrained"))
+BOUND_SPACE = space_text([-30.0, -25.0, -20.0, -15.0, -10.0, -5.0, 0.0, 5.0, 10.0, 15.0], full=1)
 
 
 def _calibrate(model: Path, targets: Path, space: Path, out: Path, workers: int, bound: bool, env: dict) -> dict:
@@ -87,8 +78,7 @@ def bench_calibration(model_path: str, log: Callable[[str], None] | None = None,
         (root / "bound.search.toml").write_text(BOUND_SPACE)
         # one warm-up screen point, so that neither timed pass builds the integrators
         warm = root / "warm.search.toml"
-        warm.write_text(SCREEN_SPACE.replace("yaw_deg = [-10.0, -5.0, 0.0, 5.0]", "yaw_deg = [20.0]")
-                        .replace('["natural", "restrained"]', '["natural"]'))
+        warm.write_text(space_text([20.0]))
         _calibrate(model, targets, warm, root / "warm", 1, False, env)
         screen = {}
         for n in (1, 2):
