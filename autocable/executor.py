@@ -36,6 +36,7 @@ import signal
 import time
 import traceback
 import uuid
+import warnings
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
@@ -256,9 +257,13 @@ class Executor:
                     self.where = {"mode": "scheduler", "address": address}
                 else:
                     n = self.workers if self.workers else (os.cpu_count() or 1)
-                    self._cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                                 dashboard_address=None, silence_logs=logging.ERROR,
-                                                 local_directory=scratch, **self.cluster_kwargs)
+                    with warnings.catch_warnings():
+                        # the scheduler's HTTP port taken by another cluster on this machine: Dask
+                        # moves to a free one and says so on stderr; nothing for a user to do
+                        warnings.filterwarnings("ignore", message=r"Port \d+ is already in use")
+                        self._cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                                     dashboard_address=None, silence_logs=logging.ERROR,
+                                                     local_directory=scratch, **self.cluster_kwargs)
                     self.client = Client(self._cluster)
                     self.where = {"mode": "LocalCluster", "workers": n}
             if self.warm is not None:
