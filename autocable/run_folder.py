@@ -40,6 +40,10 @@ def is_leftover(name: str) -> bool:
 
 
 def _pid_alive(pid: int) -> bool:
+    """Whether process ``pid`` still runs. A zombie does not: a scene process killed with its
+    executor worker is reparented, and where nothing reaps it (PID 1 of a container is often no
+    init) it stays a zombie that ``kill(pid, 0)`` still finds, while the scene's rerun on another
+    worker must be allowed to take the folder."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -48,6 +52,11 @@ def _pid_alive(pid: int) -> bool:
         return True
     except (OverflowError, ValueError, OSError):
         return False
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as fh:
+            return fh.read().rsplit(") ", 1)[1][:1] not in ("Z", "X")
+    except (OSError, IndexError):
+        return True         # no /proc (not Linux): kill(pid, 0) is all there is
     return True
 
 

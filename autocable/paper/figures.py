@@ -127,10 +127,24 @@ def scene_task(scene_path: str, scene_out: str, engine: str | None = None, model
     (`executor.run_forked`: PyDSTool's working folder is process-wide, a crash in compiled code
     fails this scene only, a scene over ``timeout`` seconds is stopped). Returns (status "ok" |
     "failed", one-line error, traceback, wall seconds)."""
+    import re
+
     from autocable.executor import run_forked
+    from autocable.run_folder import _pid_alive
     t0 = time.perf_counter()
     status, value, detail = run_forked(_run_scene, (scene_path, scene_out, engine, model, plot), timeout,
                                        what="scene")
+    holder = re.search(r"another autocable run \(process (\d+)\)", str(value[1] if status == "ok" else value))
+    if holder:
+        # This scene again after its worker was lost: the earlier attempt's process, killed with
+        # that worker, may not have ended yet. Wait for it a little, then run once more (another
+        # live run in the folder still fails as before).
+        pid, deadline = int(holder.group(1)), time.monotonic() + 10.0
+        while _pid_alive(pid) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        if not _pid_alive(pid):
+            status, value, detail = run_forked(_run_scene, (scene_path, scene_out, engine, model, plot), timeout,
+                                               what="scene")
     wall = time.perf_counter() - t0
     if status == "ok":
         return (*value, wall)
