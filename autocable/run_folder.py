@@ -21,7 +21,7 @@ from autocable._store import atomic_write_json, read_json
 from autocable.results import BRANCHES_CSV, RUN_JSON, SPECIAL_CSV, STATUS_COMPLETE, status_of
 from autocable.spec import SpecError
 
-__all__ = ["STAGING_PREFIX", "is_leftover", "output_folder"]
+__all__ = ["STAGING_PREFIX", "is_leftover", "output_folder", "pid_alive"]
 
 #: The staging folder of the process ``<pid>`` inside an output folder.
 STAGING_PREFIX = ".autocable-staging-"
@@ -39,7 +39,7 @@ def is_leftover(name: str) -> bool:
     return name.startswith(STAGING_PREFIX) or bool(_TEMP.match(name))
 
 
-def _pid_alive(pid: int) -> bool:
+def pid_alive(pid: int) -> bool:
     """Whether process ``pid`` still runs. A zombie does not: a scene process killed with its
     executor worker is reparented, and where nothing reaps it (PID 1 of a container is often no
     init) it stays a zombie that ``kill(pid, 0)`` still finds, while the scene's rerun on another
@@ -91,7 +91,7 @@ def _prepare(out: Path, name: str, inputs=()) -> Path:
     meta = read_json(out / RUN_JSON)
     if status_of(meta) == "running":
         pid = meta.get("pid")
-        if isinstance(pid, int) and pid != os.getpid() and _pid_alive(pid):
+        if isinstance(pid, int) and pid != os.getpid() and pid_alive(pid):
             raise SpecError(out, "--out", f"another autocable run (process {pid}) is writing into this folder; "
                                           "wait for it or give another folder")
     owned = _owned_files(meta, name)
@@ -105,7 +105,7 @@ def _prepare(out: Path, name: str, inputs=()) -> Path:
             continue
         if n.startswith(STAGING_PREFIX) and entry.is_dir() and not entry.is_symlink():
             pid = n[len(STAGING_PREFIX):]
-            if pid.isdigit() and int(pid) != os.getpid() and _pid_alive(int(pid)):
+            if pid.isdigit() and int(pid) != os.getpid() and pid_alive(int(pid)):
                 raise SpecError(out, "--out", f"another autocable run (process {pid}) is writing into this "
                                               "folder; wait for it or give another folder")
             leftovers.append(entry)

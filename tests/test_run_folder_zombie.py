@@ -1,6 +1,6 @@
 """A run folder marked "running" by a process that has ended but was never reaped (a zombie: a scene
 process killed with its executor worker, in a container whose PID 1 reaps nothing) is free: the
-scene's rerun takes it (`autocable.run_folder._pid_alive`)."""
+scene's rerun takes it (`autocable.run_folder.pid_alive`)."""
 from __future__ import annotations
 
 import os
@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from autocable.run_folder import _pid_alive
+from autocable.run_folder import pid_alive
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc is Linux's")
 
@@ -27,17 +27,17 @@ def test_a_zombie_is_not_alive_and_a_live_process_is():
         time.sleep(0.01)
     try:
         os.kill(pid, 0)                     # the kernel still finds it ...
-        assert not _pid_alive(pid)          # ... but it runs no more
+        assert not pid_alive(pid)          # ... but it runs no more
     finally:
         os.waitpid(pid, 0)
-    assert not _pid_alive(pid)              # reaped: gone
-    assert _pid_alive(os.getpid())
+    assert not pid_alive(pid)              # reaped: gone
+    assert pid_alive(os.getpid())
     child = os.fork()
     if child == 0:
         time.sleep(30)
         os._exit(0)
     try:
-        assert _pid_alive(child)
+        assert pid_alive(child)
     finally:
         os.kill(child, signal.SIGKILL)
         os.waitpid(child, 0)

@@ -130,7 +130,7 @@ def scene_task(scene_path: str, scene_out: str, engine: str | None = None, model
     import re
 
     from autocable.executor import run_forked
-    from autocable.run_folder import _pid_alive
+    from autocable.run_folder import pid_alive
     t0 = time.perf_counter()
     status, value, detail = run_forked(_run_scene, (scene_path, scene_out, engine, model, plot), timeout,
                                        what="scene")
@@ -140,9 +140,9 @@ def scene_task(scene_path: str, scene_out: str, engine: str | None = None, model
         # that worker, may not have ended yet. Wait for it a little, then run once more (another
         # live run in the folder still fails as before).
         pid, deadline = int(holder.group(1)), time.monotonic() + 10.0
-        while _pid_alive(pid) and time.monotonic() < deadline:
+        while pid_alive(pid) and time.monotonic() < deadline:
             time.sleep(0.05)
-        if not _pid_alive(pid):
+        if not pid_alive(pid):
             status, value, detail = run_forked(_run_scene, (scene_path, scene_out, engine, model, plot), timeout,
                                                what="scene")
     wall = time.perf_counter() - t0
