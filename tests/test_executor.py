@@ -207,8 +207,9 @@ def test_a_killed_worker_during_figures_loses_only_its_scene(tmp_path):
         assert load_scene_data(tmp_path / "out" / n).ok
 
 
-def test_figures_json_counts_the_scene_a_lost_worker_cost(tmp_path):
-    """With its own executor, `run_figures` writes the recount into figures.json (here: none)."""
+def test_figures_json_records_where_the_scenes_ran_and_no_recount_without_a_loss(tmp_path):
+    """With its own executor, `run_figures` writes where the scenes ran and the scenes computed
+    again into figures.json: none when no worker was lost (the killed-worker test above counts one)."""
     from autocable.paper.figures import run_figures
     run_figures([RUNS / "fig03.toml"], tmp_path / "o", workers=1)
     data = json.loads((tmp_path / "o" / "figures.json").read_text())

@@ -6,7 +6,7 @@ import json
 import sys
 from pathlib import Path
 
-from autocable.cli.checks import (REPEATS_LIMIT, WORKERS_LIMIT, check_folder, check_number, check_out,
+from autocable.cli.checks import (REPEATS_LIMIT, check_folder, check_number, check_out,
                                   check_workers, dumps, refuse, strict)
 from autocable.spec import SpecError, load_model
 
