@@ -25,9 +25,13 @@ one C file per right-hand side with
   size below 10 ulp of t, a non-finite state, and ``|y_i| > bound`` for the first ``n_bound``
   components (a modal amplitude beyond the model's validity), each reported with a status code.
 
-Build and cache as for `autocable.codegen.ckernel` (whose printer, compiler call and build lock are
-reused): the library is keyed by a content hash of the right-hand side, names, coefficient table
-and this emitter's version, and lives in ``cache_root()/cintegrate/<hash>/`` (checked by sha256 before
+Coefficients as run-time data, as in `autocable.codegen.ckernel`: every Float of the right-hand
+side is a weight (`autocable.codegen.coefficients`) read from the parameter array after the
+parameters (hoisted with them into the per-run coefficients), so one library serves every
+right-hand side of one structure (the AME of every candidate model of the calibration, eq. (21)
+of every model of one form). Build and cache as for `autocable.codegen.ckernel` (whose printer,
+compiler call and build lock are reused): the library is keyed by a content hash of the
+right-hand side's structure, names, DOP853 table and this emitter's version (not the caller's name), and lives in ``cache_root()/cintegrate/<hash>/`` (checked by sha256 before
 every load, as there).
 """
 from __future__ import annotations
@@ -37,7 +41,7 @@ import functools
 import math
 import os
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Sequence
 
@@ -45,6 +49,7 @@ import numpy as np
 import sympy as sp
 
 from autocable import _store as cache
+from autocable.codegen.coefficients import Template, coefficient_template
 from autocable.codegen.ckernel import (CFLAGS, KernelBuildError, _block, _compile, _Printer, cached_library,
                                       load_private)
 
@@ -52,7 +57,7 @@ __all__ = ["INTEGRATOR_VERSION", "STATUS", "CIntegrator", "CRun", "Repeated", "c
            "integrator_source", "sample_grid"]
 
 #: Bump when the emitted C changes meaning: it is part of the content hash.
-INTEGRATOR_VERSION = "3"
+INTEGRATOR_VERSION = "4"
 
 #: How a run ended (the status code of the C loop).
 STATUS = {0: "done", 1: "step_budget", 2: "step_too_small", 3: "bound", 4: "not_finite"}
@@ -103,14 +108,17 @@ def _hoist(rhs, dynamic: set) -> tuple[list, list]:
 
 
 def integrator_source(variables: Sequence[str], parameters: Sequence[str], rhs: Sequence,
-                      time_symbol: str | None = "t") -> str:
-    """The C text of the DOP853 integrator of y' = rhs(t, y; p), y in ``variables``, p in
-    ``parameters`` order; ``time_symbol`` names t in ``rhs`` (None for an autonomous field)."""
+                      time_symbol: str | None = "t", weights: Sequence[str] = ()) -> str:
+    """The C text of the DOP853 integrator of y' = rhs(t, y; p, w), y in ``variables``, p in
+    ``parameters`` order; ``time_symbol`` names t in ``rhs`` (None for an autonomous field);
+    ``weights`` name the numeric coefficients (`autocable.codegen.coefficients`), read at run time
+    from the parameter array after the NP parameters."""
     n, m = len(variables), len(parameters)
     if n < 1:
         raise KernelBuildError("the C integrator needs at least one state variable")
     names = {v: f"y[{i}]" for i, v in enumerate(variables)}
     names.update({q: f"p[{j}]" for j, q in enumerate(parameters)})
+    names.update({w: f"p[{m + k}]" for k, w in enumerate(weights)})
     if time_symbol:
         names[time_symbol] = "t"
     dynamic = {sp.Symbol(v) for v in variables} | ({sp.Symbol(time_symbol)} if time_symbol else set())
@@ -139,6 +147,7 @@ def integrator_source(variables: Sequence[str], parameters: Sequence[str], rhs: 
 #include <string.h>
 #define N {n}
 #define NP {m}
+#define NW {len(weights)}
 #define NC {max(len(coefs), 1)}
 
 static void coef_eval(const double *p, double *c) {{
@@ -164,7 +173,7 @@ void ac_jac(double t, const double *y, const double *p, double *out) {{
     coef_eval(p, c);
 {chr(10).join(jac)}
 }}
-int ac_dims(int *out) {{ out[0] = N; out[1] = NP; return 0; }}
+int ac_dims(int *out) {{ out[0] = N; out[1] = NP; out[2] = NW; return 0; }}
 
 /* Hairer's hinit: a first step from the size of f and of its change over an Euler step. */
 static double hinit(double t, const double *y, const double *p, const double *c, const double *f0, double hmax,
@@ -192,6 +201,7 @@ static double hinit(double t, const double *y, const double *p, const double *c,
 
 /* Integrate from t0 with y0 towards t1 = grid[ng - 1] (the grid is increasing, grid[0] = t0),
    writing the state at every grid time into ys (ng x N, row major).
+   p = (the NP parameters, the NW coefficients).
    opt = (rtol, atol, hmax, max_steps, bound, n_bound, h0): h0 = 0 takes hinit's first step.
    info (out) = (status, t reached, accepted, rejected, f evaluations, last step, y reached[N]).
    Returns the number of grid rows written (all of them when status is 0). */
@@ -337,17 +347,26 @@ class CIntegrator:
     path: Path
     lib: ctypes.CDLL
     timings: tuple   # (("emit_s", s), ("compile_s", s), ("load_s", s)); zeros when cached
+    #: this right-hand side's numeric coefficients (the library is built for its structure)
+    weights: np.ndarray = field(default_factory=lambda: np.empty(0))
+
+    def with_weights(self, p) -> np.ndarray:
+        """The C parameter array: ``p`` (the m parameters) followed by the coefficients."""
+        p = np.asarray(p, float)
+        if p.shape != (self.m,):
+            raise ValueError(f"the compiled integrator takes {self.m} parameters, got {np.shape(p)}")
+        return np.concatenate([p, self.weights]) if self.weights.size else np.ascontiguousarray(p)
 
     def rhs(self, t: float, y, p) -> np.ndarray:
         out = np.empty(self.n)
-        y, p = np.ascontiguousarray(y, float), np.ascontiguousarray(p, float)   # alive in the call
+        y, p = np.ascontiguousarray(y, float), self.with_weights(p)   # alive in the call
         self.lib.ac_rhs(float(t), y.ctypes.data, p.ctypes.data, out.ctypes.data)
         return out
 
     def jac(self, t: float, y, p) -> np.ndarray:
         """The Jacobian d rhs / d y at (t, y) (n x n)."""
         out = np.empty((self.n, self.n))
-        y, p = np.ascontiguousarray(y, float), np.ascontiguousarray(p, float)   # alive in the call
+        y, p = np.ascontiguousarray(y, float), self.with_weights(p)   # alive in the call
         self.lib.ac_jac(float(t), y.ctypes.data, p.ctypes.data, out.ctypes.data)
         return out
 
@@ -365,6 +384,7 @@ class CIntegrator:
         if y0.shape != (self.n,) or p.shape != (self.m,):
             raise ValueError(f"the compiled integrator takes {self.n} states and {self.m} parameters, "
                              f"got {y0.shape[0]} and {p.shape[0]}")
+        p = self.with_weights(p)
         if grid.ndim != 1 or len(grid) < 2 or np.any(np.diff(grid) <= 0):
             raise ValueError("the sample grid must be increasing with at least two times")
         if not (rtol > 0 and atol > 0):
@@ -394,9 +414,7 @@ class Repeated:
     def __init__(self, integrator: CIntegrator, grid, p, *, max_step: float = math.inf,
                  max_steps: int = 10**9, bound: float = math.inf, n_bound: int = 0):
         grid = np.ascontiguousarray(grid, float)
-        p = np.ascontiguousarray(p, float)
-        if p.shape != (integrator.m,):
-            raise ValueError(f"the compiled integrator takes {integrator.m} parameters, got {p.shape[0]}")
+        p = integrator.with_weights(p)
         if grid.ndim != 1 or len(grid) < 2 or np.any(np.diff(grid) <= 0):
             raise ValueError("the sample grid must be increasing with at least two times")
         n = integrator.n
@@ -426,16 +444,17 @@ class Repeated:
         return self.ys if self.info[0] == 0.0 else None
 
 
-def _key(name, variables, parameters, time_symbol, rhs, cc) -> str:
+def _key(variables, parameters, time_symbol, template: Template, cc) -> str:
+    # The structure only (the template's key): neither the coefficients nor the caller's name.
     A, B, C, E3, E5, D = _coefficients()
     return cache.content_hash({"version": INTEGRATOR_VERSION, "variables": list(variables),
                                "parameters": list(parameters), "time": time_symbol,
-                               "rhs": [sp.srepr(e) for e in rhs], "cc": cc, "cflags": list(CFLAGS),
-                               "name": name,
+                               "rhs": template.key, "weights": list(template.weight_names),
+                               "cc": cc, "cflags": list(CFLAGS),
                                "table": [np.asarray(a).tolist() for a in (A, B, C, E3, E5, D)]})
 
 
-def _load(path: Path, n: int, m: int, timings) -> CIntegrator:
+def _load(path: Path, n: int, m: int, nw: int, timings) -> CIntegrator:
     try:
         lib = load_private(path)
     except OSError as exc:
@@ -449,35 +468,38 @@ def _load(path: Path, n: int, m: int, timings) -> CIntegrator:
     lib.ac_integrate.argtypes = [vp, vp, ctypes.c_int, vp, vp, vp, vp]
     lib.ac_integrate.restype = ctypes.c_int
     lib.ac_dims.argtypes = [vp]
-    dims = np.zeros(2, np.intc)
+    dims = np.zeros(3, np.intc)
     lib.ac_dims(dims.ctypes.data)
-    if (int(dims[0]), int(dims[1])) != (n, m):
-        raise KernelBuildError(f"C integrator {path}: built for n = {dims[0]}, m = {dims[1]}, expected "
-                               f"{n}, {m}; delete {path.parent} to rebuild it")
+    if (int(dims[0]), int(dims[1]), int(dims[2])) != (n, m, nw):
+        raise KernelBuildError(f"C integrator {path}: built for n = {dims[0]}, m = {dims[1]}, {dims[2]} "
+                               f"coefficients, expected {n}, {m}, {nw}; delete {path.parent} to rebuild it")
     return CIntegrator(n, m, path, lib, timings)
 
 
+# Keyed by the structure (a `Template` is equal to every template of its structure), so every
+# right-hand side of one structure shares one loaded library; errors name no caller (one library
+# serves many): `compiled_integrator` puts the caller's name in front.
 @functools.lru_cache(maxsize=32)
-def _integrator_for(name: str, variables: tuple, parameters: tuple, time_symbol, rhs: tuple,
+def _integrator_for(variables: tuple, parameters: tuple, time_symbol, template: Template,
                     cc: str) -> CIntegrator:
     # The folder is named by the content hash only: the caller's name is free text.
-    folder = cache.cache_dir("cintegrate", _key(name, variables, parameters, time_symbol, rhs, cc))
+    folder = cache.cache_dir("cintegrate", _key(variables, parameters, time_symbol, template, cc))
     times = {"emit_s": 0.0, "compile_s": 0.0}
 
     def build() -> None:
         t0 = time.perf_counter()
         try:
-            source = integrator_source(variables, parameters, rhs, time_symbol)
+            source = integrator_source(variables, parameters, template.rhs, time_symbol,
+                                       template.weight_names)
         except KernelBuildError:
             raise
         except Exception as exc:  # noqa: BLE001 - sympy's printer raises many kinds
             text = " ".join(str(exc).split())
-            raise KernelBuildError(f"C integrator of {name!r}: the right-hand side cannot be "
-                                   f"written as C ({type(exc).__name__}: {text}); use "
-                                   f"engine='dopri'") from None
+            raise KernelBuildError(f"the right-hand side cannot be written as C ({type(exc).__name__}: "
+                                   f"{text}); use engine='dopri'") from None
         t1 = time.perf_counter()
         try:
-            _compile(source, folder, cc, repr(name))
+            _compile(source, folder, cc, None)
         except KernelBuildError as exc:
             raise KernelBuildError(str(exc).replace("engine='pycont'", "engine='dopri'")) from None
         times.update(emit_s=t1 - t0, compile_s=time.perf_counter() - t1)
@@ -485,7 +507,7 @@ def _integrator_for(name: str, variables: tuple, parameters: tuple, time_symbol,
     lib, _ = cached_library(folder, build, "C integrator")
     emit_s, compile_s = times["emit_s"], times["compile_s"]
     t2 = time.perf_counter()
-    k = _load(lib, len(variables), len(parameters), ())
+    k = _load(lib, len(variables), len(parameters), len(template.weight_names), ())
     return CIntegrator(k.n, k.m, k.path, k.lib, (("emit_s", emit_s), ("compile_s", compile_s),
                                                  ("load_s", time.perf_counter() - t2)))
 
@@ -506,4 +528,10 @@ def compiled_integrator(name: str, variables: Sequence[str], parameters: Sequenc
         if extra:
             raise KernelBuildError(f"C integrator of {name!r}: undeclared symbols {sorted(extra)} in "
                                    f"the right-hand side")
-    return _integrator_for(name, tuple(variables), tuple(parameters), time_symbol, plain, cc)
+    try:
+        template = coefficient_template(plain)
+        ci = _integrator_for(tuple(variables), tuple(parameters), time_symbol, template, cc)
+    except (KernelBuildError, ValueError) as exc:
+        text = str(exc)
+        raise KernelBuildError(text if text.startswith("C integrator") else f"C integrator of {name!r}: {text}") from None
+    return replace(ci, weights=template.weights)

@@ -37,8 +37,15 @@ in modulus (an eigenvalue, or a pair sum, within about that of the imaginary axi
 the caller decides from numpy's eigenvalues. Counts that are decided are exact sign counts of
 quantities computed in a few dozen flops from J.
 
-Build. The source is keyed by a content hash of the right-hand side, the names and the emitter
-version; the library lives in ``cache_root()/ckernel/<hash>/`` (its sha256 in ``kernel.json``,
+Coefficients as run-time data. The numbers of the right-hand side are not printed into the C:
+every Float becomes a weight w[k] (`autocable.codegen.coefficients`) read from the NW numbers after
+the parameters (after the chart's numbers in a chart array), so one library serves every system
+of one structure (the calibration's candidate models, the scenes of models that differ only in
+numbers); J_x and J_p are differentiated from the template, so they read the same w.
+
+Build. The source is keyed by a content hash of the right-hand side's structure (its template:
+the Floats replaced by weight symbols), the names and the emitter version, not by the system's
+name; the library lives in ``cache_root()/ckernel/<hash>/`` (its sha256 in ``kernel.json``,
 checked before every load) and is compiled with gcc (``$CC`` if set) under an advisory file lock,
 so concurrent processes build it once. Any compiler
 failure raises `KernelBuildError` with one line naming the system, the compiler's first error and
@@ -53,7 +60,7 @@ import shutil
 import subprocess
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -63,12 +70,13 @@ from sympy.core.function import AppliedUndef
 from sympy.printing.c import C99CodePrinter
 
 from autocable import _store as cache
+from autocable.codegen.coefficients import Template, coefficient_template
 
 __all__ = ["KERNEL_VERSION", "KernelBuildError", "CKernel", "kernel_source", "compiled_kernel",
            "build_timing", "REASONS"]
 
 #: Bump when the emitted C changes meaning: it is part of the content hash.
-KERNEL_VERSION = "9"
+KERNEL_VERSION = "10"
 CFLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Werror=implicit-function-declaration")
 
 #: How a side of the branch ended (the ``reason`` code returned by the C loop).
@@ -119,8 +127,12 @@ def _block(printer: _Printer, exprs, targets: Sequence[str], prefix: str) -> lis
     return lines
 
 
-def kernel_source(variables: Sequence[str], parameters: Sequence[str], rhs: Sequence) -> str:
-    """The C text of the kernel for x' = rhs(x; p), x in ``variables``, p in ``parameters`` order."""
+def kernel_source(variables: Sequence[str], parameters: Sequence[str], rhs: Sequence,
+                  weights: Sequence[str] = ()) -> str:
+    """The C text of the kernel for x' = rhs(x; p, w), x in ``variables``, p in ``parameters`` order,
+    w the numeric coefficients named ``weights`` (`autocable.codegen.coefficients`), read at run
+    time: from the NW numbers after the NP parameters of a parameter array, after the chart's
+    (base, k, xscale, pscale) of a chart array."""
     n, m = len(variables), len(parameters)
     if n < 1:
         raise KernelBuildError("the C kernel needs at least one state variable")
@@ -128,6 +140,7 @@ def kernel_source(variables: Sequence[str], parameters: Sequence[str], rhs: Sequ
     ps = [sp.Symbol(p) for p in parameters]
     names = {v: f"x[{i}]" for i, v in enumerate(variables)}
     names.update({p: f"p[{j}]" for j, p in enumerate(parameters)})
+    names.update({w: f"w[{k}]" for k, w in enumerate(weights)})
     pr = _Printer(names)
     F = sp.Matrix([sp.sympify(e) for e in rhs])
     J = F.jacobian(xs)
@@ -147,31 +160,32 @@ def kernel_source(variables: Sequence[str], parameters: Sequence[str], rhs: Sequ
 #define N {n}
 #define M {m if m else 1}
 #define NP {m}
+#define NW {len(weights)}
 
-static void f_eval(const double *x, const double *p, double *out) {{
-    (void)x; (void)p;
+static void f_eval(const double *x, const double *p, const double *w, double *out) {{
+    (void)x; (void)p; (void)w;
 {chr(10).join(body_f)}
 }}
 
-static void jac_eval(const double *x, const double *p, double *out) {{
-    (void)x; (void)p;
+static void jac_eval(const double *x, const double *p, const double *w, double *out) {{
+    (void)x; (void)p; (void)w;
 {chr(10).join(body_j)}
 }}
 
 /* Column j of J_p (n entries). */
-static void jacp_col_eval(const double *x, const double *p, int j, double *out) {{
-    (void)x; (void)p; (void)out;
+static void jacp_col_eval(const double *x, const double *p, const double *w, int j, double *out) {{
+    (void)x; (void)p; (void)w; (void)out;
     switch (j) {{
 {chr(10).join(cols)}
     default: break;
     }}
 }}
 
-static void jacp_eval(const double *x, const double *p, double *out) {{
+static void jacp_eval(const double *x, const double *p, const double *w, double *out) {{
     double col[N];
     int i, j;
     for (j = 0; j < NP; j++) {{
-        jacp_col_eval(x, p, j, col);
+        jacp_col_eval(x, p, w, j, col);
         for (i = 0; i < N; i++) out[i * M + j] = col[i];
     }}
 }}
@@ -181,18 +195,20 @@ static void jacp_eval(const double *x, const double *p, double *out) {{
 
 # The system-independent part: chart, linear algebra, test functions, the continuation loop.
 _GENERIC = r"""
-int ac_dims(int *out) { out[0] = N; out[1] = NP; return 0; }
-void ac_f(const double *x, const double *p, double *out) { f_eval(x, p, out); }
-void ac_jac(const double *x, const double *p, double *out) { jac_eval(x, p, out); }
-void ac_jacp(const double *x, const double *p, double *out) { jacp_eval(x, p, out); }
+/* A parameter array p holds the NP parameters, then the NW coefficients w. */
+int ac_dims(int *out) { out[0] = N; out[1] = NP; out[2] = NW; return 0; }
+void ac_f(const double *x, const double *p, double *out) { f_eval(x, p, p + NP, out); }
+void ac_jac(const double *x, const double *p, double *out) { jac_eval(x, p, p + NP, out); }
+void ac_jacp(const double *x, const double *p, double *out) { jacp_eval(x, p, p + NP, out); }
 
-/* cfg = (base[0..NP-1], k, xscale, pscale) */
-typedef struct { double base[M]; int k; double xs, ps; } chart_t;
+/* cfg = (base[0..NP-1], k, xscale, pscale, w[0..NW-1]); the chart keeps a pointer to w, so cfg
+   outlives the chart (every chart lives inside one call that receives cfg). */
+typedef struct { double base[M]; int k; double xs, ps; const double *w; } chart_t;
 
 static void chart_of(const double *cfg, chart_t *c) {
     int j;
     for (j = 0; j < NP; j++) c->base[j] = cfg[j];
-    c->k = (int)cfg[NP]; c->xs = cfg[NP + 1]; c->ps = cfg[NP + 2];
+    c->k = (int)cfg[NP]; c->xs = cfg[NP + 1]; c->ps = cfg[NP + 2]; c->w = cfg + NP + 3;
 }
 
 /* F~(Y) (n), DF~(Y) (n x (n+1), row major, may be NULL), J_x physical (n x n, may be NULL). */
@@ -202,12 +218,12 @@ static void chart_eval(const chart_t *c, const double *Y, double *Fo, double *DF
     for (i = 0; i < N; i++) x[i] = Y[i] * c->xs;
     for (j = 0; j < NP; j++) p[j] = c->base[j];
     if (NP) p[c->k] += c->ps * Y[N];
-    if (Fo) { f_eval(x, p, f); for (i = 0; i < N; i++) Fo[i] = f[i] / c->xs; }
+    if (Fo) { f_eval(x, p, c->w, f); for (i = 0; i < N; i++) Fo[i] = f[i] / c->xs; }
     if (DF || Jx) {
-        jac_eval(x, p, J);
+        jac_eval(x, p, c->w, J);
         if (Jx) memcpy(Jx, J, sizeof(J));
         if (DF) {
-            if (NP) jacp_col_eval(x, p, c->k, Jp);
+            if (NP) jacp_col_eval(x, p, c->w, c->k, Jp);
             for (i = 0; i < N; i++) {
                 for (j = 0; j < N; j++) DF[i * (N + 1) + j] = J[i * N + j];
                 DF[i * (N + 1) + N] = NP ? Jp[i] * c->ps / c->xs : 0.0;
@@ -723,17 +739,18 @@ int ac_locate(const double *cfg, const double *Ya, const double *Yb, int kind, d
    x then x0). Returns 1 when converged. */
 int ac_newton(const double *x0, const double *p, double tol, double scale, int maxiter, double *x, double *res) {
     double f[N], J[N * N];
+    const double *w = p + NP;
     int it, i, conv = 0;
     memcpy(x, x0, sizeof(double) * N);
     for (it = 0; it < maxiter; it++) {
-        f_eval(x, p, f);
-        jac_eval(x, p, J);
+        f_eval(x, p, w, f);
+        jac_eval(x, p, w, J);
         if (lu_solve(N, J, f) == 0.0) break;
         for (i = 0; i < N; i++) x[i] -= f[i];
         if (!all_finite(N, x)) { memcpy(x, x0, sizeof(double) * N); *res = INFINITY; return 0; }
         if (norm(N, f) <= tol * (norm(N, x) + scale)) { conv = 1; break; }
     }
-    f_eval(x, p, f);
+    f_eval(x, p, w, f);
     *res = 0.0;
     for (i = 0; i < N; i++) if (!(fabs(f[i]) <= *res)) *res = fabs(f[i]);
     return conv;
@@ -892,11 +909,13 @@ def cached_library(folder: Path, build: Callable[[], None], what: str) -> tuple[
     return lib, True
 
 
-def _key(name: str, variables, parameters, rhs, cc: str) -> str:
+def _key(variables, parameters, template, cc: str) -> str:
     # The system-independent C text too: an edit to it that forgets KERNEL_VERSION still rebuilds.
+    # The structure only (the template's key): neither the coefficients nor the system's name,
+    # so every model of one structure shares the library.
     return cache.content_hash({"version": KERNEL_VERSION, "generic": _GENERIC, "variables": list(variables),
-                               "parameters": list(parameters), "rhs": [sp.srepr(e) for e in rhs],
-                               "cc": cc, "cflags": list(CFLAGS), "name": name})
+                               "parameters": list(parameters), "rhs": template.key,
+                               "weights": list(template.weight_names), "cc": cc, "cflags": list(CFLAGS)})
 
 
 def _first_error(text: str) -> str:
@@ -907,12 +926,15 @@ def _first_error(text: str) -> str:
     return lines[0] if lines else "no message"
 
 
-def _compile(source: str, folder: Path, cc: str, label: str) -> Path:
+def _compile(source: str, folder: Path, cc: str, label: str | None) -> Path:
+    """gcc on ``source`` into ``folder/kernel.so``; errors start "C kernel of <label>: " (nothing
+    when ``label`` is None: the caller names the system)."""
     lib = folder / "kernel.so"
     src = folder / "kernel.c"
     exe = shutil.which(cc)
+    who = f"C kernel of {label}: " if label else ""
     if exe is None:
-        raise KernelBuildError(f"C kernel of {label}: compiler {cc!r} not found; install gcc or set "
+        raise KernelBuildError(f"{who}compiler {cc!r} not found; install gcc or set "
                                f"CC to a C compiler")
     try:
         cache.atomic_write_text(src, source)
@@ -923,7 +945,7 @@ def _compile(source: str, folder: Path, cc: str, label: str) -> Path:
     try:
         done = subprocess.run([exe, *CFLAGS, "-o", tmp, str(src), "-lm"], capture_output=True, text=True)
         if done.returncode != 0:
-            raise KernelBuildError(f"C kernel of {label}: {cc} failed: {_first_error(done.stderr)} "
+            raise KernelBuildError(f"{who}{cc} failed: {_first_error(done.stderr)} "
                                    f"(source kept in {src}); use engine='pycont' for this system")
         os.chmod(tmp, cache.file_mode())   # not mkstemp's 0600: other users of a shared cache load it
         os.replace(tmp, lib)
@@ -935,34 +957,60 @@ def _compile(source: str, folder: Path, cc: str, label: str) -> Path:
 
 @dataclass(frozen=True, eq=False)
 class CKernel:
-    """A loaded kernel: F, J_x, J_p, the chart and the continuation loop of one system."""
+    """A loaded kernel: F, J_x, J_p, the chart and the continuation loop of one system.
+
+    The library is built for the system's structure; ``weights`` are this system's numeric
+    coefficients (`autocable.codegen.coefficients`), appended to every parameter array and chart
+    passed to C. A chart ``cfg`` is (base, k, xscale, pscale), or that followed by the weights
+    (`config`), which spares the copy on every call."""
 
     n: int
     m: int
     path: Path
     lib: ctypes.CDLL
     timings: tuple  # (("emit_s", s), ("compile_s", s), ("load_s", s)); zeros when cached
+    weights: np.ndarray = field(default_factory=lambda: np.empty(0))
+
+    def config(self, base, k: int, xscale: float, pscale: float) -> np.ndarray:
+        """The chart array (base, k, xscale, pscale, weights) of the methods that take ``cfg``."""
+        return np.concatenate([np.asarray(base, float), [k, xscale, pscale], self.weights]).astype(float)
+
+    def _p(self, p) -> np.ndarray:
+        p = np.asarray(p, float)
+        if p.shape != (self.m,):
+            raise ValueError(f"the C kernel takes {self.m} parameters, got {np.shape(p)}")
+        return np.concatenate([p, self.weights]) if self.weights.size else np.ascontiguousarray(p)
+
+    def _cfg(self, cfg) -> np.ndarray:
+        cfg = np.ascontiguousarray(cfg, float)
+        if cfg.shape[0] == self.m + 3 + self.weights.size:
+            return cfg
+        if cfg.shape[0] == self.m + 3:
+            return np.concatenate([cfg, self.weights])
+        raise ValueError(f"a chart of the C kernel has {self.m + 3} numbers (base, k, xscale, pscale), "
+                         f"got {cfg.shape[0]}")
 
     def f(self, x, p) -> np.ndarray:
         out = np.empty(self.n)
-        x, p = _c(x), _c(p)   # named: a temporary copy would be freed before the call
+        x, p = _c(x), self._p(p)   # named: a temporary copy would be freed before the call
         self.lib.ac_f(_ptr(x), _ptr(p), _ptr(out))
         return out
 
     def jac(self, x, p) -> np.ndarray:
         out = np.empty((self.n, self.n))
-        x, p = _c(x), _c(p)   # named: a temporary copy would be freed before the call
+        x, p = _c(x), self._p(p)   # named: a temporary copy would be freed before the call
         self.lib.ac_jac(_ptr(x), _ptr(p), _ptr(out))
         return out
 
     def jac_p(self, x, p) -> np.ndarray:
         out = np.empty((self.n, max(self.m, 1)))
-        x, p = _c(x), _c(p)   # named: a temporary copy would be freed before the call
+        x, p = _c(x), self._p(p)   # named: a temporary copy would be freed before the call
         self.lib.ac_jacp(_ptr(x), _ptr(p), _ptr(out))
         return out[:, :self.m]
 
     def chart(self, cfg: np.ndarray, Y, derivative: bool) -> np.ndarray:
         """F~(Y) (``derivative`` False) or DF~(Y) (True) in the chart ``cfg`` = (base, k, xscale, pscale)."""
+        cfg = self._cfg(cfg)
         Y = np.ascontiguousarray(Y, float)
         if derivative:
             out = np.empty((self.n, self.n + 1))
@@ -984,6 +1032,7 @@ class CKernel:
 
     def both(self, cfg: np.ndarray, Y) -> tuple[np.ndarray, np.ndarray]:
         """(F~(Y), DF~(Y)) in one call."""
+        cfg = self._cfg(cfg)
         Y = np.ascontiguousarray(Y, float)
         f, df = np.empty(self.n), np.empty((self.n, self.n + 1))
         self.lib.ac_chart(_ptr(cfg), _ptr(Y), _ptr(f), _ptr(df))
@@ -991,6 +1040,7 @@ class CKernel:
 
     def chart_batch(self, cfg: np.ndarray, Y) -> tuple[np.ndarray, np.ndarray]:
         """(F~, DF~) at every row of ``Y`` (K x (n+1)): arrays K x n and K x n x (n+1)."""
+        cfg = self._cfg(cfg)
         Y = np.ascontiguousarray(Y, float)
         K = Y.shape[0]
         f, df = np.empty((K, self.n)), np.empty((K, self.n, self.n + 1))
@@ -1008,6 +1058,7 @@ class CKernel:
     def locate(self, cfg: np.ndarray, Ya, Yb, kind: int, tol: float) -> tuple[np.ndarray, bool]:
         """`chart._locate` of test ``kind`` (0 LP, 1 BP, 2 H: the test functions of
         `equilibrium_analysis`) between the branch points Ya and Yb, in C: (Y, converged)."""
+        cfg = self._cfg(cfg)
         Ya, Yb = _c(Ya), _c(Yb)
         Y = np.empty(self.n + 1)
         ok = self.lib.ac_locate(_ptr(cfg), _ptr(Ya), _ptr(Yb), int(kind), float(tol),
@@ -1016,7 +1067,7 @@ class CKernel:
 
     def newton(self, x0, p, tol: float, scale: float, maxiter: int = 50) -> tuple[np.ndarray, bool, float]:
         """`equilibria.equilibrium_near` on the kernel's f and J_x: (x, converged, max|f|)."""
-        x0, p = _c(x0), _c(p)
+        x0, p = _c(x0), self._p(p)
         x, res = np.empty(self.n), np.empty(1)
         ok = self.lib.ac_newton(_ptr(x0), _ptr(p), float(tol), float(scale), int(maxiter),
                                 _ptr(x), _ptr(res))
@@ -1024,6 +1075,7 @@ class CKernel:
 
     def tangent(self, cfg: np.ndarray, Y, tref) -> np.ndarray | None:
         """The unit tangent at Y with t . tref > 0 ([DF~; tref] t = e_{n+1}), or None when singular."""
+        cfg = self._cfg(cfg)
         Y, tref = _c(Y), _c(tref)
         t = np.empty(self.n + 1)
         ok = self.lib.ac_tangent(_ptr(cfg), _ptr(Y), _ptr(tref), _ptr(t))
@@ -1037,6 +1089,7 @@ class CKernel:
         tests, Js, Es = np.empty((mp, 3)), np.empty((mp, self.n, self.n)), np.empty((mp, 2, self.n))
         npos, pol, reason = np.empty(mp, np.intc), np.empty(mp, np.intc), np.zeros(1, np.intc)
         o = np.ascontiguousarray(opts, float)
+        cfg = self._cfg(cfg)
         Y0, d0 = _c(Y0), _c(d0)
         k = self.lib.ac_continue(_ptr(cfg), _ptr(Y0), _ptr(d0), _ptr(o), mp,
                                  _ptr(Ys), _ptr(Ts), _ptr(tests), _ptr(npos),
@@ -1085,7 +1138,7 @@ def load_private(path: Path) -> ctypes.CDLL:
         os.unlink(tmp)
 
 
-def _load(path: Path, n: int, m: int, timings) -> CKernel:
+def _load(path: Path, n: int, m: int, nw: int, timings) -> CKernel:
     try:
         lib = load_private(path)
     except OSError as exc:
@@ -1114,44 +1167,46 @@ def _load(path: Path, n: int, m: int, timings) -> CKernel:
     lib.ac_hopf.restype = ctypes.c_double
     lib.ac_count.argtypes = [vp]
     lib.ac_count.restype = ip
-    dims = np.zeros(2, np.intc)
+    dims = np.zeros(3, np.intc)
     lib.ac_dims(_ptr(dims))
-    if (int(dims[0]), int(dims[1])) != (n, m):
-        raise KernelBuildError(f"C kernel {path}: built for n = {dims[0]}, m = {dims[1]}, expected "
-                               f"{n}, {m}; delete {path.parent} to rebuild it")
+    if (int(dims[0]), int(dims[1]), int(dims[2])) != (n, m, nw):
+        raise KernelBuildError(f"C kernel {path}: built for n = {dims[0]}, m = {dims[1]}, {dims[2]} "
+                               f"coefficients, expected {n}, {m}, {nw}; delete {path.parent} to rebuild it")
     return CKernel(n, m, path, lib, timings)
 
 
-# A process keeps the kernels it loaded (a shared library stays mapped anyway); keyed by content,
-# so two equal systems share one.
+# A process keeps the kernels it loaded (a shared library stays mapped anyway); keyed by the
+# structure, so every system of one structure shares one (the name only labels messages).
 @functools.lru_cache(maxsize=32)
-def _kernel_for(name: str, variables: tuple, parameters: tuple, rhs: tuple, cc: str) -> CKernel:
+def _kernel_for(variables: tuple, parameters: tuple, template: Template, cc: str) -> CKernel:
+    # Errors name no system (one library serves many): `compiled_kernel` puts the caller's in front.
     # The folder is named by the content hash only: a system's name is free text.
-    folder = cache.cache_dir("ckernel", _key(name, variables, parameters, rhs, cc))
+    folder = cache.cache_dir("ckernel", _key(variables, parameters, template, cc))
     times = {"emit_s": 0.0, "compile_s": 0.0}
+    rhs = template.rhs
 
     def build() -> None:
         t0 = time.perf_counter()
         undefined = sorted({str(f.func) for e in rhs for f in sp.sympify(e).atoms(AppliedUndef)})
         if undefined:
-            raise KernelBuildError(f"C kernel of {name!r}: the right-hand side calls {undefined}, "
-                                   f"which C does not know; define them or use engine='pycont'")
+            raise KernelBuildError(f"the right-hand side calls {undefined}, which C does not know; "
+                                   f"define them or use engine='pycont'")
         try:
-            source = kernel_source(variables, parameters, rhs)
+            source = kernel_source(variables, parameters, rhs, template.weight_names)
         except KernelBuildError:
             raise
         except Exception as exc:  # noqa: BLE001 - sympy's printer raises many kinds
             text = " ".join(str(exc).split())
-            raise KernelBuildError(f"C kernel of {name!r}: the right-hand side cannot be written "
-                                   f"as C ({type(exc).__name__}: {text}); use engine='pycont'") from None
+            raise KernelBuildError(f"the right-hand side cannot be written as C "
+                                   f"({type(exc).__name__}: {text}); use engine='pycont'") from None
         t1 = time.perf_counter()
-        _compile(source, folder, cc, repr(name))
+        _compile(source, folder, cc, None)
         times.update(emit_s=t1 - t0, compile_s=time.perf_counter() - t1)
 
     lib, _ = cached_library(folder, build, "C kernel")
     emit_s, compile_s = times["emit_s"], times["compile_s"]
     t2 = time.perf_counter()
-    k = _load(lib, len(variables), len(parameters), ())
+    k = _load(lib, len(variables), len(parameters), len(template.weight_names), ())
     return CKernel(k.n, k.m, k.path, k.lib, (("emit_s", emit_s), ("compile_s", compile_s),
                                              ("load_s", time.perf_counter() - t2)))
 
@@ -1161,7 +1216,8 @@ def build_timing(system, cc: str | None = None) -> dict[str, float]:
     not touched): ``emit_s`` (sympy derivatives, CSE and C printing) and ``compile_s`` (gcc)."""
     cc = cc or os.environ.get("CC", "").strip() or "gcc"
     t0 = time.perf_counter()
-    source = kernel_source(system.variables, system.parameter_names, system.rhs)
+    template = coefficient_template(system.rhs)
+    source = kernel_source(system.variables, system.parameter_names, template.rhs, template.weight_names)
     t1 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="autocable-ckernel-") as tmp:
         _compile(source, Path(tmp), cc, repr(system.name))
@@ -1174,5 +1230,13 @@ def compiled_kernel(system, cc: str | None = None) -> CKernel:
 
     ``cc``: the C compiler (default ``$CC`` or ``gcc``). Raises `KernelBuildError` (one line)."""
     cc = cc or os.environ.get("CC", "").strip() or "gcc"
-    return _kernel_for(system.name, tuple(system.variables), tuple(system.parameter_names),
-                       tuple(system.rhs), cc)
+    try:
+        template = coefficient_template(system.rhs)
+    except ValueError as exc:
+        raise KernelBuildError(f"C kernel of {system.name!r}: {exc}") from None
+    try:
+        k = _kernel_for(tuple(system.variables), tuple(system.parameter_names), template, cc)
+    except KernelBuildError as exc:
+        text = str(exc)
+        raise KernelBuildError(text if text.startswith("C kernel") else f"C kernel of {system.name!r}: {text}") from None
+    return replace(k, weights=template.weights)

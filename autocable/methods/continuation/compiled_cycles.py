@@ -145,7 +145,7 @@ class _Collocation:
 
     def __init__(self, kernel, chart: _Chart, mesh: _Mesh):
         self.kernel, self.chart, self.mesh = kernel, chart, mesh
-        self.cfg = np.concatenate([chart.base, [chart.k, chart.xscale, chart.pscale]]).astype(float)
+        self.cfg = kernel.config(chart.base, chart.k, chart.xscale, chart.pscale)
 
     # -- layout: Y = (nodal values (N m) x n, T, lam) ------------------------------------------
     def nodes(self, Y) -> np.ndarray:

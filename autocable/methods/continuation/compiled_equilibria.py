@@ -52,7 +52,7 @@ class _KernelChart(_Chart):
 
     @classmethod
     def around(cls, chart: _Chart, kernel: CKernel) -> "_KernelChart":
-        cfg = np.concatenate([chart.base, [chart.k, chart.xscale, chart.pscale]]).astype(float)
+        cfg = kernel.config(chart.base, chart.k, chart.xscale, chart.pscale)
         return cls(chart.system, chart.k, chart.base, chart.xscale, chart.pscale, kernel, cfg)
 
     def _both(self, Y):
