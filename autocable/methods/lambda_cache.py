@@ -36,15 +36,41 @@ def _expression(kind: str, rhs: Sequence[sp.Expr], xs, ps):
     if kind == "jac_p":
         return F.jacobian(ps)
     if kind == "poly":
-        # F as a polynomial in x: [C, E] with F_i = sum_m C[i][m](p) prod_j x_j^E[m][j]
-        # (sympy.PolynomialError when some F_i is not a polynomial in x)
-        polys = [sp.Poly(e, *xs) for e in rhs]
-        monoms = sorted(set().union(*(q.monoms() for q in polys)))
-        return [[[q.coeff_monomial(m) for m in monoms] for q in polys], [list(m) for m in monoms]]
+        return polynomial_form(rhs, xs)
     d2 = sp.derive_by_array(sp.derive_by_array(list(rhs), xs), xs)
     if kind == "d2":
         return d2.tolist()
     return sp.derive_by_array(d2, xs).tolist()
+
+
+def polynomial_form(rhs: Sequence[sp.Expr], xs) -> list:
+    """F as a polynomial in x: [C, E] with F_i = sum_m C[i][m](p) prod_j x_j^E[m][j], the monomials
+    E sorted; `sympy.PolynomialError` when some F_i is not a polynomial in x.
+
+    The terms of the expanded F_i are split into their powers of x and the rest, and the rests
+    summed per monomial: what ``sympy.Poly(F_i, *x)`` gives, without building Poly's coefficient
+    domain, a field of fractions in every other symbol of F, which for the wind AME (24) with its
+    coefficients as symbols (`autocable.codegen.coefficients`: over 300) took 12 s; here 0.3 s."""
+    index = {x: j for j, x in enumerate(xs)}
+    rows = []
+    for e in rhs:
+        row: dict = {}
+        for term in sp.Add.make_args(sp.expand(sp.sympify(e))):
+            exps = [0] * len(xs)
+            rest = []
+            for f in sp.Mul.make_args(term):
+                base, ex = f.as_base_exp()
+                if base in index and ex.is_Integer and ex > 0:
+                    exps[index[base]] += int(ex)
+                elif f.free_symbols & index.keys():
+                    raise sp.PolynomialError(f"{f} is not a polynomial in {list(xs)}")
+                else:
+                    rest.append(f)
+            key = tuple(exps)
+            row[key] = row.get(key, sp.Integer(0)) + sp.Mul(*rest)
+        rows.append(row)
+    monoms = sorted(set().union(*rows))
+    return [[[row.get(m, sp.Integer(0)) for m in monoms] for row in rows], [list(m) for m in monoms]]
 
 
 def _namespace() -> dict:
@@ -65,7 +91,7 @@ def rhs_key_of_srepr(texts: Sequence[str]) -> str:
 def function_key(kind: str, variables: Sequence[str], parameters: Sequence[str], key: str) -> str:
     """The content hash that names a cached function; ``key`` is `rhs_key` of the right-hand side."""
     return content_hash({"kind": kind, "variables": list(variables), "parameters": list(parameters),
-                         "rhs": key, "sympy": sp.__version__, "format": 2})
+                         "rhs": key, "sympy": sp.__version__, "format": 3})
 
 
 def numeric_function(kind: str, variables: Sequence[str], parameters: Sequence[str],
