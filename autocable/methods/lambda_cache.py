@@ -88,35 +88,41 @@ def rhs_key_of_srepr(texts: Sequence[str]) -> str:
     return content_hash(list(texts))
 
 
-def function_key(kind: str, variables: Sequence[str], parameters: Sequence[str], key: str) -> str:
+def function_key(kind: str, variables: Sequence[str], parameters: Sequence[str], key: str,
+                 constants: Sequence[str] = ()) -> str:
     """The content hash that names a cached function; ``key`` is `rhs_key` of the right-hand side."""
     return content_hash({"kind": kind, "variables": list(variables), "parameters": list(parameters),
-                         "rhs": key, "sympy": sp.__version__, "format": 3})
+                         "constants": list(constants), "rhs": key, "sympy": sp.__version__, "format": 3})
 
 
 def numeric_function(kind: str, variables: Sequence[str], parameters: Sequence[str],
                      rhs: Sequence[sp.Expr], *, key: str | None = None,
-                     use_cache: bool = True) -> Callable:
+                     use_cache: bool = True, constants: Sequence[str] = ()) -> Callable:
     """``g(x, p)`` for ``kind`` in `KINDS`: f -> F (n x 1), jac -> dF/dx (n x n), jac_p -> dF/dp,
     d2 / d3 -> nested lists of the second / third derivatives (derivative indices first), poly ->
     [C, E], F as a polynomial in x (C[i][m] the coefficient of F_i at the monomial of exponents
     E[m], x unused; `sympy.PolynomialError` when F is not polynomial in x).
 
     ``rhs`` holds plain symbols named as ``variables`` and ``parameters``; ``key`` is its `rhs_key`
-    when the caller has it already (hashing a long right-hand side takes a tenth of a second)."""
+    when the caller has it already (hashing a long right-hand side takes a tenth of a second).
+    ``constants`` name more symbols of ``rhs`` that ``p`` holds after the parameters and that
+    nothing is differentiated by (the coefficients of `autocable.codegen.coefficients`: the text
+    is then the same for every right-hand side of one structure)."""
     if kind not in KINDS + POLYNOMIAL_KINDS:
         raise ValueError(f"unknown numeric function {kind!r}: expected one of {KINDS + POLYNOMIAL_KINDS}")
     xs = [sp.Symbol(v) for v in variables]
     ps = [sp.Symbol(p) for p in parameters]
+    args = (xs, ps + [sp.Symbol(c) for c in constants])
     if not use_cache:
-        return sp.lambdify((xs, ps), _expression(kind, rhs, xs, ps), modules="numpy", cse=True)
-    path = cache_dir("lambdas") / f"{kind}-{function_key(kind, variables, parameters, key or rhs_key(rhs))}.py"
+        return sp.lambdify(args, _expression(kind, rhs, xs, ps), modules="numpy", cse=True)
+    name = function_key(kind, variables, parameters, key or rhs_key(rhs), constants)
+    path = cache_dir("lambdas") / f"{kind}-{name}.py"
     source = _checked_source(path) if path.exists() else None
     if source is not None:
         namespace = _namespace()
         exec(compile(source, str(path), "exec"), namespace)  # noqa: S102 - text lambdify wrote
         return namespace["_lambdifygenerated"]
-    fn = sp.lambdify((xs, ps), _expression(kind, rhs, xs, ps), modules="numpy", cse=True)
+    fn = sp.lambdify(args, _expression(kind, rhs, xs, ps), modules="numpy", cse=True)
     source = inspect.getsource(fn)
     try:
         atomic_write_text(path, f"{_HEADER}{_sha(source)}\n{source}")

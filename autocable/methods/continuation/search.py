@@ -82,8 +82,8 @@ class Monomials:
         # structure (each candidate model of the calibration paid 1-1.6 s here).
         t = coefficient_template(system.rhs)
         self._w = t.weights
-        self._g = numeric_function("poly", system.variables, system.parameter_names + t.weight_names, t.rhs,
-                                   key=t.key)
+        self._g = numeric_function("poly", system.variables, system.parameter_names, t.rhs, key=t.key,
+                                   constants=t.weight_names)
         self.n = system.dimension
         self._p = None
         self._C = None
