@@ -31,8 +31,9 @@ parameters (hoisted with them into the per-run coefficients), so one library ser
 right-hand side of one structure (the AME of every candidate model of the calibration, eq. (21)
 of every model of one form). Build and cache as for `autocable.codegen.ckernel` (whose printer,
 compiler call and build lock are reused): the library is keyed by a content hash of the
-right-hand side's structure, names, DOP853 table and this emitter's version (not the caller's name), and lives in ``cache_root()/cintegrate/<hash>/`` (checked by sha256 before
-every load, as there).
+right-hand side's structure, names, DOP853 table and this emitter's version (not the caller's
+name), and lives in ``cache_root()/cintegrate/<hash>/`` (checked by sha256 before every load, as
+there).
 """
 from __future__ import annotations
 
@@ -533,5 +534,6 @@ def compiled_integrator(name: str, variables: Sequence[str], parameters: Sequenc
         ci = _integrator_for(tuple(variables), tuple(parameters), time_symbol, template, cc)
     except (KernelBuildError, ValueError) as exc:
         text = str(exc)
-        raise KernelBuildError(text if text.startswith("C integrator") else f"C integrator of {name!r}: {text}") from None
+        named = text if text.startswith("C integrator") else f"C integrator of {name!r}: {text}"
+        raise KernelBuildError(named) from None
     return replace(ci, weights=template.weights)

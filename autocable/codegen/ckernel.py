@@ -1238,5 +1238,6 @@ def compiled_kernel(system, cc: str | None = None) -> CKernel:
         k = _kernel_for(tuple(system.variables), tuple(system.parameter_names), template, cc)
     except KernelBuildError as exc:
         text = str(exc)
-        raise KernelBuildError(text if text.startswith("C kernel") else f"C kernel of {system.name!r}: {text}") from None
+        named = text if text.startswith("C kernel") else f"C kernel of {system.name!r}: {text}"
+        raise KernelBuildError(named) from None
     return replace(k, weights=template.weights)
