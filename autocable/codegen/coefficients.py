@@ -103,6 +103,7 @@ def _template(rhs: tuple) -> Template:
     symbols: list = []
     out = tuple(_rebuild(_canon(e, memo)[1], index, symbols) for e in rhs)
     values = np.array(list(index), dtype=float)       # insertion order = weight number
+    values.setflags(write=False)                      # shared by every user of the template
     return Template(out, tuple(s.name for s in symbols), values,
                     cache.content_hash([sp.srepr(e) for e in out]))
 
