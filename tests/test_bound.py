@@ -233,23 +233,32 @@ def test_the_markdown_says_what_the_conclusion_rests_on():
 
 
 def test_prior_bound_records_round_trip_and_merge(tmp_path):
-    """An earlier call's bound.csv read back equals what was written (every column), joins a new
-    call's records only for the readings that call did not decide, and the markdown says how many
+    """An earlier call's bound.csv read back equals what was written (every column; a file of the
+    version before the ``rule`` column reads with the rule empty), joins a new call's records only
+    for the screen points (reading and yaw) that call did not decide, and the markdown says how many
     records came from it. A file that is not a bound.csv is one line naming the file."""
+    import csv
+
     from autocable.spec import SpecError
     published = Path(__file__).resolve().parents[1] / "docs" / "calibration" / "bound.csv"
     prior = bd.read_csv(published)
     assert len(prior) == len(published.read_text().splitlines()) - 1 > 0
     again = tmp_path / "again.csv"
     bd.write_csv(prior, again)
-    assert again.read_text().splitlines()[1:] == published.read_text().splitlines()[1:]
-    # a new call deciding one reading the prior file also has: that reading is not taken from it
+    old_rows, new_rows = (list(csv.DictReader(open(f, newline=""))) for f in (published, again))
+    assert [{k: v for k, v in r.items() if k in old_rows[0]} for r in new_rows] == old_rows
+    assert all(r["rule"] == (o.get("rule") or "") for r, o in zip(new_rows, old_rows))
+    assert bd.read_csv(again) == prior
+    # a new call deciding one screen point the prior file also has: that point's records are not
+    # taken from it, the other yaws of the same reading are
     taken = dict(prior[0]["readings"])
     mine = [dict(prior[0], name="new", prior=False, bound=20)]
     merged = bd.merge_prior(mine, prior)
-    same = [r for r in prior if r["readings"] == taken]
-    assert len(merged) == 1 + len(prior) - len(same)
-    assert all(r["readings"] != taken for r in merged if r.get("prior"))
+    point = [r for r in prior if r["readings"] == taken and r["yaw_deg"] == prior[0]["yaw_deg"]]
+    assert 0 < len(point) < sum(r["readings"] == taken for r in prior)
+    assert len(merged) == 1 + len(prior) - len(point)
+    assert not any(r["readings"] == taken and r["yaw_deg"] == prior[0]["yaw_deg"] for r in merged if r.get("prior"))
+    assert any(r["readings"] == taken for r in merged if r.get("prior"))
     goal = tg.Goal(statements_yes=40, boxes_share=0.8, boxes_scenes=("fig08", "fig10"))
     lines = bd.markdown(merged, goal, 42, 48, 1.0, 2, None, "bound.csv", {})
     assert any(f"{len(merged) - 1} of the {len(merged)} records" in x for x in lines)
@@ -258,6 +267,36 @@ def test_prior_bound_records_round_trip_and_merge(tmp_path):
     with pytest.raises(SpecError) as err:
         bd.read_csv(bad)
     assert "bad.csv" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_study_bound_is_part_of_the_rule_and_prior_records_of_another_rule_are_checked():
+    """The AME-vs-(21) study's bounds decide the boxes: a change of them is a new rule (a stored
+    record is decided again). Records read from an earlier file under another rule are checked for
+    what a looser study bound could change: a bound that every boxes statement turned yes would lift
+    to the goal, or a stop by the boxes, must be decided again; the markdown names them."""
+    from autocable.studies.ame_bounds import STUDY_MAX_ERROR
+    goal = tg.Goal(statements_yes=40, boxes_share=0.8, boxes_scenes=("fig08", "fig10"))
+    base = bd.rule_of(["a.x"], set(), {}, goal)
+    assert base == bd.rule_of(["a.x"], set(), {}, goal, study=dict(STUDY_MAX_ERROR))
+    assert base != bd.rule_of(["a.x"], set(), {}, goal, study={**STUDY_MAX_ERROR, 1.4e-3: 0.265})
+
+    def rec(name, b, lowered, status="stopped: statements", rule=""):
+        return {"name": name, "readings": {"twist_ends": "natural", "load_axes": "reference",
+                                           "angle_convention": "reversed", "load_length": "diameter"},
+                "yaw_deg": 0.0, "bound": b, "status": status, "lowered_by": list(lowered), "scenes_run": ["fig03"],
+                "boxes_good": 0, "boxes_points": 0, "boxes_short": status == "stopped: boxes",
+                "reaches_goal": False, "wall_s": 1.0, "scene_s": 2.0, "computed_scenes": 0,
+                "screen_not_met": [], "prior": True, "rule": rule}
+    lifts = rec("lifts", 38, ["fig08.boxes", "fig10.boxes", "fig03.trivial"])    # 38 + 2 = 40
+    short = rec("short", 37, ["fig08.boxes", "fig03.trivial", "fig11.x"])         # 37 + 1 = 38 < 40
+    boxes = rec("boxes", 36, ["fig03.trivial"], "stopped: boxes")
+    same = rec("same-rule", 39, ["fig08.boxes"], rule="R")                          # this call's rule: not read again
+    assert [bd.boxes_could_lift(r, goal) for r in (lifts, short, boxes)] == [True, False, True]
+    text = "\n".join(bd.markdown([lifts, short, boxes, same], goal, 42, 48, 1.0, 2, None, "b.csv", {}, rule="R"))
+    assert "3 of the read records were decided under another rule" in text
+    assert "2 of them could then reach the goal (lifts, boxes) and must be decided again." in text
+    text = "\n".join(bd.markdown([short, same], goal, 42, 48, 1.0, 2, None, "b.csv", {}, rule="R"))
+    assert "1 of the read records were decided under another rule" in text and "none of them could then" in text
 
 
 def test_fig03_statements_other_than_boxes_are_decided_without_the_overlay(tmp_path):

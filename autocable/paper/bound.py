@@ -142,13 +142,18 @@ def not_used_to_prune(targets) -> dict[str, str]:
 RECORD_FORMAT = "autocable.bound/2"
 
 
-def rule_of(statement_ids, capped, unused, goal: tg.Goal, margin: int = 0) -> str:
+def rule_of(statement_ids, capped, unused, goal: tg.Goal, margin: int = 0, study: dict | None = None) -> str:
     """A fingerprint of what decides a bound (the statements, the ceiling's caps, the statements not
-    used, the goal, the stopping margin, the record's layout): a stored record made under another
-    rule is decided again (its scenes reused)."""
+    used, the goal, the stopping margin, the record's layout, and the AME-vs-(21) study's bounds
+    ``study`` that decide every ``<scene>.boxes`` statement and the goal's boxes; default
+    `STUDY_MAX_ERROR`): a stored record made under another rule is decided again (its scenes reused)."""
     import hashlib
+
+    from autocable.studies.ame_bounds import STUDY_MAX_ERROR
+    study = STUDY_MAX_ERROR if study is None else study
     doc = json.dumps([RECORD_FORMAT, list(statement_ids), sorted(capped), sorted(unused), goal.statements_yes,
-                      goal.boxes_share, list(goal.boxes_scenes), int(margin)])
+                      goal.boxes_share, list(goal.boxes_scenes), int(margin),
+                      sorted([float(k), float(v)] for k, v in study.items())])
     return hashlib.sha256(doc.encode()).hexdigest()[:16]
 
 
@@ -267,6 +272,7 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
         records.append(_record(c, b, lowered, "fully evaluated", sorted(ORDER), c["full"].get("boxes") or {},
                                sorted(failed), c["full"].get("dropped_runs") or [], c["full"].get("wall_s", 0.0),
                                goal, short, scene_s=c["full"].get("wall_s", 0.0)))
+        records[-1]["rule"] = rule
         seen.add(key)
     for c in sorted(cands, key=cm.screen_score, reverse=True):
         key = model_key(c)
@@ -465,7 +471,9 @@ def summary(records: list[dict], goal: tg.Goal) -> dict:
 # ------------------------------------------------------------------------------------------------
 CSV_FIELDS = ("name", "twist_ends", "load_axes", "angle_convention", "load_length", "yaw_deg",
               "rivulet_angle_deg", "bound", "status", "boxes_good", "boxes_points", "reaches_goal",
-              "scenes_run", "lowered_by", "failed_scenes", "screen_not_met", "scene_s")
+              "scenes_run", "lowered_by", "failed_scenes", "screen_not_met", "scene_s", "rule")
+#: Columns a bound.csv of an earlier version may lack (read as empty: the rule then is not known).
+CSV_OPTIONAL = ("rule",)
 
 
 def write_csv(records: list[dict], path: Path) -> None:
@@ -498,7 +506,7 @@ def read_csv(path: Path) -> list[dict]:
         raise SpecError(path, "--prior-bound", f"cannot read it as bound.csv: {exc}") from None
     out = []
     for i, row in enumerate(rows):
-        missing = [k for k in CSV_FIELDS if k not in row]
+        missing = [k for k in CSV_FIELDS if k not in row and k not in CSV_OPTIONAL]
         if missing:
             raise SpecError(path, f"row {i + 1}", f"is not a bound.csv row (missing columns {missing})")
         try:
@@ -507,7 +515,8 @@ def read_csv(path: Path) -> list[dict]:
                    "bound": int(row["bound"]), "status": row["status"],
                    "boxes_good": int(row["boxes_good"] or 0), "boxes_points": int(row["boxes_points"] or 0),
                    "reaches_goal": row["reaches_goal"] == "True", "scene_s": float(row["scene_s"] or 0.0),
-                   "boxes_short": row["status"] == "stopped: boxes", "prior": True, "computed_scenes": 0}
+                   "boxes_short": row["status"] == "stopped: boxes", "prior": True, "computed_scenes": 0,
+                   "rule": row.get("rule") or ""}
         except ValueError as exc:
             raise SpecError(path, f"row {i + 1}", f"has a value that is not a number: {exc}") from None
         rec.update({k: row[k].split() for k in ("scenes_run", "lowered_by", "failed_scenes", "screen_not_met")})
@@ -515,11 +524,24 @@ def read_csv(path: Path) -> list[dict]:
     return out
 
 
+def _screen_point(r: dict) -> tuple:
+    return tuple(r["readings"][k] for k in READING_KEYS) + (round(float(r["yaw_deg"]), 9),)
+
+
 def merge_prior(records: list[dict], prior: list[dict]) -> list[dict]:
-    """``records`` and the ``prior`` records of readings none of ``records`` has (a reading decided
-    by this call is never taken from an earlier one)."""
-    mine = {tuple(r["readings"][k] for k in READING_KEYS) for r in records}
-    return list(records) + [r for r in prior if tuple(r["readings"][k] for k in READING_KEYS) not in mine]
+    """``records`` and the ``prior`` records of screen points (reading and yaw) none of ``records``
+    has: every candidate of a screen point decided by this call comes from this call, never from an
+    earlier one (a call over a few yaws of a reading replaces those yaws' records and keeps the rest)."""
+    mine = {_screen_point(r) for r in records}
+    return list(records) + [r for r in prior if _screen_point(r) not in mine]
+
+
+def boxes_could_lift(r: dict, goal: tg.Goal) -> bool:
+    """Whether the record's bound could reach the goal if every ``<scene>.boxes`` statement that
+    lowered it turned yes, or its boxes stopped it: what a looser AME-vs-(21) study bound can change
+    (the boxes are the only decisions that read it, and a looser bound only turns boxes yes)."""
+    lifted = r["bound"] + sum(1 for sid in r["lowered_by"] if sid.endswith(".boxes"))
+    return lifted >= goal.statements_yes or r["status"] == "stopped: boxes"
 
 
 @styled()      # the package's one look (autocable.plotting.style)
@@ -576,7 +598,8 @@ def draw_map(records: list[dict], goal: tg.Goal, ceiling_yes: int, path: Path) -
 
 
 def markdown(records: list[dict], goal: tg.Goal, ceiling_yes: int, n_statements: int, wall_s: float,
-             jobs: int, picture: Path | None, csv_name: str, unused: dict, margin: int = 0) -> list[str]:
+             jobs: int, picture: Path | None, csv_name: str, unused: dict, margin: int = 0,
+             rule: str = "") -> list[str]:
     s = summary(records, goal)
     stopped = {k: v for k, v in s["by_status"].items()}
     run = [r for r in records if r["status"] not in ("fully evaluated",)]
@@ -610,8 +633,20 @@ def markdown(records: list[dict], goal: tg.Goal, ceiling_yes: int, n_statements:
     if prior:
         got = sorted({r["readings"]["angle_convention"] for r in prior})
         lines += ["", f"{len(prior)} of the {s['models']} records (angle senses {', '.join(got)}) were read from an "
-                      "earlier call's bound.csv (`--prior-bound`) for the readings this call's space does not "
-                      "hold; the others were decided by this call."]
+                      "earlier call's bound.csv (`--prior-bound`) for the screen points (reading and yaw) this "
+                      "call's space does not hold; the others were decided by this call."]
+        if rule:
+            other = [r for r in prior if r.get("rule") != rule]
+            lift = [r for r in other if boxes_could_lift(r, goal)]
+            if other:
+                lines += ["", f"{len(other)} of the read records were decided under another rule than this call's "
+                              "(or one their file does not record). Where the rules differ only in the "
+                              "AME-vs-(21) study's bounds and the new ones are looser, only the boxes can change, "
+                              "and only towards yes: "
+                          + (f"{len(lift)} of them could then reach the goal ({', '.join(r['name'] for r in lift)}) "
+                             "and must be decided again." if lift else
+                             "none of them could then reach the goal (each bound stays below it with every "
+                             "boxes statement that lowered it counted yes, and none was stopped by its boxes).")]
     if s["reach_goal"]:
         verdict = "**Candidate models that reach the goal: " + ", ".join(s["reach_goal"]) + ".**"
     elif not s["not_bounded"] and not s["could_still_reach"]:
