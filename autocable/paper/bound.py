@@ -34,6 +34,18 @@ eq. (21) overlay of a scene whose only statement that reads it (``<scene>.boxes`
 bound and whose boxes the goal does not count: Fig. 3's (its ``boxes`` cannot be shown by any model
 today, `NOT_USED_TO_PRUNE`), the first scene every candidate runs; the scene's other statements are
 decided from its branches alone (tests/test_bound.py checks they are decided the same without it).
+So is Fig. 11's eq. (21) series (``[time] ode21``, `IF_NO_ODE21`): it decides only autocable's own
+checks beside the paper's Fig. 11, and fig11.ame_periodic is decided the same without it (tested).
+
+The other overlays (Figs. 4a-10: eq. (21) at 22 points each, the costliest part of a scene when the
+response is not steady and each point is integrated to the overlay's end) decide one statement, the
+scene's ``boxes``, and the goal's boxes. They are deferred (`DEFERRED`): a scene runs first without
+its overlay, its boxes counted yes as undecided; the candidate stops there if its branches'
+statements already put it below the goal, and otherwise the scene runs again with its overlay before
+anything else, so a candidate that needs its boxes gets them as before. A candidate stopped without
+an overlay may record a bound one higher (the boxes counted yes): still an upper bound, and the
+conclusion over the space is drawn from the same rule (tested on the sample's Fig. 8: the same
+bound and boxes as the scene with its overlay once the overlay is needed).
 
 Resumable: one ``bound.json`` per candidate model under ``DIR/bound/``, stamped with the rule that
 decided it (`rule_of`: a record of another rule, e.g. after the targets file changed, is decided
@@ -78,6 +90,23 @@ NOT_BOUNDED = "not bounded (time budget)"
 IF_DROPPED = ("periodic_p",)
 #: The note of a run the stage does not run because no statement it decides may lower a bound.
 NOT_RUN = "not run: no statement it decides lowers a bound"
+#: The note of an eq. (21) overlay the stage runs only when its boxes can change the outcome.
+DEFERRED = "deferred: run only if its boxes can change the outcome"
+#: Statement ids (after the scene name) that a time scene's eq. (21) series (``[time] ode21``) decides.
+IF_NO_ODE21 = ("envelope21", "same_motion")
+
+
+def _has_table(text: str, name: str) -> bool:
+    return any(line.split("#", 1)[0].strip() == f"[{name}]" for line in text.splitlines())
+
+
+def _table_text(text: str, name: str) -> str:
+    """The ``[name]`` table of a scene file's text, with its ``[name.*]`` subtables."""
+    lines = text.splitlines()
+    i0 = next(i for i, line in enumerate(lines) if line.split("#", 1)[0].strip() == f"[{name}]")
+    i1 = next((j for j in range(i0 + 1, len(lines)) if lines[j].strip().startswith("[")
+               and not lines[j].strip().startswith(f"[{name}.")), len(lines))
+    return "\n".join(lines[i0:i1]).rstrip("\n") + "\n"
 
 
 def orbit_runs(path: Path) -> list[int]:
@@ -88,10 +117,12 @@ def orbit_runs(path: Path) -> list[int]:
             and isinstance(r.get("start"), dict) and "orbit" in r["start"]]
 
 
-def scene_copy(src: Path, dst: Path, model: Path, drop_orbits: bool, drop_overlay: bool) -> list[str]:
+def scene_copy(src: Path, dst: Path, model: Path, drop_orbits: bool, drop_overlay: bool,
+               drop_ode21: bool = False) -> list[str]:
     """A copy of the scene file ``src`` at ``dst`` on ``model``, without its orbit-started runs
-    (``drop_orbits``) and its eq. (21) overlay (``drop_overlay``), as `run_bound` prepares a
-    candidate's scenes; returns the notes of what was dropped (for `autocable bench bound-scenes`)."""
+    (``drop_orbits``), its eq. (21) overlay (``drop_overlay``) and its eq. (21) time series
+    (``drop_ode21``), as `run_bound` prepares a candidate's scenes (an overlay it defers included);
+    returns the notes of what was dropped (for `autocable bench bound-scenes`)."""
     from autocable.paper import candidates as cm
     dst.write_text(src.read_text().replace('model = "../models/luongo_zulli_2012.toml"', f'model = "{model}"'))
     notes = []
@@ -99,6 +130,8 @@ def scene_copy(src: Path, dst: Path, model: Path, drop_orbits: bool, drop_overla
         notes += [f"{src.stem}: run[{k}]" for k in reversed(orbit_runs(dst)) if cm._drop_run(dst, k)]
     if drop_overlay and cm._drop_table(dst, "overlay"):
         notes.append(f"{src.stem}: overlay")
+    if drop_ode21 and cm._switch_off(dst, "time", "ode21"):
+        notes.append(f"{src.stem}: ode21")
     return notes
 
 
@@ -118,6 +151,7 @@ class Candidate:
     prepared: bool = False
     computed: int = 0                                # scene runs started by this call (not reused)
     wall_s: float = 0.0
+    deferred_s: float = 0.0                          # recorded time of runs before a deferred overlay
 
 
 def unknown_scenes(targets) -> list[str]:
@@ -249,6 +283,17 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
     # the scenes whose eq. (21) overlay decides only statements that never lower a bound
     skip_overlay = {n: f"{n}.boxes" for n in order
                     if n not in goal.boxes_scenes and (f"{n}.boxes" not in stmt_ids or f"{n}.boxes" in unused)}
+    # the scenes whose eq. (21) time series decides only statements that never lower a bound
+    skip_ode21 = {}
+    for n in order:
+        ids = [f"{n}.{x}" for x in IF_NO_ODE21 if f"{n}.{x}" in stmt_ids]
+        if ids and all(i in unused for i in ids):
+            skip_ode21[n] = ids
+    # the other overlays: a scene runs without its overlay first, and again with it only if the
+    # candidate is not stopped by then (its boxes, the one statement the overlay decides, counted
+    # yes until known): most candidates stop on their branches' statements alone
+    original = {n: (runs / f"{n}.toml").read_text() for n in order}
+    defer_overlay = {n for n in order if n not in skip_overlay and _has_table(original[n], "overlay")}
     stop_below = goal.statements_yes - int(margin)
     by_scene: dict[str, list] = {}
     for t in targets:
@@ -323,7 +368,30 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
                     and cm._drop_table(dst, "overlay"):
                 cand.dropped.append(f"{n}: overlay ({NOT_RUN}: {skip_overlay[n]})")
                 atomic_write_json(cand.folder / "dropped.json", cand.dropped)
+            if skip_ode21.get(n) and not cm.scene_complete(cand.folder / "out" / n, dst) \
+                    and cm._switch_off(dst, "time", "ode21"):
+                cand.dropped.append(f"{n}: ode21 ({NOT_RUN}: {', '.join(skip_ode21[n])})")
+                atomic_write_json(cand.folder / "dropped.json", cand.dropped)
+            if n in defer_overlay and not cm.scene_complete(cand.folder / "out" / n, dst) \
+                    and cm._drop_table(dst, "overlay"):
+                cand.dropped.append(f"{n}: overlay ({DEFERRED}: {n}.boxes)")
+                atomic_write_json(cand.folder / "dropped.json", cand.dropped)
         cand.prepared = True
+
+    def deferred(cand: Candidate, scene: str) -> bool:
+        """Whether the scene's copy still lacks the overlay the stage deferred."""
+        return scene in defer_overlay and not _has_table((cand.folder / "runs" / f"{scene}.toml").read_text(),
+                                                         "overlay")
+
+    def restore_overlay(cand: Candidate, scene: str) -> None:
+        """Put the deferred overlay back into the scene's copy (the scene then runs again, with it);
+        the time of the run without it is kept for the record."""
+        path = cand.folder / "runs" / f"{scene}.toml"
+        block = _table_text(original[scene], "overlay")
+        path.write_text(path.read_text().rstrip("\n") + "\n\n" + block)
+        cand.deferred_s += scene_seconds(cand.folder / "out", [scene])
+        cand.dropped = [d for d in cand.dropped if not (d.startswith(f"{scene}: overlay") and DEFERRED in d)]
+        atomic_write_json(cand.folder / "dropped.json", cand.dropped)
     queue = list(todo)          # candidates waiting for their next scene
     running: dict = {}          # task label -> (candidate, scene)
     n_done, t_start, n_started = 0, time.perf_counter(), 0
@@ -342,6 +410,11 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
         have.update(reference)
         for v in tg.decide_statements(by_scene.get(scene, []), have):
             cand.verdicts[v.id] = {"shown": v.shown, "evidence": v.evidence}
+        if deferred(cand, scene):
+            # the overlay has not run: its boxes are not known (counted yes, as undecided)
+            cand.verdicts.pop(f"{scene}.boxes", None)
+            cand.boxes.pop(scene, None)
+            return
         if scene in goal.boxes_scenes:
             s = overlay_summary(have[scene])
             cand.boxes[scene] = {"points": s["points"], "within": s["within"], "at_rest": s["at_rest"],
@@ -352,12 +425,21 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
         nonlocal n_done
         b, lowered = bound_of(cand.verdicts, stmt_ids, capped, unused, cand.failed, cand.dropped)
         short = boxes_short(cand.boxes, goal)
+        if b >= stop_below and not short:
+            pending = [n for n in cand.scenes_run if n not in cand.failed and deferred(cand, n)]
+            if pending:
+                # not stopped by the branches: the deferred overlay runs next (as it would have
+                # run with its scene), the scene with it
+                restore_overlay(cand, pending[0])
+                cand.todo.insert(0, pending[0])
+                return False
         if b >= stop_below and not short and cand.todo:
             return False
         status = ("stopped: statements" if b < stop_below else "stopped: boxes" if short
                   else "every scene run")
         rec = _record(cand.c, b, lowered, status, cand.scenes_run, cand.boxes, cand.failed, cand.dropped,
-                      cand.wall_s, goal, short, scene_s=scene_seconds(cand.folder / "out", cand.scenes_run))
+                      cand.wall_s, goal, short,
+                      scene_s=scene_seconds(cand.folder / "out", cand.scenes_run) + cand.deferred_s)
         rec["computed_scenes"] = cand.computed
         rec["rule"] = rule
         atomic_write_json(cand.folder / "bound.json", cm._finite(rec))
@@ -382,7 +464,8 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
             scene = cand.todo.pop(0)
             path, dst = cand.folder / "runs" / f"{scene}.toml", cand.folder / "out" / scene
             if cm.scene_complete(dst, path):
-                cand.scenes_run.append(scene)
+                if scene not in cand.scenes_run:
+                    cand.scenes_run.append(scene)
                 decide(cand, scene, True, "")
                 queue.insert(0, cand)
                 continue
@@ -406,14 +489,16 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
         cand.wall_s += wall
         k = cm._failed_start(error) if status != "ok" else None
         path = cand.folder / "runs" / f"{scene}.toml"
-        if k is not None and sum(d.startswith(scene + ":") and NOT_RUN not in d for d in cand.dropped) < 2 \
+        if k is not None and sum(d.startswith(scene + ":") and NOT_RUN not in d and DEFERRED not in d
+                                 for d in cand.dropped) < 2 \
                 and cm._drop_run(path, k):
             # as the full evaluation: the run whose sample-tuned start failed goes, the scene reruns
             cand.dropped.append(f"{scene}: run[{k}] ({error.split(': ', 2)[-1][:160]})")
             atomic_write_json(cand.folder / "dropped.json", cand.dropped)
             cand.todo.insert(0, scene)
         else:
-            cand.scenes_run.append(scene)
+            if scene not in cand.scenes_run:
+                cand.scenes_run.append(scene)
             decide(cand, scene, status == "ok", error)
         queue.insert(0, cand)
         while len(running) < capacity and start_next():
@@ -421,8 +506,8 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
     left = list(queue)
     for cand in left:
         b, lowered = bound_of(cand.verdicts, stmt_ids, capped, unused, cand.failed, cand.dropped)
-        if b < stop_below or boxes_short(cand.boxes, goal) or (cand.prepared and not cand.todo):
-            settle(cand)            # settled by what was decided before the budget ran out
+        if (b < stop_below or boxes_short(cand.boxes, goal) or (cand.prepared and not cand.todo)) \
+                and settle(cand):   # settled by what was decided before the budget ran out
             continue
         records.append(_record(cand.c, b, lowered, NOT_BOUNDED, cand.scenes_run, cand.boxes, cand.failed,
                                cand.dropped, cand.wall_s, goal, boxes_short(cand.boxes, goal)))
