@@ -233,23 +233,32 @@ def test_the_markdown_says_what_the_conclusion_rests_on():
 
 
 def test_prior_bound_records_round_trip_and_merge(tmp_path):
-    """An earlier call's bound.csv read back equals what was written (every column), joins a new
-    call's records only for the readings that call did not decide, and the markdown says how many
+    """An earlier call's bound.csv read back equals what was written (every column; a file of the
+    version before the ``rule`` column reads with the rule empty), joins a new call's records only
+    for the screen points (reading and yaw) that call did not decide, and the markdown says how many
     records came from it. A file that is not a bound.csv is one line naming the file."""
+    import csv
+
     from autocable.spec import SpecError
     published = Path(__file__).resolve().parents[1] / "docs" / "calibration" / "bound.csv"
     prior = bd.read_csv(published)
     assert len(prior) == len(published.read_text().splitlines()) - 1 > 0
     again = tmp_path / "again.csv"
     bd.write_csv(prior, again)
-    assert again.read_text().splitlines()[1:] == published.read_text().splitlines()[1:]
-    # a new call deciding one reading the prior file also has: that reading is not taken from it
+    old_rows, new_rows = (list(csv.DictReader(open(f, newline=""))) for f in (published, again))
+    assert [{k: v for k, v in r.items() if k in old_rows[0]} for r in new_rows] == old_rows
+    assert all(r["rule"] == (o.get("rule") or "") for r, o in zip(new_rows, old_rows))
+    assert bd.read_csv(again) == prior
+    # a new call deciding one screen point the prior file also has: that point's records are not
+    # taken from it, the other yaws of the same reading are
     taken = dict(prior[0]["readings"])
     mine = [dict(prior[0], name="new", prior=False, bound=20)]
     merged = bd.merge_prior(mine, prior)
-    same = [r for r in prior if r["readings"] == taken]
-    assert len(merged) == 1 + len(prior) - len(same)
-    assert all(r["readings"] != taken for r in merged if r.get("prior"))
+    point = [r for r in prior if r["readings"] == taken and r["yaw_deg"] == prior[0]["yaw_deg"]]
+    assert 0 < len(point) < sum(r["readings"] == taken for r in prior)
+    assert len(merged) == 1 + len(prior) - len(point)
+    assert not any(r["readings"] == taken and r["yaw_deg"] == prior[0]["yaw_deg"] for r in merged if r.get("prior"))
+    assert any(r["readings"] == taken for r in merged if r.get("prior"))
     goal = tg.Goal(statements_yes=40, boxes_share=0.8, boxes_scenes=("fig08", "fig10"))
     lines = bd.markdown(merged, goal, 42, 48, 1.0, 2, None, "bound.csv", {})
     assert any(f"{len(merged) - 1} of the {len(merged)} records" in x for x in lines)
@@ -258,6 +267,36 @@ def test_prior_bound_records_round_trip_and_merge(tmp_path):
     with pytest.raises(SpecError) as err:
         bd.read_csv(bad)
     assert "bad.csv" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_study_bound_is_part_of_the_rule_and_prior_records_of_another_rule_are_checked():
+    """The AME-vs-(21) study's bounds decide the boxes: a change of them is a new rule (a stored
+    record is decided again). Records read from an earlier file under another rule are checked for
+    what a looser study bound could change: a bound that every boxes statement turned yes would lift
+    to the goal, or a stop by the boxes, must be decided again; the markdown names them."""
+    from autocable.studies.ame_bounds import STUDY_MAX_ERROR
+    goal = tg.Goal(statements_yes=40, boxes_share=0.8, boxes_scenes=("fig08", "fig10"))
+    base = bd.rule_of(["a.x"], set(), {}, goal)
+    assert base == bd.rule_of(["a.x"], set(), {}, goal, study=dict(STUDY_MAX_ERROR))
+    assert base != bd.rule_of(["a.x"], set(), {}, goal, study={**STUDY_MAX_ERROR, 1.4e-3: 0.265})
+
+    def rec(name, b, lowered, status="stopped: statements", rule=""):
+        return {"name": name, "readings": {"twist_ends": "natural", "load_axes": "reference",
+                                           "angle_convention": "reversed", "load_length": "diameter"},
+                "yaw_deg": 0.0, "bound": b, "status": status, "lowered_by": list(lowered), "scenes_run": ["fig03"],
+                "boxes_good": 0, "boxes_points": 0, "boxes_short": status == "stopped: boxes",
+                "reaches_goal": False, "wall_s": 1.0, "scene_s": 2.0, "computed_scenes": 0,
+                "screen_not_met": [], "prior": True, "rule": rule}
+    lifts = rec("lifts", 38, ["fig08.boxes", "fig10.boxes", "fig03.trivial"])    # 38 + 2 = 40
+    short = rec("short", 37, ["fig08.boxes", "fig03.trivial", "fig11.x"])         # 37 + 1 = 38 < 40
+    boxes = rec("boxes", 36, ["fig03.trivial"], "stopped: boxes")
+    same = rec("same-rule", 39, ["fig08.boxes"], rule="R")                          # this call's rule: not read again
+    assert [bd.boxes_could_lift(r, goal) for r in (lifts, short, boxes)] == [True, False, True]
+    text = "\n".join(bd.markdown([lifts, short, boxes, same], goal, 42, 48, 1.0, 2, None, "b.csv", {}, rule="R"))
+    assert "3 of the read records were decided under another rule" in text
+    assert "2 of them could then reach the goal (lifts, boxes) and must be decided again." in text
+    text = "\n".join(bd.markdown([short, same], goal, 42, 48, 1.0, 2, None, "b.csv", {}, rule="R"))
+    assert "1 of the read records were decided under another rule" in text and "none of them could then" in text
 
 
 def test_fig03_statements_other_than_boxes_are_decided_without_the_overlay(tmp_path):
@@ -282,3 +321,96 @@ def test_fig03_statements_other_than_boxes_are_decided_without_the_overlay(tmp_p
     assert set(a) == set(b) == {"fig03.galloping", "fig03.trivial", "fig03.boxes"}
     assert {k: v for k, v in a.items() if k != "fig03.boxes"} == {k: v for k, v in b.items() if k != "fig03.boxes"}
     assert a["fig03.galloping"] == "yes"                        # the sample's Fig. 3 (a real decision)
+
+
+def test_switch_off_sets_a_key_of_one_table_only(tmp_path):
+    """`candidates._switch_off`: ``key = false`` in the named table (replacing a true value with its
+    comment, or added where absent and true by default), nothing elsewhere; False when already off."""
+    from autocable.paper.candidates import _switch_off
+    from autocable.spec import read_toml
+    path = tmp_path / "s.toml"
+    path.write_text('title = "x"\n\n[time]\nU = 1.3\node21 = true    # a comment\n\n[plot]\node21 = true\n')
+    assert _switch_off(path, "time", "ode21")
+    data, _ = read_toml(path)
+    assert data["time"] == {"U": 1.3, "ode21": False} and data["plot"] == {"ode21": True}
+    assert not _switch_off(path, "time", "ode21") and not _switch_off(path, "overlay", "ode21")
+    path.write_text("[time]\nU = 1.3\n")
+    assert _switch_off(path, "time", "ode21") and read_toml(path)[0]["time"] == {"ode21": False, "U": 1.3}
+
+
+def test_fig11_ame_statement_is_decided_without_the_ode21_series(tmp_path):
+    """The bound drops Fig. 11's eq. (21) series (`run_bound`, ``skip_ode21``): it decides only
+    fig11.envelope21 and fig11.same_motion, autocable's own checks that never lower a bound; the
+    statement of the paper's Fig. 11, fig11.ame_periodic, must be decided the same without it (the
+    sample's Fig. 11, run both ways)."""
+    from autocable.paper.figures import run_figures
+    from autocable.paper.report import load_scene_data
+    runs = Path.cwd() / "runs"
+    targets = tg.load_targets(TARGETS)
+    unused = bd.not_used_to_prune(targets)
+    assert all(f"fig11.{x}" in unused for x in bd.IF_NO_ODE21)
+    fig11 = [t for t in targets if t.kind == "statement" and t.scene == "fig11"]
+    (tmp_path / "runs").mkdir()
+    bare = tmp_path / "runs" / "fig11.toml"
+    notes = bd.scene_copy(runs / "fig11.toml", bare, (runs.parent / SAMPLE).resolve(), drop_orbits=True,
+                          drop_overlay=True, drop_ode21=True)
+    assert notes == ["fig11: ode21"]
+    full = run_figures([runs / "fig11.toml"], tmp_path / "full", workers=0)
+    without = run_figures([bare], tmp_path / "bare", workers=0)
+    assert full[0].status == without[0].status == "ok"
+    a = {v.id: v for v in tg.decide_statements(fig11, {"fig11": load_scene_data(tmp_path / "full" / "fig11")})}
+    b = {v.id: v for v in tg.decide_statements(fig11, {"fig11": load_scene_data(tmp_path / "bare" / "fig11")})}
+    assert a["fig11.ame_periodic"].shown == b["fig11.ame_periodic"].shown == "yes"   # the sample's Fig. 11
+    assert a["fig11.ame_periodic"].evidence == b["fig11.ame_periodic"].evidence
+    assert "ode21" not in {r.get("source") for r in load_scene_data(tmp_path / "bare" / "fig11").series}
+
+
+def test_a_deferred_overlay_runs_only_when_its_boxes_can_change_the_outcome(tmp_path):
+    """Fig. 8 on the sample's candidate, goal boxes of fig08 alone. A goal the branches' statements
+    cannot settle: the scene runs without its overlay, then again with it (two runs), and the boxes
+    are decided. A goal one above the bound the branches leave: one run, no overlay, the boxes
+    counted yes (the bound one higher than with them if they lowered it). The same folder under the
+    lower goal again: the overlay-less run is reused and only the run with the overlay computed,
+    giving the first call's bound and boxes."""
+    from autocable.paper import calibration as cal
+    from autocable.paper.figures import run_figures
+    runs = Path.cwd() / "runs"
+    targets = tg.load_targets(TARGETS)
+    ref = tmp_path / "ref"
+    assert all(o.status == "ok" for o in run_figures([runs / f"{n}.toml" for n in bd.NO_WIND], ref, workers=2))
+    spec = load_model(SAMPLE)
+    a = spec.aero
+    r = cal.Readings(spec.cable.twist_ends, a.load_axes, a.angle_convention, a.load_length, a.air_density_kg_m3)
+    roots, _ = cal.theta0_roots(cal.candidate_spec(spec, r, a.yaw_deg, None))
+    cands = [{"readings": cal.asdict(r), "yaw_deg": a.yaw_deg, "rivulet_angle_deg": min(roots, key=abs),
+              "ordering": "paper", "verdicts": {}}]
+    capped = {"fig06.island_ii", "fig06.boxes"}
+    model = Path(SAMPLE).resolve()
+
+    def bound(goal_yes, folder):
+        recs = bd.run_bound(model, targets, tg.Goal(goal_yes, 0.8, ("fig08",)), cands, [], folder, runs, ref,
+                            capped, 2, lambda m: None, order=("fig08",))
+        (rec,) = recs
+        return rec, tmp_path / folder / "bound" / rec["name"]
+
+    first, fa = bound(1, tmp_path / "a")
+    assert first["computed_scenes"] == 2 and first["scenes_run"] == ["fig08"]
+    assert (fa / "out" / "fig08" / "overlay.csv").is_file() and "[overlay]" in (fa / "runs" / "fig08.toml").read_text()
+    assert first["boxes"]["fig08"]["points"] == 22 and not any("deferred" in d for d in first["dropped_runs"])
+    boxes_lowered = "fig08.boxes" in first["lowered_by"]
+    branches_bound = first["bound"] + boxes_lowered
+    # the scene time counts both runs: the one without the overlay (kept before the rerun) and the rerun
+    assert first["scene_s"] > bd.scene_seconds(fa / "out", ["fig08"]) > 0
+
+    second, fb = bound(branches_bound + 1, tmp_path / "b")
+    assert second["computed_scenes"] == 1 and second["status"] == "stopped: statements"
+    assert second["bound"] == branches_bound and "fig08.boxes" not in second["lowered_by"]
+    assert not (fb / "out" / "fig08" / "overlay.csv").exists() and "fig08" not in second["boxes"]
+    assert any(d.startswith("fig08: overlay (deferred") for d in second["dropped_runs"])
+    assert sorted(second["lowered_by"]) == sorted(x for x in first["lowered_by"] if x != "fig08.boxes")
+
+    third, _ = bound(1, tmp_path / "b")
+    assert third["computed_scenes"] == 1 and (fb / "out" / "fig08" / "overlay.csv").is_file()
+    assert (third["bound"], third["boxes"], sorted(third["lowered_by"])) == (
+        first["bound"], first["boxes"], sorted(first["lowered_by"]))
+    assert not any("deferred" in d for d in third["dropped_runs"])

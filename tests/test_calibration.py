@@ -461,6 +461,15 @@ def test_full_evaluation_resumes_scene_by_scene(tmp_path):
     assert ran == ["fig05a"] and os.stat(folder / "out" / "fig03" / "run.json").st_mtime_ns == stamp
     assert {k: v["shown"] for k, v in again["verdicts"].items()} == {k: v["shown"] for k, v in first["verdicts"].items()}
     assert again["verdicts"]["fig05a.mono"]["shown"] == "yes" and again["verdicts"]["fig03.galloping"]["shown"] == "yes"
+    # verdicts of other study bounds (what judges the boxes) are decided again from the same scenes:
+    # nothing computed (figures.json untouched), the recorded wall time kept, the stamp renewed
+    assert again["decided_with"] == study.decision_stamp()
+    listing = os.stat(folder / "out" / "figures.json").st_mtime_ns
+    (folder / "verdicts.json").write_text(json.dumps(dict(again, decided_with=[[1.4e-3, 0.265]], wall_s=123.0)))
+    third = study.full_evaluation(Path(SAMPLE).resolve(), targets, c, folder, runs, 2, print)
+    assert os.stat(folder / "out" / "figures.json").st_mtime_ns == listing
+    assert third["wall_s"] == 123.0 and third["decided_with"] == study.decision_stamp()
+    assert {k: v["shown"] for k, v in third["verdicts"].items()} == {k: v["shown"] for k, v in again["verdicts"].items()}
 
 
 def test_derive_equals_the_sympy_route_on_every_term_of_eq21():

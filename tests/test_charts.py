@@ -442,3 +442,37 @@ def test_map_period_1_points_with_both_modes_are_bi_modal(tmp_path):
     ds.drop_vars("bimodal").to_netcdf(tmp_path / "old.nc")
     assert read_response_map(tmp_path / "old.nc", "sigma", "eta", {"U": 0.0})["response"] == [
         "period-1", "period-1", "quasi-periodic"]
+
+
+def test_chart_sigma_eta_starts_find_the_labels_its_curves_use(tmp_path):
+    """runs/chart_sigma_eta.toml's one-parameter runs on the sample (the curve runs and the
+    classification left out: seconds): run II starts from a search, not from a start tuned to one
+    model, and finds a branch that is not I (a closed one on this sample); every labelled point the
+    curve runs start from exists, and each is what its run says: I:LP1 where the resonance peak
+    turns back (sigma increasing from rest up to it, just right of the chart's sigma = 0.05), I:LP6
+    its lower fold (the last fold, below a1 = 2e-3, near resonance), Ih's fold and Hopf point below
+    resonance."""
+    text = (REPO / "runs" / "chart_sigma_eta.toml").read_text()
+    scene_text = text[:text.index('[[run]]\nname = "Fh"')].replace('"../models/luongo_zulli_2012.toml"',
+                                                                   json.dumps(str(MODEL)))
+    path = tmp_path / "chart_runs.toml"
+    path.write_text(scene_text)
+    scene = load_scene(path)
+    assert [r.name for r in scene.runs] == ["I", "II", "Ih"] and scene.runs[1].start.kind == "search"
+    curve_starts = [r.start.label for r in load_scene(REPO / "runs" / "chart_sigma_eta.toml").runs
+                    if r.kind == "curve"]
+    res = run_scene(scene, tmp_path / "out", plot=False)
+    branches = {b.name: b for b in res.branches}
+    assert "II" in branches
+    assert [e.reason for e in branches["II"].ends] == ["closed", "closed"]
+    for label in curve_starts:
+        name, point = label.split(":")
+        assert point in {s.label for s in branches[name].special_points}, label
+    I = branches["I"]
+    lp = {s.label: s for s in I.special_points if s.type == "LP"}
+    assert 0.05 < lp["LP1"].value < 0.06
+    sigma = np.asarray(I["sigma"])[:lp["LP1"].index + 1]
+    assert np.all(np.diff(sigma) > 0)          # from rest up the peak, and back at LP1
+    assert max(lp) == "LP6" and lp["LP6"].a1 < 2e-3 and abs(lp["LP6"].value) < 0.01
+    Ih = {s.label: s for s in branches["Ih"].special_points}
+    assert Ih["LP1"].value < 0 and Ih["H1"].value < 0

@@ -148,3 +148,62 @@ def test_statement_marks_divergence_as_unchecked():
     assert "within 2 % at every sigma for U <= 0.7" in line
     assert "for U = 1.3: within 2 % at no sigma; eq. (21) diverges at sigma in [-0.01, +0.01], so the " \
            "AME is unchecked there" in line
+
+
+def test_pycont_row_passes_the_pitchfork_pycont_cannot_locate(tools):
+    """The map's PyCont row at U = 0, eta = 8e-4 (`continuation_row`, forward from sigma = -0.05 with
+    max_step 5e-2) stopped at sigma = 5.06e-4 with "PyCont failed: IndexError: list index out of
+    range": PyCont detected the second pitchfork of the mono-modal branch (the other end of the
+    bi-modal wedge of docs/charts.md's U = 0 chart), its fsolve "located" it where the smallest
+    eigenvalue of [J_x, J_p; v] is 2e-4, and its BP processing indexed the empty list of eigenvalues
+    below 5e-5. Now the row runs to the end of the range and both pitchforks are located by
+    autocable's test functions; the second agrees with the compiled engine (its own kernel and
+    test functions, no PyCont) to 1e-9 in sigma, and the branch says which point PyCont could not
+    locate."""
+    import numpy as np
+    from autocable.methods.continuation import (ContinuationSettings, EquilibriumProblem, auto_state_scale,
+                                                continue_equilibria)
+    from autocable.studies.failure_map import continuation_row
+
+    row = continuation_row(tools, 0.0, 8e-4, (-0.05, 0.05))
+    assert (row["end_reason"], row["stalled"]) == ("range", False), row["message"]
+    assert row["end_sigma"] == pytest.approx(0.05, abs=1e-12)
+    bps = [s["sigma"] for s in row["special"] if s["type"] == "BP"]
+    # the compiled engine over the same row
+    system = tools.system("2dof", False)
+    values = {"sigma": -0.05, "U": 0.0, "eta": 8e-4}
+    problem = EquilibriumProblem(system, "sigma", values, (-0.05, 0.05),
+                                 state_scale=auto_state_scale(system, values))
+    settings = ContinuationSettings(step=1e-2, max_step=5e-2, max_points=400)
+    ref = continue_equilibria(problem, settings, np.zeros(system.dimension), directions="forward",
+                              engine="compiled").branch
+    ref_bps = [s.value for s in ref.special_points if s.type == "BP"]
+    assert len(ref_bps) == 2 and ref_bps[1] == pytest.approx(1.43e-3, abs=2e-5)
+    assert bps == pytest.approx(ref_bps, abs=1e-9)
+    res = continue_equilibria(problem, settings, np.zeros(system.dimension), directions="forward")
+    [unlocated] = res.branch.info["pycont_unlocated"]
+    assert unlocated["type"] == "BP" and unlocated["sigma"][0] < ref_bps[1] < unlocated["sigma"][1]
+    bp2 = [s for s in res.branch.special_points if s.type == "BP"][1]
+    assert not bp2.confirmed_by_pycont and "could not locate it" in bp2.message
+
+
+def test_pycont_location_failure_past_the_limit_is_named(tools, monkeypatch):
+    """With no unlocated point allowed (MAX_UNLOCATED = 0), the same row ends at that pitchfork with
+    a named failure that says what PyCont could not do and what to use instead, not PyCont's
+    IndexError."""
+    import numpy as np
+    from autocable.methods.continuation import (ContinuationSettings, EquilibriumProblem, auto_state_scale,
+                                                continue_equilibria, pycont_driver)
+
+    monkeypatch.setattr(pycont_driver, "MAX_UNLOCATED", 0)
+    system = tools.system("2dof", False)
+    values = {"sigma": -0.05, "U": 0.0, "eta": 8e-4}
+    problem = EquilibriumProblem(system, "sigma", values, (-0.05, 0.05),
+                                 state_scale=auto_state_scale(system, values))
+    settings = ContinuationSettings(step=1e-2, max_step=5e-2, max_points=400)
+    res = continue_equilibria(problem, settings, np.zeros(system.dimension), directions="forward")
+    fwd = [e for e in res.branch.ends if e.side == "forward"][0]
+    assert fwd.reason == "error" and fwd.value < 1.43e-3
+    assert fwd.message.startswith("PyCont detected a BP point just beyond sigma = ")
+    assert "could not locate it" in fwd.message and 'engine = "compiled"' in fwd.message
+    assert "IndexError" not in fwd.message

@@ -193,3 +193,47 @@ def test_bench_ordering_tables_are_its_measurements(tmp_path, legacy_sample):
     worst = max(r["errors"]["natural, 2-dof"] for r in rows)
     assert f"| island | natural, 2-dof | {len(rows)} | 0 | {100 * worst:.2f} % |" in text
     assert "| +0.000 | diverges | bounded | diverges |" in text
+
+
+def test_ordering_reading_is_computed_from_the_rows():
+    """docs/ordering.md's "Reading" (`studies.ordering.reading`) states only what the rows give: on a
+    made-up case of two responses, the largest gap between the orderings (2-dof: |3 % - 1 %| at the
+    first, 2 percentage points), the responses where exactly one ordering is within the bound
+    (2.5 %: natural 3 % and paper 1 % at the first, paper none near and natural 2 % at the second),
+    the closest variants (a tie), the A2 = 0 gap and the boundedness verdict; another model's rows give
+    another text."""
+    from autocable.studies.ordering import markdown, reading
+
+    def row(v, a1, a2, errs):
+        return {"value": v, "direction": "up", "a1": a1, "a2": a2, "steady": True, "periodic": True,
+                "errors": errs, "ame": {}}
+
+    case = {"name": "Fig. X", "parameter": "sigma", "fixed": {"U": 0.7, "eta": 4.1e-4}, "bound": 2.5e-2,
+            "rows": [row(-0.01, 1e-3, 1e-4, {"natural, 2-dof": 0.03, "paper, 2-dof": 0.01,
+                                             "paper, A2 = 0": 0.05, "natural, A2 = 0": 0.04}),
+                     row(0.01, 2e-3, 1e-5, {"natural, 2-dof": 0.02, "paper, 2-dof": None,
+                                            "paper, A2 = 0": None, "natural, A2 = 0": 0.021})]}
+    bounded = {"name": "Fig. Y", "parameter": "sigma", "fixed": {"U": 1.3, "eta": 4.1e-4},
+               "rows": [{"value": 0.0, "eq21": True, "paper, 2-dof": True, "natural, 2-dof": False},
+                        {"value": 0.01, "eq21": False, "paper, 2-dof": False, "natural, 2-dof": False}]}
+    result = {"model": "x.toml", "wall_s": 1.0, "max_time": 30000.0, "near": 0.5, "cases": [case],
+              "bounded": [bounded], "variants": ["natural, 2-dof", "paper, 2-dof", "paper, A2 = 0",
+                                                 "natural, A2 = 0"]}
+    text = reading(result)
+    assert text[0].startswith("Fig. X (sigma swept): 2 period-1 responses of eq. (21) compared, a1 (21) from "
+                              "0.001 to 0.002.")
+    assert ("2-dof: the orderings differ by at most 2.00 percentage points of a1 error (at sigma = -0.010 (up): "
+            "natural 3.00 %, paper 1.00 %); within the study's bound (2.50e-02) with the natural ordering only "
+            "at 1, with the paper's only at 1.") in text[0]
+    # A2 = 0: natural 4 % and paper 5 %, neither within; the second response has only the natural one
+    assert "A2 = 0: the orderings differ by at most 1.00 percentage points" in text[0]
+    assert "with the natural ordering only at 1, with the paper's only at 0." in text[0]
+    assert "Closest of the four most often: natural, 2-dof and paper, 2-dof (1 of 2 each)." in text[0]
+    # the reduction against the 2-dof AME: paper 5 % - 1 % = 4 points at the first (a2/a1 = 0.1)
+    assert text[1].startswith("The A2 = 0 reduction is at most 4.00 percentage points further")
+    assert "paper ordering, where eq. (21) has a2/a1 = 0.1)" in text[1]
+    assert text[2] == ("Fig. Y: eq. (21) bounded at 1 of 2 values from rest; the paper's 2-dof AME agrees with it "
+                       "at 2, the natural at 1: the paper, 2-dof AME agrees with eq. (21) more often.")
+    assert text[3].startswith("Over the 2 compared responses, 3 have exactly one ordering within")
+    md = markdown(result)
+    assert md.count("\n- ") == 4 and "## Reading" in md and "Note on" not in md

@@ -34,6 +34,18 @@ eq. (21) overlay of a scene whose only statement that reads it (``<scene>.boxes`
 bound and whose boxes the goal does not count: Fig. 3's (its ``boxes`` cannot be shown by any model
 today, `NOT_USED_TO_PRUNE`), the first scene every candidate runs; the scene's other statements are
 decided from its branches alone (tests/test_bound.py checks they are decided the same without it).
+So is Fig. 11's eq. (21) series (``[time] ode21``, `IF_NO_ODE21`): it decides only autocable's own
+checks beside the paper's Fig. 11, and fig11.ame_periodic is decided the same without it (tested).
+
+The other overlays (Figs. 4a-10: eq. (21) at 22 points each, the costliest part of a scene when the
+response is not steady and each point is integrated to the overlay's end) decide one statement, the
+scene's ``boxes``, and the goal's boxes. They are deferred (`DEFERRED`): a scene runs first without
+its overlay, its boxes counted yes as undecided; the candidate stops there if its branches'
+statements already put it below the goal, and otherwise the scene runs again with its overlay before
+anything else, so a candidate that needs its boxes gets them as before. A candidate stopped without
+an overlay may record a bound one higher (the boxes counted yes): still an upper bound, and the
+conclusion over the space is drawn from the same rule (tested on the sample's Fig. 8: the same
+bound and boxes as the scene with its overlay once the overlay is needed).
 
 Resumable: one ``bound.json`` per candidate model under ``DIR/bound/``, stamped with the rule that
 decided it (`rule_of`: a record of another rule, e.g. after the targets file changed, is decided
@@ -78,6 +90,23 @@ NOT_BOUNDED = "not bounded (time budget)"
 IF_DROPPED = ("periodic_p",)
 #: The note of a run the stage does not run because no statement it decides may lower a bound.
 NOT_RUN = "not run: no statement it decides lowers a bound"
+#: The note of an eq. (21) overlay the stage runs only when its boxes can change the outcome.
+DEFERRED = "deferred: run only if its boxes can change the outcome"
+#: Statement ids (after the scene name) that a time scene's eq. (21) series (``[time] ode21``) decides.
+IF_NO_ODE21 = ("envelope21", "same_motion")
+
+
+def _has_table(text: str, name: str) -> bool:
+    return any(line.split("#", 1)[0].strip() == f"[{name}]" for line in text.splitlines())
+
+
+def _table_text(text: str, name: str) -> str:
+    """The ``[name]`` table of a scene file's text, with its ``[name.*]`` subtables."""
+    lines = text.splitlines()
+    i0 = next(i for i, line in enumerate(lines) if line.split("#", 1)[0].strip() == f"[{name}]")
+    i1 = next((j for j in range(i0 + 1, len(lines)) if lines[j].strip().startswith("[")
+               and not lines[j].strip().startswith(f"[{name}.")), len(lines))
+    return "\n".join(lines[i0:i1]).rstrip("\n") + "\n"
 
 
 def orbit_runs(path: Path) -> list[int]:
@@ -88,10 +117,12 @@ def orbit_runs(path: Path) -> list[int]:
             and isinstance(r.get("start"), dict) and "orbit" in r["start"]]
 
 
-def scene_copy(src: Path, dst: Path, model: Path, drop_orbits: bool, drop_overlay: bool) -> list[str]:
+def scene_copy(src: Path, dst: Path, model: Path, drop_orbits: bool, drop_overlay: bool,
+               drop_ode21: bool = False) -> list[str]:
     """A copy of the scene file ``src`` at ``dst`` on ``model``, without its orbit-started runs
-    (``drop_orbits``) and its eq. (21) overlay (``drop_overlay``), as `run_bound` prepares a
-    candidate's scenes; returns the notes of what was dropped (for `autocable bench bound-scenes`)."""
+    (``drop_orbits``), its eq. (21) overlay (``drop_overlay``) and its eq. (21) time series
+    (``drop_ode21``), as `run_bound` prepares a candidate's scenes (an overlay it defers included);
+    returns the notes of what was dropped (for `autocable bench bound-scenes`)."""
     from autocable.paper import candidates as cm
     dst.write_text(src.read_text().replace('model = "../models/luongo_zulli_2012.toml"', f'model = "{model}"'))
     notes = []
@@ -99,6 +130,8 @@ def scene_copy(src: Path, dst: Path, model: Path, drop_orbits: bool, drop_overla
         notes += [f"{src.stem}: run[{k}]" for k in reversed(orbit_runs(dst)) if cm._drop_run(dst, k)]
     if drop_overlay and cm._drop_table(dst, "overlay"):
         notes.append(f"{src.stem}: overlay")
+    if drop_ode21 and cm._switch_off(dst, "time", "ode21"):
+        notes.append(f"{src.stem}: ode21")
     return notes
 
 
@@ -118,6 +151,7 @@ class Candidate:
     prepared: bool = False
     computed: int = 0                                # scene runs started by this call (not reused)
     wall_s: float = 0.0
+    deferred_s: float = 0.0                          # recorded time of runs before a deferred overlay
 
 
 def unknown_scenes(targets) -> list[str]:
@@ -142,13 +176,18 @@ def not_used_to_prune(targets) -> dict[str, str]:
 RECORD_FORMAT = "autocable.bound/2"
 
 
-def rule_of(statement_ids, capped, unused, goal: tg.Goal, margin: int = 0) -> str:
+def rule_of(statement_ids, capped, unused, goal: tg.Goal, margin: int = 0, study: dict | None = None) -> str:
     """A fingerprint of what decides a bound (the statements, the ceiling's caps, the statements not
-    used, the goal, the stopping margin, the record's layout): a stored record made under another
-    rule is decided again (its scenes reused)."""
+    used, the goal, the stopping margin, the record's layout, and the AME-vs-(21) study's bounds
+    ``study`` that decide every ``<scene>.boxes`` statement and the goal's boxes; default
+    `STUDY_MAX_ERROR`): a stored record made under another rule is decided again (its scenes reused)."""
     import hashlib
+
+    from autocable.studies.ame_bounds import STUDY_MAX_ERROR
+    study = STUDY_MAX_ERROR if study is None else study
     doc = json.dumps([RECORD_FORMAT, list(statement_ids), sorted(capped), sorted(unused), goal.statements_yes,
-                      goal.boxes_share, list(goal.boxes_scenes), int(margin)])
+                      goal.boxes_share, list(goal.boxes_scenes), int(margin),
+                      sorted([float(k), float(v)] for k, v in study.items())])
     return hashlib.sha256(doc.encode()).hexdigest()[:16]
 
 
@@ -244,6 +283,17 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
     # the scenes whose eq. (21) overlay decides only statements that never lower a bound
     skip_overlay = {n: f"{n}.boxes" for n in order
                     if n not in goal.boxes_scenes and (f"{n}.boxes" not in stmt_ids or f"{n}.boxes" in unused)}
+    # the scenes whose eq. (21) time series decides only statements that never lower a bound
+    skip_ode21 = {}
+    for n in order:
+        ids = [f"{n}.{x}" for x in IF_NO_ODE21 if f"{n}.{x}" in stmt_ids]
+        if ids and all(i in unused for i in ids):
+            skip_ode21[n] = ids
+    # the other overlays: a scene runs without its overlay first, and again with it only if the
+    # candidate is not stopped by then (its boxes, the one statement the overlay decides, counted
+    # yes until known): most candidates stop on their branches' statements alone
+    original = {n: (runs / f"{n}.toml").read_text() for n in order}
+    defer_overlay = {n for n in order if n not in skip_overlay and _has_table(original[n], "overlay")}
     stop_below = goal.statements_yes - int(margin)
     by_scene: dict[str, list] = {}
     for t in targets:
@@ -267,6 +317,7 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
         records.append(_record(c, b, lowered, "fully evaluated", sorted(ORDER), c["full"].get("boxes") or {},
                                sorted(failed), c["full"].get("dropped_runs") or [], c["full"].get("wall_s", 0.0),
                                goal, short, scene_s=c["full"].get("wall_s", 0.0)))
+        records[-1]["rule"] = rule
         seen.add(key)
     for c in sorted(cands, key=cm.screen_score, reverse=True):
         key = model_key(c)
@@ -317,7 +368,30 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
                     and cm._drop_table(dst, "overlay"):
                 cand.dropped.append(f"{n}: overlay ({NOT_RUN}: {skip_overlay[n]})")
                 atomic_write_json(cand.folder / "dropped.json", cand.dropped)
+            if skip_ode21.get(n) and not cm.scene_complete(cand.folder / "out" / n, dst) \
+                    and cm._switch_off(dst, "time", "ode21"):
+                cand.dropped.append(f"{n}: ode21 ({NOT_RUN}: {', '.join(skip_ode21[n])})")
+                atomic_write_json(cand.folder / "dropped.json", cand.dropped)
+            if n in defer_overlay and not cm.scene_complete(cand.folder / "out" / n, dst) \
+                    and cm._drop_table(dst, "overlay"):
+                cand.dropped.append(f"{n}: overlay ({DEFERRED}: {n}.boxes)")
+                atomic_write_json(cand.folder / "dropped.json", cand.dropped)
         cand.prepared = True
+
+    def deferred(cand: Candidate, scene: str) -> bool:
+        """Whether the scene's copy still lacks the overlay the stage deferred."""
+        return scene in defer_overlay and not _has_table((cand.folder / "runs" / f"{scene}.toml").read_text(),
+                                                         "overlay")
+
+    def restore_overlay(cand: Candidate, scene: str) -> None:
+        """Put the deferred overlay back into the scene's copy (the scene then runs again, with it);
+        the time of the run without it is kept for the record."""
+        path = cand.folder / "runs" / f"{scene}.toml"
+        block = _table_text(original[scene], "overlay")
+        path.write_text(path.read_text().rstrip("\n") + "\n\n" + block)
+        cand.deferred_s += scene_seconds(cand.folder / "out", [scene])
+        cand.dropped = [d for d in cand.dropped if not (d.startswith(f"{scene}: overlay") and DEFERRED in d)]
+        atomic_write_json(cand.folder / "dropped.json", cand.dropped)
     queue = list(todo)          # candidates waiting for their next scene
     running: dict = {}          # task label -> (candidate, scene)
     n_done, t_start, n_started = 0, time.perf_counter(), 0
@@ -336,6 +410,11 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
         have.update(reference)
         for v in tg.decide_statements(by_scene.get(scene, []), have):
             cand.verdicts[v.id] = {"shown": v.shown, "evidence": v.evidence}
+        if deferred(cand, scene):
+            # the overlay has not run: its boxes are not known (counted yes, as undecided)
+            cand.verdicts.pop(f"{scene}.boxes", None)
+            cand.boxes.pop(scene, None)
+            return
         if scene in goal.boxes_scenes:
             s = overlay_summary(have[scene])
             cand.boxes[scene] = {"points": s["points"], "within": s["within"], "at_rest": s["at_rest"],
@@ -346,12 +425,21 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
         nonlocal n_done
         b, lowered = bound_of(cand.verdicts, stmt_ids, capped, unused, cand.failed, cand.dropped)
         short = boxes_short(cand.boxes, goal)
+        if b >= stop_below and not short:
+            pending = [n for n in cand.scenes_run if n not in cand.failed and deferred(cand, n)]
+            if pending:
+                # not stopped by the branches: the deferred overlay runs next (as it would have
+                # run with its scene), the scene with it
+                restore_overlay(cand, pending[0])
+                cand.todo.insert(0, pending[0])
+                return False
         if b >= stop_below and not short and cand.todo:
             return False
         status = ("stopped: statements" if b < stop_below else "stopped: boxes" if short
                   else "every scene run")
         rec = _record(cand.c, b, lowered, status, cand.scenes_run, cand.boxes, cand.failed, cand.dropped,
-                      cand.wall_s, goal, short, scene_s=scene_seconds(cand.folder / "out", cand.scenes_run))
+                      cand.wall_s, goal, short,
+                      scene_s=scene_seconds(cand.folder / "out", cand.scenes_run) + cand.deferred_s)
         rec["computed_scenes"] = cand.computed
         rec["rule"] = rule
         atomic_write_json(cand.folder / "bound.json", cm._finite(rec))
@@ -376,7 +464,8 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
             scene = cand.todo.pop(0)
             path, dst = cand.folder / "runs" / f"{scene}.toml", cand.folder / "out" / scene
             if cm.scene_complete(dst, path):
-                cand.scenes_run.append(scene)
+                if scene not in cand.scenes_run:
+                    cand.scenes_run.append(scene)
                 decide(cand, scene, True, "")
                 queue.insert(0, cand)
                 continue
@@ -400,14 +489,16 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
         cand.wall_s += wall
         k = cm._failed_start(error) if status != "ok" else None
         path = cand.folder / "runs" / f"{scene}.toml"
-        if k is not None and sum(d.startswith(scene + ":") and NOT_RUN not in d for d in cand.dropped) < 2 \
+        if k is not None and sum(d.startswith(scene + ":") and NOT_RUN not in d and DEFERRED not in d
+                                 for d in cand.dropped) < 2 \
                 and cm._drop_run(path, k):
             # as the full evaluation: the run whose sample-tuned start failed goes, the scene reruns
             cand.dropped.append(f"{scene}: run[{k}] ({error.split(': ', 2)[-1][:160]})")
             atomic_write_json(cand.folder / "dropped.json", cand.dropped)
             cand.todo.insert(0, scene)
         else:
-            cand.scenes_run.append(scene)
+            if scene not in cand.scenes_run:
+                cand.scenes_run.append(scene)
             decide(cand, scene, status == "ok", error)
         queue.insert(0, cand)
         while len(running) < capacity and start_next():
@@ -415,8 +506,8 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
     left = list(queue)
     for cand in left:
         b, lowered = bound_of(cand.verdicts, stmt_ids, capped, unused, cand.failed, cand.dropped)
-        if b < stop_below or boxes_short(cand.boxes, goal) or (cand.prepared and not cand.todo):
-            settle(cand)            # settled by what was decided before the budget ran out
+        if (b < stop_below or boxes_short(cand.boxes, goal) or (cand.prepared and not cand.todo)) \
+                and settle(cand):   # settled by what was decided before the budget ran out
             continue
         records.append(_record(cand.c, b, lowered, NOT_BOUNDED, cand.scenes_run, cand.boxes, cand.failed,
                                cand.dropped, cand.wall_s, goal, boxes_short(cand.boxes, goal)))
@@ -465,7 +556,9 @@ def summary(records: list[dict], goal: tg.Goal) -> dict:
 # ------------------------------------------------------------------------------------------------
 CSV_FIELDS = ("name", "twist_ends", "load_axes", "angle_convention", "load_length", "yaw_deg",
               "rivulet_angle_deg", "bound", "status", "boxes_good", "boxes_points", "reaches_goal",
-              "scenes_run", "lowered_by", "failed_scenes", "screen_not_met", "scene_s")
+              "scenes_run", "lowered_by", "failed_scenes", "screen_not_met", "scene_s", "rule")
+#: Columns a bound.csv of an earlier version may lack (read as empty: the rule then is not known).
+CSV_OPTIONAL = ("rule",)
 
 
 def write_csv(records: list[dict], path: Path) -> None:
@@ -498,7 +591,7 @@ def read_csv(path: Path) -> list[dict]:
         raise SpecError(path, "--prior-bound", f"cannot read it as bound.csv: {exc}") from None
     out = []
     for i, row in enumerate(rows):
-        missing = [k for k in CSV_FIELDS if k not in row]
+        missing = [k for k in CSV_FIELDS if k not in row and k not in CSV_OPTIONAL]
         if missing:
             raise SpecError(path, f"row {i + 1}", f"is not a bound.csv row (missing columns {missing})")
         try:
@@ -507,7 +600,8 @@ def read_csv(path: Path) -> list[dict]:
                    "bound": int(row["bound"]), "status": row["status"],
                    "boxes_good": int(row["boxes_good"] or 0), "boxes_points": int(row["boxes_points"] or 0),
                    "reaches_goal": row["reaches_goal"] == "True", "scene_s": float(row["scene_s"] or 0.0),
-                   "boxes_short": row["status"] == "stopped: boxes", "prior": True, "computed_scenes": 0}
+                   "boxes_short": row["status"] == "stopped: boxes", "prior": True, "computed_scenes": 0,
+                   "rule": row.get("rule") or ""}
         except ValueError as exc:
             raise SpecError(path, f"row {i + 1}", f"has a value that is not a number: {exc}") from None
         rec.update({k: row[k].split() for k in ("scenes_run", "lowered_by", "failed_scenes", "screen_not_met")})
@@ -515,11 +609,24 @@ def read_csv(path: Path) -> list[dict]:
     return out
 
 
+def _screen_point(r: dict) -> tuple:
+    return tuple(r["readings"][k] for k in READING_KEYS) + (round(float(r["yaw_deg"]), 9),)
+
+
 def merge_prior(records: list[dict], prior: list[dict]) -> list[dict]:
-    """``records`` and the ``prior`` records of readings none of ``records`` has (a reading decided
-    by this call is never taken from an earlier one)."""
-    mine = {tuple(r["readings"][k] for k in READING_KEYS) for r in records}
-    return list(records) + [r for r in prior if tuple(r["readings"][k] for k in READING_KEYS) not in mine]
+    """``records`` and the ``prior`` records of screen points (reading and yaw) none of ``records``
+    has: every candidate of a screen point decided by this call comes from this call, never from an
+    earlier one (a call over a few yaws of a reading replaces those yaws' records and keeps the rest)."""
+    mine = {_screen_point(r) for r in records}
+    return list(records) + [r for r in prior if _screen_point(r) not in mine]
+
+
+def boxes_could_lift(r: dict, goal: tg.Goal) -> bool:
+    """Whether the record's bound could reach the goal if every ``<scene>.boxes`` statement that
+    lowered it turned yes, or its boxes stopped it: what a looser AME-vs-(21) study bound can change
+    (the boxes are the only decisions that read it, and a looser bound only turns boxes yes)."""
+    lifted = r["bound"] + sum(1 for sid in r["lowered_by"] if sid.endswith(".boxes"))
+    return lifted >= goal.statements_yes or r["status"] == "stopped: boxes"
 
 
 @styled()      # the package's one look (autocable.plotting.style)
@@ -576,7 +683,8 @@ def draw_map(records: list[dict], goal: tg.Goal, ceiling_yes: int, path: Path) -
 
 
 def markdown(records: list[dict], goal: tg.Goal, ceiling_yes: int, n_statements: int, wall_s: float,
-             jobs: int, picture: Path | None, csv_name: str, unused: dict, margin: int = 0) -> list[str]:
+             jobs: int, picture: Path | None, csv_name: str, unused: dict, margin: int = 0,
+             rule: str = "") -> list[str]:
     s = summary(records, goal)
     stopped = {k: v for k, v in s["by_status"].items()}
     run = [r for r in records if r["status"] not in ("fully evaluated",)]
@@ -610,8 +718,20 @@ def markdown(records: list[dict], goal: tg.Goal, ceiling_yes: int, n_statements:
     if prior:
         got = sorted({r["readings"]["angle_convention"] for r in prior})
         lines += ["", f"{len(prior)} of the {s['models']} records (angle senses {', '.join(got)}) were read from an "
-                      "earlier call's bound.csv (`--prior-bound`) for the readings this call's space does not "
-                      "hold; the others were decided by this call."]
+                      "earlier call's bound.csv (`--prior-bound`) for the screen points (reading and yaw) this "
+                      "call's space does not hold; the others were decided by this call."]
+        if rule:
+            other = [r for r in prior if r.get("rule") != rule]
+            lift = [r for r in other if boxes_could_lift(r, goal)]
+            if other:
+                lines += ["", f"{len(other)} of the read records were decided under another rule than this call's "
+                              "(or one their file does not record). Where the rules differ only in the "
+                              "AME-vs-(21) study's bounds and the new ones are looser, only the boxes can change, "
+                              "and only towards yes: "
+                          + (f"{len(lift)} of them could then reach the goal ({', '.join(r['name'] for r in lift)}) "
+                             "and must be decided again." if lift else
+                             "none of them could then reach the goal (each bound stays below it with every "
+                             "boxes statement that lowered it counted yes, and none was stopped by its boxes).")]
     if s["reach_goal"]:
         verdict = "**Candidate models that reach the goal: " + ", ".join(s["reach_goal"]) + ".**"
     elif not s["not_bounded"] and not s["could_still_reach"]:

@@ -125,6 +125,28 @@ def _drop_table(path: Path, name: str) -> bool:
     return True
 
 
+def _switch_off(path: Path, table: str, key: str) -> bool:
+    """Set ``key = false`` in the ``[table]`` table of a scene file where it is true (or absent,
+    true by default: `autocable.scene.schema`); False if it was already false or there is no table."""
+    lines = path.read_text().splitlines()
+    starts = [i for i, line in enumerate(lines) if line.split("#", 1)[0].strip() == f"[{table}]"]
+    if not starts:
+        return False
+    i0 = starts[0]
+    i1 = next((j for j in range(i0 + 1, len(lines)) if lines[j].strip().startswith("[")), len(lines))
+    for j in range(i0 + 1, i1):
+        head, _, rest = lines[j].partition("=")
+        if head.strip() == key:
+            if rest.split("#", 1)[0].strip() == "false":
+                return False
+            lines[j] = f"{key} = false"
+            break
+    else:
+        lines.insert(i0 + 1, f"{key} = false")
+    path.write_text("\n".join(lines) + "\n")
+    return True
+
+
 def _drop_run(path: Path, k: int) -> bool:
     """Remove the k-th ``[[run]]`` table (with its ``[run.*]`` subtables) from a scene file."""
     lines = path.read_text().splitlines()

@@ -41,7 +41,7 @@ AT_REST = 1e-9
 #: Why a feature the paper states may not show with autocable (the sources are named in each text).
 REASONS = {
     "msm": "MSM limit: at eta* = 1.4e-3 the parametric modulation that the Multiple Scales ordering "
-           "takes small is not small; docs/ame_vs_ode21.md finds same-branch errors up to 2.65e-1 "
+           f"takes small is not small; docs/ame_vs_ode21.md finds same-branch errors up to {STUDY_MAX_ERROR[1.4e-3]:.3g} "
            "there and, near resonance, no AME equilibrium close to eq. (21)'s response",
     "divergence": "eq. (21) diverges above U_c with this model: the twist slaved to the out-of-plane mode "
                   "(about -477 rad per unit q2 with natural twist ends) makes the wind terms odd in the twist "

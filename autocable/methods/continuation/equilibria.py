@@ -156,14 +156,37 @@ def continue_equilibria(problem: EquilibriumProblem, settings: ContinuationSetti
     Ys = list(reversed(back.points[1:])) + fwd.points
     stab = list(reversed(back.pycont_stab[1:])) + fwd.pycont_stab
     an = _analyse_equilibria(chart, Ys, settings, name, back.pycont_special + fwd.pycont_special, stab)
+    an = _with_unlocated(an, back.unlocated + fwd.unlocated, problem.parameter)
     ends = (EndPoint("backward", back.reason, chart.value(Ys[0][-1]), len(back.points) - 1, back.message),
             EndPoint("forward", fwd.reason, chart.value(Ys[-1][-1]), len(fwd.points) - 1, fwd.message))
     info = dict(an.info, start_index=len(back.points) - 1, state_scale=chart.xscale)
+    if back.unlocated or fwd.unlocated:
+        # special points PyCont detected and failed to locate; autocable's test functions did
+        info["pycont_unlocated"] = back.unlocated + fwd.unlocated
     branch = _build_branch(name, "equilibrium", chart, an.x, an.p, an.stable, an.eigen, an.special, ends, info)
     t2 = time.perf_counter()
     return ContinuationResult(branch, problem, settings,
                               {"setup_s": t_setup - t0, "pycont_s": t1 - t_setup, "analysis_s": t2 - t1,
                                "points": len(Ys)})
+
+
+def _with_unlocated(an, unlocated: list, parameter: str):
+    """The analysis with the message of each special point PyCont detected but failed to locate
+    (`pycont_driver._unlocated_special_point`) saying so, instead of "PyCont missed it"."""
+    if not unlocated:
+        return an
+    special = []
+    for sp in an.special:
+        for u in unlocated:
+            lo, hi = sorted(u[parameter])
+            if sp.type == u["type"] and sp.origin == "autocable" and not sp.confirmed_by_pycont \
+                    and lo <= sp.value <= hi:
+                sp = replace(sp, message=f"PyCont detected this {sp.type} between {parameter} = {lo:.6g} "
+                                         f"and {hi:.6g} but could not locate it (its location did not "
+                                         f"converge); located by autocable's test functions")
+                break
+        special.append(sp)
+    return replace(an, special=tuple(special))
 
 
 def switch_branch(source: ContinuationResult, bp: str | SpecialPoint,
@@ -246,9 +269,12 @@ def switch_branch(source: ContinuationResult, bp: str | SpecialPoint,
         s_.type in ("BP", "LP")
         and np.linalg.norm(chart.to_chart(s_.state, s_.value) - junction_Y) <= 0.5 * settings.switch_step))
     an = replace(an, special=_relabel(tuple(sorted((junction,) + others, key=lambda s_: s_.index))))
+    an = _with_unlocated(an, minus.unlocated + plus.unlocated, problem.parameter)
     ends = (EndPoint("-", minus.reason, chart.value(Ys[0][-1]), len(minus.points) - 1, minus.message),
             EndPoint("+", plus.reason, chart.value(Ys[-1][-1]), len(plus.points) - 1, plus.message))
     info = dict(an.info, switched_from=bp.name, bp_index=ib, state_scale=chart.xscale)
+    if minus.unlocated or plus.unlocated:
+        info["pycont_unlocated"] = minus.unlocated + plus.unlocated
     branch = _build_branch(name, "equilibrium", chart, an.x, an.p, an.stable, an.eigen, an.special, ends, info)
     prob = problem.at(**{problem.parameter: bp.value})
     return ContinuationResult(branch, prob, settings,

@@ -11,7 +11,7 @@ import contextlib
 import math
 import re
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -32,6 +32,9 @@ class _Side:
     pycont_stab: list             # 'S'/'U'/'N' per point (None when unknown)
     reason: str = "max_points"
     message: str = ""
+    # PyCont special points it detected but could not locate (continued past; autocable's test
+    # functions locate them): one dict per such point, for the branch info
+    unlocated: list = field(default_factory=list)
 
 
 def _point_Y(chart: _Chart, pt) -> np.ndarray:
@@ -70,24 +73,32 @@ def _pycont_equilibria(cont, chart: _Chart, problem: EquilibriumProblem, setting
         return side
     lo, hi = chart.lam(problem.bounds[0]), chart.lam(problem.bounds[1])
     locate = [t for t in settings.locate if not (t == "H" and chart.system.dimension < 2)]
-    cname = f"{name}_{side_name}"
-    try:
-        with _silent():
-            cont.newCurve(dst.args(
-                name=cname, type="EP-C", freepars=["lam"], initpoint=chart.point_dict(Y0),
-                initdirec={k: float(v) for k, v in zip(list(chart.system.variables) + ["lam"], direction)},
-                StepSize=settings.step, MinStepSize=settings.min_step, MaxStepSize=settings.max_step,
-                MaxNumPoints=settings.chunk + 1, MaxCorrIters=settings.max_corrector_iters,
-                LocBifPoints=locate, SaveEigen=True, verbosity=0, FuncTol=settings.tol,
-                VarTol=settings.tol, TestTol=settings.test_tol))
-    except Exception as exc:  # noqa: BLE001 - PyCont raises anything; we report it in one line
-        side.reason, side.message = "error", f"PyCont could not start: {_one_line(exc)}"
+
+    def start(Y, d, suffix):
+        """A new EP-C curve from Y along d; None and a message when PyCont cannot start."""
+        cname = f"{name}_{side_name}{suffix}"
+        try:
+            with _silent():
+                cont.newCurve(dst.args(
+                    name=cname, type="EP-C", freepars=["lam"], initpoint=chart.point_dict(Y),
+                    initdirec={k: float(v) for k, v in zip(list(chart.system.variables) + ["lam"], d)},
+                    StepSize=settings.step, MinStepSize=settings.min_step, MaxStepSize=settings.max_step,
+                    MaxNumPoints=settings.chunk + 1, MaxCorrIters=settings.max_corrector_iters,
+                    LocBifPoints=locate, SaveEigen=True, verbosity=0, FuncTol=settings.tol,
+                    VarTol=settings.tol, TestTol=settings.test_tol))
+        except Exception as exc:  # noqa: BLE001 - PyCont raises anything; we report it in one line
+            return None, f"PyCont could not start: {_one_line(exc)}"
+        return cont[cname], ""
+
+    curve, why = start(Y0, direction, "")
+    if curve is None:
+        side.reason, side.message = "error", why
         return side
-    curve = cont[cname]
     span_seen = 0.0
     first_call = True
     reported = 0
     while True:
+        resume = False
         try:
             with _silent() as chatter:
                 curve.forward()
@@ -100,9 +111,28 @@ def _pycont_equilibria(cont, chart: _Chart, problem: EquilibriumProblem, setting
             # PyCont loses the chunk on failure; its work arrays still hold the converged points.
             raw = np.asarray(getattr(curve, "curve", np.zeros((0, 0))))
             loc = int(getattr(curve, "loc", 0))
-            new = [_raw_Y(chart, curve, raw[i]) for i in range(1, max(loc, 1))] \
-                if raw.ndim == 2 and raw.shape[1] == Y0.size else []
+            usable = raw.ndim == 2 and raw.shape[1] == Y0.size
+            unlocated = _unlocated_special_point(exc)
             failure = exc
+            if unlocated and usable and 1 <= loc < raw.shape[0] and len(side.unlocated) < MAX_UNLOCATED:
+                # PyCont failed to locate a special point after its corrector had converged on
+                # point loc, beyond the test function's sign change: that point is kept too, and
+                # the continuation goes on from it (the special point is autocable's to locate).
+                new = [_raw_Y(chart, curve, raw[i]) for i in range(1, loc + 1)]
+                before = new[-2] if len(new) > 1 else side.points[-1]
+                side.unlocated.append({"type": unlocated, problem.parameter: [chart.value(before[-1]),
+                                                                              chart.value(new[-1][-1])],
+                                       "error": _one_line(exc)})
+                resume = True
+            elif unlocated:
+                new = [_raw_Y(chart, curve, raw[i]) for i in range(1, max(loc, 1))] if usable else []
+                where = f"{problem.parameter} = {chart.value((new or side.points)[-1][-1]):.6g}"
+                failure = PyContLocationError(
+                    f"PyCont detected a {unlocated} point just beyond {where} and could not locate it "
+                    f"(its location did not converge; {len(side.unlocated)} earlier such points on this side "
+                    'were passed); engine = "compiled" continues without PyCont')
+            else:
+                new = [_raw_Y(chart, curve, raw[i]) for i in range(1, max(loc, 1))] if usable else []
         first_call = False
         for pt in new:
             if isinstance(pt, np.ndarray):
@@ -153,10 +183,46 @@ def _pycont_equilibria(cont, chart: _Chart, problem: EquilibriumProblem, setting
             reported = len(side.points) // 100
             progress(f"{name} ({side_name}): {problem.parameter} = {chart.value(side.points[-1][-1]):.6g}, "
                      f"{len(side.points)} points")
+        if resume:
+            chord = side.points[-1] - side.points[-2]
+            curve, why = start(side.points[-1], chord / np.linalg.norm(chord), f"_u{len(side.unlocated)}")
+            if curve is None:
+                side.reason, side.message = "error", why
+                return side
+            first_call = True
+            continue
         where = f"{problem.parameter} = {chart.value(side.points[-1][-1]):.6g}"
         if _pycont_end(side, curve, failure, closed, new, where, settings.min_step,
                        settings.max_points, "max_points"):
             return side
+
+
+#: How many special points PyCont may fail to locate on one side of a branch before the side ends.
+MAX_UNLOCATED = 5
+
+
+class PyContLocationError(RuntimeError):
+    """PyCont detected a special point and could not locate it, once too often on one side."""
+
+
+def _unlocated_special_point(exc: BaseException) -> str | None:
+    """The type ("BP", "LP", "H") of the PyCont special point whose location or processing raised
+    ``exc``, or None when ``exc`` came from elsewhere (the corrector, the set-up).
+
+    PyCont locates a special point by a scipy ``fsolve`` whose convergence it does not check, then
+    assumes the point found is one: its BP processing takes the eigenvector of the first eigenvalue
+    of [J_x, J_p; v] below 5e-5 and raises IndexError when there is none (the 2-dof AME at U = 0,
+    eta = 8e-4: the pitchfork at sigma = 0.00143 was "located" at sigma = 0.00051, where the
+    smallest eigenvalue is 2e-4). The points on both sides of it are converged; only PyCont's
+    record of the special point is lost, and autocable locates it with its own test functions."""
+    tb = exc.__traceback__
+    label = None
+    while tb is not None:
+        code = tb.tb_frame.f_code
+        if code.co_name in ("locate", "process") and code.co_filename.endswith("BifPoint.py"):
+            label = getattr(tb.tb_frame.f_locals.get("self"), "label", None)
+        tb = tb.tb_next
+    return label if label in ("BP", "LP", "H") else None
 
 
 @contextlib.contextmanager
@@ -175,7 +241,9 @@ def _pycont_end(side, curve, failure, closed, new, where: str, min_step: float, 
     (a failure, a closed curve, an MX point, the point budget, or no progress)."""
     if failure is not None:
         text = _one_line(failure)
-        if "converge" in text.lower():
+        if isinstance(failure, PyContLocationError):
+            side.reason, side.message = "error", str(failure)
+        elif "converge" in text.lower():
             side.reason = "step_collapse"
             side.message = (f"PyCont's corrector failed near {where} with the minimum step "
                             f"{min_step:g}: {text}")
