@@ -13,7 +13,6 @@ import numpy as np
 import sympy as sp
 
 from autocable._store import cache_dir, content_hash, load_checked_json, store_checked_json
-from autocable.codegen.coefficients import coefficient_template
 from autocable.codegen.pydstool import VectorField
 from autocable.methods.lambda_cache import numeric_function, rhs_key, rhs_key_of_srepr
 
@@ -123,44 +122,29 @@ class System:
         return rhs_key(self.rhs)
 
     @cached_property
-    def _template(self):
-        # The numeric functions are generated for the right-hand side's structure, its numbers
-        # passed after the parameters (`autocable.codegen.coefficients`): one text per structure
-        # serves every model (each candidate model of the calibration paid seconds of sympy here).
-        return coefficient_template(self.rhs)
-
-    def _pw(self, p) -> np.ndarray:
-        """The parameter vector ``p`` followed by the right-hand side's coefficients."""
-        w = self._template.weights
-        return np.concatenate([np.asarray(p, float), w]) if w.size else np.asarray(p, float)
-
-    def _generated(self, kind: str):
-        t = self._template
-        return numeric_function(kind, self.variables, self.parameter_names, t.rhs, key=t.key,
-                                constants=t.weight_names)
-
-    @cached_property
     def _numeric(self):
         # The generated text is cached across processes (`lambda_cache`): the Jacobians of the wind
         # AME cost seconds of sympy per process otherwise.
-        return tuple(self._generated(kind) for kind in ("f", "jac", "jac_p"))
+        args = (self.variables, self.parameter_names, self.rhs)
+        return tuple(numeric_function(kind, *args, key=self._rhs_key) for kind in ("f", "jac", "jac_p"))
 
     @cached_property
     def _higher(self):
         """Second and third derivative tensors (for the first Lyapunov coefficient)."""
-        f2 = self._generated("d2")                    # [k][j][i]
-        f3 = self._generated("d3")                    # [l][k][j][i]
+        args = (self.variables, self.parameter_names, self.rhs)
+        f2 = numeric_function("d2", *args, key=self._rhs_key)                    # [k][j][i]
+        f3 = numeric_function("d3", *args, key=self._rhs_key)                    # [l][k][j][i]
         n = self.dimension
         # derive_by_array puts the derivative index first: reorder to [i, j, k(, l)].
-        return (lambda x, p: np.broadcast_to(np.array(f2(x, self._pw(p)), dtype=float), (n,) * 3).transpose(2, 1, 0),
-                lambda x, p: np.broadcast_to(np.array(f3(x, self._pw(p)), dtype=float), (n,) * 4).transpose(3, 2, 1, 0))
+        return (lambda x, p: np.broadcast_to(np.array(f2(x, p), dtype=float), (n,) * 3).transpose(2, 1, 0),
+                lambda x, p: np.broadcast_to(np.array(f3(x, p), dtype=float), (n,) * 4).transpose(3, 2, 1, 0))
 
     def f(self, x, p) -> np.ndarray:
-        return np.asarray(self._numeric[0](np.asarray(x, float), self._pw(p)), dtype=float).reshape(-1)
+        return np.asarray(self._numeric[0](np.asarray(x, float), np.asarray(p, float)), dtype=float).reshape(-1)
 
     def jac(self, x, p) -> np.ndarray:
         n = self.dimension
-        return np.broadcast_to(np.asarray(self._numeric[1](np.asarray(x, float), self._pw(p)),
+        return np.broadcast_to(np.asarray(self._numeric[1](np.asarray(x, float), np.asarray(p, float)),
                                           dtype=float), (n, n)).copy()
 
     def f_many(self, X, p) -> np.ndarray:
@@ -169,7 +153,7 @@ class System:
         X = np.asarray(X, float)
         n, N = self.dimension, len(X)
         try:
-            out = np.asarray(self._numeric[0](X.T, self._pw(p)), dtype=float)
+            out = np.asarray(self._numeric[0](X.T, np.asarray(p, float)), dtype=float)
             if out.size == n * N:
                 return out.reshape(n, N).T.copy()
         except (ValueError, TypeError):
@@ -181,7 +165,7 @@ class System:
         X = np.asarray(X, float)
         n, N = self.dimension, len(X)
         try:
-            out = np.asarray(self._numeric[1](X.T, self._pw(p)), dtype=float)
+            out = np.asarray(self._numeric[1](X.T, np.asarray(p, float)), dtype=float)
             if out.size == n * n * N:
                 return out.reshape(n, n, N).transpose(2, 0, 1).copy()
         except (ValueError, TypeError):
@@ -190,7 +174,7 @@ class System:
 
     def jac_p(self, x, p) -> np.ndarray:
         n, m = self.dimension, len(self.parameters)
-        return np.broadcast_to(np.asarray(self._numeric[2](np.asarray(x, float), self._pw(p)),
+        return np.broadcast_to(np.asarray(self._numeric[2](np.asarray(x, float), np.asarray(p, float)),
                                           dtype=float), (n, m)).copy()
 
     def hessian(self, x, p) -> np.ndarray:
