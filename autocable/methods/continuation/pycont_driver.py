@@ -55,7 +55,8 @@ def _contclass(chart: _Chart, Y0: np.ndarray):
 
     One per continuation call: every direction is its own curve in it."""
     try:
-        return continuation_system(chart.system.scaled_field(), "Dopri", ics=chart.point_dict(Y0),
+        # the numbers as parameters: one generator per structure (`System.scaled_field`)
+        return continuation_system(chart.system.scaled_field(True), "Dopri", ics=chart.point_dict(Y0),
                                    pars=chart.pycont_pars(0.0)), ""
     except Exception as exc:  # noqa: BLE001 - reported in one line
         return None, f"PyCont could not be set up: {_one_line(exc)}"

@@ -13,6 +13,7 @@ import numpy as np
 import sympy as sp
 
 from autocable._store import cache_dir, content_hash, load_checked_json, store_checked_json
+from autocable.codegen.coefficients import coefficient_template
 from autocable.codegen.pydstool import VectorField
 from autocable.methods.lambda_cache import numeric_function, rhs_key, rhs_key_of_srepr
 
@@ -122,9 +123,18 @@ class System:
         return rhs_key(self.rhs)
 
     @cached_property
+    def _template(self):
+        """The right-hand side's structure and numbers (`autocable.codegen.coefficients`), for the
+        PyCont field with its numbers as parameters (`scaled_field`)."""
+        return coefficient_template(self.rhs)
+
+    @cached_property
     def _numeric(self):
         # The generated text is cached across processes (`lambda_cache`): the Jacobians of the wind
-        # AME cost seconds of sympy per process otherwise.
+        # AME cost seconds of sympy per process otherwise. It keeps the numbers in the text (keyed
+        # per model): with the numbers passed as data, the rounding-level change of J moved a
+        # branch switch at a degenerate pitchfork of a calibration candidate's Fig. 6 onto the
+        # other branch.
         args = (self.variables, self.parameter_names, self.rhs)
         return tuple(numeric_function(kind, *args, key=self._rhs_key) for kind in ("f", "jac", "jac_p"))
 
@@ -188,24 +198,40 @@ class System:
     # -- the PyCont field --------------------------------------------------------------------
     @cached_property
     def _scaled_field(self) -> VectorField:
-        return self._make_scaled_field()
+        return self._make_scaled_field(False)
 
-    def scaled_field(self) -> VectorField:
-        """The field PyCont continues (built once per system; see `_make_scaled_field`)."""
-        return self._scaled_field
+    @cached_property
+    def _scaled_field_weighted(self) -> VectorField:
+        return self._make_scaled_field(True)
 
-    def _make_scaled_field(self) -> VectorField:
+    def scaled_field(self, coefficients_as_parameters: bool = False) -> VectorField:
+        """The field PyCont continues (built once per system; see `_make_scaled_field`).
+
+        ``coefficients_as_parameters``: the right-hand side's numbers are PyDSTool parameters too
+        (`autocable.codegen.coefficients`), so the compiled generator serves every system of one
+        structure (every candidate model of the calibration). Equilibrium continuation (EP-C) uses
+        it; PyCont's AUTO module, which cycle continuation builds from the same field, takes few
+        parameters (AUTO's NPAR), so cycles keep the numbers in the text."""
+        return self._scaled_field_weighted if coefficients_as_parameters else self._scaled_field
+
+    def _make_scaled_field(self, coefficients_as_parameters: bool) -> VectorField:
         """The field PyCont continues: x~ = x/xscale, p_k = p_k + d_<p_k> * lam (module docstring).
 
         Every parameter stays a PyDSTool parameter, so one compiled library serves every fixed value,
-        every continued parameter and every scale."""
+        every continued parameter and every scale (and, with ``coefficients_as_parameters``, every
+        set of coefficients of the right-hand side's structure: parameters ``ac_k<i>`` that are
+        never continued)."""
         xs, ps = self._symbols
+        rhs, weights = self.rhs, []
+        if coefficients_as_parameters:
+            rhs = self._template.rhs
+            weights = list(zip(self._template.weight_names, self._template.weights.tolist()))
         xscale, lam = sp.Symbol("xscale"), sp.Symbol("lam")
         sub = {x: xscale * x for x in xs}
         sub.update({p: p + sp.Symbol(f"d_{p.name}") * lam for p in ps})
-        rhs = [sp.expand(e.xreplace(sub) / xscale) for e in self.rhs]
+        rhs = [sp.expand(e.xreplace(sub) / xscale) for e in rhs]
         params = list(self.parameters) + [("xscale", 1.0)] + [(f"d_{p}", 0.0) for p in self.parameter_names] \
-            + [("lam", 0.0)]
+            + [("lam", 0.0)] + weights
         return VectorField(self.name, self.variables, rhs, params)
 
     @cached_property
