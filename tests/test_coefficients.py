@@ -10,8 +10,9 @@ polynomial form).
   fresh cache: one library folder, the second load compiles nothing) and each evaluates its own
   coefficients: F and J of the C kernel and the integrator against sympy's evaluation of that
   system's own right-hand side (1e-12 relative), the compiled engine's folds of two Duffing slow
-  flows against their closed forms (1e-5), the search's polynomial form against the lambdified
-  field (1e-12); a change of structure is a second build.
+  flows against their closed forms (1e-5), on the compiled engine and on PyCont (its generator
+  built once, the numbers PyDSTool parameters), the search's polynomial form against the
+  lambdified field (1e-12); a change of structure is a second build.
 """
 from __future__ import annotations
 
@@ -155,6 +156,23 @@ def test_the_compiled_engine_finds_each_duffings_own_folds_with_one_build(monkey
             assert sp_.value == pytest.approx(sigma_f, abs=1e-5)
             assert sp_.a1 == pytest.approx(a_f, abs=1e-5)
     assert len(list((tmp_path / "ckernel").iterdir())) == 1
+
+
+def test_pycont_finds_each_duffings_own_folds_with_one_generator(monkeypatch, tmp_path):
+    """PyCont's EP-C continues the scaled field with the numbers as PyDSTool parameters: one
+    compiled generator for two Duffing slow flows of one structure, each with its own folds."""
+    _fresh(monkeypatch, tmp_path)
+    for kappa in (1.0, 0.7):
+        system = duffing(kappa, "duffing_pycont")
+        problem = EquilibriumProblem(system, "sigma", {"sigma": -1.0}, (-1.0, 6.0))
+        r = continue_equilibria(problem, ContinuationSettings(max_step=4e-2), name="I", directions="forward",
+                                engine="pycont")
+        folds = sorted(r.branch.of_type("LP"), key=lambda s: s.value)
+        assert len(folds) == 2
+        for sp_, (sigma_f, a_f) in zip(folds, duffing_folds(kappa)):
+            assert sp_.value == pytest.approx(sigma_f, abs=1e-5)
+            assert sp_.a1 == pytest.approx(a_f, abs=1e-5)
+    assert len(list((tmp_path / "pydstool").glob("dop853_temp/_dop853_duffing_pycont_*.so"))) == 1
 
 
 def test_the_search_polynomial_form_is_generated_once_per_structure(ame, monkeypatch, tmp_path):
