@@ -1,12 +1,13 @@
 """A right-hand side split into its structure and its numeric coefficients, so that compiled code
 is built once per structure and the coefficients are passed at run time.
 
-Why. Every candidate model of the calibration (and every scene of a model that differs from
-another only in numbers) has the same amplitude equations (22)-(24) up to the numeric values of
-their coefficients: the same monomials of the amplitudes, the same parameter factors and the same
-denominators (sigma + omega_2 / omega_1 ...). Code generated with the numbers printed into it (the C
-kernel of `autocable.codegen.ckernel`, the DOP853 integrator of `autocable.codegen.cintegrate`, the
-polynomial form of the equilibrium search) is then a new build for every model. Here every
+Why. The candidate models of the calibration (a few structures among hundreds of models: a zero
+yaw, for one, removes terms) and cables that differ only in their inputs have the same amplitude
+equations (22)-(24) up to the numeric values of their coefficients: the same monomials of the
+amplitudes, the same parameter factors and the same denominators (sigma + omega_2 / omega_1 ...).
+Code generated with the numbers printed into it (the C kernel of `autocable.codegen.ckernel`, the
+DOP853 integrator of `autocable.codegen.cintegrate`, the polynomial form of the equilibrium search,
+PyCont's equilibrium-continuation generator) is then a new build for every model. Here every
 ``sympy.Float`` of the right-hand side becomes a symbol ``ac_k<i>`` (equal values share one symbol,
 so a repeated denominator stays one common subexpression), and the generated code reads the values
 from an array: the build is keyed by the structure alone.
