@@ -90,9 +90,14 @@ def rhs_key_of_srepr(texts: Sequence[str]) -> str:
 
 def function_key(kind: str, variables: Sequence[str], parameters: Sequence[str], key: str,
                  constants: Sequence[str] = ()) -> str:
-    """The content hash that names a cached function; ``key`` is `rhs_key` of the right-hand side."""
-    return content_hash({"kind": kind, "variables": list(variables), "parameters": list(parameters),
-                         "constants": list(constants), "rhs": key, "sympy": sp.__version__, "format": 3})
+    """The content hash that names a cached function; ``key`` is `rhs_key` of the right-hand side.
+    Without ``constants`` the name is the one earlier versions gave, so their texts stay valid (the
+    polynomial form is now split without sympy.Poly, the same polynomial)."""
+    payload = {"kind": kind, "variables": list(variables), "parameters": list(parameters),
+               "rhs": key, "sympy": sp.__version__, "format": 2}
+    if constants:
+        payload["constants"] = list(constants)
+    return content_hash(payload)
 
 
 def numeric_function(kind: str, variables: Sequence[str], parameters: Sequence[str],
