@@ -190,3 +190,17 @@ def test_the_search_polynomial_form_is_generated_once_per_structure(ame, monkeyp
         assert np.max(np.abs(F1 - F0)) <= 1e-12 * np.max(np.abs(F0))
         assert np.max(np.abs(J1 - J0)) <= 1e-12 * np.max(np.abs(J0))
     assert len(list((tmp_path / "lambdas").glob("poly-*.py"))) == 1
+
+
+def test_a_symbol_with_the_weights_prefix_is_refused_every_time():
+    """A right-hand side that already uses a weight's name cannot be templated (its symbol and a
+    weight would be one); the refusal holds on a second call too (the template cache does not
+    keep failures)."""
+    import pytest
+    import sympy as sp
+
+    from autocable.codegen.coefficients import WEIGHT_PREFIX, coefficient_template
+    rhs = [sp.Symbol(f"{WEIGHT_PREFIX}0") * 2.5 + sp.Symbol("x")]
+    for _ in range(2):
+        with pytest.raises(ValueError, match="reserved for compiled coefficients"):
+            coefficient_template(rhs)
