@@ -143,36 +143,32 @@ def duffing_folds(kappa: float):
     return [(kappa * a + F_D**2 / (2 * kappa * a * a), math.sqrt(a)) for a in A]
 
 
-def test_the_compiled_engine_finds_each_duffings_own_folds_with_one_build(monkeypatch, tmp_path):
+def _one_build(engine: str, cache) -> int:
+    if engine == "compiled":
+        return len(list((cache / "ckernel").iterdir()))
+    return len(list((cache / "pydstool").glob("dop853_temp/_dop853_duffing_pycont_*.so")))
+
+
+@pytest.mark.parametrize("engine, name", [
+    ("compiled", lambda kappa: f"duffing_{kappa}"),    # the kernel is keyed by structure, not by name
+    ("pycont", lambda kappa: "duffing_pycont"),        # PyDSTool names its build: one name, one build
+])
+def test_each_duffing_finds_its_own_folds_with_one_build(monkeypatch, tmp_path, engine, name):
+    """Two Duffing slow flows of one structure with different coefficients: one build (the C
+    kernel; PyCont's EP-C generator with the numbers as PyDSTool parameters), and each finds its
+    own closed-form folds."""
     _fresh(monkeypatch, tmp_path)
     for kappa in (1.0, 0.7):
-        system = duffing(kappa, f"duffing_{kappa}")
+        system = duffing(kappa, name(kappa))
         problem = EquilibriumProblem(system, "sigma", {"sigma": -1.0}, (-1.0, 6.0))
         r = continue_equilibria(problem, ContinuationSettings(max_step=4e-2), name="I", directions="forward",
-                                engine="compiled")
+                                engine=engine)
         folds = sorted(r.branch.of_type("LP"), key=lambda s: s.value)
         assert len(folds) == 2
         for sp_, (sigma_f, a_f) in zip(folds, duffing_folds(kappa)):
             assert sp_.value == pytest.approx(sigma_f, abs=1e-5)
             assert sp_.a1 == pytest.approx(a_f, abs=1e-5)
-    assert len(list((tmp_path / "ckernel").iterdir())) == 1
-
-
-def test_pycont_finds_each_duffings_own_folds_with_one_generator(monkeypatch, tmp_path):
-    """PyCont's EP-C continues the scaled field with the numbers as PyDSTool parameters: one
-    compiled generator for two Duffing slow flows of one structure, each with its own folds."""
-    _fresh(monkeypatch, tmp_path)
-    for kappa in (1.0, 0.7):
-        system = duffing(kappa, "duffing_pycont")
-        problem = EquilibriumProblem(system, "sigma", {"sigma": -1.0}, (-1.0, 6.0))
-        r = continue_equilibria(problem, ContinuationSettings(max_step=4e-2), name="I", directions="forward",
-                                engine="pycont")
-        folds = sorted(r.branch.of_type("LP"), key=lambda s: s.value)
-        assert len(folds) == 2
-        for sp_, (sigma_f, a_f) in zip(folds, duffing_folds(kappa)):
-            assert sp_.value == pytest.approx(sigma_f, abs=1e-5)
-            assert sp_.a1 == pytest.approx(a_f, abs=1e-5)
-    assert len(list((tmp_path / "pydstool").glob("dop853_temp/_dop853_duffing_pycont_*.so"))) == 1
+    assert _one_build(engine, tmp_path) == 1
 
 
 def test_the_search_polynomial_form_is_generated_once_per_structure(ame, monkeypatch, tmp_path):
