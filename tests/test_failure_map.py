@@ -150,7 +150,14 @@ def test_statement_marks_divergence_as_unchecked():
            "AME is unchecked there" in line
 
 
-def test_pycont_row_passes_the_pitchfork_pycont_cannot_locate(tools):
+def _numbers_in_the_text(monkeypatch):
+    """PyCont's EP-C generator built with the right-hand side's numbers printed in its text
+    (`System.scaled_field` without its coefficients as parameters)."""
+    from autocable.methods.continuation.system import System
+    monkeypatch.setattr(System, "scaled_field", lambda self, coefficients_as_parameters=False: self._scaled_field)
+
+
+def test_pycont_row_passes_the_pitchfork_pycont_cannot_locate(tools, monkeypatch):
     """The map's PyCont row at U = 0, eta = 8e-4 (`continuation_row`, forward from sigma = -0.05 with
     max_step 5e-2) stopped at sigma = 5.06e-4 with "PyCont failed: IndexError: list index out of
     range": PyCont detected the second pitchfork of the mono-modal branch (the other end of the
@@ -180,6 +187,10 @@ def test_pycont_row_passes_the_pitchfork_pycont_cannot_locate(tools):
     ref_bps = [s.value for s in ref.special_points if s.type == "BP"]
     assert len(ref_bps) == 2 and ref_bps[1] == pytest.approx(1.43e-3, abs=2e-5)
     assert bps == pytest.approx(ref_bps, abs=1e-9)
+    # PyCont's failure to locate that pitchfork reproduces with its generator compiled with the
+    # model's numbers in the text (as when the row was measured); with the numbers as PyDSTool
+    # parameters (the default since, one generator per structure) its fsolve lands elsewhere
+    _numbers_in_the_text(monkeypatch)
     res = continue_equilibria(problem, settings, np.zeros(system.dimension), directions="forward")
     [unlocated] = res.branch.info["pycont_unlocated"]
     assert unlocated["type"] == "BP" and unlocated["sigma"][0] < ref_bps[1] < unlocated["sigma"][1]
@@ -196,6 +207,7 @@ def test_pycont_location_failure_past_the_limit_is_named(tools, monkeypatch):
                                                 continue_equilibria, pycont_driver)
 
     monkeypatch.setattr(pycont_driver, "MAX_UNLOCATED", 0)
+    _numbers_in_the_text(monkeypatch)           # where PyCont's location fails (above)
     system = tools.system("2dof", False)
     values = {"sigma": -0.05, "U": 0.0, "eta": 8e-4}
     problem = EquilibriumProblem(system, "sigma", values, (-0.05, 0.05),

@@ -231,3 +231,34 @@ def test_a_scene_in_si_units_takes_the_cables_own_scales(tmp_path):
     assert si["a1"][0] == d.spec.cable.length_m == 121.9
     assert si["sigma"][0] == pytest.approx(d.statics.omega_ref / (2 * math.pi), rel=1e-15)
     assert si["U"][0] == 36.0 and si["t"][0] == pytest.approx(1 / d.statics.omega_ref, rel=1e-15)
+
+
+def test_a_full_disk_inside_the_pdf_writer_is_reported_as_the_os_error(tmp_path, monkeypatch):
+    """matplotlib's PDF writer, when the disk fills, raises from its clean-up an AttributeError
+    ("'Stream' object has no attribute 'pos'") whose context is the OSError: saving a figure
+    reports that OSError (which the CLI turns into one line naming --out) and leaves no temporary
+    file. Any other error is left as it is."""
+    import errno
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from autocable.plotting.diagrams import save_figure
+
+    def full(*args, **kwargs):
+        try:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        except OSError:
+            raise AttributeError("'Stream' object has no attribute 'pos'")
+
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    monkeypatch.setattr(fig, "savefig", full)
+    with pytest.raises(OSError) as err:
+        save_figure(fig, tmp_path / "x.png")
+    assert err.value.errno == errno.ENOSPC and list(tmp_path.iterdir()) == []
+    monkeypatch.setattr(fig, "savefig", lambda *a, **k: (_ for _ in ()).throw(ValueError("not a disk")))
+    with pytest.raises(ValueError, match="not a disk"):
+        save_figure(fig, tmp_path / "x.png")
+    plt.close(fig)

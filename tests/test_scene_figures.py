@@ -246,22 +246,25 @@ def test_overlay_agrees_within_the_study_bound_everywhere(scene_results, name, l
 
 def test_fig06_overlay_where_msm_holds_and_where_it_does_not(scene_results):
     """eta* = 1.4e-3: away from resonance eq. (21) sits on a stable AME branch within the study's
-    bound (2.65e-1), above resonance on the small branch I-above; at sigma = -0.02 no stable AME
-    equilibrium lies within 50 % of eq. (21)'s bi-modal response (the study's MSM failure there).
-    The coarse up sweep jumps from sigma = 0.01 to 0.04 and lands on the bi-modal branch from II,
-    2.68e-1 from the AME: just above the bound the study measured on the branches it sampled (at
-    full resolution the up sweep reaches I-above there, and every compared point is within)."""
+    bound (`STUDY_MAX_ERROR`, 2.76e-1 since the study on the mirrored sample; 2.65e-1 without wind),
+    above resonance on the small branch I-above; at sigma = -0.02 no stable AME equilibrium lies
+    within 50 % of eq. (21)'s bi-modal response (the study's MSM failure there). The coarse up
+    sweep jumps from sigma = 0.01 to 0.04 and lands on the bi-modal branch from II, 2.68e-1 from
+    the AME: above the no-wind study's 2.65e-1 and within the bound with wind, 2.76e-1 (at full
+    resolution the up sweep reaches I-above there)."""
+    from autocable.studies.ame_bounds import STUDY_MAX_ERROR
     _, out = scene_results("fig06")
     got = {(round(r["value"], 6), r["direction"]): r for r in _comparison(out)}
     within = {k for k, r in got.items() if r["within"] is True}
     far = {k for k, r in got.items() if r["note"].startswith("no stable AME equilibrium near")}
-    assert within == {(-0.05, "up"), (-0.05, "down"), (0.01, "up"), (0.01, "down"), (0.04, "down")}
+    assert within == {(-0.05, "up"), (-0.05, "down"), (0.01, "up"), (0.01, "down"), (0.04, "down"), (0.04, "up")}
     assert far == {(-0.02, "up"), (-0.02, "down")}
     assert got[(0.04, "down")]["ame_branch"] == "I-above"
     assert got[(0.04, "down")]["rel_error"] == pytest.approx(6.04e-3, rel=2e-2)
     assert got[(-0.05, "up")]["rel_error"] == pytest.approx(2.65e-1, rel=1e-2)     # the study's own
-    outside = got[(0.04, "up")]
-    assert outside["within"] is False and outside["rel_error"] == pytest.approx(2.68e-1, rel=1e-2)
+    outside = got[(0.04, "up")]        # on another branch than the down sweep, 2.68e-1 from the AME
+    assert outside["rel_error"] == pytest.approx(2.68e-1, rel=1e-2)
+    assert 2.65e-1 < outside["rel_error"] <= STUDY_MAX_ERROR[1.4e-3] and outside["within"] is True
     # The bi-modal branch born at II's pitchfork at sigma = 0.0295954 (named II-BP1 or II-BP2 by
     # the order in which the two arms of II detect their branch points).
     res, _ = scene_results("fig06")

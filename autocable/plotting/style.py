@@ -111,7 +111,16 @@ def _save(fig, path: Path, bbox) -> None:
     try:
         os.fchmod(fd, file_mode())     # mkstemp's 0o600 would survive the replace
         os.close(fd)
-        fig.savefig(tmp, format=path.suffix.lstrip("."), dpi=DPI, bbox_inches=bbox)
+        try:
+            fig.savefig(tmp, format=path.suffix.lstrip("."), dpi=DPI, bbox_inches=bbox)
+        except Exception as exc:
+            # A write that fails inside a backend can surface as another error of its clean-up
+            # (matplotlib's PDF writer: "'Stream' object has no attribute 'pos'" after the disk
+            # filled): the OSError it hides is the one to report (the CLI names the place).
+            cause = _hidden_os_error(exc)
+            if cause is not None and cause is not exc:
+                raise cause from None
+            raise
         os.replace(tmp, path)
     except BaseException:
         try:
@@ -119,6 +128,17 @@ def _save(fig, path: Path, bbox) -> None:
         except OSError:
             pass
         raise
+
+
+def _hidden_os_error(exc: BaseException) -> OSError | None:
+    """The first OSError in ``exc`` and the exceptions it was raised from or during."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, OSError):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
 
 
 #: Where a label may sit around its point (offset in points, horizontal and vertical alignment),
