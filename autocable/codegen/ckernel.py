@@ -70,7 +70,7 @@ from sympy.core.function import AppliedUndef
 from sympy.printing.c import C99CodePrinter
 
 from autocable import _store as cache
-from autocable.codegen.coefficients import Template, coefficient_template
+from autocable.codegen.coefficients import Template
 
 __all__ = ["KERNEL_VERSION", "KernelBuildError", "CKernel", "kernel_source", "compiled_kernel",
            "build_timing", "REASONS"]
@@ -1216,7 +1216,7 @@ def build_timing(system, cc: str | None = None) -> dict[str, float]:
     not touched): ``emit_s`` (sympy derivatives, CSE and C printing) and ``compile_s`` (gcc)."""
     cc = cc or os.environ.get("CC", "").strip() or "gcc"
     t0 = time.perf_counter()
-    template = coefficient_template(system.rhs)
+    template = system.template
     source = kernel_source(system.variables, system.parameter_names, template.rhs, template.weight_names)
     t1 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="autocable-ckernel-") as tmp:
@@ -1231,7 +1231,7 @@ def compiled_kernel(system, cc: str | None = None) -> CKernel:
     ``cc``: the C compiler (default ``$CC`` or ``gcc``). Raises `KernelBuildError` (one line)."""
     cc = cc or os.environ.get("CC", "").strip() or "gcc"
     try:
-        template = coefficient_template(system.rhs)
+        template = system.template
     except ValueError as exc:
         raise KernelBuildError(f"C kernel of {system.name!r}: {exc}") from None
     try:

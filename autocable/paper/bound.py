@@ -97,16 +97,16 @@ IF_NO_ODE21 = ("envelope21", "same_motion")
 
 
 def _has_table(text: str, name: str) -> bool:
-    return any(line.split("#", 1)[0].strip() == f"[{name}]" for line in text.splitlines())
+    from autocable.paper.candidates import table_span
+    return table_span(text.splitlines(), name) is not None
 
 
 def _table_text(text: str, name: str) -> str:
     """The ``[name]`` table of a scene file's text, with its ``[name.*]`` subtables."""
+    from autocable.paper.candidates import table_span
     lines = text.splitlines()
-    i0 = next(i for i, line in enumerate(lines) if line.split("#", 1)[0].strip() == f"[{name}]")
-    i1 = next((j for j in range(i0 + 1, len(lines)) if lines[j].strip().startswith("[")
-               and not lines[j].strip().startswith(f"[{name}.")), len(lines))
-    return "\n".join(lines[i0:i1]).rstrip("\n") + "\n"
+    i0, _, end = table_span(lines, name)
+    return "\n".join(lines[i0:end]).rstrip("\n") + "\n"
 
 
 def orbit_runs(path: Path) -> list[int]:

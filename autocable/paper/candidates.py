@@ -108,20 +108,26 @@ def _failed_start(error: str):
     return int(m.group(1)) if m else None
 
 
+def table_span(lines: list[str], name: str) -> tuple[int, int, int] | None:
+    """Where the ``[name]`` table of a scene file's lines is: (its header line, the end of its own
+    keys, the end of the table with its ``[name.*]`` subtables); None if it has none."""
+    i0 = next((i for i, line in enumerate(lines) if line.split("#", 1)[0].strip() == f"[{name}]"), None)
+    if i0 is None:
+        return None
+    after = [j for j in range(i0 + 1, len(lines)) if lines[j].strip().startswith("[")]
+    own = after[0] if after else len(lines)
+    end = next((j for j in after if not lines[j].strip().startswith(f"[{name}.")), len(lines))
+    return i0, own, end
+
+
 def _drop_table(path: Path, name: str) -> bool:
     """Remove the ``[name]`` table (with its ``[name.*]`` subtables) from a scene file; False if it
     has none."""
     lines = path.read_text().splitlines()
-    starts = [i for i, line in enumerate(lines) if line.split("#", 1)[0].strip() == f"[{name}]"]
-    if not starts:
+    span = table_span(lines, name)
+    if span is None:
         return False
-    i0, i1 = starts[0], len(lines)
-    for j in range(i0 + 1, len(lines)):
-        t = lines[j].strip()
-        if t.startswith("[") and not t.startswith(f"[{name}."):
-            i1 = j
-            break
-    path.write_text("\n".join(lines[:i0] + lines[i1:]) + "\n")
+    path.write_text("\n".join(lines[:span[0]] + lines[span[2]:]) + "\n")
     return True
 
 
@@ -129,12 +135,10 @@ def _switch_off(path: Path, table: str, key: str) -> bool:
     """Set ``key = false`` in the ``[table]`` table of a scene file where it is true (or absent,
     true by default: `autocable.scene.schema`); False if it was already false or there is no table."""
     lines = path.read_text().splitlines()
-    starts = [i for i, line in enumerate(lines) if line.split("#", 1)[0].strip() == f"[{table}]"]
-    if not starts:
+    span = table_span(lines, table)
+    if span is None:
         return False
-    i0 = starts[0]
-    i1 = next((j for j in range(i0 + 1, len(lines)) if lines[j].strip().startswith("[")), len(lines))
-    for j in range(i0 + 1, i1):
+    for j in range(span[0] + 1, span[1]):
         head, _, rest = lines[j].partition("=")
         if head.strip() == key:
             if rest.split("#", 1)[0].strip() == "false":
@@ -142,7 +146,7 @@ def _switch_off(path: Path, table: str, key: str) -> bool:
             lines[j] = f"{key} = false"
             break
     else:
-        lines.insert(i0 + 1, f"{key} = false")
+        lines.insert(span[0] + 1, f"{key} = false")
     path.write_text("\n".join(lines) + "\n")
     return True
 

@@ -75,12 +75,11 @@ class Monomials:
     """
 
     def __init__(self, system: System):
-        from autocable.codegen.coefficients import coefficient_template
         from autocable.methods.lambda_cache import numeric_function
         # The coefficients' expressions are generated for the field's structure, with its numbers
         # as extra parameters (the weights): one generated function serves every model of one
         # structure (each candidate model of the calibration paid 1-1.6 s here).
-        t = coefficient_template(system.rhs)
+        t = system.template
         self._w = t.weights
         self._g = numeric_function("poly", system.variables, system.parameter_names, t.rhs, key=t.key,
                                    constants=t.weight_names)

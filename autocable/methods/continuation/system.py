@@ -123,9 +123,10 @@ class System:
         return rhs_key(self.rhs)
 
     @cached_property
-    def _template(self):
-        """The right-hand side's structure and numbers (`autocable.codegen.coefficients`), for the
-        PyCont field with its numbers as parameters (`scaled_field`)."""
+    def template(self):
+        """The right-hand side's structure and numbers (`autocable.codegen.coefficients`): what the
+        C kernel, the search's polynomial form and the PyCont field with its numbers as parameters
+        (`scaled_field`) are generated from. ValueError if a symbol uses the weights' prefix."""
         return coefficient_template(self.rhs)
 
     @cached_property
@@ -224,8 +225,8 @@ class System:
         xs, ps = self._symbols
         rhs, weights = self.rhs, []
         if coefficients_as_parameters:
-            rhs = self._template.rhs
-            weights = list(zip(self._template.weight_names, self._template.weights.tolist()))
+            rhs = self.template.rhs
+            weights = list(zip(self.template.weight_names, self.template.weights.tolist()))
         xscale, lam = sp.Symbol("xscale"), sp.Symbol("lam")
         sub = {x: xscale * x for x in xs}
         sub.update({p: p + sp.Symbol(f"d_{p.name}") * lam for p in ps})
