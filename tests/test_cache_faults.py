@@ -189,9 +189,8 @@ _C_SCRIPT = textwrap.dedent("""
     x, k = sp.symbols("x k")
     c = compiled_integrator("../../decay", ("x",), ("k",), (-k * x,), None)
     run = c.run([1.0], [0.0, 1.0], [2.0], rtol=1e-10, atol=1e-12)
-    class Sys:
-        name, variables, parameter_names, rhs = "../../cubic", ("x",), ("k",), (-k * x ** 3,)
-    kern = compiled_kernel(Sys)
+    from autocable.methods.continuation.system import System
+    kern = compiled_kernel(System("../../cubic", ("x",), (-k * x ** 3,), {"k": 3.0}, ()))
     print(json.dumps({"x1": float(run.y[-1][0]), "f": float(kern.f([2.0], [3.0])[0]),
                       "compiled": [dict(c.timings)["compile_s"] > 0, dict(kern.timings)["compile_s"] > 0]}))
 """)
