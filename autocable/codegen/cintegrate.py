@@ -53,6 +53,7 @@ from autocable import _store as cache
 from autocable.codegen.coefficients import Template, coefficient_template
 from autocable.codegen.ckernel import (CFLAGS, KernelBuildError, _block, _compile, _Printer, cached_library,
                                       load_private)
+from autocable.model import derivatives
 
 __all__ = ["INTEGRATOR_VERSION", "STATUS", "CIntegrator", "CRun", "Repeated", "compiled_integrator",
            "integrator_source", "sample_grid"]
@@ -129,7 +130,9 @@ def integrator_source(variables: Sequence[str], parameters: Sequence[str], rhs: 
     body_c = _block(pr, coefs, [f"c[{k}]" for k in range(len(coefs))], "ac_tc") if coefs else []
     body = _block(pr, split, [f"out[{i}]" for i in range(n)], "ac_ti")
     ys = [sp.Symbol(v) for v in variables]
-    jac = _block(pr, [sp.diff(e, v) for e in split for v in ys], [f"out[{k}]" for k in range(n * n)], "ac_tj")
+    memo: dict = {}
+    jac = _block(pr, [derivatives.diff(e, v, memo) for e in split for v in ys],
+                 [f"out[{k}]" for k in range(n * n)], "ac_tj")
     A, B, C, E3, E5, D = _coefficients()
     stages = []
     # Stages 2..12 (K1..K11): y + h sum_j a_sj K_j, evaluated at t + c_s h.

@@ -71,6 +71,7 @@ from sympy.printing.c import C99CodePrinter
 
 from autocable import _store as cache
 from autocable.codegen.coefficients import Template
+from autocable.model import derivatives
 
 __all__ = ["KERNEL_VERSION", "KernelBuildError", "CKernel", "kernel_source", "compiled_kernel",
            "build_timing", "REASONS"]
@@ -143,8 +144,9 @@ def kernel_source(variables: Sequence[str], parameters: Sequence[str], rhs: Sequ
     names.update({w: f"w[{k}]" for k, w in enumerate(weights)})
     pr = _Printer(names)
     F = sp.Matrix([sp.sympify(e) for e in rhs])
-    J = F.jacobian(xs)
-    Jp = F.jacobian(ps) if m else sp.zeros(n, 0)
+    memo: dict = {}
+    J = derivatives.jacobian(list(F), xs, memo)
+    Jp = derivatives.jacobian(list(F), ps, memo) if m else sp.zeros(n, 0)
     body_f = _block(pr, list(F), [f"out[{i}]" for i in range(n)], "ac_tf")
     body_j = _block(pr, [J[i, j] for i in range(n) for j in range(n)],
                     [f"out[{i * n + j}]" for i in range(n) for j in range(n)], "ac_tj")

@@ -49,6 +49,7 @@ from autocable.codegen.compat import (
     pydstool_session,
     quiet,
 )
+from autocable.model import derivatives
 
 __all__ = [
     "TIME",
@@ -359,7 +360,8 @@ def jacobian_matrix(vf: VectorField, order: Sequence[str] | None = None) -> symp
     names = set(vf.variables) | {s.name for e in rhs.values() for s in e.free_symbols}
     real = {sympy.Symbol(n): sympy.Symbol(n, real=True) for n in names}
     plain = {r: p for p, r in real.items()}
-    rows = [[sympy.diff(rhs[vi].xreplace(real), real[sympy.Symbol(xj)]).xreplace(plain)
+    memo: dict = {}
+    rows = [[derivatives.diff(rhs[vi].xreplace(real), real[sympy.Symbol(xj)], memo).xreplace(plain)
              for xj in order] for vi in order]
     return sympy.Matrix(rows)
 

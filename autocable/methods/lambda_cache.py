@@ -19,6 +19,7 @@ from typing import Callable, Sequence
 import sympy as sp
 
 from autocable._store import atomic_write_text, cache_dir, cache_error, content_hash, report_rebuilt
+from autocable.model import derivatives
 
 #: What `numeric_function` can build from any right-hand side F(x; p).
 KINDS = ("f", "jac", "jac_p", "d2", "d3")
@@ -28,19 +29,19 @@ POLYNOMIAL_KINDS = ("poly",)
 
 def _expression(kind: str, rhs: Sequence[sp.Expr], xs, ps):
     """The sympy object lambdify prints for ``kind``; derive_by_array puts the new index first."""
-    F = sp.Matrix(list(rhs))
     if kind == "f":
-        return F
+        return sp.Matrix(list(rhs))
     if kind == "jac":
-        return F.jacobian(xs)
+        return derivatives.jacobian(rhs, xs)
     if kind == "jac_p":
-        return F.jacobian(ps)
+        return derivatives.jacobian(rhs, ps)
     if kind == "poly":
         return polynomial_form(rhs, xs)
-    d2 = sp.derive_by_array(sp.derive_by_array(list(rhs), xs), xs)
+    memo: dict = {}
+    d2 = derivatives.derive_by_array(derivatives.derive_by_array(list(rhs), xs, memo), xs, memo)
     if kind == "d2":
-        return d2.tolist()
-    return sp.derive_by_array(d2, xs).tolist()
+        return d2
+    return derivatives.derive_by_array(d2, xs, memo)
 
 
 def polynomial_form(rhs: Sequence[sp.Expr], xs) -> list:
