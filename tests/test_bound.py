@@ -414,3 +414,30 @@ def test_a_deferred_overlay_runs_only_when_its_boxes_can_change_the_outcome(tmp_
     assert (third["bound"], third["boxes"], sorted(third["lowered_by"])) == (
         first["bound"], first["boxes"], sorted(first["lowered_by"]))
     assert not any("deferred" in d for d in third["dropped_runs"])
+
+
+def test_candidate_scene_copies_find_their_model_from_a_relative_folder(tmp_path, monkeypatch):
+    """A calibration run with a relative --out (``--out cal``) wrote the cwd-relative model path into
+    its candidates' scene files, which resolve the model from their own folder: every full
+    evaluation failed with "model: no such file". The copies now name the model relative to
+    themselves (`candidates.scene_on_model`), for the bound stage's copies and the full
+    evaluations' alike, and still find it after the folder is moved."""
+    from autocable.paper import candidates as cm
+    from autocable.scene.schema import load_scene
+    repo = Path.cwd()
+    monkeypatch.chdir(tmp_path)
+    model = Path("cal/cand/model.toml")
+    model.parent.mkdir(parents=True)
+    model.write_text((repo / SAMPLE).read_text())
+    copy = Path("cal/cand/runs/fig03.toml")
+    copy.parent.mkdir()
+    bd.scene_copy(repo / "runs" / "fig03.toml", copy, model, False, False)
+    assert Path(load_scene(copy).model).resolve() == model.resolve()
+    full = Path("cal/cand/runs/fig05a.toml")
+    full.write_text(cm.scene_on_model((repo / "runs" / "fig05a.toml").read_text(), model, full.parent))
+    assert Path(load_scene(full).model).resolve() == model.resolve()
+    Path("cal").rename("moved")
+    for name in ("fig03", "fig05a"):
+        scene = load_scene(Path("moved/cand/runs") / f"{name}.toml")
+        assert Path(scene.model).resolve() == (tmp_path / "moved/cand/model.toml").resolve()
+        load_model(scene.model)

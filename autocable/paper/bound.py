@@ -124,7 +124,7 @@ def scene_copy(src: Path, dst: Path, model: Path, drop_orbits: bool, drop_overla
     (``drop_ode21``), as `run_bound` prepares a candidate's scenes (an overlay it defers included);
     returns the notes of what was dropped (for `autocable bench bound-scenes`)."""
     from autocable.paper import candidates as cm
-    dst.write_text(src.read_text().replace('model = "../models/luongo_zulli_2012.toml"', f'model = "{model}"'))
+    dst.write_text(cm.scene_on_model(src.read_text(), model, dst.parent))
     notes = []
     if drop_orbits:
         notes += [f"{src.stem}: run[{k}]" for k in reversed(orbit_runs(dst)) if cm._drop_run(dst, k)]
@@ -356,7 +356,7 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
             dst = cand.folder / "runs" / f"{n}.toml"
             if not dst.is_file():
                 text = (runs / f"{n}.toml").read_text()
-                dst.write_text(text.replace('model = "../models/luongo_zulli_2012.toml"', f'model = "{model}"'))
+                dst.write_text(cm.scene_on_model(text, model, dst.parent))
             if skip_orbits.get(n) and not cm.scene_complete(cand.folder / "out" / n, dst):
                 # an orbit run decides only statements that never lower a bound: a bound need not
                 # pay for it (a finished scene keeps it: its text is what made its results)

@@ -62,7 +62,7 @@ import numpy as np
 from autocable.errors import EXIT_FAILED
 from autocable.paper import targets as tg
 from autocable.paper.candidates import (Readings, _drop_run, _failed_start, _finite, _recorded_drops,
-                                        candidate_name, scene_complete, screen_score,
+                                        candidate_name, scene_complete, scene_on_model, screen_score,
                                         write_candidate_model)
 from autocable.spec import ModelSpec, SpecError, load_model, read_toml
 from autocable.plotting.style import styled
@@ -614,7 +614,7 @@ def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path
         # A resumed evaluation keeps the copies it made, with the runs it dropped (below), so that
         # the scenes already computed from them are reused.
         if not (scene_dir / f.name).is_file():
-            text = f.read_text().replace('model = "../models/luongo_zulli_2012.toml"', f'model = "{model}"')
+            text = scene_on_model(f.read_text(), model, scene_dir)
             (scene_dir / f.name).write_text(text)
     t0 = time.perf_counter()
     errors: list[str] = []

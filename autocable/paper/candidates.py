@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -81,6 +82,18 @@ def write_candidate_model(spec_path: Path, c: dict, out: Path) -> Path:
     out.write_text(text)
     load_model(out)    # the file must be a valid spec
     return out
+
+
+#: The model line of the repository's figure scenes (runs/fig*.toml), which a candidate's copies replace.
+SAMPLE_MODEL_LINE = 'model = "../models/luongo_zulli_2012.toml"'
+
+
+def scene_on_model(text: str, model: Path, scene_dir: Path) -> str:
+    """A figure scene's text with its model line naming ``model``, written relative to
+    ``scene_dir``, the folder of the scene file (a scene resolves its model from there): a
+    calibration whose ``--out`` is a relative path, or a folder moved after it ran, still finds it."""
+    rel = Path(os.path.relpath(Path(model).resolve(), Path(scene_dir).resolve())).as_posix()
+    return text.replace(SAMPLE_MODEL_LINE, f'model = "{rel}"')
 
 
 def scene_complete(folder: Path, scene_file: Path) -> bool:
