@@ -235,3 +235,27 @@ def test_a_full_disk_with_a_cold_cache_prints_one_line_and_no_traceback(tmp_path
     assert proc.returncode in (2, 3), proc.stderr
     assert "No space left on device" in proc.stderr
     assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+
+
+def test_builds_skip_the_cpu_dispatch_probe_and_keep_the_baseline_flags(tmp_path, monkeypatch):
+    """numpy.distutils probed about 40 CPU features (AVX512 and the like) before each PyDSTool
+    build of a cold cache (4 s of a 6 s build), for dispatch PyDSTool's sources do not use. The
+    build folder's setup.cfg (`compat.BUILD_OPTIONS`) turns the dispatch off: the build log shows
+    the baseline still probed and passed (-msse3 on x86-64, so the compiled code is the same) and
+    no dispatch feature tested."""
+    import platform
+
+    import numpy as np
+    monkeypatch.setenv("AUTOCABLE_CACHE", str(tmp_path / "cache"))
+    x, k = sympy.Symbol("x"), sympy.Symbol("k")
+    vf = pydstool.VectorField("compat_cfg_probe", ("x",), [-k * x], {"k": 2.0})
+    gen = pydstool.make_ode_generator(vf, "Dopri")
+    times, states = pydstool.integrate(gen, [1.0], None, 0.0, 1.0, 0.5)
+    assert abs(states[-1, 0] - np.exp(-2.0)) < 1e-8        # the closed form x(1) = exp(-k)
+    cfgs = list((tmp_path / "cache").rglob("setup.cfg"))
+    assert [c.read_text() for c in cfgs] == [compat.BUILD_OPTIONS]
+    log = "\n".join(p.read_text() for p in (tmp_path / "cache").rglob("build.log"))
+    tested = [ln for ln in log.splitlines() if "testing feature" in ln]
+    assert tested and not any(f"'{f}'" in ln for ln in tested for f in ("AVX", "AVX2", "AVX512F", "FMA3"))
+    if platform.machine() == "x86_64":
+        assert "-msse -msse2 -msse3" in log

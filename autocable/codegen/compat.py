@@ -6,7 +6,8 @@ PyDSTool's last release predates Python 3.10 and misbehaves in five ways this mo
 * it imports the ``parser`` and ``symbol`` modules, removed in Python 3.10: `import_pydstool`
   registers stand-ins;
 * its compiled builds fail in any folder whose path contains a dot (e.g. ``~/.cache``):
-  `build_generator_library` works around it;
+  `build_generator_library` works around it, and gives numpy.distutils the options
+  (`BUILD_OPTIONS`) that spare each build its probe of CPU features PyDSTool never dispatches to;
 * it writes build artefacts (``dop853_temp/``, ``radau5_temp/``, ``auto_temp/``, ``build/``,
   ``fort.*``, ``*.so``) into the current directory and imports them from there: `build_dir` is the
   one place in autocable that changes directory;
@@ -36,6 +37,7 @@ import warnings
 from pathlib import Path
 from typing import Iterator
 
+from autocable._store import atomic_write_text
 from autocable.errors import CacheError
 
 __all__ = [
@@ -320,7 +322,26 @@ def build_generator_library(generator) -> None:
     """
     builder = generator._builder  # PyDSTool's build helper; created on first access
     builder.tempdir = os.path.relpath(builder.tempdir)
+    _build_options(Path.cwd())
     generator.makeLib()
+
+
+#: numpy.distutils' options for PyDSTool's builds, which distutils reads from ``setup.cfg`` in the
+#: current directory. Without them every build probes the compiler for each CPU feature it could
+#: dispatch to (AVX, AVX512, ...: about 40 test compiles, 4 s of a 6 s build), although PyDSTool's
+#: sources have no dispatched code, and numpy.distutils keeps the answers only when its process
+#: exits, so long-lived scene workers probe again on every build. The baseline (SSE-SSE3 on
+#: x86-64) and with it the compile flags of PyDSTool's sources stay as they were.
+BUILD_OPTIONS = "[build_ext]\ncpu_dispatch = none\n"
+
+
+def _build_options(folder: Path) -> None:
+    cfg = folder / "setup.cfg"
+    try:
+        if not cfg.is_file() or cfg.read_text(encoding="utf-8") != BUILD_OPTIONS:
+            atomic_write_text(cfg, BUILD_OPTIONS)     # scene workers may build side by side
+    except OSError:
+        pass        # a read-only cache folder: the build probes as before
 
 
 def memoize_name_map(generator) -> None:
