@@ -129,15 +129,28 @@ class System:
         (`scaled_field`) are generated from. ValueError if a symbol uses the weights' prefix."""
         return coefficient_template(self.rhs)
 
-    @cached_property
-    def _numeric(self):
+    def _numeric_function(self, kind: str):
         # The generated text is cached across processes (`lambda_cache`): the Jacobians of the wind
         # AME cost seconds of sympy per process otherwise. It keeps the numbers in the text (keyed
         # per model): with the numbers passed as data, the rounding-level change of J moved a
         # branch switch at a degenerate pitchfork of a calibration candidate's Fig. 6 onto the
         # other branch.
-        args = (self.variables, self.parameter_names, self.rhs)
-        return tuple(numeric_function(kind, *args, key=self._rhs_key) for kind in ("f", "jac", "jac_p"))
+        return numeric_function(kind, self.variables, self.parameter_names, self.rhs, key=self._rhs_key)
+
+    # One function each, made when first used: a scene on the compiled engine may need F alone (its
+    # state scale), and each costs about a second of sympy for a model met for the first time
+    # (every candidate of the calibration's bound stage).
+    @cached_property
+    def _f_fn(self):
+        return self._numeric_function("f")
+
+    @cached_property
+    def _jac_fn(self):
+        return self._numeric_function("jac")
+
+    @cached_property
+    def _jac_p_fn(self):
+        return self._numeric_function("jac_p")
 
     @cached_property
     def _higher(self):
@@ -151,11 +164,11 @@ class System:
                 lambda x, p: np.broadcast_to(np.array(f3(x, p), dtype=float), (n,) * 4).transpose(3, 2, 1, 0))
 
     def f(self, x, p) -> np.ndarray:
-        return np.asarray(self._numeric[0](np.asarray(x, float), np.asarray(p, float)), dtype=float).reshape(-1)
+        return np.asarray(self._f_fn(np.asarray(x, float), np.asarray(p, float)), dtype=float).reshape(-1)
 
     def jac(self, x, p) -> np.ndarray:
         n = self.dimension
-        return np.broadcast_to(np.asarray(self._numeric[1](np.asarray(x, float), np.asarray(p, float)),
+        return np.broadcast_to(np.asarray(self._jac_fn(np.asarray(x, float), np.asarray(p, float)),
                                           dtype=float), (n, n)).copy()
 
     def f_many(self, X, p) -> np.ndarray:
@@ -164,7 +177,7 @@ class System:
         X = np.asarray(X, float)
         n, N = self.dimension, len(X)
         try:
-            out = np.asarray(self._numeric[0](X.T, np.asarray(p, float)), dtype=float)
+            out = np.asarray(self._f_fn(X.T, np.asarray(p, float)), dtype=float)
             if out.size == n * N:
                 return out.reshape(n, N).T.copy()
         except (ValueError, TypeError):
@@ -176,7 +189,7 @@ class System:
         X = np.asarray(X, float)
         n, N = self.dimension, len(X)
         try:
-            out = np.asarray(self._numeric[1](X.T, np.asarray(p, float)), dtype=float)
+            out = np.asarray(self._jac_fn(X.T, np.asarray(p, float)), dtype=float)
             if out.size == n * n * N:
                 return out.reshape(n, n, N).transpose(2, 0, 1).copy()
         except (ValueError, TypeError):
@@ -185,7 +198,7 @@ class System:
 
     def jac_p(self, x, p) -> np.ndarray:
         n, m = self.dimension, len(self.parameters)
-        return np.broadcast_to(np.asarray(self._numeric[2](np.asarray(x, float), np.asarray(p, float)),
+        return np.broadcast_to(np.asarray(self._jac_p_fn(np.asarray(x, float), np.asarray(p, float)),
                                           dtype=float), (n, m)).copy()
 
     def hessian(self, x, p) -> np.ndarray:
