@@ -255,3 +255,42 @@ def test_figures_on_another_model(tmp_path):
     assert f"statements of {targets.name}" in (tmp_path / "b" / "report.md").read_text()
     assert main(["figures", "--out", str(tmp_path / "c"), "--runs", str(runs), "--model", str(tmp_path / "nope.toml")]) == 2
     assert main(["figures", "--out", str(tmp_path / "c"), "--runs", str(runs), "--targets", str(tmp_path / "nope.toml")]) == 2
+
+
+def test_on_a_cold_cache_one_scene_of_each_group_goes_first(tmp_path, monkeypatch):
+    """Scenes of one model, ordering and AME (`cold_group`) started side by side on a cold cache
+    each derive and compile the same things: the most expensive of each group goes first and the
+    others are queued only when it is done; with recorded times (a warm cache) all are queued at once.
+    Checked on the serial executor, whose run order is the queue order, with the paper's scene
+    files and a stand-in scene task that records what ran."""
+    from autocable.paper import figures as fg
+    monkeypatch.setenv("AUTOCABLE_CACHE", str(tmp_path / "cache"))
+    runs = fg.default_runs_dir()
+    names = ["fig04a", "fig04b", "fig04c", "fig09", "fig10", "fig05b", "fig06"]
+    scenes = [runs / f"{n}.toml" for n in names]
+    groups = {n: fg.cold_group(runs / f"{n}.toml") for n in names}
+    assert groups["fig04a"] == groups["fig04b"] == groups["fig04c"] != groups["fig09"] == groups["fig10"]
+    assert groups["fig05b"] == groups["fig06"] != groups["fig09"]            # no wind: another AME system
+    assert groups["fig04a"][1:] == ("natural", "2dof", True) and groups["fig06"][1:] == ("paper", "2dof", False)
+    ran: list[str] = []
+
+    def fake_task(scene_path, scene_out, engine=None, model=None, plot=True, timeout=None):
+        ran.append(Path(scene_path).stem)
+        return ("ok", "", "", 0.01)
+
+    monkeypatch.setattr(fg, "scene_task", fake_task)
+    monkeypatch.setattr(fg, "_collect", lambda name, folder, out: [])
+    said: list[str] = []
+    fg.run_figures(scenes, tmp_path / "cold", workers=0, say=said.append)
+    by_cost = sorted(names, key=lambda n: fg.expected_cost(runs / f"{n}.toml"), reverse=True)
+    leaders = [n for k, n in enumerate(by_cost) if groups[n] not in {groups[m] for m in by_cost[:k]}]
+    assert ran[:len(leaders)] == leaders and sorted(ran) == sorted(names)
+    for n in names:     # every other scene ran after its group's leader
+        lead = next(m for m in leaders if groups[m] == groups[n])
+        assert ran.index(n) >= ran.index(lead)
+    assert any("after fig" in s for s in said)
+    # the run recorded every scene's time: the cache is warm, all are queued at once, by cost
+    ran.clear()
+    fg.run_figures(scenes, tmp_path / "warm", workers=0)
+    recorded = fg.recorded_wall_times()
+    assert ran == sorted(names, key=lambda n: fg.expected_cost(runs / f"{n}.toml", recorded), reverse=True)

@@ -12,6 +12,7 @@ line holds the sha256 of the rest, checked before it is executed (a file that fa
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import inspect
 from typing import Callable, Sequence
@@ -37,11 +38,17 @@ def _expression(kind: str, rhs: Sequence[sp.Expr], xs, ps):
         return derivatives.jacobian(rhs, ps)
     if kind == "poly":
         return polynomial_form(rhs, xs)
-    memo: dict = {}
-    d2 = derivatives.derive_by_array(derivatives.derive_by_array(list(rhs), xs, memo), xs, memo)
+    d2 = _second_derivatives(tuple(sp.sympify(e) for e in rhs), tuple(xs))
     if kind == "d2":
         return d2
-    return derivatives.derive_by_array(d2, xs, memo)
+    return derivatives.derive_by_array(d2, xs)
+
+
+@functools.lru_cache(maxsize=4)
+def _second_derivatives(rhs: tuple, xs: tuple) -> list:
+    # The first Lyapunov coefficient asks for d2 and then d3 (= d/dx of d2): one differentiation
+    # serves both (half a second of sympy for the wind AME).
+    return derivatives.derive_by_array(derivatives.derive_by_array(list(rhs), xs), xs)
 
 
 def polynomial_form(rhs: Sequence[sp.Expr], xs) -> list:
