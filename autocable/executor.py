@@ -26,6 +26,8 @@ worker (`autocable._children.die_with_parent`).
 """
 from __future__ import annotations
 
+import heapq
+import itertools
 import json
 import logging
 import math
@@ -206,16 +208,22 @@ class Executor:
     ignored); ``warm``: a function every worker runs once before the first task (imports,
     compiled integrators), none of whose result is kept; ``journal``: a file the task starts are
     appended to (`attempts`), emptied at the start; ``cluster_kwargs``: more LocalCluster
-    arguments."""
+    arguments; ``strict_priority``: tasks are handed to the cluster one per free worker, the one of
+    highest priority at that moment (tasks of seconds, whose order matters: figure scenes and
+    calibration points; on the serial path too)."""
 
     def __init__(self, workers: int | None = None, scheduler: str | None = None, *,
                  warm: Callable[[], Any] | None = None, journal: str | Path | None = None,
-                 cluster_kwargs: dict | None = None):
+                 cluster_kwargs: dict | None = None, strict_priority: bool = False):
         self.workers, self.scheduler, self.warm = workers, scheduler, warm
+        self.strict_priority = strict_priority
         self.journal = str(Path(journal).resolve()) if journal else None
         self.cluster_kwargs = dict(cluster_kwargs or {})
         self.client = self._cluster = self._ac = None
         self._queue: list = []          # the serial path's tasks, in order
+        self._held: list = []           # strict priority: a heap of the tasks not yet handed to Dask
+        self._seq = itertools.count()
+        self._in_flight = 0
         self._pending = 0
         self.where: dict = {}
 
@@ -250,7 +258,8 @@ class Executor:
             # Dask's scratch space (spilled data, worker folders) inside autocable's cache, not the
             # system temporary folder: a command writes nowhere but its --out and the cache.
             scratch = str(cache_dir("dask-scratch"))
-            with dask.config.set({"temporary-directory": scratch}):
+            config = {"temporary-directory": scratch}
+            with dask.config.set(config):
                 if self.scheduler:
                     address = scheduler_address(self.scheduler)
                     self.client = Client(address, timeout=SCHEDULER_TIMEOUT)
@@ -290,16 +299,34 @@ class Executor:
         Returns the Dask future (None on the serial path)."""
         self._pending += 1
         if self.client is None:
-            self._queue.append((label, fn, args))
+            self._queue.append((label, fn, args, priority))
             return None
+        if self.strict_priority:
+            # Dask assigns a task without dependencies to a worker when it is submitted (and may
+            # steal it later); its priority orders only that worker's queue. Held here and handed
+            # over one per free worker, the task of highest priority at that moment runs next.
+            heapq.heappush(self._held, (-priority, next(self._seq), label, fn, args))
+            self._feed()
+            return None
+        return self._send(label, fn, args, priority)
+
+    def _send(self, label: str, fn: Callable, args: tuple, priority: int):
         fut = self.client.submit(_journaled, self.journal, label, fn, *args, pure=False, priority=priority,
                                  key=f"{label}-{uuid.uuid4().hex[:12]}")
         fut._autocable_label = label
+        self._in_flight += 1
         if self._ac is not None:
             self._ac.add(fut)
         else:
             self._queue.append(fut)
         return fut
+
+    def _feed(self) -> None:
+        room = self.n_workers - self._in_flight if self._held else 0
+        while self._held and room > 0:
+            neg, _, label, fn, args = heapq.heappop(self._held)
+            self._send(label, fn, args, -neg)
+            room -= 1
 
     @property
     def pending(self) -> int:
@@ -312,7 +339,10 @@ class Executor:
         its ``error``."""
         if self.client is None:
             while self._queue:
-                label, fn, args = self._queue.pop(0)
+                k = 0
+                if self.strict_priority:    # the highest priority first, the earliest of equals
+                    k = max(range(len(self._queue)), key=lambda i: (self._queue[i][3], -i))
+                label, fn, args, _ = self._queue.pop(k)
                 try:
                     value = _journaled(self.journal, label, fn, *args)
                     done = Done(label, value)
@@ -333,6 +363,8 @@ class Executor:
                     done = Done(label, None, _one_line(exc))
                 fut.release()
                 self._pending -= 1
+                self._in_flight -= 1
+                self._feed()        # the next task starts before the caller handles this one
                 yield done
         finally:
             self._ac = None

@@ -272,3 +272,31 @@ def test_a_killed_worker_during_a_calibration_screen_loses_only_its_point(serial
 
 def test_done_ok_is_the_absence_of_an_error():
     assert Done("a", 1).ok and not Done("a", None, "x").ok
+
+
+def _started(seconds: float) -> float:
+    t = time.time()
+    time.sleep(seconds)
+    return t
+
+
+@pytest.mark.parametrize("workers", [0, 2])
+def test_strict_priority_gives_the_next_free_worker_the_highest_task(workers):
+    """Dask assigns a task to a worker when it is submitted, so a task queued later with a higher
+    priority (a figure scene freed when its group's first scene is done) waited behind earlier,
+    lower ones. With ``strict_priority`` the executor holds the tasks and hands one to each free
+    worker, the highest at that moment. Two workers: a (0.8 s) and b (0.2 s) run; c (priority 1)
+    and d (8) wait; e (5) is queued when b is done; then d, e, c is the order, on the serial path
+    too (where e joins after a)."""
+    with Executor(workers, strict_priority=True) as ex:
+        for label, s, prio in (("a", 0.8, 10), ("b", 0.2, 9), ("c", 0.05, 1), ("d", 0.05, 8)):
+            ex.submit(label, _started, s, priority=prio)
+        starts = {}
+        for done in ex.completed():
+            assert done.ok, done.error
+            starts[done.label] = done.value
+            if done.label == "b":
+                ex.submit("e", _started, 0.05, priority=5)
+    order = sorted(starts, key=starts.get)
+    assert order.index("d") < order.index("e") < order.index("c")
+    assert order[:2] in (["a", "b"], ["b", "a"])

@@ -266,12 +266,15 @@ def test_on_a_cold_cache_one_scene_of_each_group_goes_first(tmp_path, monkeypatc
     from autocable.paper import figures as fg
     monkeypatch.setenv("AUTOCABLE_CACHE", str(tmp_path / "cache"))
     runs = fg.default_runs_dir()
-    names = ["fig04a", "fig04b", "fig04c", "fig09", "fig10", "fig05b", "fig06"]
+    names = ["fig04a", "fig04b", "fig04c", "fig09", "fig10", "fig05a", "fig05b", "fig06"]
     scenes = [runs / f"{n}.toml" for n in names]
     groups = {n: fg.cold_group(runs / f"{n}.toml") for n in names}
     assert groups["fig04a"] == groups["fig04b"] == groups["fig04c"] != groups["fig09"] == groups["fig10"]
     assert groups["fig05b"] == groups["fig06"] != groups["fig09"]            # no wind: another AME system
-    assert groups["fig04a"][1:] == ("natural", "2dof", True) and groups["fig06"][1:] == ("paper", "2dof", False)
+    assert groups["fig04a"][1:] == ("natural", "2dof", True, "compiled")
+    assert groups["fig06"][1:] == ("paper", "2dof", False, "compiled")
+    assert groups["fig05a"] != groups["fig05b"]        # PyCont builds a PyDSTool library of its own
+    assert fg.cold_group(runs / "fig05a.toml", engine="compiled") == groups["fig05b"]
     ran: list[str] = []
 
     def fake_task(scene_path, scene_out, engine=None, model=None, plot=True, timeout=None):

@@ -262,7 +262,7 @@ def run_bound(model_path: Path, targets, goal: tg.Goal, cands: list, full: list,
     if not hasattr(executor, "submit"):
         from autocable.executor import Executor
         from autocable.paper.figures import _preload
-        with Executor(int(executor), warm=_preload) as own:
+        with Executor(int(executor), warm=_preload, strict_priority=True) as own:
             return run_bound(model_path, targets, goal, cands, full, out, runs, reference_out, capped, own, say,
                              order, minutes, margin)
     from autocable._store import atomic_write_json

@@ -1054,7 +1054,7 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     from autocable.executor import Executor, attempts
     if workers is None:
         workers = jobs
-    executor = Executor(workers, scheduler, warm=_warm_worker, journal=out / TASKS_JOURNAL)
+    executor = Executor(workers, scheduler, warm=_warm_worker, journal=out / TASKS_JOURNAL, strict_priority=True)
     with executor:
         stats = _stages(model_path, targets_path, targets, goal, out, space, runs, executor, say, t_all, bound,
                         bound_minutes, bound_margin, prior_bound)

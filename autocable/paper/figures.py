@@ -218,12 +218,12 @@ def expected_cost(path: Path, recorded: dict[str, float] | None = None) -> float
             + 3.0 * (scene.overlay is not None) + 8.0 * (scene.time is not None))
 
 
-def cold_group(path: Path, model: str | None = None) -> tuple | None:
+def cold_group(path: Path, model: str | None = None, engine: str | None = None) -> tuple | None:
     """What a scene computes once and caches for every scene like it: the derivation of its model's
-    eq. (21) and amplitude equations (model and Multiple Scales ordering) and the compiled system
-    it continues (the AME it uses, with or without the wind terms). None for a scene that cannot
-    be read (it fails at once in its process). ``model`` overrides the scene's own, as
-    `run_figures` does."""
+    eq. (21) and amplitude equations (model and Multiple Scales ordering), the compiled system it
+    continues (the AME it uses, with or without the wind terms) and its continuation engine (PyCont
+    compiles a PyDSTool library of its own). None for a scene that cannot be read (it fails at
+    once in its process). ``model`` and ``engine`` override the scene's own, as `run_figures` does."""
     from autocable.scene.runner import load_scene
     try:
         scene = load_scene(path)
@@ -232,7 +232,7 @@ def cold_group(path: Path, model: str | None = None) -> tuple | None:
     wind = scene.fixed.get("U", 0.0) != 0.0 or any(r.parameter == "U" for r in scene.runs)
     if scene.time is not None:
         wind = wind or scene.time.U != 0.0
-    return (str(Path(model or scene.model).resolve()), scene.ordering, scene.ame, wind)
+    return (str(Path(model or scene.model).resolve()), scene.ordering, scene.ame, wind, engine or scene.engine)
 
 
 def _error_file(folder: Path, error: str, detail: str) -> None:
@@ -277,7 +277,7 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
     leaders: dict[tuple, str] = {}
     first: list[Path] = []
     for path in pending:
-        key = None if path.stem in recorded else cold_group(path, model_arg)
+        key = None if path.stem in recorded else cold_group(path, model_arg, engine)
         if key is None or key not in leaders:
             if key is not None:
                 leaders[key] = path.stem
@@ -285,6 +285,8 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
         else:
             held.setdefault(leaders[key], []).append(path)
     rank_of = {p.stem: rank for rank, p in enumerate(pending)}
+    # a leader outranks every scene queued after another leader: the longest cold scenes start first
+    boost = {name: total for name in leaders.values()}
     journal = out / TASKS_JOURNAL
     if executor is None:
         if workers is None and scheduler is None and len(scenes) <= 1:
@@ -293,7 +295,8 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
             workers = min(workers, max(len(scenes), 1))
         elif workers is None and not scheduler:
             workers = min(os.cpu_count() or 1, max(len(scenes), 1))
-        executor = Executor(workers, scheduler, warm=_preload if len(scenes) > 1 else None, journal=journal)
+        executor = Executor(workers, scheduler, warm=_preload if len(scenes) > 1 else None, journal=journal,
+                            strict_priority=True)
         owned = True
     else:
         owned = False
@@ -310,7 +313,7 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
             # at the end (`autocable.run_folder.output_folder`); the error file is ours to clear.
             (folder / ERROR_TXT).unlink(missing_ok=True)
             executor.submit(f"scene:{name}", scene_task, str(Path(path).resolve()), str(folder.resolve()), engine,
-                            model_arg, plot, timeout, priority=total - rank_of[name])
+                            model_arg, plot, timeout, priority=total - rank_of[name] + boost.get(name, 0))
             tell(f"{name}: queued ({path.name})")
 
         for path in first:
