@@ -258,8 +258,7 @@ class Executor:
             # Dask's scratch space (spilled data, worker folders) inside autocable's cache, not the
             # system temporary folder: a command writes nowhere but its --out and the cache.
             scratch = str(cache_dir("dask-scratch"))
-            config = {"temporary-directory": scratch}
-            with dask.config.set(config):
+            with dask.config.set({"temporary-directory": scratch}):
                 if self.scheduler:
                     address = scheduler_address(self.scheduler)
                     self.client = Client(address, timeout=SCHEDULER_TIMEOUT)
@@ -296,7 +295,8 @@ class Executor:
     def submit(self, label: str, fn: Callable, *args, priority: int = 0):
         """Queue ``fn(*args)`` (a module-level function: it travels to the workers by reference,
         its arguments by value; paths must be absolute). ``priority``: higher starts first.
-        Returns the Dask future (None on the serial path)."""
+        Returns the Dask future (None on the serial path, and with ``strict_priority``, where the
+        task may not have been handed to Dask yet)."""
         self._pending += 1
         if self.client is None:
             self._queue.append((label, fn, args, priority))
@@ -321,8 +321,13 @@ class Executor:
             self._queue.append(fut)
         return fut
 
+    def _slots(self) -> int:
+        """Tasks the cluster can run at once now: its workers' threads (at least 1)."""
+        workers = self.client.scheduler_info().get("workers", {})
+        return max(sum(int(w.get("nthreads", 1)) for w in workers.values()), 1)
+
     def _feed(self) -> None:
-        room = self.n_workers - self._in_flight if self._held else 0
+        room = self._slots() - self._in_flight if self._held else 0
         while self._held and room > 0:
             neg, _, label, fn, args = heapq.heappop(self._held)
             self._send(label, fn, args, -neg)
@@ -352,6 +357,7 @@ class Executor:
                 yield done
             return
         from dask.distributed import as_completed
+        self._feed()        # workers that joined since the tasks were queued
         self._ac = as_completed(self._queue)
         self._queue = []
         try:
