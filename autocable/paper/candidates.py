@@ -92,7 +92,11 @@ def scene_on_model(text: str, model: Path, scene_dir: Path) -> str:
     """A figure scene's text with its model line naming ``model``, written relative to
     ``scene_dir``, the folder of the scene file (a scene resolves its model from there): a
     calibration whose ``--out`` is a relative path, or a folder moved after it ran, still finds it."""
-    rel = Path(os.path.relpath(Path(model).resolve(), Path(scene_dir).resolve())).as_posix()
+    target = Path(model).resolve()
+    try:
+        rel = Path(os.path.relpath(target, Path(scene_dir).resolve())).as_posix()
+    except ValueError:      # another drive (Windows): no relative path, the absolute one then
+        rel = target.as_posix()
     return text.replace(SAMPLE_MODEL_LINE, f'model = "{rel}"')
 
 
