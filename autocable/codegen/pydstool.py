@@ -22,11 +22,13 @@ and a PyCont ``ContClass`` ready for continuation. What it guarantees:
 from __future__ import annotations
 
 import contextlib
+import errno
 import functools
 import importlib
 import importlib.machinery
 import keyword
 import math
+import os
 import re
 import sys
 import time
@@ -633,7 +635,15 @@ def make_ode_generator(vf: VectorField, kind: str = "Dopri", *,
             _remove_stale(so_file, py_file, manifest_file, pickled)
             sys.modules.pop(f"{package}.{modname}", None)
             sys.modules.pop(f"{package}._{modname}", None)
-            build_generator_library(gen)
+            try:
+                build_generator_library(gen)
+            except (Exception, SystemExit):
+                if os.strerror(errno.ENOSPC) in chatter.tail():
+                    # the compiler could not write its output: a full disk under the cache is the
+                    # user's to fix (one line naming the cache), not a failure of PyDSTool
+                    raise cache.cache_error(folder / package, OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))) \
+                        from None
+                raise
             if not so_file.exists():
                 raise PyDSToolError(f"{what} failed: the compiler produced no library "
                                     f"(see the error's chatter)", what=what, chatter=chatter.tail())

@@ -17,6 +17,7 @@ import numpy as np
 
 from autocable.codegen import compat
 from autocable.codegen.pydstool import continuation_system
+from autocable.errors import CacheError
 from autocable.methods.continuation.events import _hopf_check
 from autocable.methods.continuation.chart import _Chart, _correct, _locate
 from autocable.methods.continuation.problem import ContinuationSettings, EquilibriumProblem, Progress
@@ -58,6 +59,8 @@ def _contclass(chart: _Chart, Y0: np.ndarray):
         # the numbers as parameters: one generator per structure (`System.scaled_field`)
         return continuation_system(chart.system.scaled_field(True), "Dopri", ics=chart.point_dict(Y0),
                                    pars=chart.pycont_pars(0.0)), ""
+    except CacheError:
+        raise       # an unwritable or full cache: the command's one-line error, not a branch's end
     except Exception as exc:  # noqa: BLE001 - reported in one line
         return None, f"PyCont could not be set up: {_one_line(exc)}"
 
