@@ -11,6 +11,7 @@ from typing import Sequence
 import numpy as np
 
 from autocable.codegen.pydstool import continuation_system
+from autocable.errors import CacheError
 from autocable.methods.continuation.events import _critical_pair, _fold_check, _hopf_check
 from autocable.methods.continuation.chart import _build_branch, _Chart, _correct, _locate, _sign, _sign_changes, _tangent
 from autocable.methods.continuation.problem import (ContinuationResult, ContinuationSettings, Progress,
@@ -223,6 +224,8 @@ def _continue_curve(kind: str, source: ContinuationResult, label: str | SpecialP
         cont, why = continuation_system(sysm._scaled_field_2p, _CURVE_GENERATOR,
                                         ics={v: float(y) for v, y in zip(sysm.variables, Y0[:-2])},
                                         pars=chart.pycont_pars()), ""
+    except CacheError:
+        raise       # an unwritable or full cache: the command's one-line error, not a curve's end
     except Exception as exc:  # noqa: BLE001
         cont, why = None, f"PyCont could not be set up: {_one_line(exc)}"
     t_setup = time.perf_counter()

@@ -14,6 +14,7 @@ import numpy as np
 
 from autocable.codegen import compat
 from autocable.codegen.pydstool import continuation_system, pydstool_cache_dir
+from autocable.errors import CacheError
 from autocable.methods.continuation.chart import _Chart
 from autocable.methods.continuation.compiled_cycles import continue_cycles_compiled, continue_cycles_from_orbit
 from autocable.methods.continuation.cycle_records import _sampled_extremes, cycle_result
@@ -76,6 +77,8 @@ def continue_cycles(source: ContinuationResult, hopf: str | SpecialPoint,
                 verbosity=0, FuncTol=settings.tol, VarTol=settings.tol, TestTol=settings.test_tol))
             cont["LC"].forward()
         pts = list(cont["LC"].sol)
+    except CacheError:
+        raise       # an unwritable or full cache: the command's one-line error, not a branch's end
     except Exception as exc:  # noqa: BLE001
         reason, message = "error", f"AUTO's cycle continuation failed: {_one_line(exc)}"
     t1 = time.perf_counter()
