@@ -74,8 +74,10 @@ def _check_part(part: str) -> None:
 def cache_error(path: str | os.PathLike, exc: BaseException) -> CacheError:
     """The `CacheError` for a failed write at ``path`` (one line naming the variable and folder)."""
     reason = getattr(exc, "strerror", None) or type(exc).__name__
-    return CacheError(f"the autocable cache {cache_root()} cannot be written ({reason}: {path}); "
-                      f"make it writable or set {CACHE_ENV} to a writable folder")
+    err = CacheError(f"the autocable cache {cache_root()} cannot be written ({reason}: {path}); "
+                     f"make it writable or set {CACHE_ENV} to a writable folder")
+    err.errno = getattr(exc, "errno", None)       # a full disk is a failed run, not a path to change
+    return err
 
 
 def _move_aside(path: Path) -> None:

@@ -215,8 +215,11 @@ def _dispatch(args) -> int:
         print(f"autocable: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
     except CacheError as exc:
-        print(f"autocable: error: {exc}", file=sys.stderr)
-        return EXIT_INPUT
+        # a full disk, a quota or an I/O error under the cache: the run failed where it stood (exit
+        # 3, as for any other storage fault); a cache that cannot be written is a path to change
+        storage = exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EIO)
+        print(f"autocable: {'failed' if storage else 'error'}: {exc}", file=sys.stderr)
+        return EXIT_FAILED if storage else EXIT_INPUT
     except ComputationError as exc:
         print(f"autocable: failed: {exc}", file=sys.stderr)
         return EXIT_FAILED
