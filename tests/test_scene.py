@@ -498,3 +498,30 @@ def test_ame_auto_picks_the_one_dof_reduction_for_fig05a(tmp_path):
         with pytest.raises(SpecError) as err:
             load_scene(bad)
         assert err.value.field == "ame_tol" and words in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_pycont_that_cannot_be_set_up_fails_its_run(tmp_path, monkeypatch):
+    """PyCont's generator could not be built (no compiler, a PyDSTool error): the run used to end
+    its branch at the start point with the scene "complete" and the command's success. It is now a
+    failed run (ComputationError: the scene is published "failed", exit 3) naming the reason."""
+    from dataclasses import replace
+
+    from autocable.codegen.compat import PyDSToolError
+    from autocable.errors import ComputationError
+    from autocable.methods.continuation import pycont_driver
+    from autocable.results import read_json
+    from autocable.scene.runner import load_scene, run_scene
+
+    def broken(*args, **kwargs):
+        raise PyDSToolError("building the Dopri integrator for model 'ame2n' failed: gcc: not found",
+                            what="building the Dopri integrator")
+
+    monkeypatch.setattr(pycont_driver, "continuation_system", broken)
+    scene = load_scene(Path("runs") / "fig05a.toml")
+    assert scene.engine == "pycont"
+    scene = replace(scene, overlay=None)
+    with pytest.raises(ComputationError, match="PyCont could not be set up.*gcc: not found"):
+        run_scene(scene, tmp_path / "out", plot=False)
+    meta = read_json(tmp_path / "out" / "run.json")
+    assert meta["status"] == "failed"
+    assert "PyCont could not be set up" in meta["provenance"]["failed_runs"]["I"]

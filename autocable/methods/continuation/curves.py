@@ -11,7 +11,7 @@ from typing import Sequence
 import numpy as np
 
 from autocable.codegen.pydstool import continuation_system
-from autocable.errors import CacheError
+from autocable.errors import CacheError, ComputationError
 from autocable.methods.continuation.events import _critical_pair, _fold_check, _hopf_check
 from autocable.methods.continuation.chart import _build_branch, _Chart, _correct, _locate, _sign, _sign_changes, _tangent
 from autocable.methods.continuation.problem import (ContinuationResult, ContinuationSettings, Progress,
@@ -221,13 +221,14 @@ def _continue_curve(kind: str, source: ContinuationResult, label: str | SpecialP
     lam_bounds = ((chart.lam(1, problem.bounds[0]), chart.lam(1, problem.bounds[1])),
                   (chart.lam(2, lo2), chart.lam(2, hi2)))
     try:
-        cont, why = continuation_system(sysm._scaled_field_2p, _CURVE_GENERATOR,
-                                        ics={v: float(y) for v, y in zip(sysm.variables, Y0[:-2])},
-                                        pars=chart.pycont_pars()), ""
+        cont = continuation_system(sysm._scaled_field_2p, _CURVE_GENERATOR,
+                                   ics={v: float(y) for v, y in zip(sysm.variables, Y0[:-2])},
+                                   pars=chart.pycont_pars())
     except CacheError:
         raise       # an unwritable or full cache: the command's one-line error, not a curve's end
     except Exception as exc:  # noqa: BLE001
-        cont, why = None, f"PyCont could not be set up: {_one_line(exc)}"
+        # no engine, no curve: a failed run, as for equilibria (`continue_equilibria`)
+        raise ComputationError(f"{name}: PyCont could not be set up: {_one_line(exc)}") from None
     t_setup = time.perf_counter()
     wanted = {"both": ("forward", "backward"), "forward": ("forward",), "backward": ("backward",)}[directions]
     sides = {}
@@ -240,8 +241,6 @@ def _continue_curve(kind: str, source: ContinuationResult, label: str | SpecialP
             np.random.seed(_PYCONT_SEED)
             sgn = 1.0 if side == "forward" else -1.0
             sides[side] = _pycont_curve(cont, chart, settings, Y0, sgn * t, lam_bounds, name, side, progress)
-            if cont is None:
-                sides[side].message = why
     finally:
         np.random.set_state(rng_state)
     t1 = time.perf_counter()

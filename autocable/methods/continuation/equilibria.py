@@ -11,6 +11,7 @@ from typing import Mapping
 
 import numpy as np
 
+from autocable.errors import ComputationError
 from autocable.methods.continuation.chart import (_build_branch, _Chart, _correct, _tangent)
 from autocable.methods.continuation.compiled_equilibria import continue_equilibria_compiled, switch_branch_compiled
 from autocable.methods.continuation.equilibrium_analysis import _analyse_equilibria, _relabel, _start_on_chart, equilibrium_near
@@ -139,6 +140,10 @@ def continue_equilibria(problem: EquilibriumProblem, settings: ContinuationSetti
     sides = {}
     wanted = {"both": ("forward", "backward"), "forward": ("forward",), "backward": ("backward",)}[directions]
     cont, why = _contclass(chart, Y0)
+    if cont is None:
+        # no engine, no branch: a failed run (the scene keeps its other runs and exits 3), not a
+        # branch that ends at its start with the command's success
+        raise ComputationError(f"{name}: {why}")
     t_setup = time.perf_counter()
     for side in wanted:
         if any(sd.reason == "closed" for sd in sides.values()):
@@ -223,6 +228,8 @@ def switch_branch(source: ContinuationResult, bp: str | SpecialPoint,
     w /= np.linalg.norm(w)
     sides = {}
     cont, why = _contclass(chart, Yb)
+    if cont is None:
+        raise ComputationError(f"{name}: {why}")
     t_setup = time.perf_counter()
     for sign, side in ((1, "+"), (-1, "-")):
         if any(sd.reason == "closed" for sd in sides.values()):
