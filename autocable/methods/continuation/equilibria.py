@@ -11,7 +11,6 @@ from typing import Mapping
 
 import numpy as np
 
-from autocable.errors import ComputationError
 from autocable.methods.continuation.chart import (_build_branch, _Chart, _correct, _tangent)
 from autocable.methods.continuation.compiled_equilibria import continue_equilibria_compiled, switch_branch_compiled
 from autocable.methods.continuation.equilibrium_analysis import _analyse_equilibria, _relabel, _start_on_chart, equilibrium_near
@@ -139,11 +138,7 @@ def continue_equilibria(problem: EquilibriumProblem, settings: ContinuationSetti
     Y0, v0 = _start_on_chart(problem, settings, start, chart, sysm)
     sides = {}
     wanted = {"both": ("forward", "backward"), "forward": ("forward",), "backward": ("backward",)}[directions]
-    cont, why = _contclass(chart, Y0)
-    if cont is None:
-        # no engine, no branch: a failed run (the scene keeps its other runs and exits 3), not a
-        # branch that ends at its start with the command's success
-        raise ComputationError(f"{name}: {why}")
+    cont = _contclass(chart, Y0, name)
     t_setup = time.perf_counter()
     for side in wanted:
         if any(sd.reason == "closed" for sd in sides.values()):
@@ -153,8 +148,6 @@ def continue_equilibria(problem: EquilibriumProblem, settings: ContinuationSetti
             continue
         d = v0 if side == "forward" else -v0
         sides[side] = _pycont_equilibria(cont, chart, problem, settings, Y0, d, name, side, progress)
-        if cont is None:
-            sides[side].message = why
     t1 = time.perf_counter()
     back = sides.get("backward", _Side([Y0], [], [None], "not_run", ""))
     fwd = sides.get("forward", _Side([Y0], [], [None], "not_run", ""))
@@ -227,9 +220,7 @@ def switch_branch(source: ContinuationResult, bp: str | SpecialPoint,
         w = kernel[1] - (kernel[1] @ old) * old
     w /= np.linalg.norm(w)
     sides = {}
-    cont, why = _contclass(chart, Yb)
-    if cont is None:
-        raise ComputationError(f"{name}: {why}")
+    cont = _contclass(chart, Yb, name)
     t_setup = time.perf_counter()
     for sign, side in ((1, "+"), (-1, "-")):
         if any(sd.reason == "closed" for sd in sides.values()):
@@ -251,8 +242,6 @@ def switch_branch(source: ContinuationResult, bp: str | SpecialPoint,
             continue
         sd = _pycont_equilibria(cont, chart, problem, settings, Ys, v, name, "plus" if sign > 0 else "minus",
                                 progress)
-        if cont is None:
-            sd.message = why
         sd.points.insert(0, Yb.copy())
         sd.pycont_stab.insert(0, None)
         sides[side] = sd

@@ -17,7 +17,7 @@ import numpy as np
 
 from autocable.codegen import compat
 from autocable.codegen.pydstool import continuation_system
-from autocable.errors import CacheError
+from autocable.errors import CacheError, ComputationError
 from autocable.methods.continuation.events import _hopf_check
 from autocable.methods.continuation.chart import _Chart, _correct, _locate
 from autocable.methods.continuation.problem import ContinuationSettings, EquilibriumProblem, Progress
@@ -51,18 +51,20 @@ def _raw_Y(chart: _Chart, curve, row) -> np.ndarray:
 _CLOSED = re.compile(r"closed curve", re.I)
 
 
-def _contclass(chart: _Chart, Y0: np.ndarray):
-    """A PyCont ContClass on the scaled field at the chart's parameters (None and a message on failure).
+def _contclass(chart: _Chart, Y0: np.ndarray, name: str):
+    """A PyCont ContClass on the scaled field at the chart's parameters.
 
-    One per continuation call: every direction is its own curve in it."""
+    One per continuation call: every direction is its own curve in it. Without it there is no
+    engine and no branch: `ComputationError` (a failed run: the scene keeps its other runs and
+    exits 3), never a branch that ends at its start with the command's success."""
     try:
         # the numbers as parameters: one generator per structure (`System.scaled_field`)
         return continuation_system(chart.system.scaled_field(True), "Dopri", ics=chart.point_dict(Y0),
-                                   pars=chart.pycont_pars(0.0)), ""
+                                   pars=chart.pycont_pars(0.0))
     except CacheError:
         raise       # an unwritable or full cache: the command's one-line error, not a branch's end
     except Exception as exc:  # noqa: BLE001 - reported in one line
-        return None, f"PyCont could not be set up: {_one_line(exc)}"
+        raise ComputationError(f"{name}: PyCont could not be set up: {_one_line(exc)}") from None
 
 
 def _pycont_equilibria(cont, chart: _Chart, problem: EquilibriumProblem, settings: ContinuationSettings,
@@ -72,9 +74,6 @@ def _pycont_equilibria(cont, chart: _Chart, problem: EquilibriumProblem, setting
     in chunks, until the range ends, the curve closes, the budget is spent or PyCont fails."""
     dst = compat.import_pydstool()
     side = _Side([Y0.copy()], [], [None])
-    if cont is None:
-        side.reason, side.message = "error", "PyCont is not available for this system"
-        return side
     lo, hi = chart.lam(problem.bounds[0]), chart.lam(problem.bounds[1])
     locate = [t for t in settings.locate if not (t == "H" and chart.system.dimension < 2)]
 
@@ -292,9 +291,6 @@ def _pycont_curve(cont, chart: _CurveChart, settings: ContinuationSettings, Y0: 
     "no_convergence" (or the failure's reason)."""
     dst = compat.import_pydstool()
     side = _Side([Y0.copy()], [], [None])
-    if cont is None:
-        side.reason, side.message = "error", "PyCont is not available for this system"
-        return side
     _, ctype, labels = _CURVES[chart.kind]
     sysm = chart.system
     p1, p2 = sysm.parameter_names[chart.k1], sysm.parameter_names[chart.k2]

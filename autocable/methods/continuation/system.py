@@ -155,9 +155,8 @@ class System:
     @cached_property
     def _higher(self):
         """Second and third derivative tensors (for the first Lyapunov coefficient)."""
-        args = (self.variables, self.parameter_names, self.rhs)
-        f2 = numeric_function("d2", *args, key=self._rhs_key)                    # [k][j][i]
-        f3 = numeric_function("d3", *args, key=self._rhs_key)                    # [l][k][j][i]
+        f2 = self._numeric_function("d2")                    # [k][j][i]
+        f3 = self._numeric_function("d3")                    # [l][k][j][i]
         n = self.dimension
         # derive_by_array puts the derivative index first: reorder to [i, j, k(, l)].
         return (lambda x, p: np.broadcast_to(np.array(f2(x, p), dtype=float), (n,) * 3).transpose(2, 1, 0),
