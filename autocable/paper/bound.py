@@ -183,11 +183,9 @@ def rule_of(statement_ids, capped, unused, goal: tg.Goal, margin: int = 0, study
     `STUDY_MAX_ERROR`): a stored record made under another rule is decided again (its scenes reused)."""
     import hashlib
 
-    from autocable.studies.ame_bounds import STUDY_MAX_ERROR
-    study = STUDY_MAX_ERROR if study is None else study
+    from autocable.studies.ame_bounds import study_stamp
     doc = json.dumps([RECORD_FORMAT, list(statement_ids), sorted(capped), sorted(unused), goal.statements_yes,
-                      goal.boxes_share, list(goal.boxes_scenes), int(margin),
-                      sorted([float(k), float(v)] for k, v in study.items())])
+                      goal.boxes_share, list(goal.boxes_scenes), int(margin), study_stamp(study)])
     return hashlib.sha256(doc.encode()).hexdigest()[:16]
 
 

@@ -586,8 +586,8 @@ def _worker(model_path: str, targets_path: str, readings: dict, yaw_deg: float, 
 def decision_stamp() -> list:
     """What, besides the scenes, decides a full evaluation's verdicts: the AME-vs-(21) study's
     bounds (`autocable.studies.ame_bounds.STUDY_MAX_ERROR`), which judge every ``<scene>.boxes``."""
-    from autocable.studies.ame_bounds import STUDY_MAX_ERROR
-    return sorted([float(k), float(v)] for k, v in STUDY_MAX_ERROR.items())
+    from autocable.studies.ame_bounds import study_stamp
+    return study_stamp()
 
 
 def full_evaluation(model_path: Path, targets, c: dict, folder: Path, runs: Path, executor, say) -> dict:

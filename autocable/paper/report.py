@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Callable
 
 from autocable.results import is_complete, run_status
-from autocable.studies.ame_bounds import NEAR, STUDY_MAX_ERROR
+from autocable.studies.ame_bounds import NEAR, STUDY_MAX_ERROR, within
 
 __all__ = ["SceneData", "load_scene_data", "overlay_comparison", "exact_stable", "study_bound",
            "stage_seconds", "FIGURE_STAGES", "PAPER_FIGURES", "STUDY_MAX_ERROR", "REASONS", "REPORT_MD"]
@@ -361,7 +361,7 @@ def overlay_comparison(data: SceneData) -> list[dict]:
             row["rel_error"] = abs(row["ame_a1"] - a1) / a1 if a1 > 0 else _NAN
             if math.isfinite(row["bound"]) and math.isfinite(row["rel_error"]):
                 # The bounds are stated to three significant digits: compare at that precision.
-                row["within"] = float(f"{row['rel_error']:.2e}") <= row["bound"]
+                row["within"] = within(row["rel_error"], row["bound"])
             elif not math.isfinite(row["bound"]):
                 row["note"] = "the study has no bound at this eta*"
         out.append(row)

@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 
 
-from autocable.studies.ame_bounds import NEAR, STUDY_MAX_ERROR
+from autocable.studies.ame_bounds import NEAR, STUDY_MAX_ERROR, within
 from autocable.plotting.style import styled
 
 __all__ = ["CASES", "VARIANTS", "bench_ordering", "markdown", "plot", "reading"]
@@ -122,7 +122,7 @@ def _summary(case: dict) -> dict:
         bound = case["bound"]
         out[lab] = {"compared": len(errs), "none_near": len(rows) - len(errs),
                     "max_error": max(errs) if errs else math.nan,
-                    "within_bound": None if bound is None else sum(1 for e in errs if float(f"{e:.2e}") <= bound),
+                    "within_bound": None if bound is None else sum(1 for e in errs if within(e, bound)),
                     "closest": best}
     return out
 
@@ -191,11 +191,6 @@ def markdown(result: dict, png: str = "ordering.png") -> str:
     return "\n".join(lines)
 
 
-def _within(e, bound) -> bool:
-    """The summary's rule: the error, rounded as printed, at most the study's bound."""
-    return e is not None and math.isfinite(e) and float(f"{e:.2e}") <= bound
-
-
 def _at(case: dict, row: dict) -> str:
     return f"{case['parameter']} = {row['value']:+.3f} ({row['direction']})"
 
@@ -227,10 +222,10 @@ def reading(result: dict) -> list[str]:
             else:
                 text += f" {dof}: no response where both orderings have a stable equilibrium near"
             if bound is not None:
-                nat_only = sum(1 for r in rows if _within(r["errors"].get(nat), bound)
-                               and not _within(r["errors"].get(pap), bound))
-                pap_only = sum(1 for r in rows if _within(r["errors"].get(pap), bound)
-                               and not _within(r["errors"].get(nat), bound))
+                nat_only = sum(1 for r in rows if within(r["errors"].get(nat), bound)
+                               and not within(r["errors"].get(pap), bound))
+                pap_only = sum(1 for r in rows if within(r["errors"].get(pap), bound)
+                               and not within(r["errors"].get(nat), bound))
                 separated_total += nat_only + pap_only
                 text += (f"; within the study's bound ({bound:.2e}) with the natural ordering only at {nat_only}, "
                          f"with the paper's only at {pap_only}.")
