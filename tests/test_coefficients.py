@@ -192,9 +192,6 @@ def test_a_symbol_with_the_weights_prefix_is_refused_every_time():
     """A right-hand side that already uses a weight's name cannot be templated (its symbol and a
     weight would be one); the refusal holds on a second call too (the template cache does not
     keep failures)."""
-    import pytest
-    import sympy as sp
-
     from autocable.codegen.coefficients import WEIGHT_PREFIX, coefficient_template
     rhs = [sp.Symbol(f"{WEIGHT_PREFIX}0") * 2.5 + sp.Symbol("x")]
     for _ in range(2):
