@@ -189,6 +189,17 @@ def test_divergence_is_a_result(integ22):
     assert r.diverged and not r.steady and math.isinf(r.a1) and "diverged" in r.message
 
 
+def test_max_time_off_the_sample_grid_ends_not_steady(integ22):
+    """As eq. (21)'s integrator (tests/test_compiled_integration.py): a max_time that is not on the
+    sample grid (700, after a chunk of 100 periods and one of 74 time units, shorter than the
+    20-period window) ends the run "not steady" within one sample interval of max_time. Before,
+    the remainder ran as an empty chunk: the unchanged amplitudes were called steady, and a last
+    chunk without the previous-chunk test looped without advancing t."""
+    r = integ22.simulate(0.0, 1e-5, 0.0, max_time=700.0)
+    dt = 2 * math.pi / r.Omega / 64
+    assert not r.steady and r.message.startswith("not steady") and 700.0 - dt < r.t_end <= 700.0
+
+
 def test_method_info():
     assert {"solves", "accuracy", "cost_drivers"} <= set(METHOD_INFO)
 

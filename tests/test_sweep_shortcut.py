@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from autocable.methods.integration.ode21 import Ode21Integrator
-from autocable.methods.integration.sweeps import PeriodOneShortcut, sweep
+from autocable.methods.integration.sweeps import PeriodOneShortcut, RecurrenceStop, sweep
 from autocable.model.derive import derive
 from autocable.scene.schema import load_scene
 from autocable.spec import load_model
@@ -125,3 +125,73 @@ def test_settle_prediction_sees_a_slow_mode_with_a_small_share():
     late = 30000.0 - (2 * 20 + PeriodOneShortcut.SETTLE_MARGIN_PERIODS - 5) * period
     assert short._settles_in_time((1e-3, 1e-3), fast, M, period, early, 30000.0, 1e-8)
     assert not short._settles_in_time((1e-3, 1e-3), fast, M, period, late, 30000.0, 1e-8)
+
+
+# -- the recurrence stop: a modulated motion ends as "not steady" before max_time ---------------------
+@pytest.mark.parametrize("name", ["fig08", "fig10", "fig04b", "fig09"])
+def test_recurrence_stop_gives_the_full_integrations_class(name):
+    """`RecurrenceStop` against integrating every point to max_time (both with the period-1
+    shortcut), on the overlays with the most modulated responses: Figs. 8 and 10 (U* = 1.3 over
+    sigma), Fig. 4b (U* over the Hopf point, the slow approach at U* = 0.9 included) and Fig. 9
+    (U* = 0.7, modulated points between period-1 ones). Stated tolerance: the same class (steady,
+    periodic, diverged) at every point, the periodic points' amplitudes to 1e-6 of max(a1, a2) (so
+    the next points start from the same states), and the stop taken at most points that end not
+    steady (else this test checks nothing)."""
+    scene = load_scene(RUNS / f"{name}.toml")
+    ov = scene.overlay
+    integrator = Ode21Integrator(derive(load_model(scene.model)).ode, engine="compiled")
+    values = np.linspace(ov.range[0], ov.range[1], ov.points)
+    fixed = {k: v for k, v in scene.fixed.items() if k != ov.parameter}
+    full = sweep(integrator, ov.parameter, values, fixed, directions=ov.directions, max_time=ov.max_time,
+                 shortcut=PeriodOneShortcut(integrator))
+    stop = RecurrenceStop(integrator)
+    fast = sweep(integrator, ov.parameter, values, fixed, directions=ov.directions, max_time=ov.max_time,
+                 shortcut=PeriodOneShortcut(integrator), recurrence=stop)
+    not_steady = 0
+    for a, b in zip(full, fast, strict=True):
+        where = f"{name} {a.direction} {a.parameter} = {a.value:+.4f}"
+        assert (a.steady, a.periodic, math.isfinite(a.a1)) == (b.steady, b.periodic, math.isfinite(b.a1)), \
+            f"{where}: {a.message} / {b.message}"
+        if a.periodic:
+            assert abs(a.a1 - b.a1) <= TOL * max(a.a1, a.a2) and abs(a.a2 - b.a2) <= TOL * max(a.a1, a.a2)
+        if not a.steady and math.isfinite(a.a1) and b.wall_seconds > 0:
+            not_steady += 1
+            assert a.message.startswith("not steady after t = ")      # integrated to max_time
+    stopped = [p for p in fast if "recurrent modulated motion" in p.message]
+    # a point from q0 integrated once for both directions is reused (wall_seconds 0)
+    assert sum(p.wall_seconds > 0 for p in stopped) == stop.stopped >= not_steady // 2 >= 1
+    # stopped at well under max_time: "not steady at t = <t> (...)"
+    assert all(float(p.message.split("t = ")[1].split()[0]) < 0.6 * ov.max_time for p in stopped)
+
+
+def test_recurrence_stop_refuses_a_slow_approach_and_drift():
+    """The three conditions one by one on made-up chunk histories (the Newton check is not reached
+    when an earlier condition fails): geometrically shrinking changes (an approach, mu^100 = 0.7 a
+    chunk) are refused; steady-level changes with a drifting a2 (a decaying out-of-plane seed:
+    relative change constant, amplitude falling) are refused; too few chunks are refused."""
+    stop = RecurrenceStop.__new__(RecurrenceStop)
+    stop._done = False
+    n = 2 * RecurrenceStop.HALF
+    approach = [1e-2 * 0.7 ** j for j in range(n)]
+    amps = [(1e-3, 1e-4)] * n
+    assert stop(1.0, 1e-3, 1.0, amps, approach, (0, 0, 0, 0), 0.0, 3e4) is None
+    seed = [0.5] * n
+    decaying = [(1e-3, 1e-6 * 0.5 ** j) for j in range(n)]
+    assert stop(1.0, 1e-3, 1.0, decaying, seed, (0, 0, 0, 0), 0.0, 3e4) is None
+    assert stop(1.0, 1e-3, 1.0, amps[:n - 1], seed[:n - 1], (0, 0, 0, 0), 0.0, 3e4) is None
+    assert not stop._done
+
+
+def test_a_last_chunk_shorter_than_the_window_is_not_judged():
+    """Fig. 10's overlay point sigma = -0.04 (U* = 1.3) from q0 is an amplitude-modulated motion to
+    the end; max_time = 30000 leaves a last chunk of 18 time units (3 forcing periods) after 47
+    chunks of 100 periods, and a window of 20 periods that moved by 3 keeps its extremes: that
+    chunk was judged and called the motion steady. It must not."""
+    scene = load_scene(RUNS / "fig10.toml")
+    integrator = Ode21Integrator(derive(load_model(scene.model)).ode, engine="compiled")
+    fixed = dict(scene.fixed)
+    r = integrator.simulate(fixed["U"], fixed["eta"], -0.04, max_time=30000.0)
+    period = 2 * math.pi / r.Omega
+    assert 30000.0 % (100 * period) < 20 * period       # the short last chunk this test is about
+    assert not r.steady and r.message.startswith("not steady after t = 30000")
+    assert r.a1_max > 1.05 * r.a1_min                   # modulated over the last window

@@ -770,10 +770,12 @@ def write_compare(scene: Scene, rows: list[dict], branches, out: Path) -> dict:
 def _run_overlay(scene: Scene, deriv, ame, say, resolution: str = "full") -> list[dict]:
     """Sweep the overlay's method up and down over its parameter values (methods/sweeps.py).
     An eq. (21) integration that is seen converging to a stable period-1 orbit ends there
-    (`sweeps.PeriodOneShortcut`: the same class and amplitudes as integrating on, to 1e-6)."""
+    (`sweeps.PeriodOneShortcut`: the same class and amplitudes as integrating on, to 1e-6), and
+    one seen to be a recurrent modulated motion ends as not steady before max_time
+    (`sweeps.RecurrenceStop`: the same class as integrating on)."""
     import numpy as np
 
-    from autocable.methods.integration.sweeps import PeriodOneShortcut, sweep, to_rows
+    from autocable.methods.integration.sweeps import PeriodOneShortcut, RecurrenceStop, sweep, to_rows
     ov = scene.overlay
     values = np.linspace(ov.range[0], ov.range[1], ov.points)
     if resolution == "coarse":
@@ -782,11 +784,11 @@ def _run_overlay(scene: Scene, deriv, ame, say, resolution: str = "full") -> lis
     if ov.method == "ode21":
         from autocable.methods.integration.ode21 import SCENE_ENGINE, Ode21Integrator
         integrator = Ode21Integrator(deriv.ode, engine=SCENE_ENGINE)
-        shortcut = PeriodOneShortcut(integrator)
+        shortcut, recurrence = PeriodOneShortcut(integrator), RecurrenceStop(integrator)
     else:
         from autocable.methods.integration.ame import AmeIntegrator
         integrator = AmeIntegrator(ame)
-        shortcut = None
+        shortcut = recurrence = None
     say(f"overlay: {ov.method} swept in {ov.parameter} over [{ov.range[0]:g}, {ov.range[1]:g}], "
         f"{ov.points} points, {'/'.join(ov.directions)}")
 
@@ -795,7 +797,8 @@ def _run_overlay(scene: Scene, deriv, ame, say, resolution: str = "full") -> lis
         say(f"  {p.direction:>4} {ov.parameter} = {p.value:+.5f}: a1 = {p.a1:.4e}, a2 = {p.a2:.4e} ({state})")
 
     return to_rows(sweep(integrator, ov.parameter, values, fixed, directions=ov.directions,
-                         progress=tell, max_time=ov.max_time, shortcut=shortcut))
+                         progress=tell, max_time=ov.max_time, shortcut=shortcut,
+                         recurrence=recurrence))
 
 
 def _write_overlay(rows: list[dict], path: Path, columns=("parameter",)) -> None:

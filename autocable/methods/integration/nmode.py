@@ -213,6 +213,10 @@ class NModeIntegrator:
 
         while t < max_time - 1e-9:
             t1 = min(t + chunk, max_time)
+            if t1 - t < dt * (1 - 1e-9):
+                # less than one sample interval is left before max_time (the chunks end on the
+                # sample grid): another chunk would not advance t (as in `Ode21Integrator.simulate`)
+                break
             try:
                 tt, ys = self.run(y, t, t1, dt, pars)
             except (PyDSToolError, ComputationError) as exc:
@@ -234,12 +238,14 @@ class NModeIntegrator:
                               f"|q| > {DIVERGED:g} at t = {t:.6g}")
             if keep_history:
                 history.append((tt[:-1], ys[:-1]))
+            # a last chunk shorter than the window is not judged (as in `Ode21Integrator.simulate`)
+            overlapping = float(tt[-1]) - t < min(chunk, window_periods * period) * (1 - 1e-9)
             y, t = tuple(ys[-1]), float(tt[-1])
             window = np.concatenate([window, ys[1:]])[-keep:]
             amps = tuple(half_range(window[:, i]) for i in range(n))
             if progress:
                 progress(t, (amps[self._i1], amps[self._i2]))
-            if previous is not None:
+            if previous is not None and not overlapping:
                 # Modes that stay at round-off (an unexcited antisymmetric mode) must not block the test.
                 floor = 1e3 * self.atol
                 change = max((abs(a - b) / max(abs(a), floor) for a, b in zip(amps, previous)

@@ -308,7 +308,7 @@ class Ode21Integrator:
     def simulate(self, U: float, eta: float, sigma: float, q0=DEFAULT_Q0, *,
                  periods_per_chunk: int = 100, window_periods: int = 20, max_time: float = 60000.0,
                  steady_tol: float = 1e-8, samples_per_period: int = 64,
-                 keep_history: bool = False, progress=None, shortcut=None) -> Response:
+                 keep_history: bool = False, progress=None, shortcut=None, recurrence=None) -> Response:
         """Integrate from ``q0`` = (q1, q1', q2, q2') until the amplitudes are steady.
 
         Steady: the amplitudes over the last ``window_periods`` forcing periods change by less than
@@ -322,6 +322,13 @@ class Ode21Integrator:
         ``((a1, a2), state, note)``: the period-1 orbit this integration is converging to, which
         ends the run as a steady periodic response with those amplitudes, ``state`` as its final
         state and ``note`` in its message (`autocable.methods.integration.sweeps.PeriodOneShortcut`).
+
+        ``recurrence`` (forced responses only): called after every judged chunk that is not steady
+        as ``recurrence(U, eta, Omega, amps, changes, state, t, max_time, steady_tol)`` with the
+        amplitudes and relative changes of all judged chunks so far and the state (q1, q2, q1', q2')
+        reached; it returns None (integrate on) or a note: the response will not be called steady
+        before max_time, which ends the run there as not steady
+        (`autocable.methods.integration.sweeps.RecurrenceStop`).
         """
         check_call("Ode21Integrator.simulate", U=U, eta=eta, sigma=sigma, q0=q0, max_time=max_time,
                    omega1=self.ode.omega1)
@@ -348,6 +355,7 @@ class Ode21Integrator:
         window = np.array([y])
         cycles = None
         steps = []           # |change| of each amplitude between consecutive chunks
+        judged, changes = [], []     # the judged chunks' amplitudes and relative changes, for ``recurrence``
         while t < max_time - 1e-9:
             t1 = min(t + chunk, max_time)
             if t1 - t < dt * (1 - 1e-9):
@@ -398,6 +406,11 @@ class Ode21Integrator:
                                       start, tuple(ys[stop]), history)
             if keep_history:
                 history.append((tt[:-1], ys[:-1]))
+            # A last chunk shorter than the window (max_time is rarely a whole number of chunks)
+            # leaves most of the previous window's samples in the new one: its extremes, hence a
+            # modulated motion's amplitudes, are then often unchanged, which is no evidence of a
+            # steady response. Such a chunk is not judged.
+            overlapping = float(tt[-1]) - t < min(chunk, window_periods * period) * (1 - 1e-9)
             y, t = tuple(ys[-1]), float(tt[-1])
             # A rolling window across chunks: the last chunk may be shorter than the window.
             window = np.concatenate([window, ys[1:]])[-keep:]
@@ -417,7 +430,7 @@ class Ode21Integrator:
                     return self._response(U, eta, sigma, Omega, orbit_amps, True, True, t, None,
                                           f"steady: {note}", start, orbit_state, history,
                                           samples_per_period, period=period)
-            if previous is not None:
+            if previous is not None and not overlapping:
                 steps.append([abs(a - b) for a, b in zip(amps, previous)])
                 change = max(abs(a - b) / max(abs(a), 1e-14) for a, b in zip(amps, previous))
                 # Rest: below the integration's own absolute accuracy and not growing. A decaying
@@ -435,6 +448,15 @@ class Ode21Integrator:
                 if change < steady_tol or rest:
                     steady, at_rest = True, rest and not change < steady_tol
                     break
+                judged.append(amps)
+                changes.append(change)
+                if recurrence is not None and not autonomous:
+                    note = recurrence(U, eta, Omega, judged, changes, y, t, max_time, steady_tol)
+                    if note is not None:
+                        return self._response(U, eta, sigma, Omega, amps, False,
+                                              self._is_periodic(window, samples_per_period, rest_floor),
+                                              t, window, f"not steady at t = {t:g} (amplitudes still "
+                                              f"changing): {note}", start, y, history, samples_per_period)
             previous = amps
         if autonomous and cycles is not None and not at_rest:
             return self._cycle_response(U, eta, sigma, Omega, cycles, steady, t, window, dt, start, y,

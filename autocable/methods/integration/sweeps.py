@@ -141,6 +141,33 @@ class PeriodOneShortcut:
             M[:, j] = (plus - minus) / (2 * h)
         return M
 
+    def newton(self, U: float, eta: float, Omega: float, y):
+        """Newton on the period map P(y) = phi_T(y) from ``y``: (y*, monodromy at y*, largest
+        Floquet multiplier modulus, steps, relative residual), or None when it does not converge
+        in 8 steps (a flow that fails, a singular step)."""
+        import numpy as np
+        y = np.array(y, float)
+        if not float(np.linalg.norm(y)) > 0:
+            return None
+        run = self._run(U, eta, Omega, 1)
+        for its in range(8):
+            yT = self._phi(run, y)
+            M = None if yT is None else self._monodromy(run, y)
+            if M is None:
+                return None
+            res = float(np.linalg.norm(yT - y)) / float(np.linalg.norm(y))
+            if res < self.TOL:
+                break
+            try:
+                y = y - np.linalg.solve(M - np.eye(4), yT - y)
+            except np.linalg.LinAlgError:
+                return None
+            if not np.all(np.isfinite(y)) or not float(np.linalg.norm(y)) > 0:
+                return None
+        else:
+            return None
+        return y, M, float(np.max(np.abs(np.linalg.eigvals(M)))), its, res
+
     #: the prediction's margins: twice the predicted periods, plus this many, must fit before max_time
     SETTLE_MARGIN_PERIODS = 200
 
@@ -199,22 +226,10 @@ class PeriodOneShortcut:
             if not float(np.max(np.linalg.norm(np.diff(ends, axis=0), axis=1))) < self.TRY_STEP * size:
                 return None
             self._tries += 1
-            run = self._run(U, eta, Omega, 1)
-            for its in range(8):
-                yT = self._phi(run, y)
-                M = None if yT is None else self._monodromy(run, y)
-                if M is None:
-                    return None
-                res = float(np.linalg.norm(yT - y)) / float(np.linalg.norm(y))
-                if res < self.TOL:
-                    break
-                try:
-                    y = y - np.linalg.solve(M - np.eye(4), yT - y)
-                except np.linalg.LinAlgError:
-                    return None
-            else:
+            got = self.newton(U, eta, Omega, y)
+            if got is None:
                 return None
-            mu_max = float(np.max(np.abs(np.linalg.eigvals(M))))
+            y, M, mu_max, its, res = got
             if not mu_max < self.MU_MAX:
                 return None
             self._orbit = (key, y, M, mu_max, its, res)
@@ -237,13 +252,91 @@ class PeriodOneShortcut:
                 f"largest multiplier modulus {mu_max:.4f})")
 
 
+
+class RecurrenceStop:
+    """Ends an eq. (21) integration (`Ode21Integrator.simulate`'s ``recurrence``) as "not steady"
+    once its response is seen to be a recurrent modulated motion, instead of integrating on to
+    max_time only to report the same (Figs. 4a-c above U_c, 8, 9 and 10: about two thirds of the
+    overlays' integration time before this stop).
+
+    The integration calls a response steady when its amplitudes over the last forcing periods
+    change by less than steady_tol (1e-8) between chunks of 100 periods; that happens only when the
+    motion converges to a period-1 (or a short subharmonic) orbit. The stop is taken after a
+    judged chunk when all three hold:
+
+    1. **no decay**: over the last 2 `HALF` chunks the median relative change of the later half is
+       at least that of the earlier half, and at least `FLOOR` times steady_tol. An approach to an
+       orbit, however slow, shrinks its changes geometrically (by mu^100 a chunk, mu the largest
+       Floquet multiplier modulus);
+    2. **no drift**: for each mode the later half's amplitudes overlap the range of the earlier
+       half's. A growth away from an unstable orbit, or a decaying out-of-plane seed on a planar
+       response (whose relative change per chunk is constant), drifts;
+    3. **no stable period-1 orbit in reach**: Newton on the period map from the state reached
+       (`PeriodOneShortcut.newton`) does not converge, or converges to an orbit with a Floquet
+       multiplier of modulus >= 1. When it finds a stable one the integration goes on to max_time
+       as before (a long modulated transient may still end on it), and the test is not repeated
+       at this point.
+
+    What it cannot see is a modulated transient that ends, after the stop and before max_time, on
+    a stable orbit Newton did not reach from the stop's state (or on a subharmonic one); the
+    integration to max_time can miss the same ending just after max_time. Checked against
+    integrating to max_time on every overlay point of the figure scenes
+    (tests/test_sweep_shortcut.py): the same class at every point. The amplitudes a not-steady
+    point reports (not drawn: a not-steady point has no box) are those of its window at the stop.
+    """
+
+    #: chunks in each half of the compared stretch (2 x 6 chunks of 100 periods: ~1200 periods)
+    HALF = 6
+    #: the later half's median change must be at least this many times steady_tol
+    FLOOR = 1e3
+
+    def __init__(self, integrator: Ode21Integrator):
+        self.periods = PeriodOneShortcut(integrator)
+        self.stopped = 0
+        self._done = False
+
+    def start_point(self) -> None:
+        """A new sweep point: the Newton check may be made again."""
+        self._done = False
+
+    def __call__(self, U: float, eta: float, Omega: float, amps, changes, state, t: float,
+                 max_time: float, steady_tol: float = 1e-8):
+        import statistics
+
+        h = self.HALF
+        if self._done or len(changes) < 2 * h:
+            return None
+        early, late = changes[-2 * h:-h], changes[-h:]
+        m_early, m_late = statistics.median(early), statistics.median(late)
+        if not (m_late >= m_early and m_late >= self.FLOOR * steady_tol):
+            return None
+        a_early, a_late = amps[-2 * h:-h], amps[-h:]
+        for k in (0, 1):
+            lo_e, hi_e = min(a[k] for a in a_early), max(a[k] for a in a_early)
+            lo_l, hi_l = min(a[k] for a in a_late), max(a[k] for a in a_late)
+            if lo_l > hi_e or hi_l < lo_e:
+                return None
+        # once per point: Newton's answer does not change while the motion stays recurrent
+        self._done = True
+        got = self.periods.newton(U, eta, Omega, state)
+        if got is not None and got[2] < 1.0:
+            return None
+        self.stopped += 1
+        orbit = ("Newton on the period map from the state does not converge" if got is None else
+                 f"the period-1 orbit Newton finds from the state is unstable (largest multiplier "
+                 f"modulus {got[2]:.4f})")
+        return (f"a recurrent modulated motion: the median change between chunks is {m_late:.1e} over "
+                f"the last {h} chunks and {m_early:.1e} over the {h} before, the amplitudes do not drift, "
+                f"and {orbit}; stopped before max_time = {max_time:g}")
+
 def sweep(integrator, parameter: str, values, fixed: dict, *, directions=("up", "down"),
           q0=DEFAULT_Q0, progress=None, shortcut: PeriodOneShortcut | None = None,
-          **options) -> tuple[SweepPoint, ...]:
+          recurrence: RecurrenceStop | None = None, **options) -> tuple[SweepPoint, ...]:
     """Steady responses of ``integrator`` at ``values`` of ``parameter`` (one of sigma, U, eta),
     the other two from ``fixed``; ``options`` go to ``simulate`` (e.g. max_time). ``shortcut``
     (eq. (21) only): a `PeriodOneShortcut` that ends each integration once it converges to a
-    stable period-1 orbit.
+    stable period-1 orbit; ``recurrence`` (eq. (21) only): a `RecurrenceStop` that ends it as not
+    steady once it is a recurrent modulated motion.
 
     A point that starts from ``q0`` itself (the first of a direction, or one after a point with
     no steady response) is the same computation in both directions: it is integrated once and its
@@ -277,12 +370,11 @@ def sweep(integrator, parameter: str, values, fixed: dict, *, directions=("up", 
                     carried = _carried(r, is_ode21) if ok else None
                 elif is_ode21:
                     start = q0 if carried is None else tuple(c + d for c, d in zip(carried, q0))
-                    if shortcut is not None:
-                        shortcut.start_point()
-                        r = integrator.simulate(point["U"], point["eta"], point["sigma"], start,
-                                                shortcut=shortcut, **options)
-                    else:
-                        r = integrator.simulate(point["U"], point["eta"], point["sigma"], start, **options)
+                    for stop in (shortcut, recurrence):
+                        if stop is not None:
+                            stop.start_point()
+                    r = integrator.simulate(point["U"], point["eta"], point["sigma"], start,
+                                            shortcut=shortcut, recurrence=recurrence, **options)
                     if carried is None:
                         from_q0[value] = r
                     ok = r.steady and math.isfinite(r.a1)
