@@ -26,14 +26,16 @@ def targets_file(scenes: dict, given: str | Path | None = None) -> Path | None:
     return None
 
 
-def _targets_summary(scenes: dict, targets: str | Path | None = None) -> list[str]:
+def _targets_summary(scenes: dict, targets: str | Path | None = None,
+                     statements: dict | None = None) -> list[str]:
     """The statements of the targets file decided by `autocable.paper.targets` (the code the
-    calibration uses too), and the paper's printed numbers against the model."""
+    calibration uses too), and the paper's printed numbers against the model. ``statements``:
+    `targets.scene_statements` by scene name, made once for these tables and the figures'."""
     path = targets_file(scenes, targets)
     if path is None:
         return []
     targets = targets_mod.load_targets(path)
-    verdicts = targets_mod.decide_statements(targets, scenes)
+    verdicts = targets_mod.decide_statements(targets, scenes, statements)
     numbers = targets_mod.decide_numbers(targets, targets_mod.scene_numbers(scenes))
     c = targets_mod.count_shown(verdicts)
     lines = ["", "## The statements of Sect. 5 and the paper's numbers", "",
@@ -95,7 +97,8 @@ def build_report(out_dir: str | Path, targets: str | Path | None = None) -> str:
                   + ", ".join(absent) + "."]
     lines += ["", "## The main result: wind cuts the out-of-plane amplitude (Fig. 10 against Fig. 6)", ""]
     lines += _main_result(scenes)
-    lines += _targets_summary(scenes, targets)
+    statements: dict[str, list] = {}     # each scene's statements decided once
+    lines += _targets_summary(scenes, targets, statements)
     lines += ["", "## Figures", "",
               "For each figure: what Sect. 5 states (docs/model.md, F), whether autocable shows it "
               "(yes / partly / no), where and with what numbers; where not, why."]
@@ -111,7 +114,9 @@ def build_report(out_dir: str | Path, targets: str | Path | None = None) -> str:
                if prov.get("ame") else "")
         lines.append("Fixed: " + (", ".join(f"{k} = {_g(v)}" for k, v in fixed.items()) or "none")
                      + f".{ame} Stages: {_stage_line(d)}.")
-        feats = targets_mod.scene_statements(d, scenes)
+        if n not in statements:
+            statements[n] = targets_mod.scene_statements(d, scenes)
+        feats = statements[n]
         if feats:
             lines += ["", "| Sect. 5 states | shown | where, numbers, why |", "|---|---|---|"]
             lines += [f"| {a} | {b} | {c} |" for a, b, c in feats]

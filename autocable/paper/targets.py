@@ -252,10 +252,12 @@ def scene_statements(scene, scenes: dict) -> list[tuple[str, str, str]]:
     return report._features(scene, scenes)
 
 
-def decide_statements(targets, scenes: dict) -> list[Verdict]:
-    """Decide every ``[[statement]]`` target from the scenes' output folders (`SceneData` by name)."""
+def decide_statements(targets, scenes: dict, statements: dict | None = None) -> list[Verdict]:
+    """Decide every ``[[statement]]`` target from the scenes' output folders (`SceneData` by name).
+    ``statements``: `scene_statements` of some of these scenes already made (by name), and where
+    the ones made here are kept (report.md's tables decide the same)."""
     out = []
-    cache: dict[str, list] = {}
+    cache: dict[str, list] = {} if statements is None else statements
     for t in targets:
         if t.kind != "statement":
             continue
