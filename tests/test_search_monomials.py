@@ -47,6 +47,46 @@ def test_monomials_equal_the_lambdified_field_and_jacobian(systems, order, fixed
 
 
 @pytest.mark.parametrize("order, fixed, name, values", CASES)
+def test_monomial_derivative_tensors_equal_sympys(systems, order, fixed, name, values):
+    """`System.hessian` / `third` (from the monomials since they are exact for a polynomial field)
+    against sympy's second and third derivatives of the same AME, lambdified: equal to 1e-12 of
+    the largest entry at random states (the order of the sums differs), and the first Lyapunov
+    coefficient (Kuznetsov's eq. 3.20) at a state where J has a complex pair to 1e-10."""
+    from autocable.methods.continuation.events import first_lyapunov
+    system = systems[order]
+    assert Monomials.of(system) is not None
+    f2, f3 = system._numeric_function("d2"), system._numeric_function("d3")
+    n = system.dimension
+    rng = np.random.default_rng(2)
+    for v in values:
+        p = system.parameter_vector({**fixed, name: v})
+        for x in rng.normal(size=(5, n)) * 5e-3:
+            H0 = np.broadcast_to(np.array(f2(x, p), dtype=float), (n,) * 3).transpose(2, 1, 0)
+            T0 = np.broadcast_to(np.array(f3(x, p), dtype=float), (n,) * 4).transpose(3, 2, 1, 0)
+            H1, T1 = system.hessian(x, p), system.third(x, p)
+            assert np.max(np.abs(H1 - H0)) <= 1e-12 * np.max(np.abs(H0))
+            assert np.max(np.abs(T1 - T0)) <= 1e-12 * np.max(np.abs(T0))
+    # l1 either way at a state with a complex pair of J (a Hopf point needs its real part zero;
+    # the formula needs only the pair)
+    p = system.parameter_vector({**fixed, name: values[1]})
+    for x in rng.normal(size=(20, n)) * 5e-3:
+        ev = np.linalg.eigvals(system.jac(x, p))
+        if np.any(np.abs(ev.imag) > 1e-9):
+            break
+    else:
+        pytest.fail("no state with a complex pair")
+    l1_mono = first_lyapunov(system, x, p)[0]
+    system.__dict__["_higher"] = (
+        lambda x, p: np.broadcast_to(np.array(f2(x, p), dtype=float), (n,) * 3).transpose(2, 1, 0),
+        lambda x, p: np.broadcast_to(np.array(f3(x, p), dtype=float), (n,) * 4).transpose(3, 2, 1, 0))
+    try:
+        l1_sympy = first_lyapunov(system, x, p)[0]
+    finally:
+        del system.__dict__["_higher"]
+    assert l1_mono == pytest.approx(l1_sympy, rel=1e-10)
+
+
+@pytest.mark.parametrize("order, fixed, name, values", CASES)
 def test_the_search_finds_the_same_equilibria_either_way(systems, order, fixed, name, values):
     system = systems[order]
     m = Monomials.of(system)

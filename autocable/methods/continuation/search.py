@@ -141,6 +141,31 @@ class Monomials:
             J[:, :, j] = (C @ (self.E[:, j, None] * self._phi(P, self._dE[j]))).T
         return J
 
+    def _derivative_tensor(self, x, p, order: int) -> np.ndarray:
+        """d^order F_i / dx_j dx_k (dx_l) at one state, [i, j, k(, l)]: each monomial x^E
+        differentiated exactly, d/dx_j x^E = E_j x^(E - e_j) applied ``order`` times (a factor 0
+        where an exponent runs out)."""
+        C = self._coefficients(p)
+        P = self._powers(np.asarray(x, float).reshape(1, -1))
+        n = self.n
+        out = np.zeros((n,) + (n,) * order)
+        for idx in itertools.product(range(n), repeat=order):
+            E = self.E.copy()
+            factor = np.ones(len(E))
+            for j in idx:
+                factor *= E[:, j]
+                E[:, j] = np.maximum(E[:, j] - 1, 0)
+            out[(slice(None),) + idx] = C @ (factor * self._phi(P, E)[:, 0])
+        return out
+
+    def hessian(self, x, p) -> np.ndarray:
+        """d2 F_i / dx_j dx_k at ``x`` as an (n, n, n) array (`System.hessian`)."""
+        return self._derivative_tensor(x, p, 2)
+
+    def third(self, x, p) -> np.ndarray:
+        """d3 F_i / dx_j dx_k dx_l at ``x`` as an (n, n, n, n) array (`System.third`)."""
+        return self._derivative_tensor(x, p, 3)
+
 
 def _newton_all(system: System, X: np.ndarray, p, scale: float, bound: float, iters: int = 20) -> np.ndarray:
     """Damped Newton from every row of ``X`` at once (`System.f_many`, `jac_many`, one batched solve
