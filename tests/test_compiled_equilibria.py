@@ -413,3 +413,21 @@ def test_c_locator_equals_the_python_one():
                 np.testing.assert_allclose(Yc, Yp, rtol=0, atol=1e-12)
                 found += okc
         assert found >= 2, kind
+
+
+def test_pitchfork_on_a_trivial_branch_where_the_whole_jacobian_vanishes():
+    """x' = x (p - x^2) continued on x = 0 from p = -0.5: at the pitchfork p = 0 both J_x = p and
+    J_p = x are exactly zero, so [J_x, J_p] has rank 0 (Fig. 3's galloping onset on the 1-dof
+    amplitude equation is such a point). It is a BP with rank test 0, found without a 0/0
+    (RuntimeWarning turned into an error here)."""
+    import warnings
+    x, p = sp.symbols("x p")
+    system = System("pitchfork_zero", ("x",), (x * (p - x * x),), {"p": -0.5}, (("a1", ("x",)),))
+    problem = EquilibriumProblem(system, "p", {"p": -0.5}, (-0.5, 0.5))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        b = continue_equilibria(problem, ContinuationSettings(), [0.0], engine="compiled").branch
+    bps = b.of_type("BP")
+    assert len(bps) == 1 and bps[0].value == pytest.approx(0.0, abs=1e-10)
+    assert np.max(np.abs(b["x"])) == 0.0
+    assert bps[0].extra["rank_test"] == 0.0

@@ -156,7 +156,9 @@ def _analyse_equilibria(chart: _Chart, Ys: list[np.ndarray], settings: Continuat
                 rejected.append(("BP", chart.value(Y[-1])))
                 continue
             kind = "BP" if deficient else "LP"
-            extra["rank_test"] = float(sv[-1] / sv[0])
+            # [J_x, J_p] = 0 exactly at a pitchfork of a field odd in the state on its trivial
+            # branch (Fig. 3's galloping onset, a = 0): rank 0, not 0/0
+            extra["rank_test"] = float(sv[-1] / sv[0]) if sv[0] > 0 else (0.0 if sv[0] == 0 else math.nan)
         if kind == "H":
             # Which pair sums to ~0: a complex pair is a Hopf point, a real pair a neutral saddle.
             best, pair = math.inf, None
