@@ -270,7 +270,7 @@ def continuation_row(tools: Tools, U: float, eta: float, bounds, *, max_points: 
                                   name="EQ")
     except StartError as exc:
         row.update(points=0, end_reason="start_failed", end_sigma=lo, stalled=True,
-                   message=str(exc).splitlines()[0], special=[], wall_s=time.perf_counter() - t0)
+                   message=" ".join(str(exc).split()), special=[], wall_s=time.perf_counter() - t0)
         return row
     b = res.branch
     fwd = [e for e in b.ends if e.side == "forward"][0]
