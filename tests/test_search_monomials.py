@@ -1,4 +1,4 @@
-"""The search's batched evaluation of the AME as a polynomial in the state (`search.Monomials`)
+"""The search's batched evaluation of the AME as a polynomial in the state (`monomials.Monomials`)
 against the lambdified functions it replaces (`System.f_many`, `jac_many`), and the searches of the
 figure scenes with either: the same equilibria (stated tolerances below)."""
 from __future__ import annotations

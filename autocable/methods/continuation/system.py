@@ -157,12 +157,12 @@ class System:
     def _higher(self):
         """Second and third derivative tensors (for the first Lyapunov coefficient, eq. 3.20 of
         Kuznetsov, and the fold curves' B). A field polynomial in the state (the Cartesian AME
-        (24) is cubic) differentiates its monomials exactly (`search.Monomials`, the coefficients
+        (24) is cubic) differentiates its monomials exactly (`monomials.Monomials`, the coefficients
         C(p) the search evaluates): the same tensors as sympy's d2 and d3 up to the order of the
         sums (tests/test_search_monomials.py), without differentiating the AME twice and three
         times in sympy and printing the tensors (1.7 s for the wind AME of a model met the first
         time). Any other field: sympy's derivatives, lambdified and cached like F and J."""
-        from autocable.methods.continuation.search import Monomials
+        from autocable.methods.continuation.monomials import Monomials
         mono = Monomials.of(self)
         if mono is not None:
             return mono.hessian, mono.third
