@@ -112,27 +112,3 @@ def test_ame_system_cache_is_per_reduction_and_a_damaged_file_is_rebuilt(tmp_pat
         got = S.ame_system(ame, "2dof", wind=True)
         assert [sp.srepr(e) for e in got.rhs] == [sp.srepr(e) for e in fresh.rhs]
         assert '"rhs"' in target.read_text() and "Symbol('r1')" in target.read_text()   # written again
-
-
-def test_a_process_reads_a_cached_ame_system_once(tmp_path, monkeypatch):
-    """Scenes run one after the other in a worker process: the second `ame_system` of one AME
-    parses no srepr text (the same expression objects come back, and with them the coefficient
-    template by identity), while a file changed on disk is read again."""
-    from autocable.methods.continuation import system as S
-
-    ame = _ame()
-    monkeypatch.setenv("AUTOCABLE_CACHE", str(tmp_path))
-    first = S.ame_system(ame, "2dof", wind=True)            # builds and stores the file
-    second = S.ame_system(ame, "2dof", wind=True)           # parses it
-    calls = []
-    plain = S._from_srepr
-    monkeypatch.setattr(S, "_from_srepr", lambda t: calls.append(t) or plain(t))
-    third = S.ame_system(ame, "2dof", wind=True)
-    assert calls == []
-    assert all(a is b for a, b in zip(second.rhs, third.rhs))
-    assert third.template is second.template
-    assert [sp.srepr(e) for e in third.rhs] == [sp.srepr(e) for e in first.rhs]
-    path = next((tmp_path / "systems").glob("ame-system-*.json"))
-    path.write_text(path.read_text() + " ")                  # the same content, another size
-    S.ame_system(ame, "2dof", wind=True)
-    assert len(calls) == S.ame_system(ame, "2dof", wind=True).dimension

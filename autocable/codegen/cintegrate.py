@@ -516,20 +516,13 @@ def _integrator_for(variables: tuple, parameters: tuple, time_symbol, template: 
                                                  ("load_s", time.perf_counter() - t2)))
 
 
-@functools.lru_cache(maxsize=64)
 def _plain_symbols(e):
     """``e`` with every symbol that carries assumptions replaced by the plain symbol of its name
     (the template and the C names know names only); ``e`` itself when it has none: sympy's
     xreplace rebuilds the whole tree even for a mapping of each symbol to itself (0.1 s for the
-    wind AME, paid by every model). Kept per process by expression (a walk of the whole tree
-    otherwise at every integrator a scene makes)."""
+    wind AME, paid by every model)."""
     rename = {s: sp.Symbol(s.name) for s in e.free_symbols if s != sp.Symbol(s.name)}
     return e.xreplace(rename) if rename else e
-
-
-@functools.lru_cache(maxsize=64)
-def _symbol_names(e) -> frozenset:
-    return frozenset(s.name for s in e.free_symbols)
 
 
 def compiled_integrator(name: str, variables: Sequence[str], parameters: Sequence[str], rhs: Sequence,
@@ -543,7 +536,7 @@ def compiled_integrator(name: str, variables: Sequence[str], parameters: Sequenc
     plain = tuple(_plain_symbols(sp.sympify(e)) for e in rhs)
     known = set(variables) | set(parameters) | ({time_symbol} if time_symbol else set())
     for e in plain:
-        extra = _symbol_names(e) - known
+        extra = {s.name for s in e.free_symbols} - known
         if extra:
             raise KernelBuildError(f"C integrator of {name!r}: undeclared symbols {sorted(extra)} in "
                                    f"the right-hand side")

@@ -7,8 +7,6 @@ than singular. `parameter_values` computes them consistently; nothing else shoul
 """
 from __future__ import annotations
 
-import functools
-
 import sympy as sp
 
 from autocable.model.equations import TwoModeODE
@@ -27,13 +25,8 @@ def parameter_values(U_star: float, eta: float, Omega: float) -> dict[str, float
             "Uinv": 0.0 if U_star == 0.0 else 1.0 / U_star}
 
 
-@functools.lru_cache(maxsize=8)
 def first_order_rhs(ode: TwoModeODE) -> tuple[sp.Expr, sp.Expr, sp.Expr, sp.Expr]:
-    """(q1', q2', v1', v2') of eq. (21) with f = sin(Omega t) (Sect. 4).
-
-    Kept per process for the last few ODEs (its tuple of sympy expressions is immutable): the
-    scenes a worker process runs one after the other integrate the same eq. (21), and the same
-    expression objects let the C integrator's template be found by identity."""
+    """(q1', q2', v1', v2') of eq. (21) with f = sin(Omega t) (Sect. 4)."""
     f = sp.sin(OMEGA * T)
     forcing = (ETA * f, ETA * OMEGA * sp.cos(OMEGA * T), -ETA * OMEGA**2 * f)
     acc = [sp.Integer(0), sp.Integer(0)]

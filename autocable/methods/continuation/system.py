@@ -5,7 +5,6 @@ Part of the continuation of `autocable.methods.continuation` (its docstring give
 scaling of the fields built here)."""
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any, Mapping
@@ -342,34 +341,7 @@ def ame_system(ame, dof: str = "2dof", *, wind: bool = True, name: str | None = 
 
 def _cached_rhs(path, n: int) -> tuple[list[str], list[sp.Expr]] | None:
     """The srepr texts `ame_system` stored at ``path`` and their expressions, or None (missing,
-    corrupt or foreign: the caller builds them again). Kept per process by the file's path, size
-    and modification time: the scenes a worker runs one after the other read the same AME, and
-    its same expression objects find the compiled kernel's template by identity."""
-    try:
-        st = path.stat()
-    except OSError:
-        return None
-    try:
-        texts, exprs = _parsed_rhs(str(path), st.st_size, st.st_mtime_ns, n)
-    except _Unusable:
-        return None
-    return list(texts), list(exprs)
-
-
-class _Unusable(Exception):
-    """A cached AME system file that cannot be used (not kept by the memo: an exception)."""
-
-
-@functools.lru_cache(maxsize=8)
-def _parsed_rhs(path: str, size: int, mtime_ns: int, n: int) -> tuple[tuple, tuple]:
-    from pathlib import Path
-    got = _read_rhs(Path(path), n)
-    if got is None:
-        raise _Unusable(path)
-    return tuple(got[0]), tuple(got[1])
-
-
-def _read_rhs(path, n: int) -> tuple[list[str], list[sp.Expr]] | None:
+    corrupt or foreign: the caller builds them again)."""
     data = load_checked_json(path, f"AME system {path.name}")
     if not (isinstance(data, dict) and data.get("format") == AME_SYSTEM_VERSION):
         return None
