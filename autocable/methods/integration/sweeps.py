@@ -252,11 +252,10 @@ class PeriodOneShortcut:
                 f"largest multiplier modulus {mu_max:.4f})")
 
 
-
 class RecurrenceStop:
     """Ends an eq. (21) integration (`Ode21Integrator.simulate`'s ``recurrence``) as "not steady"
     once its response is seen to be a recurrent modulated motion, instead of integrating on to
-    max_time only to report the same (Figs. 4a-c above U_c, 8, 9 and 10: about two thirds of the
+    max_time only to report the same (Figs. 4a-c above U_c, 8, 9 and 10: more than half of the
     overlays' integration time before this stop).
 
     The integration calls a response steady when its amplitudes over the last forcing periods
@@ -328,6 +327,7 @@ class RecurrenceStop:
         return (f"a recurrent modulated motion: the median change between chunks is {m_late:.1e} over "
                 f"the last {h} chunks and {m_early:.1e} over the {h} before, the amplitudes do not drift, "
                 f"and {orbit}; stopped before max_time = {max_time:g}")
+
 
 def sweep(integrator, parameter: str, values, fixed: dict, *, directions=("up", "down"),
           q0=DEFAULT_Q0, progress=None, shortcut: PeriodOneShortcut | None = None,
