@@ -20,8 +20,9 @@ class Monomials:
     F(X) = C(p) Phi(X): the coefficients C once per parameter point, the monomials Phi from a table
     of powers. The same numbers as `System.f_many` / `jac_many` (lambdify's text, which spends a
     numpy operation per term and state column: 180 terms per row for the natural ordering) up to
-    the order of the sums (checked to 1e-12 in tests/test_search_monomials.py), several times faster on the
-    1088 starts of the search. `of` returns None for a field that is not polynomial in the state.
+    the order of the sums (checked to 1e-12 in tests/test_search_monomials.py), several times
+    faster on the 1088 starts of the search; the second and third derivative tensors of F at one
+    state (`hessian`, `third`). `of` returns None for a field that is not polynomial in the state.
     """
 
     def __init__(self, system):
