@@ -54,6 +54,7 @@ from autocable.codegen.coefficients import Template, coefficient_template
 from autocable.codegen.ckernel import (CFLAGS, KernelBuildError, _block, _compile, _Printer, cached_library,
                                       load_private)
 from autocable.model import derivatives
+from autocable.model.symbolic import plain_symbols
 
 __all__ = ["INTEGRATOR_VERSION", "STATUS", "CIntegrator", "CRun", "Repeated", "compiled_integrator",
            "integrator_source", "sample_grid"]
@@ -516,15 +517,6 @@ def _integrator_for(variables: tuple, parameters: tuple, time_symbol, template: 
                                                  ("load_s", time.perf_counter() - t2)))
 
 
-def _plain_symbols(e):
-    """``e`` with every symbol that carries assumptions replaced by the plain symbol of its name
-    (the template and the C names know names only); ``e`` itself when it has none: sympy's
-    xreplace rebuilds the whole tree even for a mapping of each symbol to itself (0.1 s for the
-    wind AME, paid by every model)."""
-    rename = {s: sp.Symbol(s.name) for s in e.free_symbols if s != sp.Symbol(s.name)}
-    return e.xreplace(rename) if rename else e
-
-
 def compiled_integrator(name: str, variables: Sequence[str], parameters: Sequence[str], rhs: Sequence,
                         time_symbol: str | None = "t", cc: str | None = None) -> CIntegrator:
     """The loaded DOP853 library of y' = rhs(t, y; p), built if needed (cached across processes).
@@ -533,7 +525,7 @@ def compiled_integrator(name: str, variables: Sequence[str], parameters: Sequenc
     ``time_symbol``; ``cc``: the C compiler (default ``$CC`` or ``gcc``). Raises
     `autocable.codegen.ckernel.KernelBuildError` (one line)."""
     cc = cc or os.environ.get("CC", "").strip() or "gcc"
-    plain = tuple(_plain_symbols(sp.sympify(e)) for e in rhs)
+    plain = tuple(plain_symbols(e) for e in rhs)
     known = set(variables) | set(parameters) | ({time_symbol} if time_symbol else set())
     for e in plain:
         extra = {s.name for s in e.free_symbols} - known

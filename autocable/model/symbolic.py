@@ -18,6 +18,16 @@ STATE = (Q1, Q2, V1, V2)
 PARAMETERS = (U, ETA, OMEGA, WIND, UINV)
 
 
+def plain_symbols(expr) -> sp.Expr:
+    """``expr`` with every symbol that carries assumptions (eq. (21)'s are real) replaced by the
+    plain ``Symbol`` of its name: the generated code and the numeric functions know names only.
+    ``expr`` itself when it has none (read back from a cache): sympy's xreplace would rebuild the
+    whole tree even for a mapping of each symbol to itself (0.1 s for the wind AME)."""
+    expr = sp.sympify(expr)
+    swap = {s: sp.Symbol(s.name) for s in expr.free_symbols if s != sp.Symbol(s.name)}
+    return expr.xreplace(swap) if swap else expr
+
+
 def parameter_values(U_star: float, eta: float, Omega: float) -> dict[str, float]:
     """Values of every parameter of `first_order_rhs` for wind U*, support amplitude eta*, Omega."""
     wind = 0.0 if U_star == 0.0 else 1.0

@@ -16,6 +16,7 @@ from autocable._store import cache_dir, content_hash, load_checked_json, store_c
 from autocable.codegen.coefficients import coefficient_template
 from autocable.codegen.pydstool import VectorField
 from autocable.methods.lambda_cache import numeric_function, rhs_key, rhs_key_of_srepr
+from autocable.model.symbolic import plain_symbols
 
 
 #: Names the scaled PyCont vector field reserves for itself.
@@ -23,14 +24,6 @@ _RESERVED = ("xscale", "lam", "lam2", "tscale")
 #: Version of what `ame_system` builds from an AME: bump it when that construction changes, so the
 #: right-hand sides cached by earlier code are not used.
 AME_SYSTEM_VERSION = 1
-
-
-def _plain(expr):
-    """sympy expression with every symbol replaced by a plain ``Symbol(name)`` (no assumptions)."""
-    expr = sp.sympify(expr)
-    swap = {s: sp.Symbol(s.name) for s in expr.free_symbols if s != sp.Symbol(s.name)}
-    # Already plain (e.g. read back from the cache): xreplace would walk the whole tree for nothing.
-    return expr.xreplace(swap) if swap else expr
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,7 +49,7 @@ class System:
         variables = tuple(str(v) for v in self.variables)
         params = self.parameters.items() if isinstance(self.parameters, Mapping) else self.parameters
         params = tuple((str(k), float(v)) for k, v in params)
-        rhs = tuple(_plain(e) for e in self.rhs)
+        rhs = tuple(plain_symbols(e) for e in self.rhs)
         if len(rhs) != len(variables):
             raise ValueError(f"system {self.name!r}: {len(variables)} variables, {len(rhs)} right-hand sides")
         names = set(variables) | {p for p, _ in params}
@@ -332,7 +325,7 @@ def ame_system(ame, dof: str = "2dof", *, wind: bool = True, name: str | None = 
         ren[syms[f"s_{k}"]] = sp.Symbol(f"s{k}")
     ren[syms["eta"]] = sp.Symbol("eta")
     ren[syms["U"]] = sp.Symbol("U")
-    rhs = [_plain(sp.expand(e.xreplace(rel)).xreplace(ren)) for e in exprs]
+    rhs = [plain_symbols(sp.expand(e.xreplace(rel)).xreplace(ren)) for e in exprs]
     system = System(tag, variables, rhs, params, tuple(amps), description=description, amplitude_equations=True)
     if path is not None:
         store_checked_json(path, {"format": AME_SYSTEM_VERSION, "rhs": [sp.srepr(e) for e in system.rhs]})
