@@ -221,7 +221,7 @@ class Executor:
         self.cluster_kwargs = dict(cluster_kwargs or {})
         self.client = self._cluster = self._ac = None
         self._queue: list = []          # the serial path's tasks, in order
-        self._held: list = []           # strict priority: a heap of the tasks not yet handed to Dask
+        self._held: list = []           # strict priority: a heap of the tasks not yet handed out
         self._seq = itertools.count()
         self._in_flight = 0
         self._pending = 0
@@ -298,15 +298,17 @@ class Executor:
         Returns the Dask future (None on the serial path, and with ``strict_priority``, where the
         task may not have been handed to Dask yet)."""
         self._pending += 1
-        if self.client is None:
-            self._queue.append((label, fn, args, priority))
+        if self.client is None and not self.strict_priority:
+            self._queue.append((label, fn, args))
             return None
         if self.strict_priority:
             # Dask assigns a task without dependencies to a worker when it is submitted (and may
             # steal it later); its priority orders only that worker's queue. Held here and handed
             # over one per free worker, the task of highest priority at that moment runs next.
+            # On the serial path the heap is the queue: the highest first, the earliest of equals.
             heapq.heappush(self._held, (-priority, next(self._seq), label, fn, args))
-            self._feed()
+            if self.client is not None:
+                self._feed()
             return None
         return self._send(label, fn, args, priority)
 
@@ -343,11 +345,11 @@ class Executor:
         submitted while iterating; a task that raised, or whose workers kept dying, comes back with
         its ``error``."""
         if self.client is None:
-            while self._queue:
-                k = 0
-                if self.strict_priority:    # the highest priority first, the earliest of equals
-                    k = max(range(len(self._queue)), key=lambda i: (self._queue[i][3], -i))
-                label, fn, args, _ = self._queue.pop(k)
+            while self._queue or self._held:
+                if self._held:
+                    _, _, label, fn, args = heapq.heappop(self._held)
+                else:
+                    label, fn, args = self._queue.pop(0)
                 try:
                     value = _journaled(self.journal, label, fn, *args)
                     done = Done(label, value)
