@@ -83,12 +83,12 @@ def _special_points(folder: Path) -> list[tuple]:
 
 
 def test_figures_on_a_scheduler_find_the_special_points_of_a_local_run(cluster, tmp_path):
-    remote = _cli("figures", "--only", SCENES, "--out", tmp_path / "remote", "--scheduler", cluster)
+    remote = _cli("figures", "--only", SCENES, "--out", tmp_path / "remote", "--scheduler", cluster, "--recompute")
     assert remote.returncode == 0, remote.stderr[-2000:]
     assert "on the scheduler tcp://127.0.0.1:" in remote.stdout
     summary = json.loads((tmp_path / "remote" / "figures.json").read_text())
     assert summary["where"]["mode"] == "scheduler" and summary["where"]["workers_seen"] == 2
-    local = _cli("figures", "--only", SCENES, "--out", tmp_path / "local", "--workers", "0")
+    local = _cli("figures", "--only", SCENES, "--out", tmp_path / "local", "--workers", "0", "--recompute")
     assert local.returncode == 0, local.stderr[-2000:]
     for n in SCENES.split(","):
         sp = _special_points(tmp_path / "remote" / n)

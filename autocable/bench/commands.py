@@ -491,7 +491,8 @@ def _plot_ame_vs_ode(result: dict, path) -> None:
 FIGURES_TARGETS = {"cold_s": 30.0, "warm_s": 6.0}
 
 
-def _figures_pass(out_dir: str, env: dict, runs: str | None, jobs: int | None, only: list[str]) -> dict:
+def _figures_pass(out_dir: str, env: dict, runs: str | None, jobs: int | None, only: list[str],
+                  extra: tuple[str, ...] = ()) -> dict:
     import resource
     import subprocess
     import sys
@@ -503,6 +504,7 @@ def _figures_pass(out_dir: str, env: dict, runs: str | None, jobs: int | None, o
         cmd += ["--runs", runs]
     if jobs:
         cmd += ["--workers", str(jobs)]
+    cmd += list(extra)
     load = os.getloadavg()[0]
     ru0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
@@ -517,12 +519,17 @@ def _figures_pass(out_dir: str, env: dict, runs: str | None, jobs: int | None, o
         if not d.ok:
             scenes[folder.name] = {"status": d.status, "error": d.error}
             continue
+        if (d.run or {}).get("reused"):
+            # copied from the cache (autocable.paper.reuse): its stage clocks are the earlier run's
+            scenes[folder.name] = {"status": "ok", "reused": True}
+            continue
         st = stage_seconds(((d.run or {}).get("provenance") or {}).get("stages") or {})
         scenes[folder.name] = {"status": "ok", **st}
         for k in totals:
             totals[k] += st[k]
     shares = {k: (totals[k] / totals["total"] if totals["total"] > 0 else math.nan) for k in FIGURE_STAGES}
     return {"wall_s": wall, "cpu_s": cpu, "load_average_before": load, "exit_status": proc.returncode,
+            "argv_extra": list(extra), "scenes_reused": sum(1 for v in scenes.values() if v.get("reused")),
             "stderr_tail": proc.stderr.strip().splitlines()[-5:],
             "scenes": scenes, "stage_seconds_summed_over_scenes": totals, "stage_shares": shares}
 
@@ -533,15 +540,18 @@ def _stages() -> tuple:
 
 
 def bench_figures(log=None, runs: str | None = None, jobs: int | None = None, out=None) -> dict:
-    """Wall time of `autocable figures` (every scene) in a subprocess, cold (a fresh empty
-    AUTOCABLE_CACHE) then warm (the same cache again), with each stage's share of the scenes'
-    summed wall time (`autocable.paper.report.stage_seconds`), and per scene what the cold pass
-    took more than the warm one (``cold_minus_warm``: the one-time derivations and builds). Scenes
-    run in parallel, so the summed stage time exceeds the wall time by up to the number of
-    processes. With ``out``, the warm pass's figures, data and report.md are kept in ``out/figures``."""
+    """Wall time of `autocable figures` (every scene) in a subprocess, three passes on one fresh
+    AUTOCABLE_CACHE: **cold** (the cache empty), **warm** (the same command again: every scene's
+    stored results reused, `autocable.paper.reuse`) and **recomputed** (``--recompute``: every
+    scene computed again on the warm cache of derivations and builds). Each pass records its
+    stages' share of the scenes' summed wall time (`autocable.paper.report.stage_seconds`; reused
+    scenes have none), and per scene what the cold pass took more than the recomputed one
+    (``cold_minus_warm``: the one-time derivations and builds). Scenes run in parallel, so the
+    summed stage time exceeds the wall time by up to the number of processes. With ``out``, the
+    recomputed pass's figures, data and report.md are kept in ``out/figures``."""
     from autocable.paper.figures import default_runs_dir, discover
     say = log or (lambda s: None)
-    # one list for both passes: scene files added meanwhile must not make them incomparable
+    # one list for all passes: scene files added meanwhile must not make them incomparable
     only = [p.stem for p in discover(runs or default_runs_dir())]
     say(f"scenes: {', '.join(only)}")
     with tempfile.TemporaryDirectory() as tmp:
@@ -549,16 +559,20 @@ def bench_figures(log=None, runs: str | None = None, jobs: int | None = None, ou
         say("autocable figures, cold (empty cache) ...")
         cold = _figures_pass(os.path.join(tmp, "cold"), env, runs, jobs, only)
         say(f"  {cold['wall_s']:.1f} s (exit status {cold['exit_status']})")
-        say("autocable figures, warm ...")
-        warm_dir = os.path.join(str(out), "figures") if out else os.path.join(tmp, "warm")
-        warm = _figures_pass(warm_dir, env, runs, jobs, only)
-        say(f"  {warm['wall_s']:.1f} s (exit status {warm['exit_status']})")
+        say("autocable figures, warm (the stored results reused) ...")
+        warm = _figures_pass(os.path.join(tmp, "warm"), env, runs, jobs, only)
+        say(f"  {warm['wall_s']:.1f} s (exit status {warm['exit_status']}, {warm['scenes_reused']} scenes reused)")
+        say("autocable figures --recompute, warm (every scene computed again) ...")
+        again_dir = os.path.join(str(out), "figures") if out else os.path.join(tmp, "again")
+        again = _figures_pass(again_dir, env, runs, jobs, only, ("--recompute",))
+        say(f"  {again['wall_s']:.1f} s (exit status {again['exit_status']})")
     # what a cold cache adds, per scene and stage: the one-time derivations and builds
-    cold_extra = {name: {k: cold["scenes"][name][k] - warm["scenes"][name][k] for k in (*_stages(), "total")}
+    cold_extra = {name: {k: cold["scenes"][name][k] - again["scenes"][name][k] for k in (*_stages(), "total")}
                   for name in only if cold["scenes"].get(name, {}).get("status") == "ok"
-                  and warm["scenes"].get(name, {}).get("status") == "ok"}
+                  and again["scenes"].get(name, {}).get("status") == "ok"}
     return {"what": "autocable figures, every runs/fig*.toml scene", "scenes": only, "cpu_count": os.cpu_count(),
-            "jobs": jobs or os.cpu_count(), "cold": cold, "warm": warm, "cold_minus_warm": cold_extra,
+            "jobs": jobs or os.cpu_count(), "cold": cold, "warm": warm, "recomputed": again,
+            "cold_minus_warm": cold_extra,
             "targets": FIGURES_TARGETS,
             "targets_met": {"cold": cold["wall_s"] <= FIGURES_TARGETS["cold_s"] and cold["exit_status"] == 0,
                             "warm": warm["wall_s"] <= FIGURES_TARGETS["warm_s"] and warm["exit_status"] == 0}}

@@ -48,6 +48,9 @@ class SceneOutcome:
     wall_s: float
     error: str = ""
     files: list[str] = field(default_factory=list)
+    #: When the files were computed, for a scene whose stored results were reused
+    #: (`autocable.paper.reuse`); empty for a scene computed by this run.
+    reused: str = ""
 
 
 def default_runs_dir() -> Path:
@@ -240,12 +243,61 @@ def _error_file(folder: Path, error: str, detail: str) -> None:
     (folder / ERROR_TXT).write_text(error + "\n\n" + detail, encoding="utf-8")
 
 
+class _NoTasks:
+    """The executor of a run whose every scene was reused: nothing to wait for."""
+
+    where = {"mode": "reused"}
+
+    def completed(self):
+        return iter(())
+
+    def close(self) -> None:
+        pass
+
+
+def _reuse_stored(pending: list[Path], out: Path, model_arg: str | None, engine: str | None, plot: bool,
+                  reuse: bool, keys: dict, outcomes: dict, tell: Say, on_done, total: int) -> list[Path]:
+    """The scenes of ``pending`` still to compute: each scene with a stored entry of its key
+    (`autocable.paper.reuse`) is published from it instead, and counted done. Fills ``keys``
+    (scene name -> (key, inputs)) for storing the computed ones."""
+    from autocable.paper.reuse import lookup, restore, scene_inputs, scene_key
+    left = []
+    for path in pending:
+        name = path.stem
+        inputs = scene_inputs(path, model_arg, engine, plot)
+        if inputs is None:      # unreadable: computed, and fails there with its own message
+            left.append(path)
+            continue
+        keys[name] = (scene_key(inputs), inputs)
+        entry = lookup(keys[name][0]) if reuse else None
+        if entry is None:
+            left.append(path)
+            continue
+        t0 = time.perf_counter()
+        folder = out / name
+        try:
+            (folder / ERROR_TXT).unlink(missing_ok=True)
+            restore(entry, folder, name, inputs)
+        except Exception as exc:   # noqa: BLE001 - e.g. a folder holding foreign files: the run says why
+            tell(f"{name}: the stored results were not used ({_one_line(exc)}); computing it")
+            left.append(path)
+            continue
+        files = _collect(name, folder, out)
+        outcomes[name] = SceneOutcome(name, str(path), "ok", time.perf_counter() - t0, "", files,
+                                      reused=str(entry.get("computed") or "?"))
+        tell(f"[{len(outcomes)}/{total}] {name}: reused (computed {entry.get('computed')} in "
+             f"{entry.get('wall_s')} s, with the same inputs)")
+        if on_done is not None:
+            on_done(len(outcomes), total, name, "reused")
+    return left
+
+
 def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None = None,
                 timeout: float | None = None, say: Say | None = None,
                 engine: str | None = None, model: str | Path | None = None,
                 on_done: Callable[[int, int, str, str], None] | None = None,
                 workers: int | None = None, scheduler: str | None = None, executor=None,
-                plot: bool = True) -> list[SceneOutcome]:
+                plot: bool = True, reuse: bool = False, keep: bool = False) -> list[SceneOutcome]:
     """Run ``scenes``, each into ``out_dir/<scene>/``, as tasks of one executor
     (`autocable.executor`: ``executor`` if given, else a LocalCluster of ``workers`` processes --
     ``jobs`` is the older name -- default one per core, 0 for this process alone, or the cluster
@@ -255,7 +307,13 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
     stopped and reported failed. ``engine`` overrides every scene's continuation engine ("pycont" |
     "compiled", `autocable.scene.runner.run_scene`); ``model`` runs every scene on that model spec
     instead of the one the scene names; ``plot=False`` skips the figures. ``on_done(done, total,
-    name, status)`` is called as each scene finishes (a progress bar)."""
+    name, status)`` is called as each scene finishes (a progress bar).
+
+    With ``reuse``, a scene whose inputs (`autocable.paper.reuse.scene_inputs`: its files, the
+    overrides, autocable's code, the libraries) are those of a scene stored in the cache is not
+    computed: its stored files are published into ``out_dir/<scene>/`` (run.json says so under
+    ``reused``). With ``keep``, every scene this run computes is stored (not the scenes of a
+    ``scheduler``'s workers, whose code may not be this process's)."""
     from autocable.executor import Executor, attempts, time_left
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -267,6 +325,12 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
     outcomes: dict[str, SceneOutcome] = {}
     total = len(pending)
     model_arg = None if model is None else str(Path(model).resolve())
+    t_start = time.perf_counter()
+    keys: dict[str, tuple[str, dict]] = {}
+    if reuse or keep:
+        pending = _reuse_stored(pending, out, model_arg, engine, plot, reuse, keys, outcomes, tell, on_done, total)
+        keep = keep and not scheduler
+    n_reused, t_compute = len(outcomes), time.perf_counter()
     # On a cold cache, scenes of one group (`cold_group`) started side by side each derive and
     # compile the same things (the first run of all figures spent 8 s of its 39 s computing the
     # natural-ordering AME's functions twice, in Figs. 4a and 4b at once). The most expensive
@@ -288,7 +352,10 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
     # a leader outranks every scene queued after another leader: the longest cold scenes start first
     boost = {name: total for name in leaders.values()}
     journal = out / TASKS_JOURNAL
-    if executor is None:
+    if not pending and executor is None:
+        executor = _NoTasks()       # every scene reused: no cluster to start
+        owned = False
+    elif executor is None:
         if workers is None and scheduler is None and len(scenes) <= 1:
             workers = 0      # one scene: no cluster to start, it still runs in its own child process
         elif workers and not scheduler:
@@ -300,7 +367,6 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
         owned = True
     else:
         owned = False
-    t_start = time.perf_counter()
     paths = {}
     try:
         if owned:
@@ -337,9 +403,12 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
                 if stale.exists():
                     stale.unlink()
                 files = _collect(name, folder, out)
+                if keep and name in keys:
+                    from autocable.paper.reuse import store
+                    store(*keys[name], folder, wall)
             outcomes[name] = SceneOutcome(name, str(path), status, wall, error, files)
             n = len(outcomes)
-            left = time_left(n, total, time.perf_counter() - t_start)
+            left = time_left(n - n_reused, total - n_reused, time.perf_counter() - t_compute)
             tell(f"[{n}/{total}] {name}: {'done' if status == 'ok' else 'FAILED'} in {wall:.1f} s"
                  + (f": {error}" if error else "") + (f" ({left})" if left else ""))
             if on_done is not None:
@@ -358,7 +427,7 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
              f"{', '.join(sorted(recomputed))}")
     from autocable._store import atomic_write_json
     recorded = recorded_wall_times()
-    recorded.update({o.name: round(o.wall_s, 3) for o in ordered if o.status == "ok"})
+    recorded.update({o.name: round(o.wall_s, 3) for o in ordered if o.status == "ok" and not o.reused})
     try:
         atomic_write_json(_timings_file(), recorded)
     except OSError:
@@ -396,6 +465,10 @@ def add_figures_parser(subparsers) -> None:
                                      "beside the scenes' model)")
     f.add_argument("--engine", choices=("pycont", "compiled"),
                    help="override every scene's engine of equilibria, switching and cycles from Hopf points")
+    f.add_argument("--recompute", action="store_true",
+                   help="compute every scene, even one whose results are stored in the cache from a run with "
+                        "the same inputs (scene, model, options, autocable's code and libraries); by default "
+                        "those are reused")
     f.set_defaults(func=cmd_figures)
 
 
@@ -425,6 +498,8 @@ def _where_text(out: Path) -> str:
     mode = where.get("mode")
     if mode == "scheduler":
         return f"on the scheduler {where.get('address')}, {where.get('workers_seen', '?')} workers"
+    if mode == "reused":
+        return "every scene reused from the cache: none computed"
     if mode == "LocalCluster":
         return f"{where.get('workers')} worker processes"
     return "in this process, one at a time"
@@ -484,7 +559,8 @@ def cmd_figures(args) -> int:
     try:
         outcomes = run_figures(scenes, out, workers=args.workers, scheduler=args.scheduler, timeout=args.timeout,
                                say=say,
-                               engine=getattr(args, "engine", None), model=model, on_done=on_done)
+                               engine=getattr(args, "engine", None), model=model, on_done=on_done,
+                               reuse=not getattr(args, "recompute", False), keep=True)
     finally:
         if isinstance(bar, BarProgress):
             bar.close()
@@ -496,7 +572,12 @@ def cmd_figures(args) -> int:
               f"({_where_text(out)}); report: {report}")
         for o in outcomes:
             print(f"  {o.name:<8} {o.status:<6} {o.wall_s:7.1f} s  "
-                  + (", ".join(o.files) if o.status == "ok" else o.error))
+                  + (", ".join(o.files) if o.status == "ok" else o.error)
+                  + (f"  (reused: computed {o.reused})" if o.reused else ""))
+        n_reused = sum(1 for o in outcomes if o.reused)
+        if n_reused:
+            print(f"{n_reused} scene(s) reused from the cache, computed earlier with the same inputs; "
+                  f"--recompute computes them again")
     else:
         for o in failed:
             print(f"autocable: {o.name} failed: {o.error}", file=sys.stderr)

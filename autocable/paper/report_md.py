@@ -86,8 +86,13 @@ def build_report(out_dir: str | Path, targets: str | Path | None = None) -> str:
         wall = s.get("wall_s")
         fig = f"[{n}.png]({n}.png)" if (out / f"{n}.png").is_file() else "—"
         status = d.status if d.ok or d.status != "ok" else "no results"
-        lines.append(f"| {n} | {status}{': ' + d.error if d.error else ''} | "
-                     f"{_g(wall, 3) + ' s' if isinstance(wall, (int, float)) else '—'} | {fig} |")
+        when = f"{_g(wall, 3)} s" if isinstance(wall, (int, float)) else "—"
+        if s.get("reused"):
+            # the files were computed earlier with the same inputs (autocable.paper.reuse): say when
+            first = ((d.run or {}).get("reused") or {}).get("wall_s")
+            when = (f"reused: computed {s['reused']}"
+                    + (f" in {_g(first, 3)} s" if isinstance(first, (int, float)) else ""))
+        lines.append(f"| {n} | {status}{': ' + d.error if d.error else ''} | {when} | {fig} |")
     if failed:
         lines += ["", f"**{len(failed)} scene(s) failed**: " + "; ".join(f"{d.name}: {d.error or d.status}"
                                                                         for d in failed)]

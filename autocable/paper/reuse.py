@@ -1,0 +1,225 @@
+"""Scene results reused across runs of `autocable figures`, keyed by everything that makes them.
+
+A figure scene (Figs. 3-11) is a deterministic function of its inputs: the scene file, the model
+spec and every other file the scene reads (digitised points, a response map), the overrides of the
+command (``--model``, ``--engine``), whether figures are drawn, autocable's own source code and the
+versions of the libraries and compiler that compute it. `scene_inputs` gathers all of these as
+plain data; `scene_key` is the sha256 of that. A scene that completed is stored under its key in
+the cache folder (`store`: its files, each with its sha256, and when and in how long it was
+computed); a later run whose scene has the same key publishes those files into its own output
+folder (`restore`) instead of computing them again. Any change to any input, including one byte
+of autocable's code, gives another key: the scene is computed.
+
+Why it is safe: the scenes are deterministic (a scene computed twice on one machine gives the same
+numbers: tests/test_reuse.py), so the stored files are what a new computation would write. Why it is
+there: a warm `autocable figures` on the sample otherwise spends about 20 s recomputing the same
+twelve scenes (docs/benchmarks.md). ``autocable figures --recompute`` computes every scene anyway
+(and stores the result again).
+
+A stored entry is checked before it is used (every file's sha256); one that fails is removed,
+reported on stderr, and the scene computed. A read-only cache is only read.
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import importlib.metadata
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+__all__ = ["FORMAT", "code_fingerprint", "scene_inputs", "scene_key", "lookup", "restore", "store", "entry_folder"]
+
+#: Format of a stored entry (`store`); another format is never read.
+FORMAT = "autocable.reuse/1"
+_ENTRY_JSON = "entry.json"
+#: The libraries whose numbers or drawings a scene's files depend on.
+_LIBRARIES = ("numpy", "scipy", "sympy", "matplotlib", "PyDSTool")
+
+
+@functools.lru_cache(maxsize=1)
+def code_fingerprint() -> str:
+    """The sha256 of every file of the autocable package (path and bytes, compiled caches left out):
+    any change to the code that computes a scene makes another key."""
+    root = Path(__file__).resolve().parent.parent
+    digest = hashlib.sha256()
+    for path in sorted(p for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts
+                       and p.suffix not in (".pyc", ".pyo")):
+        digest.update(path.relative_to(root).as_posix().encode() + b"\0")
+        digest.update(path.read_bytes())
+        digest.update(b"\0")
+    return digest.hexdigest()
+
+
+@functools.lru_cache(maxsize=1)
+def _toolchain() -> dict:
+    """Python, the libraries, the machine and the C compiler (the compiled engine's kernels)."""
+    versions = {}
+    for name in _LIBRARIES:
+        try:
+            versions[name] = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            versions[name] = None
+    cc = os.environ.get("CC", "").strip() or "gcc"
+    try:
+        banner = subprocess.run([cc, "--version"], capture_output=True, text=True, timeout=10).stdout
+        cc_version = banner.splitlines()[0] if banner else ""
+    except (OSError, subprocess.SubprocessError):
+        cc_version = ""
+    return {"python": sys.version, "machine": platform.machine(), "system": platform.system(),
+            "libraries": versions, "cc": cc, "cc_version": cc_version}
+
+
+def _file_sha(path: Path) -> str | None:
+    from autocable._store import file_sha256
+    return file_sha256(path)
+
+
+def _paths_in(obj: Any, found: set[Path]) -> None:
+    """Every `Path` held anywhere in a scene's dataclasses: the files the scene reads."""
+    if isinstance(obj, Path):
+        found.add(obj)
+    elif dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        for f in dataclasses.fields(obj):
+            _paths_in(getattr(obj, f.name), found)
+    elif isinstance(obj, dict):
+        for v in obj.values():
+            _paths_in(v, found)
+    elif isinstance(obj, (list, tuple, set, frozenset)):
+        for v in obj:
+            _paths_in(v, found)
+
+
+def scene_inputs(scene_path: str | Path, model: str | Path | None = None, engine: str | None = None,
+                 plot: bool = True) -> dict | None:
+    """Everything a scene's results depend on, as plain data (`scene_key` hashes it): each file the
+    scene reads (the scene file, its model or ``model``, digitised points, a map) by resolved path
+    and sha256, the overrides, ``plot``, `code_fingerprint` and the toolchain. None when the scene
+    cannot be read or a file it names is missing (the scene is then computed, and fails with its
+    own message)."""
+    from dataclasses import replace
+
+    from autocable.scene.runner import load_scene
+    try:
+        scene = load_scene(scene_path)
+    except Exception:   # noqa: BLE001 - reported by the scene's own run
+        return None
+    if model is not None:
+        scene = replace(scene, model=Path(model))
+    found: set[Path] = set()
+    _paths_in(scene, found)
+    files = {}
+    for path in sorted(found):
+        full = Path(path).resolve()
+        sha = _file_sha(full)
+        if sha is None:
+            return None
+        files[str(full)] = sha
+    return {"format": FORMAT, "scene": str(Path(scene_path).resolve()), "files": files, "engine": engine,
+            "model_override": None if model is None else str(Path(model).resolve()), "plot": bool(plot),
+            "code": code_fingerprint(), "toolchain": _toolchain()}
+
+
+def scene_key(inputs: dict) -> str:
+    """The sha256 of `scene_inputs` (hex, 64 characters)."""
+    from autocable._store import canonical_json
+    return hashlib.sha256(canonical_json(inputs).encode("utf-8")).hexdigest()
+
+
+def entry_folder(key: str) -> Path:
+    """Where the entry of ``key`` lives: ``<cache>/scenes/<key>`` (not created)."""
+    from autocable._store import cache_root
+    if len(key) != 64 or any(c not in "0123456789abcdef" for c in key):
+        raise ValueError(f"not a scene key: {key!r}")
+    return cache_root() / "scenes" / key
+
+
+def lookup(key: str) -> dict | None:
+    """The checked entry of ``key`` (its entry.json payload plus ``folder``), or None when there is
+    none. An entry whose entry.json or any file fails its sha256 is removed and reported: the scene
+    is then computed again."""
+    from autocable._store import load_checked_json, report_rebuilt
+    folder = entry_folder(key)
+    if not folder.is_dir():
+        return None
+    meta = load_checked_json(folder / _ENTRY_JSON, None)
+    ok = (isinstance(meta, dict) and meta.get("format") == FORMAT and meta.get("key") == key
+          and isinstance(meta.get("files"), dict) and meta["files"])
+    if ok:
+        for name, sha in meta["files"].items():
+            if "/" in name or name in ("", ".", "..") or _file_sha(folder / name) != sha:
+                ok = False
+                break
+    if not ok:
+        report_rebuilt(f"the stored results of a scene ({folder.name[:12]})")
+        shutil.rmtree(folder, ignore_errors=True)
+        return None
+    return {**meta, "folder": str(folder)}
+
+
+def store(key: str, inputs: dict, scene_folder: str | Path, wall_s: float) -> bool:
+    """Keep the complete scene in ``scene_folder`` under ``key`` (its files as listed by its
+    run.json, each with its sha256; the computation's wall time and date). Written beside the entry
+    and renamed into place, so a reader sees a whole entry or none; an entry already there is left.
+    False (and nothing stored) when the folder is not a complete run or the cache cannot be written
+    (a shared read-only cache)."""
+    from autocable._store import read_json, store_checked_json
+    from autocable.results import RUN_JSON, is_complete
+    src = Path(scene_folder)
+    if not is_complete(src):
+        return False
+    meta = read_json(src / RUN_JSON)
+    names = [n for n in meta.get("files", []) if isinstance(n, str) and "/" not in n] + [RUN_JSON]
+    final = entry_folder(key)
+    if final.is_dir():
+        return True
+    try:
+        final.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=".entry-", dir=final.parent))
+    except OSError:
+        return False
+    try:
+        files = {}
+        for name in names:
+            shutil.copyfile(src / name, tmp / name)
+            files[name] = _file_sha(tmp / name)
+        store_checked_json(tmp / _ENTRY_JSON, {
+            "format": FORMAT, "key": key, "inputs": inputs, "files": files,
+            "computed": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "wall_s": round(float(wall_s), 3)})
+        os.rename(tmp, final)
+        return True
+    except OSError:
+        return False
+    except Exception:   # noqa: BLE001 - e.g. a CacheError: not storing never fails the run
+        return False
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def restore(entry: dict, scene_folder: str | Path, name: str, inputs: dict) -> None:
+    """Publish the stored files of ``entry`` (`lookup`) into ``scene_folder`` as a complete run
+    (`autocable.run_folder.output_folder`: an earlier run's files there are replaced, files no run
+    listed refuse the folder), run.json saying where they came from under ``reused``: the key, when
+    and in how many seconds they were computed."""
+    from autocable._store import atomic_write_json, read_json
+    from autocable.results import RUN_JSON
+    from autocable.run_folder import output_folder
+    folder = Path(entry["folder"])
+    scene_inputs_files = tuple(Path(p) for p in inputs.get("files", {}))
+    with output_folder(scene_folder, name, scene_inputs_files) as stage:
+        for fname in entry["files"]:
+            if fname != RUN_JSON:
+                shutil.copyfile(folder / fname, stage / fname)
+        meta = read_json(folder / RUN_JSON)
+        meta = dict(meta) if isinstance(meta, dict) else {"format": "autocable.run/1", "name": name}
+        meta["reused"] = {"key": entry["key"], "computed": entry.get("computed"), "wall_s": entry.get("wall_s"),
+                          "what": "these files were computed by an earlier run with the same inputs "
+                                  "(scene, model, overrides, autocable's code, libraries) and copied"}
+        atomic_write_json(stage / RUN_JSON, meta)

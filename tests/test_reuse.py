@@ -1,0 +1,137 @@
+"""Scene results reused across runs of `autocable figures` (autocable/paper/reuse.py).
+
+Reuse is only right if a scene is a deterministic function of what the key holds: a scene computed
+twice gives the same numbers (byte for byte in its data files, apart from the wall-clock columns),
+the reused files are the stored ones, and any change to an input (the scene, the model, an
+override, autocable's code) gives another key. A stored entry that fails its check is not used.
+"""
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import pytest
+
+from autocable.cli import main
+from autocable.paper import reuse
+
+MODEL = (Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml")
+
+# Branch I of Fig. 5a below resonance with a short eq. (21) overlay: continuation and integration.
+SCENE = f"""
+title = "tiny: Fig. 5a below resonance"
+model = "{MODEL.as_posix()}"
+[fixed]
+U = 0.0
+eta = 8.2e-5
+[[run]]
+name = "I"
+parameter = "sigma"
+range = [-0.05, -0.03]
+start = "trivial"
+[overlay]
+method = "ode21"
+range = [-0.05, -0.04]
+points = 2
+"""
+
+
+@pytest.fixture
+def runs(tmp_path, monkeypatch):
+    monkeypatch.setenv("AUTOCABLE_CACHE", str(tmp_path / "cache"))
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    (folder / "figr1.toml").write_text(SCENE)
+    return folder
+
+
+def _figures(runs: Path, out: Path, *extra: str) -> dict:
+    assert main(["figures", "--out", str(out), "--runs", str(runs), "--workers", "0", "--quiet", *extra]) == 0
+    return {s["name"]: s for s in json.loads((out / "figures.json").read_text())["scenes"]}
+
+
+def _rows_without_clocks(path: Path) -> list[dict]:
+    with open(path, newline="") as fh:
+        return [{k: v for k, v in r.items() if "wall" not in k} for r in csv.DictReader(fh)]
+
+
+def test_a_second_run_reuses_the_stored_scene_and_a_recomputation_gives_the_same_numbers(runs, tmp_path):
+    first = _figures(runs, tmp_path / "a")
+    assert first["figr1"]["status"] == "ok" and first["figr1"]["reused"] == ""
+    second = _figures(runs, tmp_path / "b")
+    assert second["figr1"]["reused"] != ""                       # not computed: copied
+    a, b = tmp_path / "a" / "figr1", tmp_path / "b" / "figr1"
+    run_b = json.loads((b / "run.json").read_text())
+    assert run_b["status"] == "complete" and len(run_b["reused"]["key"]) == 64
+    for name in ("branches.csv", "special_points.csv", "overlay.csv", "figr1.png"):
+        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+    assert (tmp_path / "b" / "figr1.png").read_bytes() == (a / "figr1.png").read_bytes()
+    assert "reused: computed" in (tmp_path / "b" / "report.md").read_text()
+    # what makes reuse safe: computing again gives the same numbers (only the clocks differ)
+    third = _figures(runs, tmp_path / "c", "--recompute")
+    assert third["figr1"]["reused"] == ""
+    c = tmp_path / "c" / "figr1"
+    assert "reused" not in json.loads((c / "run.json").read_text())
+    for name in ("branches.csv", "special_points.csv"):
+        assert (a / name).read_bytes() == (c / name).read_bytes(), name
+    rows = _rows_without_clocks(c / "overlay.csv")
+    assert len(rows) == 4 and rows == _rows_without_clocks(a / "overlay.csv")
+
+
+def test_any_changed_input_gives_another_key(runs, tmp_path, monkeypatch):
+    scene = runs / "figr1.toml"
+    base = reuse.scene_key(reuse.scene_inputs(scene))
+    assert base == reuse.scene_key(reuse.scene_inputs(scene))           # a function of the inputs only
+    assert reuse.scene_key(reuse.scene_inputs(scene, engine="pycont")) != base
+    assert reuse.scene_key(reuse.scene_inputs(scene, plot=False)) != base
+    # the model spec: one changed digit of the damping, in a copy the scene names
+    model = tmp_path / "cable.toml"
+    model.write_text(MODEL.read_text())
+    scene.write_text(SCENE.replace(MODEL.as_posix(), model.as_posix()))
+    same_model = reuse.scene_key(reuse.scene_inputs(scene))
+    assert same_model != base                                          # another file: another key
+    text = model.read_text()
+    assert "damping_ratio = 0.004 " in text
+    model.write_text(text.replace("damping_ratio = 0.004 ", "damping_ratio = 0.0041 ", 1))
+    assert reuse.scene_key(reuse.scene_inputs(scene)) != same_model
+    model.write_text(text)
+    assert reuse.scene_key(reuse.scene_inputs(scene)) == same_model
+    assert reuse.scene_key(reuse.scene_inputs(scene, model=MODEL)) != same_model     # --model
+    # the scene itself, and autocable's code
+    scene.write_text(SCENE.replace("-0.03]", "-0.031]"))
+    changed_scene = reuse.scene_key(reuse.scene_inputs(scene))
+    assert changed_scene != base
+    monkeypatch.setattr(reuse, "code_fingerprint", lambda: "0" * 64)
+    assert reuse.scene_key(reuse.scene_inputs(scene)) != changed_scene
+    # a scene that cannot be read has no key: it is computed (and fails with its own message)
+    scene.write_text("not toml [")
+    assert reuse.scene_inputs(scene) is None
+
+
+def test_the_code_fingerprint_covers_every_module():
+    root = Path(reuse.__file__).resolve().parents[1]
+    assert len(reuse.code_fingerprint()) == 64
+    assert (root / "paper" / "reuse.py").is_file() and (root / "model" / "ame.py").is_file()
+
+
+def test_a_stored_entry_that_fails_its_check_is_not_used(runs, tmp_path, capfd):
+    _figures(runs, tmp_path / "a")
+    key = reuse.scene_key(reuse.scene_inputs(runs / "figr1.toml"))
+    entry = reuse.lookup(key)
+    assert entry is not None and "branches.csv" in entry["files"]
+    stored = Path(entry["folder"]) / "branches.csv"
+    stored.write_text(stored.read_text().replace("1", "2", 1))          # one digit changed in the cache
+    capfd.readouterr()
+    again = _figures(runs, tmp_path / "b")
+    assert again["figr1"]["reused"] == ""                                # computed, not copied
+    assert "failed its check" in capfd.readouterr().err
+    assert (tmp_path / "b" / "figr1" / "branches.csv").read_bytes() == \
+        (tmp_path / "a" / "figr1" / "branches.csv").read_bytes()
+    assert reuse.lookup(key) is not None                                 # stored again, whole
+
+
+def test_a_failed_scene_is_not_stored(runs, tmp_path):
+    (runs / "figr1.toml").write_text(SCENE.replace('start = "trivial"', 'strat = "trivial"'))
+    assert main(["figures", "--out", str(tmp_path / "a"), "--runs", str(runs), "--workers", "0", "--quiet"]) != 0
+    assert not (tmp_path / "cache" / "scenes").exists() or not any((tmp_path / "cache" / "scenes").iterdir())
