@@ -485,7 +485,7 @@ def _plot_ame_vs_ode(result: dict, path) -> None:
     plt.close(fig)
 
 
-# -- figures: wall time of `autocable figures`, cold and warm cache --------------------------------------
+# -- figures: wall time of `autocable figures`: cold, warm, recomputed -------------------------------------
 #: The speed targets for all figure scenes on the 2-core machine (those of the one-executor round;
 #: the earlier ones were 60 s cold and 15 s warm).
 FIGURES_TARGETS = {"cold_s": 30.0, "warm_s": 6.0}
