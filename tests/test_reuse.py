@@ -117,8 +117,8 @@ def test_the_code_fingerprint_covers_every_module():
 
 def test_a_stored_entry_that_fails_its_check_is_not_used(runs, tmp_path, capfd):
     _figures(runs, tmp_path / "a")
-    key = reuse.scene_key(reuse.scene_inputs(runs / "figr1.toml"))
-    entry = reuse.lookup(key)
+    inputs = reuse.scene_inputs(runs / "figr1.toml")
+    entry = reuse.lookup(inputs)
     assert entry is not None and "branches.csv" in entry["files"]
     stored = Path(entry["folder"]) / "branches.csv"
     stored.write_text(stored.read_text().replace("1", "2", 1))          # one digit changed in the cache
@@ -128,10 +128,29 @@ def test_a_stored_entry_that_fails_its_check_is_not_used(runs, tmp_path, capfd):
     assert "failed its check" in capfd.readouterr().err
     assert (tmp_path / "b" / "figr1" / "branches.csv").read_bytes() == \
         (tmp_path / "a" / "figr1" / "branches.csv").read_bytes()
-    assert reuse.lookup(key) is not None                                 # stored again, whole
+    assert reuse.lookup(inputs) is not None                              # stored again, whole
 
 
 def test_a_failed_scene_is_not_stored(runs, tmp_path):
     (runs / "figr1.toml").write_text(SCENE.replace('start = "trivial"', 'strat = "trivial"'))
     assert main(["figures", "--out", str(tmp_path / "a"), "--runs", str(runs), "--workers", "0", "--quiet"]) != 0
     assert not (tmp_path / "cache" / "scenes").exists() or not any((tmp_path / "cache" / "scenes").iterdir())
+
+
+def test_a_newer_entry_of_a_scene_replaces_the_older_one(runs, tmp_path):
+    """One entry per scene run one way: editing the model and running again leaves the new entry
+    only (the store does not grow with every edit), while another --engine keeps its own."""
+    model = tmp_path / "cable.toml"
+    model.write_text(MODEL.read_text())
+    (runs / "figr1.toml").write_text(SCENE.replace(MODEL.as_posix(), model.as_posix()))
+    first = reuse.scene_inputs(runs / "figr1.toml")
+    _figures(runs, tmp_path / "a")
+    assert reuse.lookup(first) is not None
+    model.write_text(MODEL.read_text().replace("damping_ratio = 0.004 ", "damping_ratio = 0.0041 ", 1))
+    second = reuse.scene_inputs(runs / "figr1.toml")
+    assert _figures(runs, tmp_path / "b")["figr1"]["reused"] == ""     # another model: computed
+    assert reuse.lookup(second) is not None and reuse.lookup(first) is None
+    assert len(list(reuse.entry_folder(second).parent.iterdir())) == 1
+    _figures(runs, tmp_path / "c", "--engine", "pycont")
+    assert reuse.lookup(second) is not None                              # another slot: both kept
+    assert len(list((tmp_path / "cache" / "scenes").iterdir())) == 2

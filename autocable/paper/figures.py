@@ -259,8 +259,8 @@ def _reuse_stored(pending: list[Path], out: Path, model_arg: str | None, engine:
                   reuse: bool, keys: dict, outcomes: dict, tell: Say, on_done, total: int) -> list[Path]:
     """The scenes of ``pending`` still to compute: each scene with a stored entry of its key
     (`autocable.paper.reuse`) is published from it instead, and counted done. Fills ``keys``
-    (scene name -> (key, inputs)) for storing the computed ones."""
-    from autocable.paper.reuse import lookup, restore, scene_inputs, scene_key
+    (scene name -> its inputs) for storing the computed ones."""
+    from autocable.paper.reuse import lookup, restore, scene_inputs
     left = []
     for path in pending:
         name = path.stem
@@ -268,8 +268,8 @@ def _reuse_stored(pending: list[Path], out: Path, model_arg: str | None, engine:
         if inputs is None:      # unreadable: computed, and fails there with its own message
             left.append(path)
             continue
-        keys[name] = (scene_key(inputs), inputs)
-        entry = lookup(keys[name][0]) if reuse else None
+        keys[name] = inputs
+        entry = lookup(inputs) if reuse else None
         if entry is None:
             left.append(path)
             continue
@@ -326,7 +326,7 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
     total = len(pending)
     model_arg = None if model is None else str(Path(model).resolve())
     t_start = time.perf_counter()
-    keys: dict[str, tuple[str, dict]] = {}
+    keys: dict[str, dict] = {}
     if reuse or keep:
         pending = _reuse_stored(pending, out, model_arg, engine, plot, reuse, keys, outcomes, tell, on_done, total)
         keep = keep and not scheduler
@@ -405,7 +405,7 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
                 files = _collect(name, folder, out)
                 if keep and name in keys:
                     from autocable.paper.reuse import store
-                    store(*keys[name], folder, wall)
+                    store(keys[name], folder, wall)
             outcomes[name] = SceneOutcome(name, str(path), status, wall, error, files)
             n = len(outcomes)
             left = time_left(n - n_reused, total - n_reused, time.perf_counter() - t_compute)

@@ -133,20 +133,28 @@ def scene_key(inputs: dict) -> str:
     return hashlib.sha256(canonical_json(inputs).encode("utf-8")).hexdigest()
 
 
-def entry_folder(key: str) -> Path:
-    """Where the entry of ``key`` lives: ``<cache>/scenes/<key>`` (not created)."""
+def _slot(inputs: dict) -> str:
+    """The scene, model override and options of ``inputs`` without the file contents, code and
+    toolchain: one slot holds the latest entry of a scene run one way (older ones are removed when
+    a newer one is stored, so the store does not grow with every edit of a model or of the code)."""
+    from autocable._store import canonical_json
+    slot = {k: inputs.get(k) for k in ("scene", "model_override", "engine", "plot")}
+    return hashlib.sha256(canonical_json(slot).encode("utf-8")).hexdigest()[:24]
+
+
+def entry_folder(inputs: dict) -> Path:
+    """Where the entry of ``inputs`` lives: ``<cache>/scenes/<slot>/<key>`` (not created)."""
     from autocable._store import cache_root
-    if len(key) != 64 or any(c not in "0123456789abcdef" for c in key):
-        raise ValueError(f"not a scene key: {key!r}")
-    return cache_root() / "scenes" / key
+    return cache_root() / "scenes" / _slot(inputs) / scene_key(inputs)
 
 
-def lookup(key: str) -> dict | None:
-    """The checked entry of ``key`` (its entry.json payload plus ``folder``), or None when there is
-    none. An entry whose entry.json or any file fails its sha256 is removed and reported: the scene
-    is then computed again."""
+def lookup(inputs: dict) -> dict | None:
+    """The checked entry of ``inputs`` (its entry.json payload plus ``folder``), or None when there
+    is none. An entry whose entry.json or any file fails its sha256 is removed and reported: the
+    scene is then computed again."""
     from autocable._store import load_checked_json, report_rebuilt
-    folder = entry_folder(key)
+    key = scene_key(inputs)
+    folder = entry_folder(inputs)
     if not folder.is_dir():
         return None
     meta = load_checked_json(folder / _ENTRY_JSON, None)
@@ -164,12 +172,13 @@ def lookup(key: str) -> dict | None:
     return {**meta, "folder": str(folder)}
 
 
-def store(key: str, inputs: dict, scene_folder: str | Path, wall_s: float) -> bool:
-    """Keep the complete scene in ``scene_folder`` under ``key`` (its files as listed by its
-    run.json, each with its sha256; the computation's wall time and date). Written beside the entry
-    and renamed into place, so a reader sees a whole entry or none; an entry already there is left.
-    False (and nothing stored) when the folder is not a complete run or the cache cannot be written
-    (a shared read-only cache)."""
+def store(inputs: dict, scene_folder: str | Path, wall_s: float) -> bool:
+    """Keep the complete scene in ``scene_folder`` under the key of ``inputs`` (its files as listed
+    by its run.json, each with its sha256; the computation's wall time and date), and remove the
+    older entries of its slot (`_slot`). Written beside the entry and renamed into place, so a
+    reader sees a whole entry or none; an entry already there is left. False (and nothing stored)
+    when the folder is not a complete run or the cache cannot be written (a shared read-only
+    cache)."""
     from autocable._store import read_json, store_checked_json
     from autocable.results import RUN_JSON, is_complete
     src = Path(scene_folder)
@@ -177,7 +186,8 @@ def store(key: str, inputs: dict, scene_folder: str | Path, wall_s: float) -> bo
         return False
     meta = read_json(src / RUN_JSON)
     names = [n for n in meta.get("files", []) if isinstance(n, str) and "/" not in n] + [RUN_JSON]
-    final = entry_folder(key)
+    key = scene_key(inputs)
+    final = entry_folder(inputs)
     if final.is_dir():
         return True
     try:
@@ -194,6 +204,9 @@ def store(key: str, inputs: dict, scene_folder: str | Path, wall_s: float) -> bo
             "format": FORMAT, "key": key, "inputs": inputs, "files": files,
             "computed": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "wall_s": round(float(wall_s), 3)})
         os.rename(tmp, final)
+        for older in final.parent.iterdir():
+            if older.name != key and not older.name.startswith("."):   # a dot: another run's entry being written
+                shutil.rmtree(older, ignore_errors=True)
         return True
     except OSError:
         return False
