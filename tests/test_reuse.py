@@ -154,3 +154,34 @@ def test_a_newer_entry_of_a_scene_replaces_the_older_one(runs, tmp_path):
     _figures(runs, tmp_path / "c", "--engine", "pycont")
     assert reuse.lookup(second) is not None                              # another slot: both kept
     assert len(list((tmp_path / "cache" / "scenes").iterdir())) == 2
+
+
+def test_a_scene_whose_inputs_changed_while_it_ran_is_not_stored(runs, tmp_path, monkeypatch):
+    """The key is taken before the scene runs; if a file it reads changed meanwhile (a model edited
+    during a long run), the results may be of either version: they are published, not stored."""
+    from autocable.paper.figures import run_figures
+    real = reuse.scene_inputs
+    calls = []
+
+    def edited_meanwhile(*args, **kwargs):
+        inputs = real(*args, **kwargs)
+        calls.append(1)
+        return inputs if len(calls) == 1 else {**inputs, "files": {}}
+
+    monkeypatch.setattr(reuse, "scene_inputs", edited_meanwhile)
+    [done] = run_figures([runs / "figr1.toml"], tmp_path / "a", workers=0, reuse=True, keep=True)
+    assert done.status == "ok" and len(calls) == 2
+    assert not (tmp_path / "cache" / "scenes").exists()
+    monkeypatch.setattr(reuse, "scene_inputs", real)
+    [done] = run_figures([runs / "figr1.toml"], tmp_path / "b", workers=0, reuse=True, keep=True)
+    assert reuse.lookup(real(runs / "figr1.toml")) is not None
+
+
+def test_an_entry_without_its_run_json_is_not_used(runs, tmp_path, capfd):
+    _figures(runs, tmp_path / "a")
+    inputs = reuse.scene_inputs(runs / "figr1.toml")
+    folder = reuse.entry_folder(inputs)
+    (folder / "run.json").unlink()
+    capfd.readouterr()
+    assert reuse.lookup(inputs) is None and not folder.exists()
+    assert "failed its check" in capfd.readouterr().err

@@ -404,8 +404,10 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
                     stale.unlink()
                 files = _collect(name, folder, out)
                 if keep and name in keys:
-                    from autocable.paper.reuse import store
-                    store(keys[name], folder, wall)
+                    from autocable.paper.reuse import scene_inputs, store
+                    # stored only if no input changed while the scene ran (an edited model, say)
+                    if scene_inputs(path, model_arg, engine, plot) == keys[name]:
+                        store(keys[name], folder, wall)
             outcomes[name] = SceneOutcome(name, str(path), status, wall, error, files)
             n = len(outcomes)
             left = time_left(n - n_reused, total - n_reused, time.perf_counter() - t_compute)

@@ -158,8 +158,9 @@ def lookup(inputs: dict) -> dict | None:
     if not folder.is_dir():
         return None
     meta = load_checked_json(folder / _ENTRY_JSON, None)
+    from autocable.results import RUN_JSON
     ok = (isinstance(meta, dict) and meta.get("format") == FORMAT and meta.get("key") == key
-          and isinstance(meta.get("files"), dict) and meta["files"])
+          and isinstance(meta.get("files"), dict) and RUN_JSON in meta["files"])
     if ok:
         for name, sha in meta["files"].items():
             if "/" in name or name in ("", ".", "..") or _file_sha(folder / name) != sha:
@@ -205,7 +206,8 @@ def store(inputs: dict, scene_folder: str | Path, wall_s: float) -> bool:
             "computed": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "wall_s": round(float(wall_s), 3)})
         os.rename(tmp, final)
         for older in final.parent.iterdir():
-            if older.name != key and not older.name.startswith("."):   # a dot: another run's entry being written
+            # a dot: an entry being written by another run, or left by a killed one (after an hour)
+            if older.name != key and (not older.name.startswith(".") or _age_s(older) > 3600.0):
                 shutil.rmtree(older, ignore_errors=True)
         return True
     except OSError:
@@ -214,6 +216,13 @@ def store(inputs: dict, scene_folder: str | Path, wall_s: float) -> bool:
         return False
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _age_s(path: Path) -> float:
+    try:
+        return time.time() - path.stat().st_mtime
+    except OSError:
+        return 0.0
 
 
 def restore(entry: dict, scene_folder: str | Path, name: str, inputs: dict) -> None:
