@@ -37,8 +37,20 @@ points = 2
 """
 
 
+#: The cache's sub-folders of derivations and builds, shared with the other tests (a private
+#: cache would derive and compile the sample's equations again in every test); ``scenes/`` is
+#: the test's own.
+SHARED = ("derivations", "ame", "systems", "lambdas", "pydstool", "ckernel", "cintegrate")
+
+
 @pytest.fixture
 def runs(tmp_path, monkeypatch):
+    from autocable._store import cache_root
+    ambient = cache_root()
+    (tmp_path / "cache").mkdir()
+    for sub in SHARED:
+        (ambient / sub).mkdir(parents=True, exist_ok=True)
+        (tmp_path / "cache" / sub).symlink_to(ambient / sub, target_is_directory=True)
     monkeypatch.setenv("AUTOCABLE_CACHE", str(tmp_path / "cache"))
     folder = tmp_path / "runs"
     folder.mkdir()
