@@ -529,18 +529,21 @@ def special_points_csv(points: Sequence[SpecialPoint], branches: Sequence[Branch
     return buf.getvalue()
 
 
-def write_results(results: RunResults, out_dir: str | Path, *, status: str = STATUS_COMPLETE) -> dict[str, Path]:
+def write_results(results: RunResults, out_dir: str | Path, *, status: str = STATUS_COMPLETE,
+                  tables: bool = True) -> dict[str, Path]:
     """Write ``branches.csv``, ``special_points.csv`` and ``run.json`` into ``out_dir`` (atomic), run.json
-    last with ``status`` (`run_scene` writes "running" into its staging folder and publishes)."""
+    last with ``status`` (`run_scene` writes "running" into its staging folder and publishes).
+    ``tables=False`` writes run.json only: for a caller that wrote the same branches before and
+    now adds to the provenance (formatting a large branches.csv again costs 0.1-0.2 s)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     branches = results.branches
     si = _si(results.provenance)
-    paths = {
-        "branches": atomic_write_text(out / BRANCHES_CSV, branches_csv(branches, si)),
-        "special_points": atomic_write_text(out / SPECIAL_CSV,
-                                            special_points_csv(results.special_points, branches, si)),
-    }
+    paths = {}
+    if tables:
+        paths["branches"] = atomic_write_text(out / BRANCHES_CSV, branches_csv(branches, si))
+        paths["special_points"] = atomic_write_text(out / SPECIAL_CSV,
+                                                    special_points_csv(results.special_points, branches, si))
     meta = {"format": "autocable.run/1", "name": results.name,
             "provenance": finite_or_none(dict(results.provenance)),
             "branches": [b.metadata() for b in branches],

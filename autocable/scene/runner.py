@@ -602,7 +602,8 @@ def _run_branches(scene: Scene, out: Path, shown: Path, say, plot: bool, resolut
         say(f"plot: {', '.join(str(shown / Path(f).name) for f in files)}")
     stages["total_s"] = time.perf_counter() - t_all
     res = RunResults(scene.name, tuple(branches), {**provenance, "stages": stages})
-    write_results(res, out, status="running")   # again, now with the complete timings
+    # again, now with the complete timings: the same branches, so run.json only
+    write_results(res, out, status="running", tables=False)
     if failed:
         # published as "failed" by output_folder: what was computed stays, visibly incomplete
         name, why = next(iter(failed.items()))
