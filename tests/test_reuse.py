@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import json
+import shutil
 from pathlib import Path
 
 import pytest
@@ -197,3 +198,34 @@ def test_an_entry_without_its_run_json_is_not_used(runs, tmp_path, capfd):
     capfd.readouterr()
     assert reuse.lookup(inputs) is None and not folder.exists()
     assert "failed its check" in capfd.readouterr().err
+
+
+@pytest.mark.parametrize("damage", ["garbage entry.json", "a name leaving the entry", "scenes is a file",
+                                    "slot is a file"])
+def test_a_damaged_store_never_fails_a_run_nor_gives_foreign_files(runs, tmp_path, damage):
+    """Whatever is found in the store's place, the scene is computed (exit 0, the numbers of a
+    clean run) and nothing outside an entry is ever copied."""
+    _figures(runs, tmp_path / "a")
+    inputs = reuse.scene_inputs(runs / "figr1.toml")
+    folder = reuse.entry_folder(inputs)
+    if damage == "garbage entry.json":
+        (folder / "entry.json").write_text("{not json")
+    elif damage == "a name leaving the entry":
+        # a well-formed entry.json (its own checksum right) naming a file outside the entry
+        from autocable._store import load_checked_json, store_checked_json
+        meta = load_checked_json(folder / "entry.json", None)
+        secret = tmp_path / "secret.csv"
+        secret.write_text("x\n")
+        meta["files"]["../../secret.csv"] = reuse._file_sha(secret)
+        store_checked_json(folder / "entry.json", meta)
+    elif damage == "scenes is a file":
+        shutil.rmtree(tmp_path / "cache" / "scenes")
+        (tmp_path / "cache" / "scenes").write_text("")
+    else:
+        shutil.rmtree(folder.parent)
+        folder.parent.write_text("")
+    again = _figures(runs, tmp_path / "b")
+    assert again["figr1"]["reused"] == ""                    # computed
+    assert not (tmp_path / "b" / "figr1" / "secret.csv").exists()
+    assert (tmp_path / "b" / "figr1" / "branches.csv").read_bytes() == \
+        (tmp_path / "a" / "figr1" / "branches.csv").read_bytes()
