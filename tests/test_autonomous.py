@@ -261,3 +261,21 @@ def test_own_cycles_find_the_period_of_a_doubly_crossing_coordinate():
     assert c.coordinate == 0
     assert abs(c.period - 2 * math.pi / w) < 1e-8 and c.section_change < 1e-5
     assert abs(c.amplitudes[0] - A) < 1e-7 * A and abs(c.amplitudes[1] - B) < 1e-7 * B
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_cycle_extremes_equal_hermite_extremes_cycle_by_cycle(seed):
+    """The one-pass extremes of every cycle (`cycle_extremes`) are exactly (bit for bit) those of
+    `hermite_extremes` called cycle by cycle, on uneven samples of a modulated two-frequency
+    signal, with cycle bounds between samples and on a sample."""
+    from autocable.methods.integration.cycles import cycle_extremes, hermite_crossings, hermite_extremes
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(0.05, 0.25, 4000))
+    x = np.sin(t) * (1 + 0.3 * np.sin(0.05 * t)) + 0.2 * np.sin(2.7 * t)
+    xd = np.cos(t) * (1 + 0.3 * np.sin(0.05 * t)) + 0.015 * np.sin(t) * np.cos(0.05 * t) + 0.54 * np.cos(2.7 * t)
+    c = hermite_crossings(t, x, xd)
+    c[3] = t[np.searchsorted(t, c[3])]                  # a bound exactly on a sample
+    hi, lo = cycle_extremes(t, x, xd, c)
+    want = [hermite_extremes(t, x, xd, a, b) for a, b in zip(c[:-1], c[1:])]
+    assert len(c) > 50
+    assert hi.tolist() == [w[0] for w in want] and lo.tolist() == [w[1] for w in want]

@@ -101,6 +101,58 @@ def hermite_extremes(t, x, xd, lo: float, hi: float) -> tuple[float, float]:
     return hi_v, lo_v
 
 
+def cycle_extremes(t, x, xd, bounds) -> tuple[np.ndarray, np.ndarray]:
+    """(max, min) of the signal over each cycle [bounds[i], bounds[i+1]): the same numbers as
+    `hermite_extremes` cycle by cycle, in one pass over the samples (`hermite_extremes` scans
+    every sample for every cycle: quadratic in the length of a long integration)."""
+    t, x, xd, c = (np.asarray(v, float) for v in (t, x, xd, bounds))
+    n = len(c) - 1
+    start = np.searchsorted(t, c[:-1], side="left")     # first sample with t >= lo
+    stop = np.searchsorted(t, c[1:], side="left")       # first sample with t >= hi
+    if n < 1 or np.any(stop <= start):
+        # a cycle without a sample inside: what hermite_extremes does (it raises)
+        got = [hermite_extremes(t, x, xd, lo, hi) for lo, hi in zip(c[:-1], c[1:])]
+        return np.array([g[0] for g in got]), np.array([g[1] for g in got])
+    # segment i of reduceat runs from start[i] to start[i+1], which is stop[i]; the last to the end
+    # of what it is given, cut at stop[-1]
+    hi_v = np.maximum.reduceat(x[:stop[-1]], start)
+    lo_v = np.minimum.reduceat(x[:stop[-1]], start)
+    idx = np.nonzero((t[1:] > c[0]) & (t[:-1] < c[-1]) & (np.sign(xd[:-1]) != np.sign(xd[1:])))[0]
+    h = t[idx + 1] - t[idx]
+    ok, value = _extremes_many(x[idx], xd[idx] * h, x[idx + 1], xd[idx + 1] * h)
+    idx, value = idx[ok], value[ok]
+    # the cycles j with t[i+1] > c[j] and t[i] < c[j+1], as in hermite_extremes: one or two (a
+    # cycle holds a sample, so no sample interval reaches over a whole cycle)
+    j0 = np.maximum(np.searchsorted(c, t[idx], side="right") - 1, 0)
+    j1 = np.minimum(np.searchsorted(c, t[idx + 1], side="left") - 1, n - 1)
+    for j, keep in ((j0, j0 <= j1), (j1, j1 > j0)):
+        np.maximum.at(hi_v, j[keep], value[keep])
+        np.minimum.at(lo_v, j[keep], value[keep])
+    return hi_v, lo_v
+
+
+def _extremes_many(p0, m0, p1, m1) -> tuple[np.ndarray, np.ndarray]:
+    """`_extreme` on arrays, the same operations in the same order (the same numbers): (whether
+    an extreme lies in [0, 1], its value)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = 6 * p0 + 3 * m0 - 6 * p1 + 3 * m1
+        b = -6 * p0 - 4 * m0 + 6 * p1 - 2 * m1
+        c = m0
+        flat = np.abs(a) < 1e-300
+        disc = b * b - 4 * a * c
+        q = -0.5 * (b + np.copysign(np.sqrt(np.where(disc < 0, 0.0, disc)), b))
+        first = np.where(flat, -c / b, q / a)
+        second = c / q
+        has_first = np.where(flat, b != 0, disc >= 0)
+        has_second = ~flat & (disc >= 0) & (q != 0)
+        in1 = has_first & (first >= 0.0) & (first <= 1.0)
+        in2 = has_second & (second >= 0.0) & (second <= 1.0)
+        s = np.where(in1, first, second)
+        s2, s3 = s * s, s * s * s
+        value = (2 * s3 - 3 * s2 + 1) * p0 + (s3 - 2 * s2 + s) * m0 + (-2 * s3 + 3 * s2) * p1 + (s3 - s2) * m1
+    return in1 | in2, value
+
+
 @dataclass(frozen=True)
 class Cycles:
     """The whole cycles of a sampled response (module docstring)."""
@@ -163,11 +215,10 @@ def own_cycles(t: np.ndarray, ys: np.ndarray, *, min_cycles: int = 3, coordinate
     if len(c) < min_cycles + 1:
         return None
     periods = np.diff(c)
-    amps = [[], []]
-    for lo, hi in zip(c[:-1], c[1:]):
-        for j in (0, 1):
-            mx, mn = hermite_extremes(t, ys[:, j], ys[:, 2 + j], lo, hi)
-            amps[j].append(0.5 * (mx - mn))
+    amps = []
+    for j in (0, 1):
+        mx, mn = cycle_extremes(t, ys[:, j], ys[:, 2 + j], c)
+        amps.append(0.5 * (mx - mn))
     amps = np.asarray(amps)
     means = amps.mean(axis=1)
     errors = np.max(np.abs(amps - means[:, None]), axis=1)
