@@ -16,22 +16,13 @@ import pytest
 
 from autocable.cli import main
 from autocable.paper import reuse
+from test_figures import SMALL
 
 MODEL = (Path(__file__).resolve().parents[1] / "models" / "luongo_zulli_2012.toml")
 
-# Branch I of Fig. 5a below resonance with a short eq. (21) overlay: continuation and integration.
-SCENE = f"""
-title = "tiny: Fig. 5a below resonance"
-model = "{MODEL.as_posix()}"
-[fixed]
-U = 0.0
-eta = 8.2e-5
-[[run]]
-name = "I"
-parameter = "sigma"
-range = [-0.05, -0.03]
-start = "trivial"
-[overlay]
+# Branch I of Fig. 5a below resonance (test_figures' SMALL) with a short eq. (21) overlay:
+# continuation and integration.
+SCENE = SMALL + """[overlay]
 method = "ode21"
 range = [-0.05, -0.04]
 points = 2
