@@ -153,12 +153,12 @@ def lookup(inputs: dict) -> dict | None:
     is none. An entry whose entry.json or any file fails its sha256 is removed and reported: the
     scene is then computed again."""
     from autocable._store import load_checked_json, report_rebuilt
+    from autocable.results import RUN_JSON
     key = scene_key(inputs)
     folder = entry_folder(inputs)
     if not folder.is_dir():
         return None
     meta = load_checked_json(folder / _ENTRY_JSON, None)
-    from autocable.results import RUN_JSON
     ok = (isinstance(meta, dict) and meta.get("format") == FORMAT and meta.get("key") == key
           and isinstance(meta.get("files"), dict) and RUN_JSON in meta["files"])
     if ok:
@@ -210,9 +210,7 @@ def store(inputs: dict, scene_folder: str | Path, wall_s: float) -> bool:
             if older.name != key and (not older.name.startswith(".") or _age_s(older) > 3600.0):
                 shutil.rmtree(older, ignore_errors=True)
         return True
-    except OSError:
-        return False
-    except Exception:   # noqa: BLE001 - e.g. a CacheError: not storing never fails the run
+    except Exception:   # noqa: BLE001 - a full disk, a CacheError, a race: not storing never fails the run
         return False
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
