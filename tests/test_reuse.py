@@ -220,3 +220,13 @@ def test_a_damaged_store_never_fails_a_run_nor_gives_foreign_files(runs, tmp_pat
     assert not (tmp_path / "b" / "figr1" / "secret.csv").exists()
     assert (tmp_path / "b" / "figr1" / "branches.csv").read_bytes() == \
         (tmp_path / "a" / "figr1" / "branches.csv").read_bytes()
+
+
+def test_another_matplotlibrc_gives_another_key_when_figures_are_drawn(runs, tmp_path, monkeypatch):
+    scene = runs / "figr1.toml"
+    base, bare = reuse.scene_key(reuse.scene_inputs(scene)), reuse.scene_key(reuse.scene_inputs(scene, plot=False))
+    rc = tmp_path / "matplotlibrc"
+    rc.write_text("font.size : 14\n")
+    monkeypatch.setenv("MATPLOTLIBRC", str(rc))
+    assert reuse.scene_key(reuse.scene_inputs(scene)) != base
+    assert reuse.scene_key(reuse.scene_inputs(scene, plot=False)) == bare       # no figure, no rc

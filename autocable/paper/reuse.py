@@ -101,9 +101,9 @@ def scene_inputs(scene_path: str | Path, model: str | Path | None = None, engine
                  plot: bool = True) -> dict | None:
     """Everything a scene's results depend on, as plain data (`scene_key` hashes it): each file the
     scene reads (the scene file, its model or ``model``, digitised points, a map) by resolved path
-    and sha256, the overrides, ``plot``, `code_fingerprint` and the toolchain. None when the scene
-    cannot be read or a file it names is missing (the scene is then computed, and fails with its
-    own message)."""
+    and sha256, the overrides, ``plot`` (and with it the matplotlibrc in effect), `code_fingerprint`
+    and the toolchain. None when the scene cannot be read or a file it names is missing (the scene
+    is then computed, and fails with its own message)."""
     from dataclasses import replace
 
     from autocable.scene.runner import load_scene
@@ -124,7 +124,15 @@ def scene_inputs(scene_path: str | Path, model: str | Path | None = None, engine
         files[str(full)] = sha
     return {"format": FORMAT, "scene": str(Path(scene_path).resolve()), "files": files, "engine": engine,
             "model_override": None if model is None else str(Path(model).resolve()), "plot": bool(plot),
+            "matplotlibrc": _matplotlibrc() if plot else None,
             "code": code_fingerprint(), "toolchain": _toolchain()}
+
+
+def _matplotlibrc() -> str | None:
+    """The sha256 of the matplotlibrc in effect: autocable sets its own style, but a setting it
+    leaves alone (a font, say) would change the drawn figures."""
+    import matplotlib
+    return _file_sha(Path(matplotlib.matplotlib_fname()))
 
 
 def scene_key(inputs: dict) -> str:
