@@ -63,56 +63,26 @@ def _hermite_slope(p0, m0, p1, m1, s: float) -> float:
     return (6 * s * s - 6 * s) * p0 + (3 * s * s - 4 * s + 1) * m0 + (-6 * s * s + 6 * s) * p1 + (3 * s * s - 2 * s) * m1
 
 
-def _extreme(p0, m0, p1, m1) -> tuple[float, float] | None:
-    """(s, value) of the Hermite interpolant at the root s in [0, 1] of its derivative (an interval
-    in which the derivative changes sign), or None."""
-    # p'(s) = a s^2 + b s + c
-    a = 6 * p0 + 3 * m0 - 6 * p1 + 3 * m1
-    b = -6 * p0 - 4 * m0 + 6 * p1 - 2 * m1
-    c = m0
-    if abs(a) < 1e-300:
-        roots = [-c / b] if b != 0 else []
-    else:
-        disc = b * b - 4 * a * c
-        if disc < 0:
-            return None
-        q = -0.5 * (b + math.copysign(math.sqrt(disc), b))
-        roots = [q / a] + ([c / q] if q != 0 else [])
-    s = [r for r in roots if 0.0 <= r <= 1.0]
-    if not s:
-        return None
-    return s[0], _hermite(p0, m0, p1, m1)(s[0])
-
-
 def hermite_extremes(t, x, xd, lo: float, hi: float) -> tuple[float, float]:
     """(max, min) of the signal over [lo, hi), from the samples inside it and the Hermite-refined
     extremes of the intervals where x' changes sign, those that straddle lo or hi included (an
     extreme of q2 may sit at a zero crossing of q1, where which side of the boundary its computed
     time falls on is rounding: over one period, taking it on both sides repeats the same value)."""
-    t, x, xd = (np.asarray(v, float) for v in (t, x, xd))
-    inside = (t >= lo) & (t < hi)
-    hi_v, lo_v = float(np.max(x[inside])), float(np.min(x[inside]))
-    idx = np.nonzero((t[1:] > lo) & (t[:-1] < hi) & (np.sign(xd[:-1]) != np.sign(xd[1:])))[0]
-    for i in idx:
-        h = t[i + 1] - t[i]
-        got = _extreme(x[i], xd[i] * h, x[i + 1], xd[i + 1] * h)
-        if got is not None:
-            hi_v, lo_v = max(hi_v, got[1]), min(lo_v, got[1])
-    return hi_v, lo_v
+    hi_v, lo_v = cycle_extremes(t, x, xd, (lo, hi))
+    return float(hi_v[0]), float(lo_v[0])
 
 
 def cycle_extremes(t, x, xd, bounds) -> tuple[np.ndarray, np.ndarray]:
-    """(max, min) of the signal over each cycle [bounds[i], bounds[i+1]): the same numbers as
-    `hermite_extremes` cycle by cycle, in one pass over the samples (`hermite_extremes` scans
-    every sample for every cycle: quadratic in the length of a long integration)."""
+    """(max, min) of the signal over each cycle [bounds[i], bounds[i+1]) as `hermite_extremes`
+    takes them, all cycles in one pass over the samples (a scan of every sample per cycle is
+    quadratic in the length of a long integration). Raises ValueError for a cycle without a
+    sample inside."""
     t, x, xd, c = (np.asarray(v, float) for v in (t, x, xd, bounds))
     n = len(c) - 1
     start = np.searchsorted(t, c[:-1], side="left")     # first sample with t >= lo
     stop = np.searchsorted(t, c[1:], side="left")       # first sample with t >= hi
     if n < 1 or np.any(stop <= start):
-        # a cycle without a sample inside: what hermite_extremes does (it raises)
-        got = [hermite_extremes(t, x, xd, lo, hi) for lo, hi in zip(c[:-1], c[1:])]
-        return np.array([g[0] for g in got]), np.array([g[1] for g in got])
+        raise ValueError("a cycle without a sample inside it: no extremes")
     # segment i of reduceat runs from start[i] to start[i+1], which is stop[i]; the last to the end
     # of what it is given, cut at stop[-1]
     hi_v = np.maximum.reduceat(x[:stop[-1]], start)
@@ -121,8 +91,8 @@ def cycle_extremes(t, x, xd, bounds) -> tuple[np.ndarray, np.ndarray]:
     h = t[idx + 1] - t[idx]
     ok, value = _extremes_many(x[idx], xd[idx] * h, x[idx + 1], xd[idx + 1] * h)
     idx, value = idx[ok], value[ok]
-    # the cycles j with t[i+1] > c[j] and t[i] < c[j+1], as in hermite_extremes: one or two (a
-    # cycle holds a sample, so no sample interval reaches over a whole cycle)
+    # the cycles j with t[i+1] > c[j] and t[i] < c[j+1] (an interval straddling a bound counts in
+    # both): one or two, since every cycle holds a sample
     j0 = np.maximum(np.searchsorted(c, t[idx], side="right") - 1, 0)
     j1 = np.minimum(np.searchsorted(c, t[idx + 1], side="left") - 1, n - 1)
     for j, keep in ((j0, j0 <= j1), (j1, j1 > j0)):
@@ -132,8 +102,9 @@ def cycle_extremes(t, x, xd, bounds) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _extremes_many(p0, m0, p1, m1) -> tuple[np.ndarray, np.ndarray]:
-    """`_extreme` on arrays, the same operations in the same order (the same numbers): (whether
-    an extreme lies in [0, 1], its value)."""
+    """The extremes of cubic Hermite interpolants on s in [0, 1] (m0, m1: derivatives times the
+    step; `_hermite`): (whether the derivative, a s^2 + b s + c, has a root in [0, 1] -- the
+    first of q/a and c/q that lies there, with the stable quadratic formula --, the value there)."""
     with np.errstate(divide="ignore", invalid="ignore"):
         a = 6 * p0 + 3 * m0 - 6 * p1 + 3 * m1
         b = -6 * p0 - 4 * m0 + 6 * p1 - 2 * m1
