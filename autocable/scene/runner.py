@@ -785,7 +785,8 @@ def _run_overlay(scene: Scene, deriv, ame, say, resolution: str = "full") -> lis
     if ov.method == "ode21":
         from autocable.methods.integration.ode21 import SCENE_ENGINE, Ode21Integrator
         integrator = Ode21Integrator(deriv.ode, engine=SCENE_ENGINE)
-        shortcut, recurrence = PeriodOneShortcut(integrator), RecurrenceStop(integrator)
+        shortcut = PeriodOneShortcut(integrator)
+        recurrence = RecurrenceStop(integrator, shortcut)
     else:
         from autocable.methods.integration.ame import AmeIntegrator
         integrator = AmeIntegrator(ame)

@@ -289,8 +289,9 @@ class RecurrenceStop:
     #: the later half's median change must be at least this many times steady_tol
     FLOOR = 1e3
 
-    def __init__(self, integrator: Ode21Integrator):
-        self.periods = PeriodOneShortcut(integrator)
+    def __init__(self, integrator: Ode21Integrator, periods: PeriodOneShortcut | None = None):
+        # a sweep's own shortcut lends its prepared period-map runs (its Newton), else one of our own
+        self.periods = periods if periods is not None else PeriodOneShortcut(integrator)
         self.stopped = 0
         self._done = False
 
