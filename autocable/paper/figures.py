@@ -256,19 +256,19 @@ class _NoTasks:
 
 
 def _reuse_stored(pending: list[Path], out: Path, model_arg: str | None, engine: str | None, plot: bool,
-                  reuse: bool, keys: dict, outcomes: dict, tell: Say, on_done, total: int) -> list[Path]:
-    """The scenes of ``pending`` still to compute: each scene with a stored entry of its key
-    (`autocable.paper.reuse`) is published from it instead, and counted done. Fills ``keys``
-    (scene name -> its inputs) for storing the computed ones."""
+                  reuse: bool, tell: Say) -> tuple[list[Path], dict[str, dict], list[SceneOutcome]]:
+    """(the scenes of ``pending`` still to compute, the inputs of every readable scene by name
+    for storing the computed ones, the outcomes of the scenes published from a stored entry of
+    their key instead: `autocable.paper.reuse`, only with ``reuse``)."""
     from autocable.paper.reuse import lookup, restore, scene_inputs
-    left = []
+    left, inputs_of, reused = [], {}, []
     for path in pending:
         name = path.stem
         inputs = scene_inputs(path, model_arg, engine, plot)
         if inputs is None:      # unreadable: computed, and fails there with its own message
             left.append(path)
             continue
-        keys[name] = inputs
+        inputs_of[name] = inputs
         entry = lookup(inputs) if reuse else None
         if entry is None:
             left.append(path)
@@ -282,14 +282,9 @@ def _reuse_stored(pending: list[Path], out: Path, model_arg: str | None, engine:
             tell(f"{name}: the stored results were not used ({_one_line(exc)}); computing it")
             left.append(path)
             continue
-        files = _collect(name, folder, out)
-        outcomes[name] = SceneOutcome(name, str(path), "ok", time.perf_counter() - t0, "", files,
-                                      reused=str(entry.get("computed") or "?"))
-        tell(f"[{len(outcomes)}/{total}] {name}: reused (computed {entry.get('computed')} in "
-             f"{entry.get('wall_s')} s, with the same inputs)")
-        if on_done is not None:
-            on_done(len(outcomes), total, name, "reused")
-    return left
+        reused.append(SceneOutcome(name, str(path), "ok", time.perf_counter() - t0, "", _collect(name, folder, out),
+                                   reused=str(entry.get("computed") or "?")))
+    return left, inputs_of, reused
 
 
 def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None = None,
@@ -328,7 +323,12 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
     t_start = time.perf_counter()
     keys: dict[str, dict] = {}
     if reuse or keep:
-        pending = _reuse_stored(pending, out, model_arg, engine, plot, reuse, keys, outcomes, tell, on_done, total)
+        pending, keys, reused = _reuse_stored(pending, out, model_arg, engine, plot, reuse, tell)
+        for o in reused:
+            outcomes[o.name] = o
+            tell(f"[{len(outcomes)}/{total}] {o.name}: reused (computed {o.reused}, with the same inputs)")
+            if on_done is not None:
+                on_done(len(outcomes), total, o.name, "reused")
         keep = keep and not scheduler
     n_reused, t_compute = len(outcomes), time.perf_counter()
     # On a cold cache, scenes of one group (`cold_group`) started side by side each derive and
