@@ -35,7 +35,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-__all__ = ["FORMAT", "code_fingerprint", "scene_inputs", "scene_key", "lookup", "restore", "store", "entry_folder"]
+__all__ = ["FORMAT", "code_fingerprint", "tree_sha256", "scene_inputs", "scene_key", "lookup", "restore", "store", "entry_folder"]
 
 #: Format of a stored entry (`store`); another format is never read.
 FORMAT = "autocable.reuse/1"
@@ -46,9 +46,14 @@ _LIBRARIES = ("numpy", "scipy", "sympy", "matplotlib", "PyDSTool")
 
 @functools.lru_cache(maxsize=1)
 def code_fingerprint() -> str:
-    """The sha256 of every file of the autocable package (path and bytes, compiled caches left out):
-    any change to the code that computes a scene makes another key."""
-    root = Path(__file__).resolve().parent.parent
+    """The sha256 of every file of the autocable package (`tree_sha256`): any change to the code
+    that computes a scene makes another key."""
+    return tree_sha256(Path(__file__).resolve().parent.parent)
+
+
+def tree_sha256(root: Path) -> str:
+    """The sha256 of every file under ``root``, by relative path and bytes, compiled caches
+    (``__pycache__``, .pyc) left out."""
     digest = hashlib.sha256()
     for path in sorted(p for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts
                        and p.suffix not in (".pyc", ".pyo")):
