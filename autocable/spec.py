@@ -68,6 +68,8 @@ class CableSpec:
     twist_ends: str = "natural"      # end conditions of the twist, eq. (20): "natural" (eq. 20 as
                                      # printed, chi (theta' + kappa w') = 0) or "restrained"
                                      # (theta(0) = theta(1) = 0, twist held at the anchorages)
+    mode_pair: int = 1               # k: the k-th in-plane and k-th out-of-plane modes are eq. (21)'s
+                                     # trial functions (1: the paper's pair; autocable.model.mode_pairs)
 
 
 @dataclass(frozen=True)
@@ -87,6 +89,8 @@ class AeroSpec:
     load_axes: str = "reference"     # axes the load is projected on in eq. (14): "reference" (the
                                      # initial section axes a2-bar, a3-bar of eqs. 8) or "twisted"
                                      # (the current axes a2, a3, turned by the twist theta)
+    load: str = "cubic"              # the rung of the load: "cubic" (eq. 14, the paper's eq. 21) or
+                                     # "exact" (eqs. 11-13 unexpanded, `autocable.model.exact_load`)
 
 
 @dataclass(frozen=True)
@@ -117,6 +121,8 @@ _CABLE_RULES = {
     "gravity_m_s2": ("pos", None, "a positive acceleration in m/s^2"),
     "twist_ends": ("choice", ("natural", "restrained"),
                    '"natural" (eq. 20 as printed) or "restrained" (theta = 0 at both anchorages)'),
+    "mode_pair": ("count", (1, 50), "an integer k from 1 to 50: the k-th in-plane and k-th out-of-plane "
+                                    "modes as the pair of eq. (21) (1, the default: the paper's first pair)"),
 }
 _AERO_RULES = {
     # Air, not a liquid: the quasi-steady load of eqs. (9-14) has no added mass or buoyancy.
@@ -139,10 +145,13 @@ _AERO_RULES = {
                          'c(-phi)) or the legacy "reversed" (not frame indifferent)'),
     "load_axes": ("choice", ("reference", "twisted"),
                   '"reference" (initial section axes) or "twisted" (axes turned by the twist)'),
+    "load": ("choice", ("cubic", "exact"),
+             '"cubic" (the cubic expansion of eq. 14, the paper\'s eq. 21) or "exact" (the quasi-steady '
+             'load of eqs. 11-13 without expansion)'),
 }
 # angle_convention is required: its senses give different cables (the sample's Theta0 is -13.9
 # deg with "mirrored" and "reversed", 58.2 deg with "eq12"), so a default would silently pick one.
-_OPTIONAL = {"gravity_m_s2", "load_length", "calibration_root", "twist_ends", "load_axes"}
+_OPTIONAL = {"gravity_m_s2", "load_length", "calibration_root", "twist_ends", "load_axes", "load", "mode_pair"}
 
 #: A model's ``name``: a one-line label (it names outputs and cache entries).
 NAME_RULE = ('a label of 1 to 64 characters, on one line, without "/", "\\" or control characters, '
@@ -186,6 +195,11 @@ def _check(value, rule, path, field):
         if not bounds[0] <= x <= bounds[1]:
             raise SpecError(path, field, f"expected {expected}, got {x!r}")
         return x
+    if kind == "count":
+        # an integer as TOML writes it: 2.0, "2" and true are refused, not rounded or coerced
+        if isinstance(value, bool) or not isinstance(value, int) or not bounds[0] <= value <= bounds[1]:
+            raise SpecError(path, field, f"expected {expected}, got {show(value)}")
+        return value
     x = finite_number(value, path, field, expected)
     if kind == "pos" and not x > 0:
         raise SpecError(path, field, f"expected {expected}, got {x!r}")
@@ -249,6 +263,7 @@ def parse_model(data: dict, path="<spec>") -> ModelSpec:
     aero_fields.setdefault("load_length", "diameter")
     aero_fields.setdefault("calibration_root", "smallest")
     aero_fields.setdefault("load_axes", "reference")
+    aero_fields.setdefault("load", "cubic")
     aero = AeroSpec(**aero_fields)
     if aero.yaw_deg is None and aero.rivulet_angle_deg is None:
         raise SpecError(path, "aero.yaw_deg", 'only one of yaw_deg and rivulet_angle_deg may be "calibrate"')

@@ -81,6 +81,13 @@ def _lin(weights, stages, skip_zero=True) -> str:
     return " + ".join(terms) if terms else "0.0"
 
 
+def _transcendental(e, dynamic: set) -> bool:
+    """Whether ``e`` has an atan2 or a non-integer power of the state (the exact load's angle and
+    speed of the relative wind), as opposed to a polynomial in the state and sin/cos of t."""
+    return any(a.free_symbols & dynamic for a in e.atoms(sp.atan2)) or any(
+        not p.exp.is_Integer and p.base.free_symbols & dynamic for p in e.atoms(sp.Pow))
+
+
 def _hoist(rhs, dynamic: set) -> tuple[list, list]:
     """Split every term of the expanded right-hand sides into a factor of the parameters alone and
     a factor of the state and t; the parameter factors (summed per distinct state factor) become
@@ -91,7 +98,9 @@ def _hoist(rhs, dynamic: set) -> tuple[list, list]:
     out = []
     for e in rhs:
         groups: dict = {}
-        for term in sp.Add.make_args(sp.expand(e)):
+        # A right-hand side with transcendental functions of the state (the exact quasi-steady
+        # load's sqrt and atan2) is split as it stands: expanding it multiplies its size.
+        for term in sp.Add.make_args(e if _transcendental(e, dynamic) else sp.expand(e)):
             const, dyn = [], []
             for f in sp.Mul.make_args(term):
                 (dyn if f.free_symbols & dynamic else const).append(f)

@@ -10,12 +10,14 @@ from __future__ import annotations
 import math
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from autocable._store import cache_dir, content_hash, load_checked_json, store_checked_json
 from autocable.model.aero import expand_load_jet
 from autocable.model.calibration import CalibrationError, calibrate
+from autocable.model.curves import curves_from_spec
 from autocable.model.equations import TwoModeODE
+from autocable.model.exact_load import exact_load_of
 from autocable.model.galerkin import aero_scales, project
 from autocable.model.modes import linear_modes
 from autocable.model.premises import check_model
@@ -154,6 +156,18 @@ def _compute(spec: ModelSpec, integrator: str) -> dict:
             "calibration_roots": roots}
 
 
+def with_exact_load(ode: TwoModeODE, spec: ModelSpec, st: CableStatics, data: dict) -> TwoModeODE:
+    """Eq. (21) on the exact rung: the same terms, with the exact quasi-steady load of the model's
+    curves, wind angles and modes attached (`autocable.model.exact_load`); ``data`` is the derived
+    record (angles and scales)."""
+    modes = linear_modes(st, spec.cable.twist_ends)
+    I = ClosedFormIntegrator(modes.shapes)
+    exact = exact_load_of(modes.shapes, st.m_star, I(("phi1", "phi1")), I(("phi2", "phi2")),
+                          data["aero_scale"], data["velocity_ratio"], st.alpha, data["beta"], data["theta0"],
+                          spec.aero.angle_convention, spec.aero.load_axes, curves_from_spec(spec.aero))
+    return replace(ode, exact_load=exact, provenance=dict(ode.provenance, load="exact"))
+
+
 def derive(spec: ModelSpec | str | os.PathLike, integrator: str = "closed-form", use_cache: bool = True) -> Derivation:
     """Eq. (21) for ``spec`` (a `ModelSpec`, or the path of a model file, read by `load_model`);
     cached by content (see module docstring)."""
@@ -171,7 +185,10 @@ def derive(spec: ModelSpec | str | os.PathLike, integrator: str = "closed-form",
         store_checked_json(path, data)
     st = cable_statics(spec.cable)
     timings = dict(data["timings"]) if not from_cache else {"cache_read_s": time.perf_counter() - t0}
-    return Derivation(spec=spec, statics=st, ode=TwoModeODE.from_dict(data["ode"]),
+    ode = TwoModeODE.from_dict(data["ode"])
+    if spec.aero.load == "exact":
+        ode = with_exact_load(ode, spec, st, data)
+    return Derivation(spec=spec, statics=st, ode=ode,
                       beta=data["beta"], theta0=data["theta0"], calibrated=data["calibrated"],
                       static_angle=data["static_angle"], aero_scale=data["aero_scale"],
                       velocity_ratio=data["velocity_ratio"], twist=tuple(data["twist"]),

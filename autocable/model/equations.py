@@ -19,7 +19,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from dataclasses import dataclass, field, asdict
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -107,6 +107,11 @@ class TwoModeODE:
     omega2: float
     xi_s: float
     provenance: dict = field(default_factory=dict, compare=False, hash=False)
+    #: The exact quasi-steady load (`autocable.model.exact_load.ExactLoad`) that replaces the cubic
+    #: aerodynamic terms in the dynamics, or None (eq. 21 as the paper writes it). The aerodynamic
+    #: terms stay in `terms`: they are the exact load's cubic Taylor expansion (its linearisation,
+    #: Hopf points and first Lyapunov coefficients are theirs).
+    exact_load: object = field(default=None, compare=False, hash=False)
 
     # -- views -------------------------------------------------------------------------------------
     def equation(self, k: int) -> tuple[Term, ...]:
@@ -127,8 +132,7 @@ class TwoModeODE:
         return out
 
     # -- numerics ------------------------------------------------------------------------------------
-    def accelerations(self, state, U: float, eta: float, f: float, fdot: float, fddot: float):
-        """(q1'', q2'') at one state (q1, q2, q1', q2'): a slow, exact reference evaluation."""
+    def _accelerations(self, state, U: float, eta: float, f: float, fdot: float, fddot: float):
         state = np.asarray(state, dtype=float)
         acc = np.zeros(2)
         for t in self.terms:
@@ -139,6 +143,20 @@ class TwoModeODE:
                 if p:
                     m *= x ** p
             acc[t.equation - 1] -= m
+        return acc
+
+    def accelerations(self, state, U: float, eta: float, f: float, fdot: float, fddot: float):
+        """(q1'', q2'') at one state (q1, q2, q1', q2'): a slow, exact reference evaluation (with the
+        exact load in place of the cubic aerodynamic terms when the ODE carries one)."""
+        if self.exact_load is None:
+            return self._accelerations(state, U, eta, f, fdot, fddot)
+        from autocable.model.exact_load import forces
+        acc = replace(self, terms=tuple(t for t in self.terms if t.origin != "aerodynamic"),
+                      exact_load=None)._accelerations(state, U, eta, f, fdot, fddot)
+        if U != 0.0:
+            q1, q2, v1, v2 = (float(x) for x in state)
+            F1, F2 = forces(self.exact_load, q2, v1, v2, U, eta * fdot)
+            acc = acc + np.array([float(F1), float(F2)])
         return acc
 
     def linear_matrix(self, U: float) -> np.ndarray:
@@ -154,9 +172,12 @@ class TwoModeODE:
 
     # -- persistence ---------------------------------------------------------------------------------
     def to_dict(self) -> dict:
-        return {"omega1": self.omega1, "omega2": self.omega2, "xi_s": self.xi_s,
-                "provenance": self.provenance,
-                "terms": [asdict(t) for t in self.terms]}
+        out = {"omega1": self.omega1, "omega2": self.omega2, "xi_s": self.xi_s,
+               "provenance": self.provenance,
+               "terms": [asdict(t) for t in self.terms]}
+        if self.exact_load is not None:
+            out["exact_load"] = self.exact_load.to_dict()
+        return out
 
     @classmethod
     def from_dict(cls, data: dict) -> "TwoModeODE":
@@ -164,13 +185,19 @@ class TwoModeODE:
                            forcing=tuple(t["forcing"]), u_power=int(t["u_power"]),
                            coefficient=float(t["coefficient"]), origin=t["origin"],
                            name=t.get("name", "")) for t in data["terms"])
+        exact = None
+        if data.get("exact_load") is not None:
+            from autocable.model.exact_load import ExactLoad
+            exact = ExactLoad.from_dict(data["exact_load"])
         return cls(terms=terms, omega1=float(data["omega1"]), omega2=float(data["omega2"]),
-                   xi_s=float(data["xi_s"]), provenance=dict(data.get("provenance", {})))
+                   xi_s=float(data["xi_s"]), provenance=dict(data.get("provenance", {})), exact_load=exact)
 
     def content_hash(self) -> str:
         """A short hash of the equations' content (used to name compiled builds)."""
-        payload = json.dumps([self.omega1, self.omega2, self.xi_s,
-                              [asdict(t) for t in self.terms]], sort_keys=True)
+        content = [self.omega1, self.omega2, self.xi_s, [asdict(t) for t in self.terms]]
+        if self.exact_load is not None:     # another rung: another right-hand side and build
+            content.append(self.exact_load.to_dict())
+        payload = json.dumps(content, sort_keys=True)
         return hashlib.sha256(payload.encode()).hexdigest()[:12]
 
 

@@ -36,11 +36,17 @@ def parameter_values(U_star: float, eta: float, Omega: float) -> dict[str, float
 
 
 def first_order_rhs(ode: TwoModeODE) -> tuple[sp.Expr, sp.Expr, sp.Expr, sp.Expr]:
-    """(q1', q2', v1', v2') of eq. (21) with f = sin(Omega t) (Sect. 4)."""
+    """(q1', q2', v1', v2') of eq. (21) with f = sin(Omega t) (Sect. 4); with the exact quasi-steady
+    load in place of the cubic aerodynamic terms when ``ode.exact_load`` is set (the "exact" rung,
+    `autocable.model.exact_load`). Polynomial in the state for the cubic rung, so that code
+    generators may expand it; not for the exact one."""
     f = sp.sin(OMEGA * T)
     forcing = (ETA * f, ETA * OMEGA * sp.cos(OMEGA * T), -ETA * OMEGA**2 * f)
     acc = [sp.Integer(0), sp.Integer(0)]
+    exact = getattr(ode, "exact_load", None)
     for term in ode.terms:
+        if exact is not None and term.origin == "aerodynamic":
+            continue
         m = sp.Float(term.coefficient, 17)
         for x, p in zip(STATE, term.powers):
             m *= x**p
@@ -51,4 +57,10 @@ def first_order_rhs(ode: TwoModeODE) -> tuple[sp.Expr, sp.Expr, sp.Expr, sp.Expr
         elif term.u_power:
             m *= U**term.u_power
         acc[term.equation - 1] -= m
-    return (V1, V2, sp.expand(acc[0]), sp.expand(acc[1]))
+    if exact is None:
+        return (V1, V2, sp.expand(acc[0]), sp.expand(acc[1]))
+    # The exact load (`autocable.model.exact_load`) is added unexpanded: expanding its quadrature
+    # sum of sqrt/atan2 products would multiply its size many times over for nothing.
+    from autocable.model.exact_load import force_exprs
+    F1, F2 = force_exprs(exact, Q2, V1, V2, U, forcing[1])
+    return (V1, V2, sp.expand(acc[0]) + WIND * F1, sp.expand(acc[1]) + WIND * F2)
