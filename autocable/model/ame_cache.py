@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from autocable._store import cache_dir, content_hash, load_checked_json, store_checked_json
 from autocable.model.ame import AmplitudeEquations
 from autocable.model.equations import TwoModeODE
+from autocable.spec import SpecError
 
 #: Bump when the Multiple Scales engine or its default ordering changes the AME of a given eq. (21).
 AME_VERSION = "ame-v1"
@@ -46,6 +47,13 @@ def derive_ame(source, *, omega: str = "exact", ordering: str = "paper", use_cac
     if ordering not in ORDERINGS:
         raise ValueError(f"ordering must be one of {ORDERINGS}, got {ordering!r}")
     ode = source if isinstance(source, TwoModeODE) else source.ode
+    pair = ode.provenance.get("mode_pair", 1)
+    if pair != 1:
+        # Sect. 4's scenes, premises and figures are those of the first pair (docs/mode-pairs.md)
+        where = getattr(getattr(source, "spec", None), "path", "") or ode.provenance.get("model", "<model>")
+        raise SpecError(where, "cable.mode_pair", f"the amplitude equations (22)-(24) are derived for the first "
+                                                  f"mode pair only, got pair {pair}; integrate eq. (21) instead "
+                                                  "(simulate --method ode21 or shooting, onset) or set mode_pair = 1")
     key = ame_key(ode, omega, ordering)
     path = cache_dir("ame") / f"ame-{key}.json"
     t0 = time.perf_counter()

@@ -19,7 +19,8 @@ from autocable.model.curves import curves_from_spec
 from autocable.model.equations import TwoModeODE
 from autocable.model.exact_load import exact_load_of
 from autocable.model.galerkin import aero_scales, project
-from autocable.model.modes import linear_modes
+from autocable.model.mode_pairs import pair_modes, pair_premises
+from autocable.model.modes import Modes, linear_modes
 from autocable.model.premises import check_model
 from autocable.model.shapes import ClosedFormIntegrator, QuadratureIntegrator
 from autocable.model.statics import CableStatics, cable_statics, regime_warnings
@@ -46,6 +47,7 @@ class Derivation:
     velocity_ratio: float       # nu = omega l / U_c
     twist: tuple                # (B, C, k) of the slaved twist theta2
     calibration_roots: tuple = ()   # ((angle_deg, "" or why it was rejected), ...) of the scan
+    twist_D: float = 0.0        # + D sinh(k (s - 1/2)) in the twist of an even pair (`mode_pairs`)
     warnings: tuple = ()
     timings: dict = field(default_factory=dict, compare=False)
     from_cache: bool = False
@@ -71,6 +73,11 @@ class Derivation:
         return math.degrees(self.static_angle)
 
     @property
+    def mode_pair(self) -> int:
+        """k of the pair eq. (21) is projected on (1: the paper's; `autocable.model.mode_pairs`)."""
+        return self.spec.cable.mode_pair
+
+    @property
     def omega1(self) -> float:
         """The in-plane frequency of eq. (21) (in units of omega, eq. 17)."""
         return self.ode.omega1
@@ -85,8 +92,9 @@ class Derivation:
         calibrated) and the scales of eqs. (17)-(18); `autocable derive` prints the whole report."""
         st, c = self.statics, self.spec.cable
         cal = f" ({self.calibrated} calibrated)" if self.calibrated else ""
+        pair = f" on mode pair {self.mode_pair}" if self.mode_pair != 1 else ""
         lines = [
-            f"eq. (21) of model {self.spec.name!r}: l = {c.length_m:g} m, alpha = {c.chord_slope_deg:g} deg, "
+            f"eq. (21){pair} of model {self.spec.name!r}: l = {c.length_m:g} m, alpha = {c.chord_slope_deg:g} deg, "
             f"Irvine lambda^2 = {st.lambda2:.4g}",
             f"  omega = {st.omega_ref:.6g} rad/s ({st.frequency_hz:.4g} Hz): omega1 = {self.ode.omega1:.6f}, "
             f"omega2 = {self.ode.omega2:.6f} (rho = {self.ode.omega2 - self.ode.omega1:.4g}), "
@@ -113,12 +121,23 @@ def _integrator(kind: str, shapes):
     raise ValueError(f"unknown integrator {kind!r}; use 'closed-form' or 'quadrature'")
 
 
+def trial_modes(st: CableStatics, cable) -> Modes:
+    """The trial functions of eq. (21) for ``cable``: its pair ``cable.mode_pair`` (1: the paper's
+    first pair, `linear_modes`; k > 1: `mode_pairs.pair_modes`)."""
+    if cable.mode_pair == 1:
+        return linear_modes(st, cable.twist_ends)
+    return pair_modes(st, cable.mode_pair, cable.twist_ends)
+
+
 def _compute(spec: ModelSpec, integrator: str) -> dict:
     timings = {}
     t0 = time.perf_counter()
     st = cable_statics(spec.cable)
-    modes = linear_modes(st, spec.cable.twist_ends)
+    modes = trial_modes(st, spec.cable)
     I = _integrator(integrator, modes.shapes)
+    # A calibrated angle puts the FIRST pair's onset at U_c; pair k > 1 keeps that angle (docs/mode-pairs.md).
+    first = modes if spec.cable.mode_pair == 1 else linear_modes(st, spec.cable.twist_ends)
+    I_first = I if first is modes else _integrator(integrator, first.shapes)
     K, nu = aero_scales(spec.aero, spec.cable, st)
     timings["statics_modes_s"] = time.perf_counter() - t0
 
@@ -126,7 +145,7 @@ def _compute(spec: ModelSpec, integrator: str) -> dict:
     calibrated, roots = "", []
     if spec.aero.yaw_deg is None or spec.aero.rivulet_angle_deg is None:
         try:
-            cal = calibrate(spec.aero, st, modes, I, K, nu, spec.cable.damping_ratio)
+            cal = calibrate(spec.aero, st, first, I_first, K, nu, spec.cable.damping_ratio)
         except CalibrationError as exc:    # an input no angle can satisfy: the user's to change
             raise SpecError(spec.path or "<spec>", exc.field, exc.message) from None
         beta, theta0, calibrated = cal.beta, cal.theta0, cal.solved_for
@@ -148,19 +167,19 @@ def _compute(spec: ModelSpec, integrator: str) -> dict:
     t0 = time.perf_counter()
     ode = project(st, modes, aero, K, nu, spec.cable.damping_ratio, I,
                   provenance={"model": spec.name, "model_hash": spec.content_hash(),
-                              "derivation": DERIVATION_VERSION})
+                              "derivation": DERIVATION_VERSION, "mode_pair": spec.cable.mode_pair})
     timings["galerkin_s"] = time.perf_counter() - t0
     return {"ode": ode.to_dict(), "beta": beta, "theta0": theta0, "calibrated": calibrated,
             "static_angle": aero.static_angle, "aero_scale": K, "velocity_ratio": nu,
             "twist": [modes.twist_B, modes.twist_C, modes.twist_k], "timings": timings,
-            "calibration_roots": roots}
+            "calibration_roots": roots, "twist_D": modes.twist_D}
 
 
 def with_exact_load(ode: TwoModeODE, spec: ModelSpec, st: CableStatics, data: dict) -> TwoModeODE:
     """Eq. (21) on the exact rung: the same terms, with the exact quasi-steady load of the model's
     curves, wind angles and modes attached (`autocable.model.exact_load`); ``data`` is the derived
     record (angles and scales)."""
-    modes = linear_modes(st, spec.cable.twist_ends)
+    modes = trial_modes(st, spec.cable)     # the pair's own shapes: the load is projected on them
     I = ClosedFormIntegrator(modes.shapes)
     exact = exact_load_of(modes.shapes, st.m_star, I(("phi1", "phi1")), I(("phi2", "phi2")),
                           data["aero_scale"], data["velocity_ratio"], st.alpha, data["beta"], data["theta0"],
@@ -174,6 +193,9 @@ def derive(spec: ModelSpec | str | os.PathLike, integrator: str = "closed-form",
     if not isinstance(spec, ModelSpec):
         spec = load_model(spec)
     check_model(spec)    # before the root finding an impossible cable would make fail
+    if spec.cable.mode_pair > 1:
+        pair_premises(spec, cable_statics(spec.cable), spec.cable.mode_pair)
+    # (the spec's hash covers cable.mode_pair: every pair has its own entry)
     key = content_hash({"spec": spec.content_hash(), "version": DERIVATION_VERSION,
                         "integrator": integrator})
     path = cache_dir("derivations") / f"eq21-{key}.json"
@@ -193,4 +215,5 @@ def derive(spec: ModelSpec | str | os.PathLike, integrator: str = "closed-form",
                       static_angle=data["static_angle"], aero_scale=data["aero_scale"],
                       velocity_ratio=data["velocity_ratio"], twist=tuple(data["twist"]),
                       calibration_roots=tuple(tuple(r) for r in data.get("calibration_roots", [])),
+                      twist_D=float(data.get("twist_D", 0.0)),
                       warnings=tuple(regime_warnings(st)), timings=timings, from_cache=from_cache)

@@ -52,6 +52,8 @@ class Modes:
     twist_k: float
     shapes: dict              # name -> Shape: phi1, phi1_d, phi1_dd, phi2, phi2_d, phi2_dd, theta2,
                               #                vhat, vhat_d, vhat_dd
+    twist_D: float = 0.0      # + D sinh(k (s - 1/2)): nonzero only for an antisymmetric out-of-plane
+                              # mode (an even pair, `autocable.model.mode_pairs`)
 
 
 TWIST_ENDS = ("natural", "restrained")

@@ -27,6 +27,9 @@ MODEL = {
     "cable.gravity_m_s2": "g [m/s^2]; default 9.81.",
     "cable.twist_ends": "End conditions of the twist, eq. (20): \"natural\" (as printed; default) or "
                         "\"restrained\" (theta = 0 at both anchorages).",
+    "cable.mode_pair": "k, the mode pair of eq. (21): the k-th in-plane mode (by frequency) and the k-th "
+                       "out-of-plane mode sin(k pi s) with its slaved twist; default 1 (the paper's pair). "
+                       "`--pair K` of derive, simulate and onset overrides it (docs/mode-pairs.md).",
     "aero.air_density_kg_m3": "rho_a [kg/m^3]; not printed by the paper (1.25 in the sample).",
     "aero.rivulet_diameter_ratio": "d/D of the rivulet; documents the A_k, B_k data (enters only through them).",
     "aero.lift": "A_0..A_3 of eq. (13): the cubic fit of the lift coefficient.",
