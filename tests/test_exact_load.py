@@ -1,0 +1,234 @@
+"""The exact quasi-steady load rung (autocable.model.exact_load): eq. (21) is its cubic truncation.
+
+Each test can fail: the Taylor test fails if any cubic coefficient of eq. (21) (Appendix A's
+aerodynamic terms) differs from the exact load's, or if the quadrature, the angle sense, the axes or
+the static load are wrong; frame indifference fails for a sense that depends on how the section
+lies in space (the legacy "reversed", checked to fail); the Hopf test compares the exact rung's own
+vector field (finite differences, not the term table) with eq. (21)'s closed-form Hopf point.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from autocable.model.aero import frame_residual
+from autocable.model.curves import curves_from_dict, curves_from_spec
+from autocable.model.derive import derive
+from autocable.model.exact_load import _section, exact_load_of, forces
+from autocable.model.modes import linear_modes
+from autocable.model.onset import hopf_point, stability
+from autocable.model.shapes import ClosedFormIntegrator
+from autocable.spec import SpecError, load_model, parse_model, read_toml
+
+ROOT = Path(__file__).resolve().parents[1]
+SAMPLE = ROOT / "models" / "luongo_zulli_2012.toml"
+STAY = ROOT / "models" / "stay_190m.toml"
+
+
+def _with(spec, **aero):
+    return dataclasses.replace(spec, aero=dataclasses.replace(spec.aero, **aero))
+
+
+def _pair(path, **aero):
+    """(cubic, exact) derivations of a model with ``aero`` changed; the wind angles are those the
+    model file gives or fits, held explicit so that another reading is the same wind and rivulet."""
+    spec = load_model(path)
+    base = derive(spec)
+    spec = _with(spec, yaw_deg=base.beta_deg, rivulet_angle_deg=base.theta0_deg)
+    cubic = derive(_with(spec, **aero))
+    exact = derive(_with(spec, load="exact", **aero))
+    return cubic, exact
+
+
+CASES = [(SAMPLE, {}), (STAY, {}), (STAY, {"angle_convention": "mirrored"}),
+         (STAY, {"load_axes": "twisted"})]
+
+
+@pytest.mark.parametrize("path,aero", CASES, ids=["sample", "stay190", "stay190-mirrored", "stay190-twisted"])
+def test_eq21_is_the_cubic_truncation_of_the_exact_load(path, aero):
+    """Along random directions of (q1, q2, q1', q2', eta f'), the exact and cubic accelerations differ
+    by O(amplitude^4): the fitted order of the difference lies in [3.6, 4.4]."""
+    cubic, exact = _pair(path, **aero)
+    rng = np.random.default_rng(7)
+    U = 1.3
+    for _ in range(3):
+        d = rng.normal(size=5)
+        d /= np.linalg.norm(d)
+        eps = 2e-4 * 0.5 ** np.arange(5)
+        diffs = []
+        for e in eps:
+            y = e * d[:4]
+            fdot = e * d[4] / 1e-3           # eta f' = e d4 with eta = 1e-3
+            a = cubic.ode.accelerations(y, U, 1e-3, 0.0, fdot, 0.0)
+            b = exact.ode.accelerations(y, U, 1e-3, 0.0, fdot, 0.0)
+            diffs.append(np.max(np.abs(a - b)))
+        order = np.polyfit(np.log(eps), np.log(diffs), 1)[0]
+        assert 3.6 < order < 4.4, (order, diffs)
+        # and the difference is small against the load itself at the smallest amplitude
+        y = eps[-1] * d[:4]
+        scale = np.max(np.abs(cubic.ode.accelerations(y, U, 1e-3, 0.0, eps[-1] * d[4] / 1e-3, 0.0)))
+        assert diffs[-1] < 1e-3 * scale
+
+
+@pytest.mark.parametrize("convention", ["eq12", "mirrored"])
+@pytest.mark.parametrize("axes", ["reference", "twisted"])
+def test_exact_section_load_is_frame_indifferent(convention, axes):
+    """Turning the relative wind and the section together by d turns the load with them, also for a
+    wind from behind (V3 < 0), where eq. (12)'s arcsin would fold the angle and atan2 does not. (The
+    cubic curves of eq. 13 are not periodic: a turn that carries psi across +-180 deg changes the
+    branch of atan2 and so the load; such samples are left out.)"""
+    _, exact = _pair(STAY, angle_convention=convention, load_axes=axes)
+    ex = exact.ode.exact_load
+    curves = curves_from_dict(ex.curves)
+    rng = np.random.default_rng(3)
+    V2, V3 = rng.normal(size=200), rng.normal(size=200)      # all directions, V3 < 0 included
+    theta = rng.uniform(-1.0, 1.0, size=200)
+
+    def load(v2, v3, th):
+        b2, b3, _ = _section(ex, curves, v2, v3, th, np)
+        return b2, b3
+
+    psi = np.arctan2(-V2, V3)
+    for d in (0.3, -1.1, 2.5):
+        keep = np.abs(psi) + abs(d) < math.pi
+        if abs(d) < 1.5:
+            assert np.count_nonzero(keep & (V3 < 0)) > 5
+        assert frame_residual(None, None, ex.theta0, V2[keep], V3[keep], theta[keep], d, convention, axes,
+                              load=load) < 1e-12
+
+
+def test_the_legacy_reversed_sense_is_not_frame_indifferent():
+    """The same check fails for the legacy sense (psi flipped alone): the test can tell."""
+    _, exact = _pair(STAY, angle_convention="reversed")
+    ex = exact.ode.exact_load
+    curves = curves_from_dict(ex.curves)
+    rng = np.random.default_rng(3)
+    V2, V3, theta = rng.normal(size=50), 1.0 + rng.uniform(size=50), rng.uniform(-0.3, 0.3, size=50)
+
+    def load(v2, v3, th):
+        return _section(ex, curves, v2, v3, th, np)[:2]
+
+    assert frame_residual(None, None, ex.theta0, V2, V3, theta, 0.3, "reversed", "reference", load=load) > 1e-2
+
+
+@pytest.mark.parametrize("path", [SAMPLE, STAY], ids=["sample", "stay190"])
+def test_quadrature_converges(path):
+    """The generalized forces at metre-scale motions converge with the Gauss nodes: each doubling
+    gains digits, and 32 nodes agree with 128 to 1e-11 relative."""
+    spec = load_model(path)
+    d = derive(spec)
+    st = d.statics
+    modes = linear_modes(st, spec.cable.twist_ends)
+    I = ClosedFormIntegrator(modes.shapes)
+    rng = np.random.default_rng(0)
+    Y = rng.normal(size=(40, 4)) * np.array([0.01, 0.003, 0.02, 0.006])
+    F = {}
+    for n in (8, 16, 32, 128):
+        ex = exact_load_of(modes.shapes, st.m_star, I(("phi1", "phi1")), I(("phi2", "phi2")), d.aero_scale,
+                           d.velocity_ratio, st.alpha, d.beta, d.theta0, spec.aero.angle_convention,
+                           spec.aero.load_axes, curves_from_spec(spec.aero), nodes=n)
+        F[n] = np.array(forces(ex, Y[:, 1], Y[:, 2], Y[:, 3], 1.3))
+    err = {n: np.max(np.abs(F[n] - F[128])) / np.max(np.abs(F[128])) for n in (8, 16, 32)}
+    assert err[8] > err[16] > err[32]
+    assert err[32] < 1e-11, err
+
+
+def test_compiled_right_hand_side_equals_the_numpy_reference():
+    """The C right-hand side of the exact rung (printed from sympy) equals `forces` (numpy) plus the
+    structural terms at random states, eta and forcing phases, to 1e-12 relative."""
+    from autocable.codegen.cintegrate import compiled_integrator
+    from autocable.model.symbolic import PARAMETERS, STATE, T, first_order_rhs, parameter_values
+    _, exact = _pair(STAY)
+    ode = exact.ode
+    c = compiled_integrator(f"eq21_{ode.content_hash()}", tuple(s.name for s in STATE),
+                            tuple(p.name for p in PARAMETERS), first_order_rhs(ode), T.name)
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        q1, q2, v1, v2 = rng.normal(size=4) * [0.005, 0.002, 0.01, 0.004]
+        U, eta, Om, t = 0.5 + rng.uniform(), 1e-3 * rng.uniform(), 0.9 + 0.2 * rng.uniform(), 10 * rng.uniform()
+        pars = parameter_values(U, eta, Om)
+        got = c.rhs(t, [q1, q2, v1, v2], [pars[p.name] for p in PARAMETERS])
+        f, fd, fdd = math.sin(Om * t), Om * math.cos(Om * t), -Om**2 * math.sin(Om * t)
+        want = ode.accelerations([q1, q2, v1, v2], U, eta, f, fd, fdd)
+        assert np.allclose(got[:2], [v1, v2], rtol=0, atol=0)
+        assert np.max(np.abs(got[2:] - want)) <= 1e-12 * np.max(np.abs(want))
+
+
+def _jacobian(ode, U, h=1e-7):
+    """d(q', v')/d(q, v) at rest, eta = 0, by central differences of the exact rung's accelerations."""
+    A = np.zeros((4, 4))
+    A[0, 2] = A[1, 3] = 1.0
+    for j in range(4):
+        e = np.zeros(4)
+        e[j] = h
+        A[2:, j] = (ode.accelerations(e, U, 0, 0, 0, 0) - ode.accelerations(-e, U, 0, 0, 0, 0)) / (2 * h)
+    return A
+
+
+def _forms(ode, U, h):
+    """The symmetric B, C of the exact rung's field at rest by polarisation of central differences."""
+    def acc(x):
+        out = np.zeros(4)
+        out[:2] = x[2:]
+        out[2:] = ode.accelerations(x, U, 0, 0, 0, 0)
+        return out
+
+    def second(z):
+        return (acc(h * z) - 2 * acc(0 * z) + acc(-h * z)) / h**2
+
+    def third(z):
+        return (acc(2 * h * z) - 2 * acc(h * z) + 2 * acc(-h * z) - acc(-2 * h * z)) / (2 * h**3)
+
+    def Br(x, y):
+        return (second(x + y) - second(x - y)) / 4
+
+    def Cr(x, y, z):
+        return (third(x + y + z) - third(x + y - z) - third(x - y + z) + third(x - y - z)) / 24
+
+    def B(u, v):
+        ur, ui, vr, vi = u.real, u.imag, v.real, v.imag
+        return Br(ur, vr) - Br(ui, vi) + 1j * (Br(ur, vi) + Br(ui, vr))
+
+    def C(u, v, w):
+        out = 0j
+        for a, fa in ((u.real, 1), (u.imag, 1j)):
+            for b, fb in ((v.real, 1), (v.imag, 1j)):
+                for c, fc in ((w.real, 1), (w.imag, 1j)):
+                    out = out + fa * fb * fc * Cr(a, b, c)
+        return out
+
+    return B, C
+
+
+@pytest.mark.parametrize("path", [SAMPLE, STAY], ids=["sample", "stay190"])
+def test_exact_rung_has_eq21s_hopf_point_frequency_and_lyapunov_coefficient(path):
+    """The onset of eq. (21) (closed form from its terms) is a Hopf point of the exact rung's own
+    vector field: the critical pair is on the imaginary axis there (finite-difference Jacobian), with
+    the same frequency, and its first Lyapunov coefficient from finite-difference multilinear forms
+    equals eq. (21)'s to 1e-4 relative."""
+    from autocable.model.hopf import first_lyapunov
+    cubic, exact = _pair(path)
+    onset = stability(cubic.ode).first
+    U = onset.U_star
+    hp = hopf_point(cubic.ode, U)
+    A = _jacobian(exact.ode, U)
+    lam = np.linalg.eigvals(A)
+    k = int(np.argmax(lam.real))
+    assert abs(lam[k].real) < 1e-7
+    assert abs(abs(lam[k].imag) - hp.omega) < 1e-7 * hp.omega
+    # h = 1e-5: the twist (up to 477 q2 rad) stays below 5e-3 rad, and the third differences' round-off
+    # (eps / h^2 relative) below 1e-6; on eq. (21) itself the same differences give its l1 to 1e-8.
+    B, C = _forms(exact.ode, U, 1e-5)
+    l1 = first_lyapunov(A, B, C).l1
+    assert l1 == pytest.approx(hp.l1, rel=1e-4)
+
+
+def test_load_field_is_checked():
+    data, _ = read_toml(SAMPLE)
+    data["aero"]["load"] = "exakt"
+    with pytest.raises(SpecError, match=r"aero\.load.*\"cubic\".*\"exact\""):
+        parse_model(data, SAMPLE)
