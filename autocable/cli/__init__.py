@@ -19,7 +19,7 @@ from autocable._version import __version__
 from autocable.errors import EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, CacheError, ComputationError
 from autocable.paper.figures import add_figures_parser
 from autocable.cli.checks import refuse
-from autocable.cli.derivation import cmd_derive
+from autocable.cli.derivation import LOAD_HELP, PAIR_HELP, cmd_derive
 from autocable.cli.onset import add_onset_parser
 from autocable.cli.runs import add_chart_parser, add_run_parser, add_sweep_parser
 from autocable.cli.simulate import cmd_simulate
@@ -41,6 +41,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--ordering", choices=("paper", "natural"), default="paper",
                    help="Multiple Scales ordering of the AME: 'paper' (Sect. 4, every aerodynamic term at "
                         "third order; default) or 'natural' (aerodynamic terms at their natural order)")
+    d.add_argument("--pair", type=int, metavar="K", help=PAIR_HELP)
     d.set_defaults(func=cmd_derive)
 
     s = sub.add_parser("simulate", help="integrate eq. (21) (or its amplitude equations) to a steady state")
@@ -73,12 +74,16 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--modes", type=int, metavar="N",
                    help="integrate eq. (21) with N in-plane and N out-of-plane modes (the check that "
                         "two modes suffice); a1, a2 are the first modes' amplitudes")
+    s.add_argument("--pair", type=int, metavar="K", help=PAIR_HELP + "; the forcing is near the pair's in-plane "
+                   "frequency, Omega = omega1 + sigma")
+    s.add_argument("--load", choices=("cubic", "exact"), help=LOAD_HELP)
     s.set_defaults(func=cmd_simulate)
 
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")
     b.add_argument("what", nargs="?", default=None,
                    choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "bound-scenes", "ordering",
-                            "engines", "shooting", "sweep", "kill", "kill-surfaces", "fuzz", "onset", "calibration"],
+                            "engines", "shooting", "sweep", "kill", "kill-surfaces", "fuzz", "onset", "calibration",
+                            "pairs"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
                         "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
@@ -101,7 +106,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "warm); fuzz: hostile model specs, scenes and arguments, counts of tracebacks, exit-0 "
                         "results for invalid input, unnamed rejections and hangs; calibration: the screen of "
                         "8 points on 1 and 2 workers (the scaling) and the bound stage on 20 candidate models "
-                        "(stage wall time and summed scene time). "
+                        "(stage wall time and summed scene time); pairs: `autocable onset --modes-below 3 "
+                        "--design-wind 25` on models/stay_190m.toml (or --model), cold and warm (target 30 s). "
                         "Without a subcommand "
                         "(--out DIR): the work-precision bench of the method ladder (bench.json, "
                         "work_precision.png, work_precision.md)")

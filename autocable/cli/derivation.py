@@ -4,11 +4,60 @@ from __future__ import annotations
 
 import math
 
-from autocable.cli.checks import dumps
+from autocable.cli.checks import check_number, dumps
 
-def derivation(path):
+#: The help of ``--pair`` (derive, simulate, onset).
+PAIR_HELP = ("the mode pair k of eq. (21): the k-th in-plane and k-th out-of-plane modes (overrides the "
+             "model's cable.mode_pair; default: the file's, 1 if it has none)")
+
+
+#: The help of ``--load`` (simulate, onset, gallop).
+LOAD_HELP = ('the rung of the aerodynamic load: "cubic" (the cubic expansion of eq. 14, the paper\'s eq. 21) '
+             'or "exact" (eqs. 11-13 without expansion, projected by quadrature); overrides the model\'s '
+             'aero.load (default: the file\'s, "cubic" if it has none)')
+
+
+def derivation(path, pair: int | None = None, load: str | None = None):
+    """Eq. (21) of the model file ``path``, on mode pair ``pair`` if given (``--pair``: it overrides
+    the file's ``cable.mode_pair``; a calibrated angle is still fitted on the first pair), on the
+    load rung ``load`` if given (``--load``: it overrides the file's ``aero.load``)."""
     from autocable.model.derive import derive
-    return derive(path)
+    if pair is None and load is None:
+        return derive(path)
+    from dataclasses import replace
+
+    from autocable.spec import MODE_PAIR_MAX, load_model
+    spec = load_model(path)
+    if pair is not None:
+        check_number("--pair", pair, 1, MODE_PAIR_MAX, integer=True)
+        spec = replace(spec, cable=replace(spec.cable, mode_pair=int(pair)))
+    if load is not None:
+        spec = replace(spec, aero=replace(spec.aero, load=load))
+    return derive(spec)
+
+
+def modes_lines(d, u) -> list[str]:
+    """The report's lines on the two trial functions: the paper's first pair, or pair k."""
+    ode = d.ode
+    if d.mode_pair == 1:
+        return [
+            f"  omega1 = {ode.omega1:.9f} (in-plane, Irvine; {u.frequency_hz(ode.omega1):.5g} Hz)   "
+            f"omega2 = {ode.omega2:.9f} (out-of-plane; {u.frequency_hz(ode.omega2):.5g} Hz)",
+            f"  internal detuning rho = omega2 - omega1 = {ode.omega2 - ode.omega1:.6g}",
+            f"  slaved twist theta2 = {d.twist[0]:.6g} sin(pi s) + {d.twist[1]:.6g} cosh({d.twist[2]:.6g} (s - 1/2))"]
+    from autocable.model.mode_pairs import pair_info
+    k, info = d.mode_pair, pair_info(d.statics, d.mode_pair)
+    B, C, kappa = d.twist
+    hom = (f"{d.twist_D:.6g} sinh({kappa:.6g} (s - 1/2))" if k % 2 == 0 and C == 0.0
+           else f"{C:.6g} cosh({kappa:.6g} (s - 1/2))")
+    return [
+        f"  mode pair {k} (cable.mode_pair or --pair; docs/mode-pairs.md): the {info.describe_in_plane()} and "
+        f"the out-of-plane mode sin({k} pi s)",
+        f"  omega1 = {ode.omega1:.9f} (in-plane; {u.frequency_hz(ode.omega1):.5g} Hz)   "
+        f"omega2 = {ode.omega2:.9f} (out-of-plane; {u.frequency_hz(ode.omega2):.5g} Hz)",
+        f"  internal detuning rho = omega2 - omega1 = {ode.omega2 - ode.omega1:.6g}",
+        f"  slaved twist theta2 = {B:.6g} sin({k} pi s) + {hom}",
+        "  unit maximum: the peak displacements a_k l are at each mode's maximum, not at mid-span"]
 
 
 def _fmt(x: float) -> str:
@@ -31,10 +80,7 @@ def derive_report(d) -> str:
         f"  quasi-static shape (eqs. 15-16, corrected C2): vhat(s) = {st.C1:.6g} s^2 + {st.C2:.6g} s",
         "",
         "Modes (eqs. 19-20, unit maximum):",
-        f"  omega1 = {ode.omega1:.9f} (in-plane, Irvine; {u.frequency_hz(ode.omega1):.5g} Hz)   "
-        f"omega2 = {ode.omega2:.9f} (out-of-plane; {u.frequency_hz(ode.omega2):.5g} Hz)",
-        f"  internal detuning rho = omega2 - omega1 = {ode.omega2 - ode.omega1:.6g}",
-        f"  slaved twist theta2 = {d.twist[0]:.6g} sin(pi s) + {d.twist[1]:.6g} cosh({d.twist[2]:.6g} (s - 1/2))",
+        *modes_lines(d, u),
         "",
         "Wind (Sect. 2.3):",
         f"  U_c = {d.critical_wind_speed_m_s:g} m/s   yaw beta = {math.degrees(d.beta):.6f} deg   "
@@ -69,7 +115,7 @@ def derive_report(d) -> str:
 def derive_json(d) -> dict:
     st, ode = d.statics, d.ode
     return {
-        "model": d.spec.name, "model_hash": d.spec.content_hash(),
+        "model": d.spec.name, "model_hash": d.spec.content_hash(), "mode_pair": d.mode_pair,
         "reference_frequency_rad_s": st.omega_ref, "omega1": ode.omega1, "omega2": ode.omega2,
         "lambda2": st.lambda2, "delta": st.delta, "tau": st.tau, "chi": st.chi,
         "kappa_bar_1_m": st.kappa_bar, "T_bar_N": st.T_bar, "m_star": st.m_star,
@@ -153,20 +199,28 @@ def ame_report(cached, latex: bool = False) -> str:
     return "\n".join(lines)
 
 
+#: Why `derive` on pair k > 1 prints no amplitude equations.
+NO_AME_NOTE = ("the amplitude equations (22)-(24) are derived for the first mode pair only (Sect. 4's 1:1 "
+               "resonance near the first frequencies, and every scene and figure built on them)")
+
+
 def cmd_derive(args) -> int:
     from autocable.model.ame_cache import derive_ame
-    d = derivation(args.model)
-    cached = derive_ame(d, ordering=args.ordering)
+    d = derivation(args.model, getattr(args, "pair", None))
+    cached = derive_ame(d, ordering=args.ordering) if d.mode_pair == 1 else None
     from autocable.studies.onset import onset_report, onset_text
     onset = onset_report(d)
     if args.json:
         out = derive_json(d)
-        out["ame"] = ame_json(cached)
+        out["ame"] = ame_json(cached) if cached is not None else None
+        if cached is None:
+            out["ame_note"] = NO_AME_NOTE
         out["onset"] = onset
         print(dumps(out, indent=1))
     else:
         print(derive_report(d))
-        print(ame_report(cached, latex=args.latex))
+        print(ame_report(cached, latex=args.latex) if cached is not None
+              else f"\nNo amplitude equations for mode pair {d.mode_pair}: {NO_AME_NOTE}.")
         print()
         print("\n".join(onset_text(onset)))
         print("  (autocable onset MODEL --damping A:B --design-wind U: the damping that keeps it stable)")

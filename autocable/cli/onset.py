@@ -10,10 +10,13 @@ import sys
 from pathlib import Path
 
 from autocable.cli.checks import check_number, check_out, dumps, refuse, strict
-from autocable.cli.derivation import derivation
+from autocable.cli.derivation import LOAD_HELP, PAIR_HELP, derivation
 
 #: Points of a damping grid at most: each costs about 2 ms; more is a typing error.
 DAMPING_POINTS_LIMIT = 10000
+#: The highest ``--modes-below`` frequency [Hz]: far above any rain-wind mode (1-3 Hz); the pairs below
+#: it are also capped by `autocable.spec.MODE_PAIR_MAX`.
+MODES_BELOW_LIMIT_HZ = 1000.0
 
 
 def add_onset_parser(sub) -> None:
@@ -36,6 +39,12 @@ def add_onset_parser(sub) -> None:
     o.add_argument("--checks", type=int, default=2, metavar="N",
                    help="eq. (21) integrations per amplitude curve (default 2; 0: none)")
     o.add_argument("--out", metavar="DIR", help="write onset.json, damping.csv, amplitude.csv, onset.png/.pdf")
+    o.add_argument("--pair", type=int, metavar="K", help=PAIR_HELP)
+    o.add_argument("--load", choices=("cubic", "exact"), help=LOAD_HELP + "; the linear onset is the same on both "
+                   "(eq. 21 is the exact load's cubic expansion), the galloping cycles are not")
+    o.add_argument("--modes-below", type=float, metavar="HZ",
+                   help="one row per mode pair k = 1, 2, ... below this frequency [Hz]: its frequencies, onset, "
+                        "mechanism, criticality and (with --design-wind) its least damping (JSON key 'pairs')")
     o.set_defaults(func=cmd_onset)
 
 
@@ -101,7 +110,15 @@ def cmd_onset(args) -> int:
     changes = _changes(args.set)
     if args.refit and not changes:
         raise refuse("--refit", "refits the calibrated angle of a changed cable: give --set cable.FIELD=VALUE")
-    d = derivation(args.model)
+    below = getattr(args, "modes_below", None)
+    pair = getattr(args, "pair", None)
+    if below is not None:
+        check_number("--modes-below", below, 0.0, MODES_BELOW_LIMIT_HZ, lo_open=True)
+        for option, given in (("--pair", pair is not None), ("--damping", grid is not None), ("--out", args.out)):
+            if given:
+                raise refuse(option, "studies one mode pair; --modes-below tabulates every pair below a frequency: "
+                                     f"drop {option} or --modes-below")
+    d = derivation(args.model, pair, getattr(args, "load", None))
     messages = []
     if changes:
         d, messages = vary(d, changes, refit=args.refit)
@@ -116,9 +133,20 @@ def cmd_onset(args) -> int:
         U_max = units.wind_star(args.max_wind)
     if args.design_wind is not None:
         check_number("--design-wind", args.design_wind, 0.0, units.wind_m_s(U_max), lo_open=True)
+    if below is not None:
+        return _pairs(args, d, below, U_max, messages)
     if grid is not None or args.out:
         xis = grid if grid is not None else [d.ode.xi_s]
         amp = sorted({d.ode.xi_s, float(xis[0]), float(xis[len(xis) // 2])}) if args.out else []
+        if amp and d.ode.exact_load is not None:
+            amp = []        # the AME (22)-(24) carry eq. (21)'s cubic load, not the exact one
+            messages.append("no post-critical amplitude curves with the exact load: they come from the amplitude "
+                            "equations (22)-(24) of the cubic eq. (21); `autocable gallop --load exact` continues "
+                            "the exact rung's own cycles")
+        if amp and d.mode_pair != 1:
+            amp = []        # the galloping cycle comes from the AME (22)-(24): first pair only
+            messages.append(f"no post-critical amplitude curves for mode pair {d.mode_pair}: they come from the "
+                            "amplitude equations (22)-(24), derived for the first pair only")
         report = damping_study(d, xis, args.design_wind, amplitude_xis=amp, checks=args.checks, U_max=U_max)
     else:
         report = onset_report(d, U_max)
@@ -165,6 +193,20 @@ def cmd_onset(args) -> int:
     return 0
 
 
+def _pairs(args, d, below: float, U_max: float, messages: list) -> int:
+    """``onset --modes-below F``: the table of every mode pair below F (`studies.onset.pairs_below`)."""
+    from autocable.studies.onset import pairs_below, pairs_text
+    report = pairs_below(d, below, args.design_wind, U_max)
+    report["study"] = messages
+    if args.json:
+        print(dumps(report, indent=1))
+        return 0
+    for m in messages:
+        print(m)
+    print("\n".join(pairs_text(report)))
+    return 0
+
+
 def _outcome(word: str) -> str:
     return "neither grows nor decays clearly (t* = 1e5)" if word == "undecided" else word
 
@@ -189,4 +231,8 @@ def _write(report: dict, out: Path, name: str) -> None:
     atomic_write_text(out / "amplitude.csv", _csv(rows, [
         "damping_ratio", "scruton", "source", "U_m_s", "U_star", "a1", "a2", "peak_in_plane_m",
         "peak_out_of_plane_m", "sigma", "stable", "converged"]))
-    plot_onset(strict(report), out / "onset", title=f"{name}: onset of galloping and damping")
+    import warnings
+    with warnings.catch_warnings():
+        # an empty amplitude panel (a stable cable, a mode pair k > 1 without AME curves) has no legend
+        warnings.filterwarnings("ignore", message="No artists with labels found")
+        plot_onset(strict(report), out / "onset", title=f"{name}: onset of galloping and damping")

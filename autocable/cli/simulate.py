@@ -33,6 +33,10 @@ def si_fields(d, out: dict) -> dict:
     out.update({"U_m_s": u.wind_m_s(out["U"]), "eta_m": u.support_m(out["eta"]),
                 "Omega_Hz": u.frequency_hz(out["Omega"]), "peak_m": [peak(out["a1"]), peak(out["a2"])],
                 "peak_station": PEAK_STATION})
+    if d.mode_pair != 1:
+        # pair k's modes peak off mid-span (sin(k pi s) at s = 1/(2k), ...): the peak is still a_k l
+        out.update({"mode_pair": d.mode_pair, "omega1": d.ode.omega1, "omega2": d.ode.omega2,
+                    "peak_station": f"each mode's maximum (mode pair {d.mode_pair}: not mid-span)"})
     if out.get("autonomous") and out.get("period"):
         # a self-excited cycle has its own frequency: 2 pi / period in units of omega (eq. 17)
         out["response_frequency_Hz"] = u.frequency_hz(2 * math.pi / out["period"])
@@ -42,7 +46,8 @@ def si_fields(d, out: dict) -> dict:
 def _si_line(out: dict) -> str:
     peaks = ", ".join("-" if p is None else f"{p:.4g} m" for p in out["peak_m"])
     return (f"SI: U = {out['U_m_s']:.4g} m/s, support amplitude {out['eta_m']:.4g} m, forcing "
-            f"{out['Omega_Hz']:.5g} Hz; peak displacements (in-plane, out-of-plane) {peaks} at mid-span")
+            f"{out['Omega_Hz']:.5g} Hz; peak displacements (in-plane, out-of-plane) {peaks} at "
+            + ("mid-span" if out.get("mode_pair", 1) == 1 else f"each mode's maximum (mode pair {out['mode_pair']})"))
 
 
 def _check_parameters(args) -> None:
@@ -116,8 +121,19 @@ def settle_hint(r, U: float, max_time: float) -> str:
 def cmd_simulate(args) -> int:
     from autocable.methods.integration.ode21 import DEFAULT_Q0, Ode21Integrator
     _check_simulate(args)
+    pair = getattr(args, "pair", None)
+    if pair is not None and getattr(args, "modes", None) is not None:
+        raise refuse("--pair", "--modes integrates the first N modes of each plane, every pair up to N; "
+                               "drop --pair (or --modes)")
     from autocable.progress import progress_for
-    d = derivation(args.model)
+    d = derivation(args.model, pair, getattr(args, "load", None))
+    if d.ode.exact_load is not None and (args.method == "ame" or getattr(args, "modes", None) is not None):
+        option = "--method" if args.method == "ame" else "--modes"
+        raise refuse(option, "the amplitude equations (22)-(24) and the N-mode model carry eq. (21)'s cubic load; "
+                             "with the exact load use --method ode21 or shooting (or --load cubic)")
+    if d.mode_pair != 1 and args.method == "ame":
+        raise refuse("--method", f"the amplitude equations (22)-(24) are derived for the first mode pair only, "
+                                 f"got pair {d.mode_pair}; use --method ode21 or shooting")
     period = 2 * math.pi / (d.ode.omega1 + args.sigma)
     if args.max_time < period:
         # a shorter run integrates nothing: no amplitude to report (and none is "diverged")
@@ -160,8 +176,33 @@ def cmd_simulate(args) -> int:
                                         "response's own period (zero crossings), averaged over the last "
                                         "20 forcing periods; a_k_error = their scatter plus the sampling "
                                         "error (peak modal amplitude = peak displacement / l)")
-    _print_simulation(args, r, si_fields(d, out))
+    out = si_fields(d, out)
+    out.update(_validity(d, integ, r))
+    _print_simulation(args, r, out)
     return 0
+
+
+def _validity(d, integ, r) -> dict:
+    """Where the steady response lies against the model's range (`autocable.model.validity`): the
+    phi it sweeps, the largest twist and whether it left the curves' valid range or the cubic load's,
+    measured on 20 periods of the response sampled 64 times a period from its final state."""
+    import numpy as np
+
+    from autocable.model.symbolic import parameter_values
+    from autocable.model.validity import motion_validity
+    if response_status(r.a1, r.steady) == "diverged" or not all(map(math.isfinite, r.final_state)):
+        v = {"phi_swept_deg": None, "twist_max_deg": None, "beyond_valid_range": True,
+             "reasons": ["the response diverged: it left every model's range"]}
+        return {"phi_swept_deg": None, "twist_max_deg": None, "beyond_valid_range": True, "validity": v}
+    period = r.period if r.autonomous and math.isfinite(r.period) else 2 * math.pi / r.Omega
+    run = integ.run_compiled(r.final_state, r.t_end, r.t_end + 20 * period, period / 64,
+                             parameter_values(r.U, r.eta, r.Omega))
+    t, y = run.t, run.y
+    v = motion_validity(d, y, r.U, r.eta * r.Omega * np.cos(r.Omega * t))
+    if v["beyond_valid_range"]:
+        print(f"warning: the response lies beyond the model's range: {'; '.join(v['reasons'])}", file=sys.stderr)
+    return {"phi_swept_deg": v["phi_swept_deg"], "twist_max_deg": v["twist_max_deg"],
+            "beyond_valid_range": v["beyond_valid_range"], "validity": v}
 
 
 def _simulate_shooting(args, d, q0) -> int:
@@ -280,6 +321,9 @@ def _simulate_nmode(args, d, q0, bar, progress) -> int:
               f"{'periodic' if r.periodic else 'not period-1'}; t_end = {r.t_end:.1f})")
         print("modal amplitudes: " + "  ".join(f"{k} = {v:.6e}" for k, v in r.amplitudes.items()))
         print(_si_line(out))
+        if "validity" in out:
+            from autocable.model.validity import validity_line
+            print(validity_line(out["validity"]))
     return 0
 
 
@@ -296,6 +340,9 @@ def _print_simulation(args, r, out) -> None:
             print(f"diverged: no bounded steady state ({r.message}; t_end = {r.t_end:.6g})")
             return
         print(_si_line(out))
+        if "validity" in out:
+            from autocable.model.validity import validity_line
+            print(validity_line(out["validity"]))
         print(f"a1 = {r.a1:.9e}   a2 = {r.a2:.9e}   ({r.message}; "
               f"{'periodic' if r.periodic else 'not period-1'}; t_end = {r.t_end:.1f})")
         if not r.periodic:
