@@ -107,6 +107,10 @@ class ModelSpec:
         return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
+#: The highest mode pair a model may ask for (``cable.mode_pair``, ``--pair``): the field's rain-wind
+#: modes are the first four; 50 leaves room for a long stay's modes below a few hertz.
+MODE_PAIR_MAX = 50
+
 # field name -> (kind, rule, unit/expected text). kind: "pos" > 0, "nonneg" >= 0, "angle" (lo, hi).
 _CABLE_RULES = {
     "length_m": ("pos", None, "a positive length in m"),
@@ -121,7 +125,7 @@ _CABLE_RULES = {
     "gravity_m_s2": ("pos", None, "a positive acceleration in m/s^2"),
     "twist_ends": ("choice", ("natural", "restrained"),
                    '"natural" (eq. 20 as printed) or "restrained" (theta = 0 at both anchorages)'),
-    "mode_pair": ("count", (1, 50), "an integer k from 1 to 50: the k-th in-plane and k-th out-of-plane "
+    "mode_pair": ("count", (1, MODE_PAIR_MAX), f"an integer k from 1 to {MODE_PAIR_MAX}: the k-th in-plane and k-th out-of-plane "
                                     "modes as the pair of eq. (21) (1, the default: the paper's first pair)"),
 }
 _AERO_RULES = {

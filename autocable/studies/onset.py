@@ -47,7 +47,15 @@ def angle_statement(d) -> dict:
     the input and the angle the answer)."""
     Uc = d.spec.aero.critical_wind_speed_m_s
     yaw, th0 = math.degrees(d.beta), math.degrees(d.theta0)
-    if d.calibrated:
+    pair = getattr(d, "mode_pair", 1)
+    if d.calibrated and pair != 1:
+        # the angle is fitted on the first pair (autocable.model.mode_pairs): pair k's onset is its consequence
+        name = {"rivulet_angle_deg": "the rivulet angle Theta0", "yaw_deg": "the yaw beta"}[d.calibrated]
+        value = th0 if d.calibrated == "rivulet_angle_deg" else yaw
+        text = (f"{name} = {value:.4f} deg is fitted on the first mode pair (its onset at the U_c = {Uc:g} m/s "
+                f"typed in, aero.{d.calibrated} = \"calibrate\") and held for mode pair {pair}: this pair's onset "
+                "is a prediction with that angle")
+    elif d.calibrated:
         name = {"rivulet_angle_deg": "the rivulet angle Theta0", "yaw_deg": "the yaw beta"}[d.calibrated]
         value = th0 if d.calibrated == "rivulet_angle_deg" else yaw
         text = (f"U_c = {Uc:g} m/s was typed in (aero.critical_wind_speed_m_s) and {name} = {value:.4f} deg "
@@ -57,7 +65,7 @@ def angle_statement(d) -> dict:
         text = (f"both wind angles are given (yaw {yaw:.4f} deg, rivulet {th0:.4f} deg): the onset is a "
                 f"prediction; U_c = {Uc:g} m/s only scales U* = U/U_c")
     return {"calibrated": d.calibrated or None, "yaw_deg": yaw, "rivulet_angle_deg": th0,
-            "critical_wind_speed_m_s": Uc, "text": text}
+            "critical_wind_speed_m_s": Uc, "text": text, "fitted_on_mode_pair": 1 if d.calibrated else None}
 
 
 def held_spec(d):
@@ -105,8 +113,12 @@ def onset_report(d, U_max: float = U_MAX_DEFAULT) -> dict:
     units = units_of(d.spec, d.statics)
     result = stability(d.ode, U_max)
     om = one_mode(d.ode)
+    pair = getattr(d, "mode_pair", 1)
+    station = PEAK_STATION if pair == 1 else f"each mode's maximum (mode pair {pair}: not mid-span)"
     return {
-        "model": d.spec.name, "wind_angles": angle_statement(d),
+        "model": d.spec.name, "mode_pair": pair,
+        "frequency_Hz": {"in_plane": units.frequency_hz(d.ode.omega1), "out_of_plane": units.frequency_hz(d.ode.omega2)},
+        "wind_angles": angle_statement(d),
         "damping_ratio": d.ode.xi_s, "scruton": units.scruton(d.ode.xi_s),
         "scanned_U_m_s": [0.0, units.wind_m_s(U_max)],
         "onsets": [o.to_dict(units) for o in result.onsets],
@@ -118,14 +130,17 @@ def onset_report(d, U_max: float = U_MAX_DEFAULT) -> dict:
                      "reading": "eq. (25): in-plane galloping iff zeta11 < 0, super-critical iff zeta8 > 0"},
         "warnings": one_mode_warnings(d.ode, result, units),
         "conventions": {"U_m_s": "U* U_c", "frequency_Hz": "Im(lambda) omega / (2 pi), omega = (pi/l) sqrt(T/m)",
-                        "amplitudes": f"a_k l [m] at {PEAK_STATION}",
+                        "amplitudes": f"a_k l [m] at {station}",
                         "scruton": "Sc = m xi / (rho_a D^2)"},
     }
 
 
 def onset_text(report: dict) -> list[str]:
     """The readable lines of an `onset_report` (also printed by `autocable derive`)."""
-    lines = [f"Onset of galloping (eq. 21 at eta = 0, trivial state, every linear coupling; "
+    pair = report.get("mode_pair", 1)
+    on = "" if pair == 1 else (f" on mode pair {pair} ({report['frequency_Hz']['in_plane']:.4g} Hz in plane, "
+                               f"{report['frequency_Hz']['out_of_plane']:.4g} Hz out of plane)")
+    lines = [f"Onset of galloping (eq. 21{on} at eta = 0, trivial state, every linear coupling; "
              f"damping {100 * report['damping_ratio']:.3g} %, Sc = {report['scruton']:.3g}):",
              f"  {report['wind_angles']['text']}"]
     if not report["onsets"]:
@@ -141,7 +156,8 @@ def onset_text(report: dict) -> list[str]:
         if o["lyapunov"] is not None:
             s = o["amplitude_slope"]["d_peak_squared_dU_m2_per_m_s"]
             lines.append(f"    first Lyapunov coefficient {o['lyapunov']:.4g}; post-critical d(peak^2)/dU = "
-                         f"{s[0]:.4g} m^2/(m/s) in-plane, {s[1]:.4g} out-of-plane (mid-span)")
+                         f"{s[0]:.4g} m^2/(m/s) in-plane, {s[1]:.4g} out-of-plane "
+                         + ("(mid-span)" if pair == 1 else "(at each mode's maximum)"))
     for U in report["restabilisations_U_m_s"]:
         lines.append(f"  the trivial state is stable again above U = {U:.6g} m/s")
     om = report["one_mode"]
@@ -363,3 +379,148 @@ def hysteresis_check(ode, U: float, a1_cycle: float, q_ratio: complex, t_end: fl
             out[name + "_note"] = msg
     out["hysteresis"] = out["from_0.6"] == "decays" and out["from_1.5"] == "grows"
     return out
+
+
+# -- every mode pair below a frequency (`autocable onset --modes-below F`) ---------------------------
+#: Columns each pair row leaves empty (null) for the global least damping and the galloping amplitude
+#: at the design wind, which come from another study (`autocable.studies.gallop`), not from this one.
+PENDING_COLUMNS = ("least_damping_global", "amplitude_at_design_wind_m")
+
+
+def pair_spec(spec, k: int):
+    """``spec`` with ``cable.mode_pair = k`` (everything else, a fitted or given angle too, as it is)."""
+    return replace(spec, cable=replace(spec.cable, mode_pair=int(k)))
+
+
+def _mechanism_short(o) -> str:
+    if o is None:
+        return "stable"
+    if o.mechanism.startswith("coupled"):
+        return f"coupled ({100 * o.in_plane_share:.0f} % in-plane)"
+    return o.mechanism
+
+
+def pair_row(dk, info, units, design_wind_m_s: float | None, U_max: float) -> dict:
+    """One row of `pairs_below`: pair k's frequencies, first onset (eq. 21 on the pair, linear
+    stability and first Lyapunov coefficient, `autocable.model.onset`), crowding, twist per metre of
+    out-of-plane displacement, and with a design wind the least damping ratio keeping the pair's
+    trivial state stable up to it (`design_damping`)."""
+    from autocable.model.mode_pairs import describe_mode, pair_modes, twist_peak_per_unit
+    result = stability(dk.ode, U_max)
+    o = result.first
+    l = dk.spec.cable.length_m
+    twist = twist_peak_per_unit(pair_modes(dk.statics, info.k, dk.spec.cable.twist_ends))
+    row = {
+        "k": info.k,
+        "in_plane_mode": info.describe_in_plane(),
+        "in_plane_symmetry": info.in_plane.symmetry, "in_plane_index": info.in_plane.k,
+        "frequency_Hz": {"in_plane": units.frequency_hz(info.omega1), "out_of_plane": units.frequency_hz(info.omega2)},
+        "omega": {"in_plane": info.omega1, "out_of_plane": info.omega2},
+        "onset_U_m_s": units.wind_m_s(o.U_star) if o else None,
+        "onset_U_star": o.U_star if o else None,
+        "onset_frequency_Hz": units.frequency_hz(o.frequency) if o else None,
+        "mechanism": o.mechanism if o else f"stable up to {units.wind_m_s(U_max):.4g} m/s (the scanned range)",
+        "mechanism_short": _mechanism_short(o),
+        "in_plane_share": o.in_plane_share if o else None,
+        "criticality": o.criticality if o else None,
+        "lyapunov": o.lyapunov if o else None,
+        "stable_without_wind": result.stable_at_start,
+        "crowded_with": [{"mode": describe_mode(p, s, i), "frequency_Hz": units.frequency_hz(om),
+                          "gap_percent": 100 * g} for p, s, i, om, g in info.crowded_with],
+        "bending_frequency_shift": info.bending_shift,
+        "twist_rad_per_m": twist / l,
+        "least_damping_linear": None, "least_damping_linear_scruton": None,
+    }
+    if design_wind_m_s is not None:
+        try:
+            ds = design_damping(dk, design_wind_m_s, U_max)
+        except SpecError as exc:        # no damping ratio below 100 % stops it: said in the row
+            row["least_damping_linear_note"] = str(exc).split(": ", 2)[-1]
+        else:
+            row["least_damping_linear"] = ds["least_damping_ratio"]
+            row["least_damping_linear_scruton"] = ds["scruton"]
+            row["damping_enough"] = ds["enough"]
+    row.update({c: None for c in PENDING_COLUMNS})
+    return row
+
+
+def pairs_below(d, below_hz: float, design_wind_m_s: float | None = None, U_max: float = U_MAX_DEFAULT) -> dict:
+    """`autocable onset --modes-below F`: one row (`pair_row`) per mode pair k = 1, 2, ... while the
+    lower of the pair's two frequencies is below ``below_hz`` [Hz]. Each pair is eq. (21) on its own
+    modes (`autocable.model.mode_pairs`) with the wind angles of ``d`` (a calibrated angle fitted on
+    the first pair, held). A crowded pair is computed and named in its row (``crowded_with``), not
+    refused. The `PENDING_COLUMNS` are null."""
+    import warnings
+
+    from autocable.model.derive import derive
+    from autocable.model.mode_pairs import CROWDED_FRACTION, bending_ratio, pair_info
+    from autocable.model.premises import PremiseWarning
+    from autocable.spec import MODE_PAIR_MAX
+    units = units_of(d.spec, d.statics)
+    ratio = bending_ratio(d.spec.cable, d.statics)
+    rows = []
+    for k in range(1, MODE_PAIR_MAX + 2):
+        info = pair_info(d.statics, k, ratio)
+        if min(units.frequency_hz(info.omega1), units.frequency_hz(info.omega2)) >= below_hz:
+            break
+        if k > MODE_PAIR_MAX:
+            raise SpecError("arguments", "--modes-below", f"more than {MODE_PAIR_MAX} mode pairs of this cable lie "
+                                                          f"below {below_hz:g} Hz (the first at "
+                                                          f"{units.frequency_hz(1.0):.4g} Hz); give a lower frequency")
+        if k == d.mode_pair:
+            dk = d
+        else:
+            # the row carries what the premise warnings would say (crowding, bending); the model's own
+            # premises were checked and warned about on ``d``
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", PremiseWarning)
+                dk = derive(pair_spec(d.spec, k))
+        rows.append(pair_row(dk, info, units, design_wind_m_s, U_max))
+    return {
+        "model": d.spec.name, "below_Hz": below_hz, "wind_angles": angle_statement(d),
+        "damping_ratio": d.ode.xi_s, "scruton": units.scruton(d.ode.xi_s),
+        "design_wind_m_s": design_wind_m_s, "scanned_U_m_s": [0.0, units.wind_m_s(U_max)],
+        "pairs": rows,
+        "pending_columns": {c: "null: filled by the galloping study (autocable.studies.gallop), not by this table"
+                            for c in PENDING_COLUMNS},
+        "conventions": {
+            "k": "mode pair: the k-th in-plane mode (by frequency) and the out-of-plane mode sin(k pi s)",
+            "frequency_Hz": "the pair's natural frequencies, omega_k omega / (2 pi), omega = (pi/l) sqrt(T/m)",
+            "onset_U_m_s": "the first loss of stability of the pair's trivial state (null: stable over scanned_U_m_s)",
+            "lyapunov": "first Lyapunov coefficient at the onset (|q| = 1); > 0 sub-critical, < 0 super-critical",
+            "least_damping_linear": "with --design-wind: the least damping ratio keeping the pair's trivial state "
+                                    "stable up to the design wind (linear, eq. 21 on that pair alone)",
+            "crowded_with": f"left-out modes within {100 * CROWDED_FRACTION:g} % of the pair's frequencies",
+            "twist_rad_per_m": "peak slaved twist per metre of peak out-of-plane displacement",
+            "bending_frequency_shift": "sqrt(1 + (k pi)^2 EI/(T l^2)) - 1, left out of the string frequencies",
+            "wind_angles": "those of the model: a calibrated angle is fitted on the first pair and held"},
+    }
+
+
+def pairs_text(report: dict) -> list[str]:
+    """The readable table of `pairs_below`."""
+    des = report["design_wind_m_s"]
+    lines = [f"Mode pairs below {report['below_Hz']:g} Hz (eq. 21 on each pair; damping "
+             f"{100 * report['damping_ratio']:.3g} %, Sc = {report['scruton']:.3g}; scanned up to "
+             f"{report['scanned_U_m_s'][1]:.4g} m/s):",
+             f"  {report['wind_angles']['text']}",
+             *(["  (the fitted angle is held for every pair: the onsets of pairs k > 1 are predictions with it)"]
+               if report["wind_angles"]["calibrated"] else []),
+             "   k  in-plane mode     f_in [Hz]  f_out [Hz]  U_cr [m/s]  mechanism                 criticality (l1)"
+             + (f"        least xi to {des:g} m/s" if des is not None else "")]
+    for r in report["pairs"]:
+        kind = f"{r['in_plane_symmetry']} {r['in_plane_index']}"
+        U = f"{r['onset_U_m_s']:10.4g}" if r["onset_U_m_s"] is not None else f"{'-':>10}"
+        crit = (f"{r['criticality']} ({r['lyapunov']:.4g})" if r["lyapunov"] is not None
+                else (r["criticality"] or "-"))
+        line = (f"  {r['k']:2d}  {kind:<16}  {r['frequency_Hz']['in_plane']:9.4f}  {r['frequency_Hz']['out_of_plane']:10.4f}"
+                f"  {U}  {r['mechanism_short']:<24}  {crit:<24}")
+        if des is not None:
+            xi = r["least_damping_linear"]
+            line += (f"  {100 * xi:.4g} % (Sc = {r['least_damping_linear_scruton']:.3g})" if xi is not None
+                     else f"  {r.get('least_damping_linear_note', '-')}")
+        if r["crowded_with"]:
+            line += "  crowded: " + ", ".join(f"{c['mode']} ({c['gap_percent']:.2g} %)" for c in r["crowded_with"])
+        lines.append(line.rstrip())
+    lines.append("  (least_damping_global and amplitude_at_design_wind_m: not computed here, null in --json)")
+    return lines
