@@ -129,6 +129,9 @@ def run_bench(what: str, model_path: str, repeats: int = 3, log=None, out=None) 
         return bench_sweep(model_path, repeats=repeats, log=log)
     if what == "onset":
         return bench_onset(model_path, repeats, log)
+    if what == "exact-load":
+        from autocable.bench.exact_load import bench_exact_load
+        return bench_exact_load(model_path, repeats, log)
     if what == "pairs":
         from autocable._paths import SAMPLE_MODEL
         # the target is set on the 190 m stay (five pairs below 3 Hz); --model picks another cable

@@ -83,7 +83,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("what", nargs="?", default=None,
                    choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "bound-scenes", "ordering",
                             "engines", "shooting", "sweep", "kill", "kill-surfaces", "fuzz", "onset", "calibration",
-                            "pairs"],
+                            "pairs", "exact-load"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
                         "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
@@ -107,7 +107,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "results for invalid input, unnamed rejections and hangs; calibration: the screen of "
                         "8 points on 1 and 2 workers (the scaling) and the bound stage on 20 candidate models "
                         "(stage wall time and summed scene time); pairs: `autocable onset --modes-below 3 "
-                        "--design-wind 25` on models/stay_190m.toml (or --model), cold and warm (target 30 s). "
+                        "--design-wind 25` on models/stay_190m.toml (or --model), cold and warm (target 30 s); exact-load: "
+                        "the exact quasi-steady load's compiled right-hand side against eq. (21)'s cubic one, "
+                        "ns per evaluation, forced and autonomous (target under 3x). "
                         "Without a subcommand "
                         "(--out DIR): the work-precision bench of the method ladder (bench.json, "
                         "work_precision.png, work_precision.md)")
