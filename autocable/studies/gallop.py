@@ -1,0 +1,390 @@
+"""`autocable gallop`: the galloping cycles of eq. (21) at eta = 0, where they exist, how large they
+are, and what damping keeps every one of them above a design wind.
+
+Why. `autocable onset` gives the Hopf point of the rest state and its criticality. Every real stay
+shipped (models/*.toml) is sub-critical: an unstable cycle is born at the onset below it, turns at a
+fold of cycles (LPC) and comes back as the large stable galloping cycle. Large-amplitude galloping
+therefore exists from the fold's wind speed on, below the onset (hysteresis), and the linear least
+damping of `onset --design-wind` (the rest state stable up to the design wind) is not safe: the
+fold may still lie below the design wind.
+
+What. For each damping ratio and each Hopf point of the rest state up to U_max
+(`autocable.model.onset.stability`: the upward and downward crossings by a complex pair), the branch
+of cycles continued in U (`autocable.methods.integration.gallop`), stable and unstable, with its
+folds and Floquet multipliers. From it:
+
+* ``lowest_galloping_U_m_s``: the lowest wind speed of any cycle of the branches (for a sub-critical
+  onset the fold; for a super-critical one the onset itself);
+* ``hysteresis_m_s``: [fold, Hopf] of a sub-critical onset: between them the rest state and a large
+  stable cycle coexist;
+* ``amplitude_at_design_wind_m``: the peak displacements at mid-span [in-plane, out-of-plane] of the
+  largest stable cycle at the design wind (the bracketing points of the branch interpolated, then
+  Newton at the design wind itself), with its frequency in Hz;
+* ``check``: at three wind speeds of the stable part, direct integration of eq. (21)
+  (`Ode21Integrator.simulate`, compiled engine) from the continued cycle's state and from a larger
+  start, which must land on the same cycle (relative amplitude differences reported);
+* `least_damping_global`: the least damping ratio for which no cycle of the branches exists up to
+  the design wind (bisection on the damping ratio, one continuation per step).
+
+What it does not see. Only cycles connected to a Hopf point of the rest state up to U_max: an
+isolated branch of cycles (an isola), or one born at a Hopf point above U_max, is not found.
+Eq. (21) is cubic: its cycles on real stays are metres large, where the aerodynamic curves and the
+slaved twist law are far outside their range (docs/gallop.md); each cycle's validity is reported by
+`_validity` beside it.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from autocable.errors import ComputationError
+from autocable.methods.integration.gallop import CycleContinuation, hopf_start, stability_changes
+from autocable.model.onset import U_MAX_DEFAULT, onset_at, stability, with_damping
+from autocable.model.premises import MAX_AMPLITUDE
+from autocable.model.units import PEAK_STATION, units_of
+from autocable.spec import SpecError
+
+#: The lowest wind speed a branch is followed to (U* units): without wind there is no galloping,
+#: and the 1/U terms of eq. (21) grow without bound as U* -> 0.
+U_MIN = 0.02
+#: Wind speeds of the stable part checked by direct integration.
+CHECK_POINTS = 3
+#: Stable cycles whose largest non-trivial multiplier exceeds this are not picked for the check:
+#: integration approaches them too slowly to settle within its time limit.
+CHECK_MAX_MODULUS = 0.98
+#: The "large start" of the check: this many times the cycle's own start state (capped so that
+#: |q_k| stays at half the model's range). Not more: the basin of a stable cycle is bounded by an
+#: unstable one outside it (the 190 m stay at 22 m/s: from 1.2 times the cycle eq. (21) lands on it,
+#: from 1.3 times it diverges).
+LARGE_START = 1.2
+#: Hopf points are looked for up to this many times the highest wind speed of the study: a strongly
+#: sub-critical branch born above it may fold back far below it (the 190 m stay at 1.56 % damping:
+#: Hopf point at U* = 5.0007, fold at U* = 2.085), and is followed from there into the range.
+HOPF_SCAN_FACTOR = 4.0
+#: Points of that scan (`autocable.model.onset.crossings`).
+HOPF_SCAN_POINTS = 4001
+#: Relative tolerance of `least_damping_global`'s bisection on the damping ratio.
+GLOBAL_DAMPING_RTOL = 1e-3
+
+
+def _validity(derivation, states, U_star: float) -> dict:
+    """The validity of a motion (its (n, 4) states (q1, q2, q1', q2') at wind U*) as
+    `autocable.model.validity.motion_validity` reports it (keys ``phi_swept_deg``,
+    ``twist_max_deg``, ``beyond_valid_range``, ...); {} while that module, or a part it needs, is
+    not there (an ImportError: the validity machinery is incomplete; any other failure is raised)."""
+    try:
+        from autocable.model.validity import motion_validity
+        return dict(motion_validity(derivation, np.asarray(states, float), float(U_star)))
+    except ImportError:
+        return {}
+
+
+def _complex_pairs(values) -> list:
+    return [[float(complex(v).real), float(complex(v).imag)] for v in values]
+
+
+def _row(p, units, derivation) -> dict:
+    """One point of a branch in SI and nondimensional units."""
+    row = {"kind": p.kind or "cycle", "U_star": p.U, "U_m_s": units.wind_m_s(p.U), "period_star": p.T,
+           "frequency_star": p.frequency, "frequency_Hz": units.frequency_hz(p.frequency),
+           "a1": p.a1, "a2": p.a2, "peak_in_plane_m": units.peak_m(p.a1),
+           "peak_out_of_plane_m": units.peak_m(p.a2),
+           "stable": None if p.kind == "H" else bool(p.stable),
+           "max_multiplier_modulus": None if p.kind == "H" else p.max_modulus,
+           "multipliers": _complex_pairs(p.multipliers),
+           "trivial_multiplier": None if p.kind == "H" else _complex_pairs([p.trivial])[0],
+           "state0": [float(v) for v in p.state0], "residual": p.residual}
+    if p.orbit is not None:
+        row.update(_validity(derivation, p.orbit, p.U))
+    return row
+
+
+def _branch_summary(branch, onset, units, derivation) -> dict:
+    """A branch from one Hopf point: its rows, folds, stability changes, lowest speed, hysteresis."""
+    rows = [_row(p, units, derivation) for p in branch.points]
+    lowest = branch.lowest_U
+    folds = [{"U_star": f.U, "U_m_s": units.wind_m_s(f.U), "U_change_star": f.U_change,
+              "refinements": f.refinements, "multiplier_nearest_one": _complex_pairs([f.multiplier_nearest_one])[0],
+              "peak_in_plane_m": units.peak_m(f.point.a1), "peak_out_of_plane_m": units.peak_m(f.point.a2),
+              "frequency_Hz": units.frequency_hz(f.point.frequency)} for f in branch.folds]
+    changes = [{"U_between_m_s": [units.wind_m_s(c["U_between"][0]), units.wind_m_s(c["U_between"][1])],
+                "gains_stability": c["gains"], "multiplier": _complex_pairs([c["multiplier"]])[0], "kind": c["kind"]}
+               for c in stability_changes(branch.points)]
+    out = {"hopf_U_m_s": units.wind_m_s(onset.U_star), "hopf_U_star": onset.U_star,
+           "hopf_frequency_Hz": units.frequency_hz(onset.frequency), "criticality": onset.criticality,
+           "lyapunov": onset.lyapunov, "mechanism": onset.mechanism,
+           "lowest_galloping_U_m_s": units.wind_m_s(lowest), "lowest_galloping_U_star": lowest,
+           "folds": folds, "stability_changes": changes, "end": branch.end, "end_code": branch.end_code,
+           "points": len(branch.points), "corrected_steps": branch.steps, "seconds": branch.seconds,
+           "rows": rows, "hysteresis_m_s": None}
+    if onset.criticality == "subcritical":
+        out["hysteresis_m_s"] = [units.wind_m_s(lowest), units.wind_m_s(onset.U_star)]
+        if not folds or min(f["U_star"] for f in folds) > lowest:
+            out["hysteresis_note"] = (f"the branch ended ({branch.end}) before a fold: the loop's lower end is "
+                                      "the last cycle computed, galloping may exist lower still")
+    return out
+
+
+def _hopf_points(ode, U_max: float) -> list:
+    """Every crossing of the rest state's spectral abscissa by a complex pair over
+    (0, `HOPF_SCAN_FACTOR` U_max], and the `Stability` of that scan."""
+    st = stability(ode, HOPF_SCAN_FACTOR * U_max, n=HOPF_SCAN_POINTS)
+    found = list(st.onsets) + [onset_at(ode, U) for U in st.restabilisations]
+    return [o for o in found if o.lyapunov is not None and o.frequency > 0], st
+
+
+def _stable_cycles_at(cont, branch, U_star: float) -> list:
+    """The stable cycles of ``branch`` at U*: every pair of neighbouring stable points that
+    brackets it, interpolated and solved by Newton at U* itself."""
+    out = []
+    pts = [p for p in branch.points if p.kind != "H"]
+    for a, b in zip(pts[:-1], pts[1:]):
+        if not (a.stable and b.stable) or not min(a.U, b.U) <= U_star <= max(a.U, b.U) or a.U == b.U:
+            continue
+        w = (U_star - a.U) / (b.U - a.U)
+        p = cont.cycle_at(U_star, a.state0 + w * (b.state0 - a.state0), a.T + w * (b.T - a.T), branch.hopf)
+        if p is not None:
+            out.append((p, {"a1": a.a1 + w * (b.a1 - a.a1), "a2": a.a2 + w * (b.a2 - a.a2)}))
+    return out
+
+
+def _design(cont, branches, U_des: float, units, derivation) -> dict:
+    """The largest stable cycle at the design wind U_des (U*) over the branches."""
+    found = []
+    for br in branches:
+        found.extend(_stable_cycles_at(cont, br, U_des))
+    if not found:
+        return {"amplitude_at_design_wind_m": None, "frequency_at_design_wind_Hz": None, "beyond_valid_range": None,
+                "design_note": "no stable cycle of the branches found at the design wind"}
+    p, interp = max(found, key=lambda c: max(c[0].a1, c[0].a2))
+    out = {"amplitude_at_design_wind_m": [units.peak_m(p.a1), units.peak_m(p.a2)],
+           "frequency_at_design_wind_Hz": units.frequency_hz(p.frequency),
+           "design_cycle": {"U_star": p.U, "a1": p.a1, "a2": p.a2, "period_star": p.T, "stable": p.stable,
+                            "max_multiplier_modulus": p.max_modulus,
+                            "interpolated_peak_m": [units.peak_m(interp["a1"]), units.peak_m(interp["a2"])],
+                            "stable_cycles_found": len(found)},
+           "beyond_valid_range": None}
+    if p.orbit is not None:
+        v = _validity(derivation, p.orbit, p.U)
+        out["design_cycle"].update(v)
+        out["beyond_valid_range"] = v.get("beyond_valid_range")
+    return out
+
+
+def _check(ode, branches, units, picks: int = CHECK_POINTS) -> list:
+    """Direct integration of eq. (21) at ``picks`` wind speeds of the stable parts (module docstring)."""
+    from autocable.methods.integration.ode21 import Ode21Integrator
+    cands = sorted((p for br in branches for p in br.points
+                    if p.kind == "" and p.stable and p.max_modulus < CHECK_MAX_MODULUS), key=lambda p: p.U)
+    if not cands:
+        return []
+    idx = sorted({int(round(k)) for k in np.linspace(0, len(cands) - 1, picks + 2)[1:-1]}) if len(cands) > picks \
+        else list(range(len(cands)))
+    integ = Ode21Integrator(ode, engine="compiled")
+    out = []
+    for p in (cands[i] for i in idx):
+        y = p.state0
+        big = min(LARGE_START, 0.5 * MAX_AMPLITUDE / max(float(np.abs(y).max()), 1e-300))
+        row = {"U_star": p.U, "U_m_s": units.wind_m_s(p.U), "a1_continued": p.a1, "a2_continued": p.a2,
+               "peak_in_plane_m": units.peak_m(p.a1), "peak_out_of_plane_m": units.peak_m(p.a2),
+               "frequency_Hz_continued": units.frequency_hz(p.frequency)}
+        for name, f in (("from_cycle", 1.0), ("from_large_start", big)):
+            t0 = time.perf_counter()
+            r = integ.simulate(p.U, 0.0, 0.0, q0=(f * y[0], f * y[2], f * y[1], f * y[3]))
+            ok = bool(r.steady and r.periodic and math.isfinite(r.a1))
+            top = max(p.a1, p.a2)
+            d1 = abs(r.a1 - p.a1) if ok else math.nan
+            d2 = abs(r.a2 - p.a2) if ok else math.nan
+            row[name] = {"start_factor": f, "a1": r.a1, "a2": r.a2, "periodic": ok,
+                         "period_star": r.period, "message": r.message, "t_end": r.t_end,
+                         "relative_difference": max(d1, d2) / top if ok else None,
+                         "relative_difference_a1": d1 / p.a1 if ok and p.a1 > 0 else None,
+                         "relative_difference_a2": d2 / p.a2 if ok and p.a2 > 0 else None,
+                         "seconds": time.perf_counter() - t0}
+        out.append(row)
+    return out
+
+
+def _case(derivation, ode, xi: float, U_max: float, units, U_des: float | None, log) -> tuple[dict, list, object]:
+    """Every branch of one damping ratio, the summary, and the continuation object (reused by the check)."""
+    t0 = time.perf_counter()
+    hopfs, st = _hopf_points(ode, U_max)
+    cont = CycleContinuation(ode)
+    summaries, branches, above = [], [], []
+    for o in hopfs:
+        if log:
+            log(f"damping {100 * xi:.4g} %: cycles from the Hopf point at {units.wind_m_s(o.U_star):.5g} m/s ...")
+        # a branch born above the range is followed within the whole scan, to see whether it folds into it
+        br = cont.branch(hopf_start(o), U_min=U_MIN, U_max=U_max if o.U_star <= U_max else HOPF_SCAN_FACTOR * U_max)
+        if br.lowest_U > U_max:
+            above.append({"hopf_U_m_s": units.wind_m_s(o.U_star), "criticality": o.criticality,
+                          "lowest_galloping_U_m_s": units.wind_m_s(br.lowest_U), "end": br.end})
+            continue
+        branches.append(br)
+        summaries.append(_branch_summary(br, o, units, derivation))
+    case = {"damping_ratio": xi, "scruton": units.scruton(xi), "hopf_points": summaries,
+            "hopf_points_beyond_range": above, "hopf_scan_U_m_s": units.wind_m_s(HOPF_SCAN_FACTOR * U_max),
+            "stable_without_wind": st.stable_at_start, "seconds": None}
+    if summaries:
+        low = min(summaries, key=lambda s: s["lowest_galloping_U_star"])
+        case["lowest_galloping_U_m_s"] = low["lowest_galloping_U_m_s"]
+        case["lowest_galloping_U_star"] = low["lowest_galloping_U_star"]
+        case["hysteresis_m_s"] = low["hysteresis_m_s"]
+    else:
+        case.update(lowest_galloping_U_m_s=None, lowest_galloping_U_star=None, hysteresis_m_s=None,
+                    note=f"no branch of cycles from a Hopf point of the rest state (looked for up to "
+                         f"{units.wind_m_s(HOPF_SCAN_FACTOR * U_max):.4g} m/s) reaches below "
+                         f"{units.wind_m_s(U_max):.4g} m/s")
+    if U_des is not None:
+        case.update(_design(cont, branches, U_des, units, derivation))
+    case["seconds"] = time.perf_counter() - t0
+    return case, branches, cont
+
+
+def _check_range(units, design_wind_m_s, U_max_m_s):
+    U_max = U_MAX_DEFAULT if U_max_m_s is None else units.wind_star(U_max_m_s)
+    top = units.wind_m_s(U_MAX_DEFAULT)
+    if not (isinstance(U_max, (int, float)) and math.isfinite(U_max) and U_MIN < U_max <= U_MAX_DEFAULT * (1 + 1e-12)):
+        raise SpecError("arguments", "--max-wind", f"expected a wind speed in ({units.wind_m_s(U_MIN):.4g}, {top:.4g}] "
+                                                   f"m/s (U* <= {U_MAX_DEFAULT:g}), got {U_max_m_s!r}")
+    U_des = None
+    if design_wind_m_s is not None:
+        U_des = units.wind_star(design_wind_m_s)
+        if not (math.isfinite(U_des) and U_MIN < U_des <= U_max):
+            raise SpecError("arguments", "--design-wind", f"expected a wind speed in ({units.wind_m_s(U_MIN):.4g}, "
+                                                          f"{units.wind_m_s(U_max):.4g}] m/s (up to --max-wind), "
+                                                          f"got {design_wind_m_s!r}")
+    return min(U_max, U_MAX_DEFAULT), U_des
+
+
+def gallop_study(derivation, design_wind_m_s: float | None = None, dampings=None, U_max_m_s: float | None = None,
+                 checks: bool = True, log=None) -> dict:
+    """The galloping branches of eq. (21) at eta = 0 (module docstring) as a plain dict.
+
+    ``dampings``: damping ratios (default: the cable's own); the first is the primary one, whose
+    values are also the top-level keys (``lowest_galloping_U_m_s``, ``hysteresis_m_s``,
+    ``amplitude_at_design_wind_m``, ``frequency_at_design_wind_Hz``, ``beyond_valid_range``) and
+    which the direct-integration ``check`` integrates. ``U_max_m_s``: the highest wind speed
+    (default and at most 5 U_c)."""
+    d = derivation
+    units = units_of(d.spec, d.statics)
+    U_max, U_des = _check_range(units, design_wind_m_s, U_max_m_s)
+    xis = [d.ode.xi_s] if dampings is None else [float(x) for x in dampings]
+    for x in xis:
+        if not (math.isfinite(x) and 0 < x < 1):
+            raise SpecError("arguments", "--damping", f"expected damping ratios 0 < xi < 1 (0.004 is 0.4 %), got {x!r}")
+    t0 = time.perf_counter()
+    cases, primary_branches, primary_ode = [], None, None
+    for k, xi in enumerate(xis):
+        ode = d.ode if xi == d.ode.xi_s else with_damping(d.ode, xi)
+        case, branches, _ = _case(d, ode, xi, U_max, units, U_des, log)
+        cases.append(case)
+        if k == 0:
+            primary_branches, primary_ode = branches, ode
+    if log and checks:
+        log("direct integration of eq. (21) on the stable cycles ...")
+    check = _check(primary_ode, primary_branches, units) if checks else []
+    first = cases[0]
+    return {
+        "model": d.spec.name, "primary_damping_ratio": xis[0], "damping_ratios": xis,
+        "scanned_U_m_s": [units.wind_m_s(U_MIN), units.wind_m_s(U_max)], "design_wind_m_s": design_wind_m_s,
+        "length_m": d.spec.cable.length_m, "critical_wind_speed_m_s": units.critical_wind_speed_m_s,
+        "lowest_galloping_U_m_s": first["lowest_galloping_U_m_s"], "hysteresis_m_s": first["hysteresis_m_s"],
+        "amplitude_at_design_wind_m": first.get("amplitude_at_design_wind_m"),
+        "frequency_at_design_wind_Hz": first.get("frequency_at_design_wind_Hz"),
+        "beyond_valid_range": first.get("beyond_valid_range"),
+        "cases": cases,
+        "branches": {f"{xi:g}": [dict(r, hopf_U_m_s=h["hopf_U_m_s"]) for h in c["hopf_points"] for r in h["rows"]]
+                     for xi, c in zip(xis, cases)},
+        "check": check,
+        "validity_reported": bool(_validity_available()),
+        "conventions": {"peak_m": f"a_k l at {PEAK_STATION}; a_k = half the peak-to-peak of q_k over the cycle",
+                        "U_m_s": "U* U_c", "frequency_Hz": "2 pi / T times omega / (2 pi), T the cycle's own period",
+                        "stable": "every non-trivial Floquet multiplier inside the unit circle",
+                        "order": "amplitude pairs are [in-plane, out-of-plane]"},
+        "seconds": time.perf_counter() - t0,
+    }
+
+
+def _validity_available() -> bool:
+    try:
+        from autocable.model.validity import motion_validity  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+# -- the global least damping -------------------------------------------------------------------------
+def _gallops_below(ode, U_des: float, U_max: float) -> tuple[bool, str, float]:
+    """(whether a cycle connected to a Hopf point exists at some U* < U_des, how it was decided,
+    the lowest U* seen)."""
+    hopfs, st = _hopf_points(ode, U_max)
+    if st.onsets and st.onsets[0].U_star <= U_des:
+        return True, "the rest state is unstable below the design wind", st.onsets[0].U_star
+    if not st.stable_at_start:
+        return True, "the rest state is unstable without wind", 0.0
+    cont = CycleContinuation(ode)
+    lowest, how = math.inf, "no Hopf point in the scan"
+    for o in hopfs:
+        br = cont.branch(hopf_start(o), U_min=U_MIN, U_max=max(U_max, HOPF_SCAN_FACTOR * U_max), stop_below=U_des)
+        if br.end_code == "failed":
+            raise ComputationError(f"the continuation of cycles from the Hopf point at U* = {o.U_star:.8g} failed "
+                                   f"({br.end}): the global least damping cannot be decided")
+        lowest = min(lowest, br.lowest_U)
+        how = f"the lowest cycle is at U* = {lowest:.8g} ({br.end})"
+        if lowest < U_des:
+            return True, how, lowest
+    return False, how, lowest
+
+
+def least_damping_global(derivation, design_wind_m_s: float, U_max_m_s: float | None = None,
+                         rtol: float = GLOBAL_DAMPING_RTOL) -> dict:
+    """The least damping ratio for which no galloping cycle (of a branch from a Hopf point of the
+    rest state up to U_max) exists at any wind speed up to ``design_wind_m_s``: bisection on the
+    damping ratio to ``rtol`` (relative), from the linear least damping
+    (`autocable.studies.onset.design_damping`: the rest state stable up to the design wind, which a
+    sub-critical onset's fold undercuts) upwards; each step one continuation, stopped as soon as
+    it passes below the design wind. Assumes the lowest galloping speed rises with the damping
+    (checked at the bracket's ends only)."""
+    from autocable.studies.onset import design_damping
+    d = derivation
+    units = units_of(d.spec, d.statics)
+    U_max, U_des = _check_range(units, design_wind_m_s, U_max_m_s)
+    if U_des is None:
+        raise SpecError("arguments", "--design-wind", "the global least damping needs a design wind speed")
+    if not (isinstance(rtol, (int, float)) and 1e-9 <= rtol < 0.5):
+        raise SpecError("arguments", "rtol", f"expected a relative tolerance in [1e-9, 0.5), got {rtol!r}")
+    t0 = time.perf_counter()
+    linear = design_damping(d, design_wind_m_s, U_max)["least_damping_ratio"]
+    steps = []
+
+    def gallops(xi):
+        below, how, low = _gallops_below(with_damping(d.ode, xi), U_des, U_max)
+        steps.append({"damping_ratio": xi, "gallops_below_design_wind": below, "lowest_U_m_s": units.wind_m_s(low),
+                      "how": how})
+        return below
+
+    lo = max(linear, 1e-6)
+    if not gallops(lo):
+        xi = lo
+    else:
+        hi = 2 * lo
+        while gallops(hi):
+            lo, hi = hi, 2 * hi
+            if hi >= 1.0:
+                raise SpecError("arguments", "--design-wind", f"no damping ratio below 100 % keeps every galloping "
+                                                              f"cycle above {design_wind_m_s:g} m/s")
+        while hi - lo > rtol * hi:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if gallops(mid) else (lo, mid)
+        xi = hi
+    return {"design_wind_m_s": design_wind_m_s, "least_damping_ratio_global": xi, "scruton_global": units.scruton(xi),
+            "least_damping_ratio_linear": linear, "relative_tolerance": rtol,
+            "current_damping_ratio": d.ode.xi_s, "enough": d.ode.xi_s >= xi, "steps": steps,
+            "seconds": time.perf_counter() - t0,
+            "reading": "the least damping ratio for which every cycle of the branches from the rest state's Hopf "
+                       f"points (looked for up to {units.wind_m_s(HOPF_SCAN_FACTOR * U_max):.4g} m/s) lies above the "
+                       f"design wind (bisection, relative tolerance {rtol:g}; an isolated branch of cycles, or one "
+                       "born beyond the scan, would not be seen)"}
