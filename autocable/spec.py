@@ -94,16 +94,28 @@ class AeroSpec:
 
 
 @dataclass(frozen=True)
+class DamperSpec:
+    """A viscous damper near the lower anchorage (`autocable.model.damper`; docs/dampers.md)."""
+
+    position_m: float                # x_d, distance from the lower anchorage along the chord [m]
+    constant_N_s_m: float            # c, the dashpot constant [N s/m]
+    support_stiffness_N_m: float | None = None   # k_s of the support, in series (None: rigid)
+
+
+@dataclass(frozen=True)
 class ModelSpec:
     name: str
     description: str
     cable: CableSpec
     aero: AeroSpec
     path: str = ""
+    damper: DamperSpec | None = None
 
     def content_hash(self) -> str:
         """Hash of the physical content (not the file path or comments)."""
         text = repr((self.cable, self.aero))
+        if self.damper is not None:     # a model without a damper keeps the hash it always had
+            text = repr((self.cable, self.aero, self.damper))
         return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
@@ -236,7 +248,41 @@ def _section(data, name, rules, path):
 
 
 #: The top-level keys of a model spec.
-TOP_KEYS = ("name", "description", "cable", "aero")
+TOP_KEYS = ("name", "description", "cable", "aero", "damper")
+
+#: The ``[damper]`` table (optional): field -> what is expected.
+_DAMPER_RULES = {
+    "position_m": "the damper's distance from the lower anchorage in m, above 0 and below half the cable length",
+    "constant_N_s_m": "a positive dashpot constant c in N s/m",
+    "support_stiffness_N_m": "a positive stiffness of the damper's support in N/m (leave it out for a rigid support)",
+}
+
+
+def _damper(data, path, cable: CableSpec) -> DamperSpec | None:
+    """The optional ``[damper]`` table, checked against the cable's length."""
+    if "damper" not in data:
+        return None
+    table = data["damper"]
+    if not isinstance(table, dict):
+        raise SpecError(path, "damper", "expected a table [damper] with position_m and constant_N_s_m")
+    for key in table:
+        if key not in _DAMPER_RULES:
+            raise SpecError(path, f"damper.{key}", f"unknown key; allowed: {', '.join(_DAMPER_RULES)}")
+    out = {}
+    for key, expected in _DAMPER_RULES.items():
+        if key not in table:
+            if key == "support_stiffness_N_m":
+                continue
+            raise SpecError(path, f"damper.{key}", f"missing; add it to [damper]: {expected}")
+        x = finite_number(table[key], path, f"damper.{key}", expected)
+        if not x > 0:
+            raise SpecError(path, f"damper.{key}", f"expected {expected}, got {x!r}")
+        out[key] = x
+    if not out["position_m"] < cable.length_m / 2:
+        raise SpecError(path, "damper.position_m", f"expected {_DAMPER_RULES['position_m']} "
+                                                   f"({cable.length_m / 2:g} m), got {out['position_m']!r}; "
+                                                   "measure it from the nearer (lower) anchorage")
+    return DamperSpec(**out)
 
 
 def model_fields() -> dict[str, tuple[str, bool]]:
@@ -271,7 +317,8 @@ def parse_model(data: dict, path="<spec>") -> ModelSpec:
     aero = AeroSpec(**aero_fields)
     if aero.yaw_deg is None and aero.rivulet_angle_deg is None:
         raise SpecError(path, "aero.yaw_deg", 'only one of yaw_deg and rivulet_angle_deg may be "calibrate"')
-    return ModelSpec(name=name, description=description, cable=cable, aero=aero, path=str(path))
+    return ModelSpec(name=name, description=description, cable=cable, aero=aero, path=str(path),
+                     damper=_damper(data, path, cable))
 
 
 def read_toml(path) -> tuple[dict, str]:

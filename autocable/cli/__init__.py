@@ -20,6 +20,7 @@ from autocable.errors import EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, CacheErr
 from autocable.paper.figures import add_figures_parser
 from autocable.cli.checks import refuse
 from autocable.cli.derivation import LOAD_HELP, PAIR_HELP, cmd_derive
+from autocable.cli.damper import add_damper_parser
 from autocable.cli.onset import add_onset_parser
 from autocable.cli.runs import add_chart_parser, add_run_parser, add_sweep_parser
 from autocable.cli.simulate import cmd_simulate
@@ -180,6 +181,7 @@ def build_parser() -> argparse.ArgumentParser:
     cal.set_defaults(func=cmd_calibrate)
 
     add_onset_parser(sub)
+    add_damper_parser(sub)
     add_run_parser(sub)
     add_chart_parser(sub)
     add_sweep_parser(sub)

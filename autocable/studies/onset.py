@@ -108,8 +108,23 @@ def vary(d, changes: dict, refit: bool = False):
     return new, messages
 
 
+def with_damper(d):
+    """(derivation, damper) of ``d`` with the model's ``[damper]``: eq. (21)'s modal damping ratio is
+    the cable's own ``damping_ratio`` plus what the damper adds to the in-plane mode of eq. (21)
+    (`autocable.model.damper.onset_damping`: the exact taut string, corrected for bending and sag),
+    every other term (a fitted wind angle too, fitted without the damper) as derived; (d, None)
+    without a damper. The ratio is set, not added, so applying it twice changes nothing."""
+    from autocable.model.damper import onset_damping
+    info = onset_damping(d.spec)
+    if info is None:
+        return d, None
+    return replace(d, ode=with_damping(d.ode, info["total_damping"])), info
+
+
 def onset_report(d, U_max: float = U_MAX_DEFAULT) -> dict:
-    """The JSON of `autocable onset` (and the summary of `autocable derive`)."""
+    """The JSON of `autocable onset` (and the summary of `autocable derive`); a model's
+    ``[damper]`` is in the modal damping (`with_damper`, key ``damper``)."""
+    d, damper = with_damper(d)
     units = units_of(d.spec, d.statics)
     result = stability(d.ode, U_max)
     om = one_mode(d.ode)
@@ -123,6 +138,7 @@ def onset_report(d, U_max: float = U_MAX_DEFAULT) -> dict:
         "scanned_U_m_s": [0.0, units.wind_m_s(U_max)],
         "onsets": [o.to_dict(units) for o in result.onsets],
         "restabilisations_U_m_s": [units.wind_m_s(U) for U in result.restabilisations],
+        "damper": damper,
         "stable_without_wind": result.stable_at_start,
         "one_mode": {"zeta11": om["zeta11"], "zeta8": om["zeta8"],
                      "onset_U_m_s": units.wind_m_s(om["onset_U_star"]),
@@ -165,6 +181,15 @@ def onset_text(report: dict) -> list[str]:
                  + (f"onset {om['onset_U_m_s']:.4g} m/s, {om['criticality']}"
                     if om["onset_U_m_s"] is not None and math.isfinite(om["onset_U_m_s"])
                     else "no in-plane galloping"))
+    dp = report.get("damper")
+    if dp:
+        lines.append(f"  damper at {dp['position_m']:.4g} m, c = {dp['constant_N_s_m']:.4g} N s/m (model's [damper]): "
+                     f"adds {100 * dp['added_damping']:.4g} % to mode {dp['mode']} (taut string "
+                     f"{100 * dp['added_damping_taut_string']:.4g} %, corrected for bending and sag); the damping "
+                     f"above is {100 * dp['structural_damping']:.4g} % + {100 * dp['added_damping']:.4g} % = "
+                     f"{100 * dp['total_damping']:.4g} %"
+                     + (" (the fitted wind angle puts the onset of the cable without it at U_c)"
+                        if report["wind_angles"].get("calibrated") else ""))
     return lines
 
 
@@ -188,7 +213,9 @@ def damping_curve(d, xis, U_max: float = U_MAX_DEFAULT) -> list[dict]:
 
 def design_damping(d, U_design_m_s: float, U_max: float = U_MAX_DEFAULT, rtol: float = 1e-8) -> dict:
     """The least damping ratio for which the trivial state is stable for every U <= U_design (the
-    first onset at or above it), by bisection on xi (the onset rises with damping)."""
+    first onset at or above it), by bisection on xi (the onset rises with damping). The current
+    damping ratio includes a model's ``[damper]`` (`with_damper`)."""
+    d, _ = with_damper(d)
     units = units_of(d.spec, d.statics)
     U_des = units.wind_star(U_design_m_s)
     if not 0 < U_des <= U_max:
