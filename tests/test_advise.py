@@ -63,3 +63,28 @@ def test_cli_advise(capsys):
     assert out["rung"] == "1dof" and out["evidence"]["max_err_1dof_vs_eq21"] < 0.02
     assert main(["advise", str(RUNS / "fig05a.toml"), "--tol", "2"]) == 2
     assert "--tol" in capsys.readouterr().err
+
+
+def test_advise_names_the_load_and_curve_rungs_a_motion_needs():
+    """The ladder's new rungs: a probe whose cubic load errs beyond the bound asks for the exact load,
+    one whose phi leaves the curves' range asks for curves that hold there; none asks for nothing."""
+    from autocable.model.aero import CUBIC_RTOL
+    from autocable.studies.advise import _load_reasons
+    quiet = {"phi_swept_deg": 3.0, "twist_max_deg": 2.0, "cubic_load_error": 1e-4, "beyond_curves": [],
+             "beyond_cubic": []}
+    assert _load_reasons(quiet) == []
+    loud = dict(quiet, cubic_load_error=2 * CUBIC_RTOL, beyond_cubic=[0.01], phi_swept_deg=80.0,
+                beyond_curves=[0.01, 0.02])
+    reasons = _load_reasons(loud)
+    assert len(reasons) == 2
+    assert 'aero.load = "exact"' in reasons[0] and "+0.0100" in reasons[0]
+    assert "valid range" in reasons[1] and "+-80 deg" in reasons[1]
+
+
+def test_advise_measures_the_probes_validity():
+    """Fig. 7's probes (U* = 0.7, small responses): measured, inside the curves' range, no load rung."""
+    from autocable.studies.advise import choose_ame
+    advice = choose_ame(REPO / "runs" / "fig07.toml", tools=None)
+    v = advice.evidence["validity"]
+    assert 0.0 < v["phi_swept_deg"] < 15.0 and v["beyond_curves"] == [] and v["beyond_cubic"] == []
+    assert not any("aero.load" in r for r in advice.reasons)

@@ -26,6 +26,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from autocable.model.aero import CUBIC_RTOL
 from autocable.studies import ladder as R
 
 __all__ = ["Advice", "choose_ame", "advice_report"]
@@ -97,9 +98,10 @@ def choose_ame(scene_path_or_scene, tol: float = 0.02, *, tools: R.Tools | None 
 
     # 3. eq. (21) at probe sigma values against the nearest AME equilibrium
     integ = tools.ode21(1e-10)
-    probe_rows = []
+    probe_rows, responses = [], []
     for s in np.linspace(lo, hi, probes):
         r = integ.simulate(setting.U, setting.eta, float(s))
+        responses.append(r)
         row = {"sigma": float(s), "a1_21": r.a1, "a2_21": r.a2, "periodic": bool(r.steady and r.periodic),
                "message": r.message}
         for name, res in (("1dof", one), ("2dof", two)):
@@ -112,6 +114,8 @@ def choose_ame(scene_path_or_scene, tol: float = 0.02, *, tools: R.Tools | None 
             else:
                 row[f"err_{name}"] = math.inf if row["periodic"] else None
         probe_rows.append(row)
+
+    validity = _probe_validity(tools.derivation, integ, responses, probe_rows)
 
     def worst(name):
         errs = [p[f"err_{name}"] for p in probe_rows if p[f"err_{name}"] is not None]
@@ -129,7 +133,7 @@ def choose_ame(scene_path_or_scene, tol: float = 0.02, *, tools: R.Tools | None 
                 "a2_over_a1_eq21_probes": a2_21, "max_err_1dof_vs_eq21": err1, "max_err_2dof_vs_eq21": err2,
                 "eq21_not_period1_sigma": not_periodic, "probes": probe_rows,
                 "engines": {"1dof": engine1, "2dof": engine2}, "max_step": max_step,
-                "seconds": {"1dof": one.seconds, "2dof": two.seconds}}
+                "seconds": {"1dof": one.seconds, "2dof": two.seconds}, "validity": validity}
 
     reasons = []
     mono = a2_ratio <= tol and not bp_on_mono and not stab_disagree and a2_21 <= tol
@@ -163,8 +167,50 @@ def choose_ame(scene_path_or_scene, tol: float = 0.02, *, tools: R.Tools | None 
         rung = "ode21"
         reasons.append(f"the {ame} AME errs by up to {_g(err)} against eq. (21) at the probes (tol {tol:g}): "
                        "integrate eq. (21) (or continue its periodic orbits) to check the diagram")
+    reasons += _load_reasons(validity)
     return Advice(rung=rung, ame=ame, tol=float(tol), scene=setting.scene, reasons=tuple(reasons),
                   evidence=evidence)
+
+
+def _probe_validity(d, integ, responses, probe_rows) -> dict:
+    """The load rungs the probes need (`autocable.model.validity`): each probe response of eq. (21),
+    sampled over 20 forcing periods from its final state, measured for the angle it sweeps, its
+    twist and the cubic load's error against the exact load."""
+    from autocable.model.symbolic import parameter_values
+    from autocable.model.validity import motion_validity
+    worst = {"phi_swept_deg": 0.0, "twist_max_deg": 0.0, "cubic_load_error": 0.0, "beyond_curves": [],
+             "beyond_cubic": []}
+    for row, r in zip(probe_rows, responses):
+        s = row["sigma"]
+        if not all(map(math.isfinite, r.final_state)) or max(abs(r.a1), abs(r.a2)) > 0.1:
+            continue
+        T = 2 * math.pi / r.Omega
+        run = integ.run_compiled(r.final_state, r.t_end, r.t_end + 20 * T, T / 64, parameter_values(r.U, r.eta, r.Omega))
+        v = motion_validity(d, run.y, r.U, r.eta * r.Omega * np.cos(r.Omega * run.t))
+        row["validity"] = v
+        for key in ("phi_swept_deg", "twist_max_deg", "cubic_load_error"):
+            if v.get(key) is not None:
+                worst[key] = max(worst[key], v[key])
+        if any("valid range" in why for why in v["reasons"]):
+            worst["beyond_curves"].append(float(s))
+        if v.get("cubic_load_error") is not None and v["cubic_load_error"] > CUBIC_RTOL:
+            worst["beyond_cubic"].append(float(s))
+    return worst
+
+
+def _load_reasons(v: dict) -> list[str]:
+    """What the probes' validity asks of the model (item: the ladder's load and curve rungs)."""
+    out = []
+    if v["beyond_cubic"]:
+        out.append(f"the cubic load of eq. (14) errs by up to {100 * v['cubic_load_error']:.0f} % against the exact "
+                   f"load along the probe responses (bound {100 * CUBIC_RTOL:.0f} %) at sigma = "
+                   f"{', '.join(f'{s:+.4f}' for s in v['beyond_cubic'])}: use aero.load = \"exact\"")
+    if v["beyond_curves"]:
+        out.append(f"phi sweeps up to +-{v['phi_swept_deg']:.0f} deg (twist up to {v['twist_max_deg']:.0f} deg), beyond "
+                   f"the aerodynamic curves' valid range at sigma = "
+                   f"{', '.join(f'{s:+.4f}' for s in v['beyond_curves'])}: give curves that hold there (a table or "
+                   "a bounded extension, docs/aero-curves.md) and the exact load")
+    return out
 
 
 def _g(x) -> str:
@@ -187,6 +233,12 @@ def advice_report(advice: Advice) -> str:
     for p in e["probes"]:
         lines.append(f"    {p['sigma']:+.4f}   {p['a1_21']:.4e}  {p['a2_21']:.4e}  {_e(p['err_1dof'])}  "
                      f"{_e(p['err_2dof'])}" + ("" if p["periodic"] else "   (not period-1)"))
+    v = e.get("validity")
+    if v:
+        lines.append(f"  validity of the probe responses: phi swept up to +-{v['phi_swept_deg']:.3g} deg, twist up to "
+                     f"{v['twist_max_deg']:.3g} deg, cubic load error up to {100 * v['cubic_load_error']:.2g} % "
+                     f"(beyond the curves' range at {len(v['beyond_curves'])} probe(s), beyond the cubic's at "
+                     f"{len(v['beyond_cubic'])})")
     return "\n".join(lines)
 
 
