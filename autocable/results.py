@@ -490,6 +490,22 @@ def branches_dataframe(branches: Sequence[Branch], si=None):
 
     header, rows = _branch_rows(branches, si)
     frame = pd.DataFrame(list(rows), columns=header)
+    # A state that is also an amplitude (the 1-dof AME's polar state a1 is the amplitude a1, Fig. 3)
+    # appears twice in branches.csv; a DataFrame needs one name per column: the state's copy is
+    # dropped where it repeats the amplitude, renamed "<name>_state" where it does not.
+    seen, keep, names = set(), [], []
+    for i, col in enumerate(header):
+        if col in seen:
+            first = header.index(col)
+            if frame.iloc[:, i].equals(frame.iloc[:, first]):
+                continue
+            col = f"{col}_state"
+        seen.add(col)
+        keep.append(i)
+        names.append(col)
+    frame = frame.iloc[:, keep]
+    frame.columns = names
+    header = names
     text = ("branch", "kind", "parameter", "parameter2")
     for col in header:
         if col in text:
@@ -569,11 +585,17 @@ def read_results(out_dir: str | Path) -> RunResults:
         reason = f" ({meta['reason']})" if meta.get("reason") else ""
         raise IncompleteResults(f"{folder / RUN_JSON}: status {status!r}{reason}: the run in this folder did "
                                 f"not finish, its files are not a result; run the scene again")
-    with open(folder / BRANCHES_CSV, newline="", encoding="utf-8") as fh:
-        rows = list(csv.DictReader(fh))
+    if not (folder / BRANCHES_CSV).is_file():
+        if meta.get("branches"):
+            raise IncompleteResults(f"{folder / BRANCHES_CSV}: missing, while {RUN_JSON} lists "
+                                    f"{len(meta['branches'])} branch(es); run the scene again")
+        rows = []      # a scene without branches (a time evolution, Fig. 11): its files are its result
+    else:
+        with open(folder / BRANCHES_CSV, newline="", encoding="utf-8") as fh:
+            rows = list(csv.DictReader(fh))
     specials = [SpecialPoint.from_dict(d) for d in meta.get("special_points", [])]
     branches = []
-    for bm in meta["branches"]:
+    for bm in meta.get("branches", []):
         mine = [r for r in rows if r["branch"] == bm["name"]]
         cols = list(bm["parameter_names"]) + list(bm["amplitude_names"]) + list(bm["variables"])
         if bm["kind"] == "cycle":
