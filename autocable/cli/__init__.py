@@ -21,6 +21,7 @@ from autocable.paper.figures import add_figures_parser
 from autocable.cli.checks import refuse
 from autocable.cli.derivation import LOAD_HELP, PAIR_HELP, cmd_derive
 from autocable.cli.damper import add_damper_parser
+from autocable.cli.gallop import add_gallop_parser
 from autocable.cli.onset import add_onset_parser
 from autocable.cli.runs import add_chart_parser, add_run_parser, add_sweep_parser
 from autocable.cli.simulate import cmd_simulate
@@ -182,6 +183,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_onset_parser(sub)
     add_damper_parser(sub)
+    add_gallop_parser(sub)
     add_run_parser(sub)
     add_chart_parser(sub)
     add_sweep_parser(sub)

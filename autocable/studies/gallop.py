@@ -54,8 +54,8 @@ CHECK_POINTS = 3
 #: Stable cycles whose largest non-trivial multiplier exceeds this are not picked for the check:
 #: integration approaches them too slowly to settle within its time limit.
 CHECK_MAX_MODULUS = 0.98
-#: The "large start" of the check: this many times the cycle's own start state (capped so that
-#: |q_k| stays at half the model's range). Not more: the basin of a stable cycle is bounded by an
+#: The "large start" of the check: this many times the cycle's own start state (capped so that the
+#: start stays within `premises.MAX_AMPLITUDE`, the largest start eq. (21) accepts). Not more: the basin of a stable cycle is bounded by an
 #: unstable one outside it (the 190 m stay at 22 m/s: from 1.2 times the cycle eq. (21) lands on it,
 #: from 1.3 times it diverges).
 LARGE_START = 1.2
@@ -156,8 +156,11 @@ def _design(cont, branches, U_des: float, units, derivation) -> dict:
     for br in branches:
         found.extend(_stable_cycles_at(cont, br, U_des))
     if not found:
+        low = min((br.lowest_U for br in branches), default=math.inf)
+        note = (f"no galloping cycle at the design wind: the lowest galloping speed is {units.wind_m_s(low):.5g} m/s"
+                if low > U_des else "no stable cycle of the branches at the design wind (only unstable ones)")
         return {"amplitude_at_design_wind_m": None, "frequency_at_design_wind_Hz": None, "beyond_valid_range": None,
-                "design_note": "no stable cycle of the branches found at the design wind"}
+                "design_note": note}
     p, interp = max(found, key=lambda c: max(c[0].a1, c[0].a2))
     out = {"amplitude_at_design_wind_m": [units.peak_m(p.a1), units.peak_m(p.a2)],
            "frequency_at_design_wind_Hz": units.frequency_hz(p.frequency),
@@ -174,10 +177,25 @@ def _design(cont, branches, U_des: float, units, derivation) -> dict:
 
 
 def _check(ode, branches, units, picks: int = CHECK_POINTS) -> list:
-    """Direct integration of eq. (21) at ``picks`` wind speeds of the stable parts (module docstring)."""
+    """Direct integration of eq. (21) at ``picks`` wind speeds of the stable stretch of the branches
+    that reaches lowest in U (module docstring), from the continued cycle's state and from
+    `LARGE_START` times it."""
     from autocable.methods.integration.ode21 import Ode21Integrator
-    cands = sorted((p for br in branches for p in br.points
-                    if p.kind == "" and p.stable and p.max_modulus < CHECK_MAX_MODULUS), key=lambda p: p.U)
+    # the stable stretch that reaches lowest in U: the galloping cycle a rising wind meets first, not a
+    # short stable window between a period doubling and a fold
+    runs, run = [], []
+    for br in branches:
+        for p in br.points:
+            if p.kind == "" and p.stable:
+                run.append(p)
+            elif run:
+                runs, run = runs + [run], []
+        if run:
+            runs, run = runs + [run], []
+    if not runs:
+        return []
+    first = min(runs, key=lambda r: min(p.U for p in r))
+    cands = sorted((p for p in first if p.max_modulus < CHECK_MAX_MODULUS), key=lambda p: p.U)
     if not cands:
         return []
     idx = sorted({int(round(k)) for k in np.linspace(0, len(cands) - 1, picks + 2)[1:-1]}) if len(cands) > picks \
@@ -186,7 +204,7 @@ def _check(ode, branches, units, picks: int = CHECK_POINTS) -> list:
     out = []
     for p in (cands[i] for i in idx):
         y = p.state0
-        big = min(LARGE_START, 0.5 * MAX_AMPLITUDE / max(float(np.abs(y).max()), 1e-300))
+        big = min(LARGE_START, 0.999 * MAX_AMPLITUDE / max(float(np.abs(y).max()), 1e-300))
         row = {"U_star": p.U, "U_m_s": units.wind_m_s(p.U), "a1_continued": p.a1, "a2_continued": p.a2,
                "peak_in_plane_m": units.peak_m(p.a1), "peak_out_of_plane_m": units.peak_m(p.a2),
                "frequency_Hz_continued": units.frequency_hz(p.frequency)}

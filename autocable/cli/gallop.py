@@ -1,0 +1,174 @@
+"""`autocable gallop`: the galloping cycles of eq. (21) without support motion, continued in the wind
+speed from each Hopf point of the rest state: the lowest wind speed at which galloping exists, the
+hysteresis loop, the amplitude and frequency at a design wind (`autocable.studies.gallop`)."""
+from __future__ import annotations
+
+import csv
+import io
+import math
+import sys
+from pathlib import Path
+
+from autocable.cli.checks import check_number, check_out, dumps, refuse, strict
+from autocable.cli.derivation import LOAD_HELP, PAIR_HELP, derivation
+
+#: Damping ratios of one call at most: each is a continuation (about a second).
+DAMPINGS_LIMIT = 10
+#: The columns of branches.csv.
+CSV_COLUMNS = ("damping_ratio", "hopf_U_m_s", "kind", "U_m_s", "U_star", "frequency_Hz", "period_star",
+               "peak_in_plane_m", "peak_out_of_plane_m", "a1", "a2", "stable", "max_multiplier_modulus",
+               "phi_swept_deg", "twist_max_deg", "beyond_valid_range")
+
+
+def add_gallop_parser(sub) -> None:
+    g = sub.add_parser("gallop", help="the galloping cycles of eq. (21) at eta = 0 continued in the wind speed from "
+                                      "each Hopf point: the lowest galloping speed, the hysteresis loop, the amplitude "
+                                      "and frequency at a design wind")
+    g.add_argument("model", help="model spec file (models/*.toml)")
+    g.add_argument("--design-wind", type=float, metavar="M_S",
+                   help="the wind speed [m/s] at which to report the stable cycle's peak displacements and frequency")
+    g.add_argument("--damping", metavar="XI[,XI...]",
+                   help="damping ratios to continue the cycles for (default: the cable's own); the first is the one "
+                        "of the top-level results and of the direct-integration check")
+    g.add_argument("--max-wind", type=float, metavar="M_S",
+                   help="follow the cycles up to this wind speed [m/s] (default and at most 5 U_c); Hopf points are "
+                        "looked for up to 4 times it")
+    g.add_argument("--pair", type=int, metavar="K", help=PAIR_HELP)
+    g.add_argument("--load", choices=("cubic", "exact"), help=LOAD_HELP)
+    g.add_argument("--json", action="store_true", help="one JSON object instead of the report")
+    g.add_argument("--out", metavar="DIR", help="write gallop.json, branches.csv, gallop.png and gallop.pdf")
+    g.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    g.set_defaults(func=cmd_gallop)
+
+
+def _dampings(text: str | None):
+    if text is None:
+        return None
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        vals = [float(p) for p in parts]
+    except ValueError:
+        raise refuse("--damping", f"expected damping ratios separated by commas (e.g. 0.001,0.005), got {text!r}") from None
+    if not vals or len(vals) > DAMPINGS_LIMIT:
+        raise refuse("--damping", f"expected 1 to {DAMPINGS_LIMIT} damping ratios, got {len(vals)}")
+    for v in vals:
+        if not (math.isfinite(v) and 0 < v < 1):
+            raise refuse("--damping", f"expected damping ratios 0 < XI < 1 (0.004 is 0.4 %), got {text!r}")
+    return vals
+
+
+def cmd_gallop(args) -> int:
+    from autocable.model.onset import U_MAX_DEFAULT
+    from autocable.model.units import units_of
+    from autocable.studies.gallop import gallop_study
+
+    check_out("--out", args.out)
+    xis = _dampings(args.damping)
+    d = derivation(args.model, args.pair, args.load)
+    units = units_of(d.spec, d.statics)
+    top = units.wind_m_s(U_MAX_DEFAULT)
+    check_number("--max-wind", args.max_wind, 0.0, top, lo_open=True)
+    U_max_m_s = top if args.max_wind is None else args.max_wind
+    check_number("--design-wind", args.design_wind, 0.0, U_max_m_s, lo_open=True)
+    log = None if args.quiet else (lambda s: print(f"autocable gallop: {s}", file=sys.stderr, flush=True))
+    if args.out:
+        from autocable.run_folder import output_folder
+        with output_folder(args.out, "gallop", inputs=[args.model]) as stage:
+            study = gallop_study(d, args.design_wind, xis, args.max_wind, log=log)
+            _write(study, stage, d.spec.name)
+    else:
+        study = gallop_study(d, args.design_wind, xis, args.max_wind, log=log)
+    if args.json:
+        print(dumps(study, indent=1))
+        return 0
+    print("\n".join(gallop_text(study)))
+    if args.out:
+        print(f"wrote {args.out}/gallop.json, branches.csv, gallop.png, gallop.pdf", file=sys.stderr)
+    return 0
+
+
+def _m_s(x) -> str:
+    return "-" if x is None or not math.isfinite(x) else f"{x:.5g} m/s"
+
+
+def gallop_text(study: dict) -> list[str]:
+    """The readable report: one block per damping ratio and Hopf point."""
+    lines = [f"Galloping cycles of eq. (21) at eta = 0 (no support motion), {study['model']}; wind from "
+             f"{study['scanned_U_m_s'][0]:.3g} to {study['scanned_U_m_s'][1]:.4g} m/s; peak displacements at mid-span "
+             "[in-plane, out-of-plane]"]
+    design = study.get("design_wind_m_s")
+    for case in study["cases"]:
+        lines.append(f"damping {100 * case['damping_ratio']:.4g} % (Sc = {case['scruton']:.4g}):")
+        if not case["hopf_points"]:
+            lines.append(f"  {case.get('note', 'no branch of cycles')}")
+        for hp in case["hopf_points"]:
+            lines.append(f"  Hopf point at {hp['hopf_U_m_s']:.6g} m/s, {hp['hopf_frequency_Hz']:.5g} Hz: "
+                         f"{hp['criticality']} ({hp['mechanism']})")
+            lines.append(f"    lowest galloping speed   {_m_s(hp['lowest_galloping_U_m_s'])}"
+                         + (" (a fold of cycles)" if any(abs(f["U_m_s"] - hp["lowest_galloping_U_m_s"]) < 1e-9
+                                                        for f in hp["folds"]) else ""))
+            if hp["hysteresis_m_s"]:
+                lo, hi = hp["hysteresis_m_s"]
+                lines.append(f"    hysteresis loop          {lo:.5g} to {hi:.5g} m/s: the rest state and a large "
+                             "galloping cycle coexist (a large enough gust starts galloping)")
+                if hp.get("hysteresis_note"):
+                    lines.append(f"      note: {hp['hysteresis_note']}")
+            for f in hp["folds"]:
+                lines.append(f"    fold of cycles           {f['U_m_s']:.8g} m/s: peak [{f['peak_in_plane_m']:.4g}, "
+                             f"{f['peak_out_of_plane_m']:.4g}] m, {f['frequency_Hz']:.5g} Hz")
+            for c in hp["stability_changes"]:
+                a, b = c["U_between_m_s"]
+                lines.append(f"    stability {'gained' if c['gains_stability'] else 'lost':6s}        between "
+                             f"{a:.6g} and {b:.6g} m/s, multiplier {c['kind']}")
+            lines.append(f"    branch ended             {hp['end']} ({hp['points']} cycles, {hp['seconds']:.2g} s)")
+        for hp in case.get("hopf_points_beyond_range", []):
+            lines.append(f"  Hopf point at {hp['hopf_U_m_s']:.6g} m/s ({hp['criticality']}): its cycles stay above the "
+                         f"range (lowest {hp['lowest_galloping_U_m_s']:.5g} m/s)")
+        if design is not None:
+            amp = case.get("amplitude_at_design_wind_m")
+            if amp:
+                dc = case.get("design_cycle", {})
+                lines.append(f"  design wind {design:g} m/s: stable cycle, peak {amp[0]:.4g} m in-plane, {amp[1]:.4g} m "
+                             f"out-of-plane, {case['frequency_at_design_wind_Hz']:.5g} Hz (largest multiplier "
+                             f"{dc.get('max_multiplier_modulus', math.nan):.3g})")
+                if "phi_swept_deg" in dc:
+                    from autocable.model.validity import validity_line
+                    lines.append(f"    {validity_line(dc)}")
+            else:
+                lines.append(f"  design wind {design:g} m/s: {case.get('design_note', 'no stable cycle found')}")
+    for c in study.get("check", []):
+        parts = []
+        for name, text in (("from_cycle", "from the cycle"), ("from_large_start", "from a larger start")):
+            r = c[name]
+            if r["relative_difference"] is None:
+                parts.append(f"{text} (x{r['start_factor']:.3g}): {r['message'].split(':')[0]}")
+            else:
+                parts.append(f"{text} (x{r['start_factor']:.3g}): {r['relative_difference']:.1e}")
+        lines.append(f"check, eq. (21) integrated at {c['U_m_s']:.5g} m/s (relative amplitude difference to the "
+                     f"continued cycle): " + "; ".join(parts))
+    if study.get("cases") and any(hp.get("rows") and "phi_swept_deg" not in hp["rows"][-1]
+                                  for case in study["cases"] for hp in case["hopf_points"]):
+        lines.append("validity: not measured (autocable.model.validity not available)")
+    return lines
+
+
+def _csv(study: dict) -> str:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(CSV_COLUMNS)
+    for case in study["cases"]:
+        for hp in case["hopf_points"]:
+            for r in hp["rows"]:
+                row = dict(r, damping_ratio=case["damping_ratio"], hopf_U_m_s=hp["hopf_U_m_s"])
+                w.writerow(["" if row.get(c) is None or (isinstance(row.get(c), float) and not math.isfinite(row[c]))
+                            else row[c] for c in CSV_COLUMNS])
+    return buf.getvalue()
+
+
+def _write(study: dict, stage: Path, name: str) -> None:
+    from autocable._store import atomic_write_json, atomic_write_text
+    from autocable.plotting.gallop import plot_gallop
+    data = strict(study)
+    atomic_write_json(stage / "gallop.json", data)
+    atomic_write_text(stage / "branches.csv", _csv(data))
+    plot_gallop(data, stage / "gallop", title=f"{name}: galloping cycles of eq. (21) (eta = 0)")
