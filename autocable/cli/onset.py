@@ -152,6 +152,8 @@ def cmd_onset(args) -> int:
         report = onset_report(d, U_max)
         if args.design_wind is not None:
             report["design"] = design_damping(d, args.design_wind, U_max)
+    if "design" in report:
+        report["design"].update(_global_damping(d, args.design_wind, units.wind_m_s(U_max)))
     report["study"] = messages
     if args.out:
         _write(report, Path(args.out), d.spec.name)
@@ -168,6 +170,12 @@ def cmd_onset(args) -> int:
         print(f"design wind {ds['design_wind_m_s']:g} m/s: least damping ratio {100 * ds['least_damping_ratio']:.4g} % "
               f"(Sc = {ds['scruton']:.4g}); the cable has {100 * ds['current_damping_ratio']:.4g} % "
               f"(Sc = {ds['current_scruton']:.4g}): {'enough' if ds['enough'] else 'not enough'}")
+        if ds.get("least_damping_global") is not None:
+            print(f"  global (no galloping cycle below the design wind, a sub-critical onset's fold included; "
+                  f"autocable gallop): least damping ratio {100 * ds['least_damping_global']:.4g} % "
+                  f"(Sc = {ds['scruton_global']:.4g}): {'enough' if ds['enough_global'] else 'not enough'}")
+        else:
+            print(f"  global least damping: not found ({ds.get('least_damping_global_note')})")
     if "damping" in report and grid is not None:
         print("damping ratio [%]   Sc        U_cr [m/s]   criticality")
         step = max(1, len(report["damping"]) // 10)
@@ -205,6 +213,22 @@ def _pairs(args, d, below: float, U_max: float, messages: list) -> int:
         print(m)
     print("\n".join(pairs_text(report)))
     return 0
+
+
+def _global_damping(d, design_wind_m_s: float, U_max_m_s: float) -> dict:
+    """The keys `least_damping_global` adds to the ``design`` object: the least damping ratio for which
+    no galloping cycle exists below the design wind (`autocable.studies.gallop.least_damping_global`),
+    or None with the reason when it cannot be found (the linear least damping stands)."""
+    from autocable.errors import ComputationError
+    from autocable.spec import SpecError
+    from autocable.studies.gallop import least_damping_global
+    try:
+        g = least_damping_global(d, design_wind_m_s, U_max_m_s)
+    except (SpecError, ComputationError) as exc:
+        return {"least_damping_global": None, "least_damping_global_note": str(exc)}
+    return {"least_damping_global": g["least_damping_ratio_global"], "scruton_global": g["scruton_global"],
+            "enough_global": g["enough"], "least_damping_global_tolerance": g["relative_tolerance"],
+            "least_damping_global_reading": g["reading"]}
 
 
 def _outcome(word: str) -> str:
