@@ -290,3 +290,9 @@ def test_design_wind_least_constant_keeps_the_onset_above_it(tmp_path, capsys):
         assert (first > 25.0) is above, (factor, first)
     code, out, err = _cli(capsys, "onset", path)
     assert code == 0 and "damper at 3.8 m" in out and "adds" in out
+    # --modes-below: the pair's row carries the same damper (pair 1 only: below 0.7 Hz)
+    code, out, err = _cli(capsys, "onset", path, "--modes-below", 0.7, "--json")
+    assert code == 0, err
+    row = json.loads(out)["pairs"][0]
+    assert row["damper_added_damping"] == pytest.approx(rep["damper"]["added_damping"], rel=1e-12)
+    assert row["onset_U_m_s"] == pytest.approx(first, rel=1e-9)

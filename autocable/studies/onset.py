@@ -431,8 +431,10 @@ def pair_row(dk, info, units, design_wind_m_s: float | None, U_max: float) -> di
     """One row of `pairs_below`: pair k's frequencies, first onset (eq. 21 on the pair, linear
     stability and first Lyapunov coefficient, `autocable.model.onset`), crowding, twist per metre of
     out-of-plane displacement, and with a design wind the least damping ratio keeping the pair's
-    trivial state stable up to it (`design_damping`)."""
+    trivial state stable up to it (`design_damping`). A model's ``[damper]`` is in the pair's modal
+    damping (`with_damper`: what it adds to the pair's in-plane mode)."""
     from autocable.model.mode_pairs import describe_mode, pair_modes, twist_peak_per_unit
+    dk, damper = with_damper(dk)
     result = stability(dk.ode, U_max)
     o = result.first
     l = dk.spec.cable.length_m
@@ -457,6 +459,7 @@ def pair_row(dk, info, units, design_wind_m_s: float | None, U_max: float) -> di
         "bending_frequency_shift": info.bending_shift,
         "twist_rad_per_m": twist / l,
         "least_damping_linear": None, "least_damping_linear_scruton": None,
+        "damper_added_damping": damper["added_damping"] if damper else None,
     }
     if design_wind_m_s is not None:
         try:
