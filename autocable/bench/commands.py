@@ -129,6 +129,8 @@ def run_bench(what: str, model_path: str, repeats: int = 3, log=None, out=None) 
         return bench_sweep(model_path, repeats=repeats, log=log)
     if what == "onset":
         return bench_onset(model_path, repeats, log)
+    if what == "gallop":
+        return bench_gallop(model_path, repeats, log)
     if what == "exact-load":
         from autocable.bench.exact_load import bench_exact_load
         return bench_exact_load(model_path, repeats, log)
@@ -210,6 +212,53 @@ def bench_pairs(model_path: str, repeats: int = 3, log=None, below_hz: float = 3
             "pairs": len(report["pairs"]), "cold_s": cold, "warm_s": warm, "target_s": PAIRS_TARGET_S,
             "meets_target": max(cold, warm) < PAIRS_TARGET_S,
             "onsets_U_m_s": [r["onset_U_m_s"] for r in report["pairs"]]}
+
+
+# -- gallop: the galloping cycles of `autocable gallop` ---------------------------------------------------
+def bench_gallop(model_path: str, repeats: int = 3, log=None) -> dict:
+    """Wall time of `autocable gallop` on one cable (the study with a design wind of 1.5 U_c and the
+    direct-integration check, as the command runs it), cold (an empty cache folder: the derivation
+    and the compiled integrators built) and warm (best of ``repeats``, the builds loaded from the
+    cache in a fresh `CycleContinuation`). Target: under 10 s."""
+    from autocable.model.derive import derive
+    from autocable.studies.gallop import gallop_study
+
+    say = log or (lambda s: None)
+    old = os.environ.get("AUTOCABLE_CACHE")
+    with tempfile.TemporaryDirectory() as tmp:
+        os.environ["AUTOCABLE_CACHE"] = tmp
+        try:
+            say("derivation and gallop study, cold (empty cache) ...")
+            t0 = time.perf_counter()
+            d = derive(model_path)
+            derive_cold = time.perf_counter() - t0
+            U_design = 1.5 * d.spec.aero.critical_wind_speed_m_s
+            t0 = time.perf_counter()
+            study = gallop_study(d, U_design)
+            cold = time.perf_counter() - t0
+            say(f"  derivation {derive_cold:.2f} s, gallop {cold:.2f} s")
+            warm = _best(lambda: gallop_study(d, U_design), repeats)
+            t0 = time.perf_counter()
+            gallop_study(d, U_design, checks=False)
+            no_check = time.perf_counter() - t0
+        finally:
+            if old is None:
+                os.environ.pop("AUTOCABLE_CACHE", None)
+            else:
+                os.environ["AUTOCABLE_CACHE"] = old
+    branches = [h for c in study["cases"] for h in c["hopf_points"]]
+    result = {"model": model_path, "mode_pair": d.mode_pair, "design_wind_m_s": U_design,
+              "derive_cold_s": derive_cold, "gallop_cold_s": cold, "gallop_warm_s": warm,
+              "gallop_warm_without_check_s": no_check, "check_cold_s": sum(
+                  r[k]["seconds"] for r in study["check"] for k in ("from_cycle", "from_large_start")),
+              "build_cold_s": sum(c["build_seconds"] for c in study["cases"]),
+              "continuation_cold_s": sum(h["seconds"] for h in branches),
+              "cycles": sum(h["points"] for h in branches),
+              "lowest_galloping_U_m_s": study["lowest_galloping_U_m_s"], "target_s": 10.0,
+              "meets_target": cold + derive_cold < 10.0 and warm < 10.0}
+    say(f"  warm {warm:.2f} s ({no_check:.2f} s without the direct-integration check), {result['cycles']} cycles "
+        "(target 10 s)")
+    return result
 
 
 # -- ame-vs-ode: the Multiple Scales AME (22)-(24) against direct integration of eq. (21) -------------

@@ -85,7 +85,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("what", nargs="?", default=None,
                    choices=["derive", "ame-vs-ode", "continuation", "auto", "figures", "bound-scenes", "ordering",
                             "engines", "shooting", "sweep", "kill", "kill-surfaces", "fuzz", "onset", "calibration",
-                            "pairs", "exact-load"],
+                            "pairs", "exact-load", "gallop"],
                    help="derive: derivation time and integration speed; ame-vs-ode: error map of the "
                         "amplitude equations against eq. (21) (with --out, also ame_vs_ode21.md/.png); "
                         "continuation: EP-C cost per point and a Fig. 6-sized scene, cold and warm; "
@@ -105,7 +105,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "kill-surfaces: a grid and a followed sweep, a chart and a calibration killed --repeats "
                         "times each, checked not to read as complete and to leave no orphaned process; "
                         "onset: the onset report and a 50-point damping grid of `autocable onset` (target under 2 s "
-                        "warm); fuzz: hostile model specs, scenes and arguments, counts of tracebacks, exit-0 "
+                        "warm); gallop: `autocable gallop` on one cable (--model) and mode pair, cold (compiled "
+                        "builds) and warm (target under 10 s); fuzz: hostile model specs, scenes and arguments, counts of tracebacks, exit-0 "
                         "results for invalid input, unnamed rejections and hangs; calibration: the screen of "
                         "8 points on 1 and 2 workers (the scaling) and the bound stage on 20 candidate models "
                         "(stage wall time and summed scene time); pairs: `autocable onset --modes-below 3 "

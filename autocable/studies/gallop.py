@@ -258,6 +258,8 @@ def _case(derivation, ode, xi: float, U_max: float, units, U_des: float | None, 
     if U_des is not None:
         case.update(_design(cont, branches, U_des, units, derivation))
     case["seconds"] = time.perf_counter() - t0
+    # the compiled system's build (sympy, and the C compiler on a cold cache), inside the first branch
+    case["build_seconds"] = cont.build_seconds
     return case, branches, cont
 
 
