@@ -369,3 +369,5 @@ def test_the_amplitude_equations_refuse_pair_2(capsys, tmp_path):
     assert str(err.value).startswith(f"{path}: cable.mode_pair: the amplitude equations")
     code, out, _ = _cli(capsys, "onset", path)
     assert code == 0 and "mode pair 2" in out
+    code, out, err = _cli(capsys, "simulate", path, "--modes", 2)
+    assert code == 2 and err.count("\n") == 1 and "arguments: --modes: " in err and "mode_pair = 2" in err

@@ -131,6 +131,9 @@ def cmd_simulate(args) -> int:
         option = "--method" if args.method == "ame" else "--modes"
         raise refuse(option, "the amplitude equations (22)-(24) and the N-mode model carry eq. (21)'s cubic load; "
                              "with the exact load use --method ode21 or shooting (or --load cubic)")
+    if d.mode_pair != 1 and getattr(args, "modes", None) is not None:
+        raise refuse("--modes", f"integrates the first N modes of each plane; the model's cable.mode_pair = "
+                                f"{d.mode_pair} asks for one pair: set mode_pair = 1 for --modes")
     if d.mode_pair != 1 and args.method == "ame":
         raise refuse("--method", f"the amplitude equations (22)-(24) are derived for the first mode pair only, "
                                  f"got pair {d.mode_pair}; use --method ode21 or shooting")

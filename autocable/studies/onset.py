@@ -102,9 +102,11 @@ def vary(d, changes: dict, refit: bool = False):
         else:
             old = math.degrees(d.theta0 if d.calibrated == "rivulet_angle_deg" else d.beta)
             now = math.degrees(new.theta0 if d.calibrated == "rivulet_angle_deg" else new.beta)
+            whose = "" if new.mode_pair == 1 else " of the first mode pair (held for this pair)"
             messages.append(f"refit: aero.{d.calibrated} moved from {old:.4f} to {now:.4f} deg so that the "
-                            f"onset stays at the U_c typed in ({d.spec.aero.critical_wind_speed_m_s:g} m/s); "
-                            "the onset is then an input, not a result")
+                            f"onset{whose} stays at the U_c typed in ({d.spec.aero.critical_wind_speed_m_s:g} m/s); "
+                            + ("the onset is then an input, not a result" if new.mode_pair == 1
+                               else "this pair's onset is a prediction with that angle"))
     return new, messages
 
 
