@@ -259,6 +259,17 @@ def test_bad_options_refused_in_one_line(capsys, argv, option):
     assert err.count("\n") == 1 and f": {option}: " in err and "Traceback" not in err
 
 
+def test_a_damper_far_from_the_anchorage_is_said_not_guessed(capsys):
+    # x_d/L = 0.42: mode 1 turns overdamped before c is reached (k x_d/L near 1/2): exit 3, one line
+    code, out, err = _cli(capsys, "damper", STAY, "--position", 80, "--constant", 3e4)
+    assert code == 3 and out == "" and err.count("\n") == 1 and "overdamped" in err
+    # x_d = 40 m is a node of mode 5 (x_d/L = 0.21): modes 1-4 are reported, mode 5 is named in a note
+    code, out, err = _cli(capsys, "damper", STAY, "--position", 40, "--constant", 3e4, "--json")
+    rep = json.loads(out)
+    assert code == 0 and [m["k"] for m in rep["modes"]] == [1, 2, 3, 4]
+    assert rep["notes"] and rep["notes"][0].startswith("mode 5 is not reported")
+
+
 def test_out_folder_written_and_foreign_files_refused(tmp_path, capsys):
     out = tmp_path / "d"
     code, _, err = _cli(capsys, "damper", STAY, "--position", 3.8, "--constant", 3e5, "--out", out)

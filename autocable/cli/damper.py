@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from autocable.cli.checks import check_number, check_out, dumps, refuse, strict
+from autocable.errors import ComputationError
 
 #: Modes at most (each is a few milliseconds; more is a typing error in --max-frequency).
 MODES_LIMIT = 100
@@ -107,7 +108,17 @@ def damper_report(spec, position: float, constant: float | None, support, max_fr
         out["damper"]["constant_N_s_m"] = constant
         out["damper"]["constant_from"] = ("the least constant for the design wind" if design_constant is not None
                                           else f"the optimum of mode {k_eq21} (no constant reaches the design target)")
-    modes = [dm.mode_damping(cable, k, position, constant, support).as_dict() for k in ks]
+    modes, notes = [], []
+    for k in ks:
+        try:
+            modes.append(dm.mode_damping(cable, k, position, constant, support).as_dict())
+        except ComputationError as exc:
+            if k == ks[0]:
+                raise
+            # a damper far from the anchorage for the higher modes (k x_d / L near 1/2): said, not hidden
+            which = f"mode {k} is" if k == ks[-1] else f"modes {k} to {ks[-1]} are"
+            notes.append(f"{which} not reported: {str(exc).split(': ', 1)[-1]}")
+            break
     if design is not None and design["target_added_damping"] > 0:
         md = next((m for m in modes if m["k"] == k_eq21), None)
         if md is None:
@@ -116,6 +127,7 @@ def damper_report(spec, position: float, constant: float | None, support, max_fr
         # the least constant itself meets the target to Brent's tolerance, not to the last bit
         design["constant_enough"] = md["added_damping_corrected"] >= design["target_added_damping"] * (1 - 1e-9)
     out["modes"] = modes
+    out["notes"] = notes
     out["conventions"] = {
         "added_damping": "exact taut string: the root of sin z + i eta sin(r z) sin((1-r) z) = 0 followed from "
                          "z = k pi (Krenk 2000), zeta = Im z / |z|",
@@ -161,6 +173,7 @@ def report_lines(rep: dict) -> list[str]:
                      f"{100 * m['max_added_damping_corrected']:6.4g} | {100 * m['added_damping']:6.4g} "
                      f"{100 * m['added_damping_asymptotic']:6.4g} {100 * m['added_damping_corrected']:6.4g} "
                      f"{m['kappa']:6.3g}")
+    lines += [f"note: {n}" for n in rep.get("notes", [])]
     ds = rep.get("design")
     if ds:
         head = (f"design wind {ds['design_wind_m_s']:g} m/s: least damping ratio {100 * ds['least_damping_ratio']:.4g} % "

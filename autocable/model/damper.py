@@ -167,9 +167,18 @@ def _rho(cable: StringCable, support_stiffness_N_m, function: str) -> float:
 
 
 # -- the exact taut string ---------------------------------------------------------------------------
-def _string_equation(z: complex, r: float, theta: float, rho: float) -> tuple[complex, complex]:
+def _trig(eta: float) -> tuple[float, float]:
+    """(cos theta, sin theta) of tan theta = eta, from eta itself (exact digits for a large eta,
+    where theta is within 1e-9 of pi/2)."""
+    if math.isinf(eta):
+        return 0.0, 1.0
+    h = math.hypot(1.0, eta)
+    return 1.0 / h, eta / h
+
+
+def _string_equation(z: complex, r: float, trig: tuple[float, float], rho: float) -> tuple[complex, complex]:
     """F(z) = (cos th + i rho z sin th) sin z + i sin th sin(r z) sin((1-r) z) and dF/dz."""
-    ct, st = math.cos(theta), math.sin(theta)
+    ct, st = trig
     sz, cz = cmath.sin(z), cmath.cos(z)
     s1, c1 = cmath.sin(r * z), cmath.cos(r * z)
     s2, c2 = cmath.sin((1 - r) * z), cmath.cos((1 - r) * z)
@@ -186,6 +195,8 @@ def _newton(fun, z: complex, max_iter: int = 60) -> tuple[complex, int]:
             break
         step = F / dF
         z -= step
+        if not cmath.isfinite(z) or abs(z.imag) > 700:     # off to infinity (sin z overflows)
+            break
         if abs(step) <= _STEP_TOL * max(abs(z), 1.0):
             F, dF = fun(z)
             if dF != 0:
@@ -194,17 +205,20 @@ def _newton(fun, z: complex, max_iter: int = 60) -> tuple[complex, int]:
     raise ComputationError(f"damper: Newton's method did not converge from z = {z:.6g}")
 
 
-def _continue(fun_at, k: int, theta_end: float, guard) -> tuple[complex, int]:
-    """The root of fun_at(theta) followed from z = k pi at theta = 0 to ``theta_end``; a step is
-    halved when Newton fails or lands where ``guard(z_old, z_new)`` refuses (another root)."""
+def _continue(fun_at, k: int, eta: float, guard, what: str) -> tuple[complex, int]:
+    """The root of fun_at(z, (cos theta, sin theta)) followed from z = k pi at theta = 0 to
+    tan theta = ``eta``; a step is halved when Newton fails or lands where ``guard(z_old, z_new)``
+    refuses (another root)."""
+    theta_end = _theta(eta)
     z, theta, total = complex(k * math.pi), 0.0, 0
     step = theta_end / _CONTINUATION_STEPS
     while theta < theta_end:
         t = min(theta + step, theta_end)
+        trig = _trig(eta) if t == theta_end else (math.cos(t), math.sin(t))
         try:
-            z_new, n = _newton(lambda w: fun_at(w, t), z)
+            z_new, n = _newton(lambda w: fun_at(w, trig), z)
             ok = guard(z, z_new)
-        except ComputationError:
+        except (ComputationError, OverflowError, ZeroDivisionError):
             ok, n = False, 0
         total += n
         if ok:
@@ -213,7 +227,10 @@ def _continue(fun_at, k: int, theta_end: float, guard) -> tuple[complex, int]:
         else:
             step /= 2
             if step < 1e-9:
-                raise ComputationError(f"damper: could not follow mode {k} to tan(theta) = {math.tan(theta_end):.6g}")
+                raise ComputationError(
+                    f"damper: mode {k} {what} could not be followed up to eta = c / sqrt(T m) = {eta:.6g} from "
+                    f"the undamped string (it turns overdamped on the way: a damper this far from the "
+                    f"anchorage for this mode; the damper formulas are for k x_d / L well below 1/2)")
     return z, total
 
 
@@ -226,20 +243,19 @@ def string_root(k: int, r: float, eta: float, rho: float = 0.0) -> dict:
     eta = c / sqrt(T m) (``math.inf``: the damper locked) and rho = T / (k_s L) (0: rigid support):
     ``{"z", "residual", "iterations"}``, the residual |F(z)| of the equation scaled to O(1)
     coefficients (cos theta, sin theta)."""
-    theta = _theta(eta)
-    if theta == 0.0:
+    if eta == 0.0:
         return {"z": complex(k * math.pi), "residual": 0.0, "iterations": 0}
 
-    def fun_at(z, t):
-        return _string_equation(z, r, t, rho)
+    def fun_at(z, trig):
+        return _string_equation(z, r, trig, rho)
 
     def guard(z_old, z_new):
         # the k-th root moves from k pi towards k pi / (1 - r) with the damper, by less than a
         # half-spacing of the roots per step: a larger jump is another root
         return abs(z_new - z_old) < 0.5 * math.pi and z_new.imag >= -1e-12
 
-    z, n = _continue(fun_at, k, theta, guard)
-    return {"z": z, "residual": abs(fun_at(z, theta)[0]), "iterations": n}
+    z, n = _continue(fun_at, k, eta, guard, f"(x_d/L = {r:.4g})")
+    return {"z": z, "residual": abs(fun_at(z, _trig(eta))[0]), "iterations": n}
 
 
 def _zeta(z: complex) -> float:
@@ -344,16 +360,15 @@ def asymptotic_damping(cable: StringCable, k: int, position_m: float, constant_N
 
 
 # -- optimum and design ------------------------------------------------------------------------------
-def _zeta_of_theta(cable: StringCable, k: int, position_m: float, support_stiffness_N_m, corrected: bool):
-    """zeta(theta) of mode k, tan(theta) = c / sqrt(T m): the exact taut string, times the ratio of
-    the corrected to the plain asymptotic formula with ``corrected`` (the design value)."""
+def _zeta_of_c(cable: StringCable, k: int, position_m: float, support_stiffness_N_m, corrected: bool):
+    """zeta(c) of mode k: the exact taut string, times the ratio of the corrected to the plain
+    asymptotic formula with ``corrected`` (the design value)."""
     r = position_m / cable.length_m
     rho = 0.0 if support_stiffness_N_m is None else cable.tension_N / (support_stiffness_N_m * cable.length_m)
 
-    def zeta(theta: float) -> float:
-        z = _zeta(string_root(k, r, math.tan(theta) if theta < math.pi / 2 else math.inf, rho)["z"])
+    def zeta(c: float) -> float:
+        z = _zeta(string_root(k, r, c / cable.impedance, rho)["z"])
         if corrected:
-            c = math.tan(theta) * cable.impedance
             plain = asymptotic_damping(cable, k, position_m, c, support_stiffness_N_m)["added_damping"]
             corr = asymptotic_damping(cable, k, position_m, c, support_stiffness_N_m, corrected=True)
             z = z * corr["added_damping"] / plain if plain > 0 else z
@@ -364,36 +379,34 @@ def _zeta_of_theta(cable: StringCable, k: int, position_m: float, support_stiffn
 def optimum(cable: StringCable, k: int, position_m: float, support_stiffness_N_m: float | None = None,
             corrected: bool = False) -> dict:
     """The damper constant giving mode ``k`` its largest damping ratio at ``position_m`` (exact taut
-    string, with ``corrected`` times the bending and sag ratio; maximised over c by Brent's bounded
-    search on theta = atan(c / sqrt(T m))): ``{"optimal_constant_N_s_m", "max_added_damping",
-    "theta"}``."""
+    string, with ``corrected`` times the bending and sag ratio; maximised over ln c by Brent's bounded
+    search around the asymptotic optimum): ``{"optimal_constant_N_s_m", "max_added_damping"}``."""
     fn = "optimum"
     k = _mode(fn, k)
     _ratio(cable, position_m, fn)
     _rho(cable, support_stiffness_N_m, fn)
     asym = asymptotic_damping(cable, k, position_m, cable.impedance, support_stiffness_N_m, corrected=corrected)
     if not math.isfinite(asym["optimal_constant_N_s_m"]):
-        return {"optimal_constant_N_s_m": math.inf, "max_added_damping": 0.0, "theta": math.pi / 2}
-    t0 = math.atan(asym["optimal_constant_N_s_m"] / cable.impedance)
+        return {"optimal_constant_N_s_m": math.inf, "max_added_damping": 0.0}
+    u0 = math.log(asym["optimal_constant_N_s_m"])
     # the exact optimum lies within a few per cent of the asymptotic one for x_d < L/10, within a
     # factor of a few up to x_d = L/2
-    lo, hi = math.atan(math.tan(t0) / 20), math.atan(math.tan(t0) * 20)
-    zeta = _zeta_of_theta(cable, k, position_m, support_stiffness_N_m, corrected)
-    res = minimize_scalar(lambda t: -zeta(t), bounds=(lo, hi), method="bounded", options={"xatol": 1e-10})
-    theta = float(res.x)
-    if min(theta - lo, hi - theta) < 1e-6:
+    lo, hi = u0 - math.log(20.0), u0 + math.log(20.0)
+    zeta = _zeta_of_c(cable, k, position_m, support_stiffness_N_m, corrected)
+    res = minimize_scalar(lambda u: -zeta(math.exp(u)), bounds=(lo, hi), method="bounded", options={"xatol": 1e-9})
+    u = float(res.x)
+    if min(u - lo, hi - u) < 1e-6:
         raise ComputationError(f"damper: the optimum of mode {k} lies at the edge of the search "
-                               f"(c = {math.tan(theta) * cable.impedance:.6g} N s/m)")
-    return {"optimal_constant_N_s_m": math.tan(theta) * cable.impedance, "max_added_damping": -float(res.fun),
-            "theta": theta}
+                               f"(c = {math.exp(u):.6g} N s/m, 20 times from the asymptotic one)")
+    return {"optimal_constant_N_s_m": math.exp(u), "max_added_damping": -float(res.fun)}
 
 
 def least_constant(cable: StringCable, position_m: float, target: float, k: int = 1,
                    support_stiffness_N_m: float | None = None, corrected: bool = False) -> tuple[float | None, str]:
     """The least damper constant [N s/m] at ``position_m`` that adds the damping ratio ``target`` to
     mode ``k`` (the exact taut string, with ``corrected`` its design value; on the rising side of the
-    curve, below the optimum) and ""; or (None, why) when ``target`` is above the largest damping
-    attainable there."""
+    curve, below the optimum, by Brent's method on ln c) and ""; or (None, why) when ``target`` is
+    above the largest damping attainable there."""
     fn = "least_constant"
     k = _mode(fn, k)
     r = _ratio(cable, position_m, fn)
@@ -404,9 +417,13 @@ def least_constant(cable: StringCable, position_m: float, target: float, k: int 
                       f"{100 * opt['max_added_damping']:.4g} % to mode {k} (at c = "
                       f"{opt['optimal_constant_N_s_m']:.4g} N s/m), below the {100 * target:.4g} % needed; "
                       f"move it to about x_d/L = {2 * target:.3g} or more (the maximum is about x_d / (2 L))")
-    zeta = _zeta_of_theta(cable, k, position_m, support_stiffness_N_m, corrected)
-    theta = brentq(lambda t: zeta(t) - target, 1e-300, opt["theta"], xtol=1e-15, rtol=1e-13)
-    return math.tan(theta) * cable.impedance, ""
+    zeta = _zeta_of_c(cable, k, position_m, support_stiffness_N_m, corrected)
+    hi = math.log(opt["optimal_constant_N_s_m"])
+    lo = hi - 40.0          # zeta ~ c at small c: e^-40 of the optimum is below any target asked
+    if zeta(math.exp(lo)) >= target:
+        return math.exp(lo), ""
+    u = brentq(lambda u: zeta(math.exp(u)) - target, lo, hi, xtol=1e-13, rtol=1e-14)
+    return math.exp(u), ""
 
 
 @dataclass(frozen=True)
@@ -477,7 +494,10 @@ def universal_curve(cable: StringCable, k: int, position_m: float, support_stiff
     rows = []
     for kap in ks:
         c = float(kap) * cable.impedance / (k * math.pi * r)
-        ex = added_damping(cable, k, position_m, c, support_stiffness_N_m)
+        try:
+            ex = added_damping(cable, k, position_m, c, support_stiffness_N_m)
+        except ComputationError:        # the mode turns overdamped beyond here: the curve ends
+            break
         asym = asymptotic_damping(cable, k, position_m, c, support_stiffness_N_m)
         rows.append({"kappa": float(kap), "constant_N_s_m": c, "zeta_over_r": ex["added_damping"] / r,
                      "asymptotic_over_r": asym["added_damping"] / r})
