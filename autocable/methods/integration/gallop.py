@@ -80,6 +80,10 @@ FOLD_U_TOL = 1e-9
 #: The first point's distance from the Hopf point: the normal form puts its U* this fraction of U_H
 #: away (small enough for the normal form's guess, large enough for a well-posed Newton).
 START_OFFSET = 1e-3
+#: Where the U component of the unit tangent is below NEAR_FOLD_TU the step is at most h_max times
+#: |t_U| / NEAR_FOLD_TU, and never below NEAR_FOLD_MIN h_max (`CycleContinuation.branch`).
+NEAR_FOLD_TU = 0.2
+NEAR_FOLD_MIN = 0.05
 #: A cycle whose largest amplitude falls below this fraction of the first point's is taken back on
 #: the rest state (the branch ends at another Hopf point).
 REST_FRACTION = 0.5
@@ -465,12 +469,16 @@ class CycleContinuation:
             if max(new.a1, new.a2) > DIVERGED:
                 return done("diverged", f"the cycle leaves the model's range |q_k| <= {DIVERGED:g} at "
                                         f"U* = {new.U:.8g}")
-            # the step: longer after an easy Newton, shorter after a hard one or a sharp turn
+            # the step: longer after an easy Newton, shorter after a hard one or a sharp turn, and
+            # short where the branch runs nearly at constant U (|t_U| small): folds there may come in
+            # a close pair that a long step jumps without t_U changing sign (the sample cable at
+            # U* = 0.8400 and 0.8405, a stable window of 5e-4 in U* between them)
             turn = float(t_new @ t)
             if its_new <= 3 and turn > 0.99:
                 h = min(h * 1.5, h_max)
             elif its_new >= 6 or turn < 0.97:
                 h *= 0.6
+            h = max(min(h, h_max * min(1.0, max(abs(t_new[5]) / NEAR_FOLD_TU, NEAR_FOLD_MIN))), h_min)
             x, t = x_new, t_new
 
     def _fold(self, x_a, t_a, h_b: float, ref, s, hopf: HopfStart) -> CycleFold | None:
