@@ -35,6 +35,11 @@ def plot_damper(report: dict, stem: str | Path, title: str = "") -> list[Path]:
                     label=r"Krenk (2000): $\kappa\,/\,(1+\kappa^2)$" + (", support spring" if support else ""))
         ds = report.get("design")
         if ds and ds.get("target_added_damping", 0) > 0:
+            # the target is met by the design value (bending and sag), not by the bare string's cross
+            md = next((m for m in report.get("modes", []) if m["k"] == ds["mode"]), None)
+            if md is not None:
+                ax.plot(md["kappa"], md["added_damping_corrected"] / report["damper"]["position_ratio"], "+",
+                        color="C3", ms=9, label=f"mode {ds['mode']} with bending and sag (design value)")
             y = ds["target_added_damping"] / report["damper"]["position_ratio"]
             ax.axhline(y, color="C3", lw=0.8, ls=":",
                        label=f"design wind {ds['design_wind_m_s']:g} m/s: mode {ds['mode']} needs "
