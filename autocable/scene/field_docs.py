@@ -45,6 +45,9 @@ MODEL = {
     "aero.calibration_root": "Which root a calibration keeps: \"smallest\" |angle| (default, the only choice).",
     "aero.load_axes": "The axes the load is projected on in eq. (14): \"reference\" (initial section axes; "
                       "default) or \"twisted\" (turned by the twist).",
+    "aero.load": "The rung of the load: \"cubic\" (its cubic expansion, eq. 14: the paper's eq. 21; default) or "
+                 "\"exact\" (eqs. 11-13 without expansion at every section, projected by quadrature; "
+                 "docs/exact-load.md). `--load` of simulate, onset and gallop overrides it.",
 }
 
 #: Scene files (``runs/*.toml``): one paper figure each.
