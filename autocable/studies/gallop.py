@@ -157,8 +157,14 @@ def _design(cont, branches, U_des: float, units, derivation) -> dict:
         found.extend(_stable_cycles_at(cont, br, U_des))
     if not found:
         low = min((br.lowest_U for br in branches), default=math.inf)
-        note = (f"no galloping cycle at the design wind: the lowest galloping speed is {units.wind_m_s(low):.5g} m/s"
-                if low > U_des else "no stable cycle of the branches at the design wind (only unstable ones)")
+        short = [br for br in branches if br.lowest_U <= U_des and max(p.U for p in br.points) < U_des]
+        if low > U_des:
+            note = f"no galloping cycle at the design wind: the lowest galloping speed is {units.wind_m_s(low):.5g} m/s"
+        elif short:
+            note = ("the branch ends below the design wind, so its cycles there are not known: "
+                    + "; ".join(br.end for br in short))
+        else:
+            note = "no stable cycle of the branches at the design wind (only unstable ones)"
         return {"amplitude_at_design_wind_m": None, "frequency_at_design_wind_Hz": None, "beyond_valid_range": None,
                 "design_note": note}
     p, interp = max(found, key=lambda c: max(c[0].a1, c[0].a2))

@@ -474,10 +474,11 @@ class CycleContinuation:
             # a close pair that a long step jumps without t_U changing sign (the sample cable at
             # U* = 0.8400 and 0.8405, a stable window of 5e-4 in U* between them)
             turn = float(t_new @ t)
-            if its_new <= 3 and turn > 0.99:
-                h = min(h * 1.5, h_max)
-            elif its_new >= 6 or turn < 0.97:
+            if its_new >= 6 or turn < 0.97:
                 h *= 0.6
+            elif turn > 0.99 and its_new <= 4:
+                # four Newton steps to 1e-9 are the norm from a predictor a few per cent off
+                h = min(h * (1.5 if its_new <= 3 else 1.2), h_max)
             h = max(min(h, h_max * min(1.0, max(abs(t_new[5]) / NEAR_FOLD_TU, NEAR_FOLD_MIN))), h_min)
             x, t = x_new, t_new
 
