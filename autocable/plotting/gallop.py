@@ -53,11 +53,13 @@ def plot_gallop(study: dict, stem: str | Path, title: str = "") -> list[Path]:
                     if folds:
                         ax.plot([r["U_m_s"] for r in folds], [r[key] for r in folds], "o", color=color, mfc="white",
                                 ms=5, zorder=4)
-                    ax.plot([hp["hopf_U_m_s"]], [0.0], "^", color=color, ms=6, zorder=4, clip_on=False)
+                    if not _finite(U_top) or hp["hopf_U_m_s"] <= U_top:
+                        # unclipped (half of it lies below the axis), so only inside the range drawn
+                        ax.plot([hp["hopf_U_m_s"]], [0.0], "^", color=color, ms=6, zorder=4, clip_on=False)
                 if first:                       # no stable cycle: the legend still names the damping
                     ax.plot([], [], "--", color=color, label=label)
         design = study.get("design_wind_m_s")
-        for ax, (key, name) in zip(axes, keys):
+        for n, (ax, (key, name)) in enumerate(zip(axes, keys)):
             if _finite(design):
                 ax.axvline(design, color="0.35", lw=0.9, ls=":", label=f"design wind {design:g} m/s")
             ax.plot([], [], "o", color="0.3", mfc="white", ms=5, label="fold of cycles (LPC)")
@@ -69,7 +71,8 @@ def plot_gallop(study: dict, stem: str | Path, title: str = "") -> list[Path]:
                 ax.set_xlim(0.0, U_top)
             ax.set_ylim(bottom=0.0)
             ax.grid(alpha=0.3)
-            ax.legend(fontsize=7, loc="best")
+            if n == 0:          # one legend: both panels draw the same curves
+                ax.legend(fontsize=7, loc="upper left")
         if title:
             fig.suptitle(title, fontsize=10)
         fig.tight_layout()
