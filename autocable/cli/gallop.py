@@ -48,7 +48,8 @@ def _dampings(text: str | None):
     try:
         vals = [float(p) for p in parts]
     except ValueError:
-        raise refuse("--damping", f"expected damping ratios separated by commas (e.g. 0.001,0.005), got {text!r}") from None
+        raise refuse("--damping", f"expected damping ratios separated by commas (e.g. 0.001,0.005), "
+                                  f"got {text!r}") from None
     if not vals or len(vals) > DAMPINGS_LIMIT:
         raise refuse("--damping", f"expected 1 to {DAMPINGS_LIMIT} damping ratios, got {len(vals)}")
     for v in vals:
@@ -128,7 +129,8 @@ def gallop_text(study: dict) -> list[str]:
             amp = case.get("amplitude_at_design_wind_m")
             if amp:
                 dc = case.get("design_cycle", {})
-                lines.append(f"  design wind {design:g} m/s: stable cycle, peak {amp[0]:.4g} m in-plane, {amp[1]:.4g} m "
+                lines.append(f"  design wind {design:g} m/s: stable cycle, peak {amp[0]:.4g} m in-plane, "
+                             f"{amp[1]:.4g} m "
                              f"out-of-plane, {case['frequency_at_design_wind_Hz']:.5g} Hz (largest multiplier "
                              f"{dc.get('max_multiplier_modulus', math.nan):.3g})")
                 if "phi_swept_deg" in dc:

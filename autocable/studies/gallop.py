@@ -55,9 +55,9 @@ CHECK_POINTS = 3
 #: integration approaches them too slowly to settle within its time limit.
 CHECK_MAX_MODULUS = 0.98
 #: The "large start" of the check: this many times the cycle's own start state (capped so that the
-#: start stays within `premises.MAX_AMPLITUDE`, the largest start eq. (21) accepts). Not more: the basin of a stable cycle is bounded by an
-#: unstable one outside it (the 190 m stay at 22 m/s: from 1.2 times the cycle eq. (21) lands on it,
-#: from 1.3 times it diverges).
+#: start stays within `premises.MAX_AMPLITUDE`, the largest start eq. (21) accepts). Not more: the
+#: basin of a stable cycle is bounded by an unstable one outside it (the 190 m stay at 22 m/s: from
+#: 1.2 times the cycle eq. (21) lands on it, from 1.3 times it diverges).
 LARGE_START = 1.2
 #: Hopf points are looked for up to this many times the highest wind speed of the study: a strongly
 #: sub-critical branch born above it may fold back far below it (the 190 m stay at 1.56 % damping:
@@ -158,7 +158,10 @@ def _design(cont, branches, U_des: float, units, derivation) -> dict:
     if not found:
         low = min((br.lowest_U for br in branches), default=math.inf)
         short = [br for br in branches if br.lowest_U <= U_des and max(p.U for p in br.points) < U_des]
-        if low > U_des:
+        if not branches:
+            note = ("no galloping cycle at the design wind: no branch of cycles was found (no Hopf point whose "
+                    "cycles reach the range)")
+        elif low > U_des:
             note = f"no galloping cycle at the design wind: the lowest galloping speed is {units.wind_m_s(low):.5g} m/s"
         elif short:
             note = ("the branch ends below the design wind, so its cycles there are not known: "

@@ -462,8 +462,9 @@ class CycleContinuation:
                 return done("period", f"the period grows beyond {PERIOD_LIMIT:g} Hopf periods at U* = {new.U:.8g} "
                                       "(towards a homoclinic orbit)")
             recent = points[-STALL_POINTS:]
-            if len(recent) == STALL_POINTS and recent[0].kind != "H" and \
-                    max(p.U for p in recent) - min(p.U for p in recent) < STALL_U * new.U and new.T > 1.05 * recent[0].T:
+            spread = max(p.U for p in recent) - min(p.U for p in recent)
+            if len(recent) == STALL_POINTS and recent[0].kind != "H" and spread < STALL_U * new.U \
+                    and new.T > 1.05 * recent[0].T:
                 return done("period", f"the period grows ({recent[0].T / T_H:.3g} to {new.T / T_H:.3g} Hopf periods) "
                                       f"while U* stays within {STALL_U:g} of {new.U:.8g} (towards a homoclinic orbit)")
             if max(new.a1, new.a2) > DIVERGED:
