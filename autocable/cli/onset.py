@@ -203,15 +203,19 @@ def cmd_onset(args) -> int:
 
 def _pairs(args, d, below: float, U_max: float, messages: list) -> int:
     """``onset --modes-below F``: the table of every mode pair below F (`studies.onset.pairs_below`)."""
-    from autocable.studies.onset import pairs_below, pairs_text
-    report = pairs_below(d, below, args.design_wind, U_max)
+    from autocable.studies.onset import pairs_text
+    from autocable.studies.pairs_galloping import galloping_lines, pairs_with_galloping
+    report = pairs_with_galloping(d, below, args.design_wind, U_max)
     report["study"] = messages
     if args.json:
         print(dumps(report, indent=1))
         return 0
     for m in messages:
         print(m)
-    print("\n".join(pairs_text(report)))
+    lines = pairs_text(report)
+    if args.design_wind is not None:
+        lines = [x for x in lines if "not computed here" not in x] + galloping_lines(report)
+    print("\n".join(lines))
     return 0
 
 

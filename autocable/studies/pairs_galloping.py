@@ -1,0 +1,73 @@
+"""The mode-pair table with its galloping columns: `autocable onset --modes-below F --design-wind U`.
+
+`autocable.studies.onset.pairs_below` gives each pair's linear onset and linear least damping; here
+each pair that gallops is continued (`autocable.studies.gallop`): its lowest galloping speed, the
+largest stable cycle at the design wind (peak mid-span, m, in-plane and out-of-plane, with its
+validity) and the global least damping (no cycle up to the design wind). Kept apart from both
+modules because it needs both (the studies import no circle)."""
+from __future__ import annotations
+
+from autocable.errors import ComputationError
+from autocable.spec import SpecError
+from autocable.studies.gallop import gallop_study, least_damping_global
+from autocable.studies.onset import pair_spec, pairs_below
+
+
+def pairs_with_galloping(d, below_hz: float, design_wind_m_s: float | None, U_max: float, log=None) -> dict:
+    """`pairs_below` with ``least_damping_global``, ``amplitude_at_design_wind_m``,
+    ``lowest_galloping_U_m_s`` and ``beyond_valid_range`` filled for every pair (the galloping
+    study looks for Hopf points beyond the scanned winds too)."""
+    from autocable.model.derive import derive
+    from autocable.model.units import units_of
+    report = pairs_below(d, below_hz, design_wind_m_s, U_max)
+    if design_wind_m_s is None:
+        return report
+    U_max_m_s = units_of(d.spec, d.statics).wind_m_s(U_max)
+    for row in report["pairs"]:
+        row.update(lowest_galloping_U_m_s=None, beyond_valid_range=None)
+        # a pair stable over the scanned winds may still have a Hopf point above them whose
+        # sub-critical branch folds back below the design wind: the continuation looks for it
+        dk = d if row["k"] == d.mode_pair else derive(pair_spec(d.spec, row["k"]))
+        if log:
+            log(f"pair {row['k']}: galloping branch and global least damping")
+        try:
+            g = gallop_study(dk, design_wind_m_s, U_max_m_s=U_max_m_s, checks=False)
+            row["lowest_galloping_U_m_s"] = g.get("lowest_galloping_U_m_s")
+            row["amplitude_at_design_wind_m"] = g.get("amplitude_at_design_wind_m")
+            row["beyond_valid_range"] = g.get("beyond_valid_range")
+            row["least_damping_global"] = least_damping_global(dk, design_wind_m_s, U_max_m_s)[
+                "least_damping_ratio_global"]
+        except (SpecError, ComputationError) as exc:
+            row["galloping_note"] = str(exc)
+    report.pop("pending_columns", None)
+    report["conventions"].update({
+        "least_damping_global": "the least damping ratio for which no galloping cycle of the pair exists up to the "
+                                "design wind (autocable.studies.gallop.least_damping_global)",
+        "amplitude_at_design_wind_m": "[in-plane, out-of-plane] peak mid-span of the largest stable galloping cycle "
+                                      "at the design wind (null: none there)",
+        "lowest_galloping_U_m_s": "the lowest wind speed on the pair's galloping branch (a cycle fold below a "
+                                  "sub-critical onset)",
+        "beyond_valid_range": "the design-wind cycle leaves the aerodynamic curves' valid range or the cubic "
+                              "load's (autocable.model.validity)"})
+    return report
+
+
+def galloping_lines(report: dict) -> list[str]:
+    """The galloping columns of the table, one line per pair (after `pairs_text`)."""
+    if report.get("design_wind_m_s") is None:
+        return []
+    des = report["design_wind_m_s"]
+    lines = [f"  galloping (eq. 21 cycles, autocable gallop) with the design wind {des:g} m/s:",
+             "   k  lowest U [m/s]  peak at design wind [m] (in / out)  least xi, global  validity"]
+    for r in report["pairs"]:
+        low = r.get("lowest_galloping_U_m_s")
+        amp = r.get("amplitude_at_design_wind_m")
+        xi = r.get("least_damping_global")
+        amp_text = f"{amp[0]:.3g} / {amp[1]:.3g}" if amp else "-"
+        valid = {True: "BEYOND the model's range", False: "inside", None: "-"}[r.get("beyond_valid_range")]
+        line = (f"  {r['k']:2d}  {low:14.4g}" if low is not None else f"  {r['k']:2d}  {'-':>14}")
+        line += f"  {amp_text:>34}  {(f'{100 * xi:.4g} %' if xi is not None else '-'):>16}  {valid}"
+        if r.get("galloping_note") and low is None:
+            line += f"  ({r['galloping_note']})"
+        lines.append(line)
+    return lines
