@@ -14,13 +14,14 @@ solution loses stability at ``critical_wind_speed_m_s`` (see `autocable.model.ca
 """
 from __future__ import annotations
 
+import csv
 import hashlib
 import math
 import os
 import re
 import stat
 import tomllib
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 CALIBRATE = "calibrate"
@@ -73,6 +74,22 @@ class CableSpec:
 
 
 @dataclass(frozen=True)
+class AeroTable:
+    """Lift and drag measured against phi (``[aero.table]`` or a CSV file; docs/aero-curves.md)."""
+
+    phi_deg: tuple                   # angles of eq. (12), increasing [deg]
+    lift: tuple                      # c_l at those angles
+    drag: tuple                      # c_d at those angles
+    periodic: bool = False           # the rows span 360 deg, the last repeating the first
+    source: str = field(default="", repr=False, compare=False)   # the CSV file, for messages only
+
+
+#: The [aero] fields of the coefficient curves beyond eq. (13)'s cubics (`autocable.model.curves`):
+#: in `ModelSpec.content_hash` only when set, so a model without them keeps the hash it had.
+CURVE_FIELDS = ("valid_phi_deg", "outside", "blend_deg", "dry_drag", "table")
+
+
+@dataclass(frozen=True)
 class AeroSpec:
     """The quasi-steady cable-rivulet model of Sect. 2.3 (eqs. 9-14)."""
 
@@ -91,6 +108,18 @@ class AeroSpec:
                                      # (the current axes a2, a3, turned by the twist theta)
     load: str = "cubic"              # the rung of the load: "cubic" (eq. 14, the paper's eq. 21) or
                                      # "exact" (eqs. 11-13 unexpanded, `autocable.model.exact_load`)
+    # The curves c_l, c_d beyond eq. (13)'s cubics (`autocable.model.curves`, docs/aero-curves.md);
+    # lift and drag are None when a table is given. None: not given (the curves' defaults).
+    valid_phi_deg: tuple | None = field(default=None, repr=False)   # (lo, hi) of phi the curves hold over
+    outside: str = field(default="cubic", repr=False)   # beyond valid_phi_deg: "cubic" | "dry-cylinder"
+    blend_deg: float | None = field(default=None, repr=False)   # width of the blend to the dry cylinder
+    dry_drag: float | None = field(default=None, repr=False)    # the dry cylinder's c_d
+    table: AeroTable | None = field(default=None, repr=False)   # measured c_l, c_d against phi
+
+    def curve_fields(self) -> tuple:
+        """((name, value), ...) of the `CURVE_FIELDS` that are set (not at their defaults)."""
+        return tuple((k, getattr(self, k)) for k in CURVE_FIELDS
+                     if getattr(self, k) is not None and not (k == "outside" and self.outside == "cubic"))
 
 
 @dataclass(frozen=True)
@@ -116,6 +145,8 @@ class ModelSpec:
         text = repr((self.cable, self.aero))
         if self.damper is not None:     # a model without a damper keeps the hash it always had
             text = repr((self.cable, self.aero, self.damper))
+        if self.aero.curve_fields():    # so does a model with eq. (13)'s cubics alone (a table: its values)
+            text += repr(self.aero.curve_fields())
         return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
@@ -164,10 +195,22 @@ _AERO_RULES = {
     "load": ("choice", ("cubic", "exact"),
              '"cubic" (the cubic expansion of eq. 14, the paper\'s eq. 21) or "exact" (the quasi-steady '
              'load of eqs. 11-13 without expansion)'),
+    "valid_phi_deg": ("phi_range", (-720.0, 720.0), "[lo, hi]: the range of the angle phi of eq. (12) the "
+                                                    "curves hold over, degrees, lo < hi, each in [-720, 720]"),
+    "outside": ("choice", ("cubic", "dry-cylinder"),
+                '"cubic" (the fits of eq. 13 at every angle) or "dry-cylinder" (blended to the dry '
+                'cylinder\'s c_l = 0, c_d = dry_drag beyond valid_phi_deg)'),
+    "blend_deg": ("bounded", (0.0, 90.0), "the width of the blend to the dry cylinder in degrees, above 0 "
+                                          "and at most 90 (default 10)"),
+    "dry_drag": ("bounded", (0.0, 3.0), "the dry circular cylinder's drag coefficient, above 0 and at most 3 "
+                                        "(default 1.2, subcritical flow)"),
+    "table": ("curve_table", None, 'lift and drag measured against phi: a CSV file (columns phi_deg, lift, '
+                                   'drag) or a table with phi_deg, lift, drag (lists) and periodic'),
 }
 # angle_convention is required: its senses give different cables (the sample's Theta0 is -13.9
 # deg with "mirrored" and "reversed", 58.2 deg with "eq12"), so a default would silently pick one.
-_OPTIONAL = {"gravity_m_s2", "load_length", "calibration_root", "twist_ends", "load_axes", "load", "mode_pair"}
+_OPTIONAL = {"gravity_m_s2", "load_length", "calibration_root", "twist_ends", "load_axes", "load", "mode_pair",
+             "lift", "drag", "valid_phi_deg", "outside", "blend_deg", "dry_drag", "table"}
 
 #: A model's ``name``: a one-line label (it names outputs and cache entries).
 NAME_RULE = ('a label of 1 to 64 characters, on one line, without "/", "\\" or control characters, '
@@ -204,6 +247,15 @@ def _check(value, rule, path, field):
             if not bounds[0] <= x <= bounds[1]:
                 raise SpecError(path, f"{field}[{k}]", f"expected {expected}, got {x!r}")
         return out
+    if kind == "phi_range":
+        if not isinstance(value, list) or len(value) != 2:
+            raise SpecError(path, field, f"expected {expected}, got {show(value)}")
+        lo, hi = (finite_number(v, path, field, expected) for v in value)
+        if not (bounds[0] <= lo < hi <= bounds[1]):
+            raise SpecError(path, field, f"expected {expected}, got {[lo, hi]!r}")
+        return (lo, hi)
+    if kind == "curve_table":
+        return _curve_table(value, path, field)
     if kind == "angle_or_cal":
         if value == CALIBRATE:
             return None
@@ -224,6 +276,139 @@ def _check(value, rule, path, field):
     if kind == "bounded" and not bounds[0] < x <= bounds[1]:
         raise SpecError(path, field, f"expected {expected}, got {x!r}")
     return x
+
+
+#: The [aero.table] keys: the values inline, or a CSV file.
+_TABLE_KEYS = ("phi_deg", "lift", "drag", "periodic", "file")
+_TABLE_COLUMNS = ("phi_deg", "lift", "drag")
+_TABLE_BOUND = 100.0        # |c_l|, c_d of a table, as eq. (13)'s coefficients
+
+
+def _read_table_csv(name, path, field) -> tuple[dict, str]:
+    """{"phi_deg": [...], "lift": [...], "drag": [...]} of a CSV file named relative to the model
+    file (a header row naming the three columns in any order; lines starting with # are skipped)."""
+    if not isinstance(name, str) or not name.strip():
+        raise SpecError(path, field, f"expected the name of a CSV file (relative to the model file), got {show(name)}")
+    csv_path = Path(str(path)).parent / name
+    where = f"{csv_path}"
+    try:
+        if not stat.S_ISREG(os.stat(csv_path).st_mode):
+            raise SpecError(path, field, f"{where} is not a regular file; give a CSV file")
+        text = csv_path.read_bytes().decode("utf-8")
+    except FileNotFoundError:
+        raise SpecError(path, field, f"no such file {where}; the path is relative to the model file") from None
+    except UnicodeDecodeError:
+        raise SpecError(path, field, f"{where} is not UTF-8 text; save the CSV as UTF-8") from None
+    except OSError as exc:
+        raise SpecError(path, field, f"cannot read {where}: {exc.strerror}") from None
+    rows = [(n, r) for n, r in enumerate(csv.reader(text.splitlines()), start=1)
+            if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
+    if not rows:
+        raise SpecError(path, field, f"{where} is empty; give a header row phi_deg,lift,drag and one row per angle")
+    header = [c.strip() for c in rows[0][1]]
+    if sorted(header) != sorted(_TABLE_COLUMNS):
+        raise SpecError(path, field, f"{where}: expected the columns phi_deg, lift, drag in a header row, "
+                                     f"got {show(header)}")
+    out = {c: [] for c in _TABLE_COLUMNS}
+    for n, row in rows[1:]:
+        if len(row) != len(header):
+            raise SpecError(path, field, f"{where} line {n}: expected {len(header)} values, got {len(row)}")
+        for c, v in zip(header, row):
+            try:
+                x = float(v)
+            except ValueError:
+                raise SpecError(path, field, f"{where} line {n}: {c} is not a number: {show(v.strip())}") from None
+            out[c].append(x)
+    return out, str(csv_path)
+
+
+def _curve_table(value, path, field) -> AeroTable:
+    """An `AeroTable` from ``[aero.table]`` (inline lists or ``file``) or a CSV file name: at least
+    4 rows, angles strictly increasing, spanning at most 360 deg, or exactly 360 with the last row
+    repeating the first when ``periodic``; finite values, c_d >= 0."""
+    if isinstance(value, str):
+        value = {"file": value}
+    if not isinstance(value, dict):
+        raise SpecError(path, field, f"expected a CSV file name or a table, got {show(value)}")
+    for key in value:
+        if key not in _TABLE_KEYS:
+            raise SpecError(path, f"{field}.{key}", f"unknown key; allowed: {', '.join(_TABLE_KEYS)}")
+    periodic = value.get("periodic", False)
+    if not isinstance(periodic, bool):
+        raise SpecError(path, f"{field}.periodic", f"expected true or false, got {show(periodic)}")
+    inline = [k for k in _TABLE_COLUMNS if k in value]
+    if "file" in value and inline:
+        raise SpecError(path, field, f"give either file or the lists {', '.join(_TABLE_COLUMNS)}, not both")
+    if "file" in value:
+        data, source = _read_table_csv(value["file"], path, f"{field}.file")
+        where = f"{field}.file ({source})"
+    else:
+        for k in _TABLE_COLUMNS:
+            if k not in value:
+                raise SpecError(path, f"{field}.{k}", "missing; give phi_deg, lift and drag as lists of numbers "
+                                                      "(or file = a CSV file)")
+            if not isinstance(value[k], list):
+                raise SpecError(path, f"{field}.{k}", f"expected a list of numbers, got {show(value[k])}")
+        data = {k: [finite_number(v, path, f"{field}.{k}[{i}]") for i, v in enumerate(value[k])]
+                for k in _TABLE_COLUMNS}
+        source, where = "", field
+    phi, lift, drag = (data[k] for k in _TABLE_COLUMNS)
+    if not len(phi) == len(lift) == len(drag):
+        raise SpecError(path, where, f"phi_deg, lift and drag have {len(phi)}, {len(lift)}, {len(drag)} values; "
+                                     f"give one of each per angle")
+    if len(phi) < 4:
+        raise SpecError(path, where, f"{len(phi)} angles; a cubic spline needs at least 4")
+    for k, (a, b) in enumerate(zip(phi, phi[1:]), start=1):
+        if b == a:
+            raise SpecError(path, where, f"angle {a:g} deg given twice (rows {k} and {k + 1}); keep one row per angle")
+        if b < a:
+            raise SpecError(path, where, f"angles not increasing ({b:g} deg after {a:g} deg, row {k + 1}); "
+                                         f"sort the rows by phi_deg")
+    if not (-720.0 <= phi[0] and phi[-1] <= 720.0):
+        raise SpecError(path, where, f"angles from {phi[0]:g} to {phi[-1]:g} deg; keep them in [-720, 720]")
+    for name, vals in (("lift", lift), ("drag", drag)):
+        for k, v in enumerate(vals, start=1):
+            if not -_TABLE_BOUND <= v <= _TABLE_BOUND or (name == "drag" and v < 0):
+                expected = "in [0, 100] (a drag coefficient is not negative)" if name == "drag" else "in [-100, 100]"
+                raise SpecError(path, where, f"{name} at row {k} is {v!r}; expected {expected}")
+    span = phi[-1] - phi[0]
+    if periodic:
+        if abs(span - 360.0) > 1e-9 or abs(lift[-1] - lift[0]) > 1e-9 or abs(drag[-1] - drag[0]) > 1e-9:
+            raise SpecError(path, where, f"periodic = true needs the last row to repeat the first 360 deg on "
+                                         f"(the same angle): got {phi[0]:g} to {phi[-1]:g} deg, lift {lift[0]:g} "
+                                         f"and {lift[-1]:g}, drag {drag[0]:g} and {drag[-1]:g}; add or fix that row")
+    elif span > 360.0:
+        raise SpecError(path, where, f"the angles span {span:g} deg, more than a turn; give one turn with "
+                                     f"periodic = true, or less")
+    return AeroTable(tuple(phi), tuple(lift), tuple(drag), periodic, source)
+
+
+def _check_curve_fields(aero: dict, path) -> None:
+    """The [aero] fields of the curves agree: eq. (13)'s lift and drag or a table; the blend's
+    fields only with ``outside = "dry-cylinder"``, which needs the fits' range."""
+    table = aero.get("table")
+    if table is not None:
+        for key in ("lift", "drag", "outside", "blend_deg", "dry_drag"):
+            if key in aero:
+                raise SpecError(path, f"aero.{key}", "not with a table: the table gives lift and drag at every "
+                                                     "angle (held beyond a non-periodic table's ends); remove "
+                                                     "this field or the table")
+        aero["lift"] = aero["drag"] = None
+        return
+    for key in ("lift", "drag"):
+        if key not in aero:
+            raise SpecError(path, f"aero.{key}", f"missing; expected {_AERO_RULES[key][2]} (or give [aero.table], "
+                                                 f"the coefficients measured against phi)")
+    if aero.get("outside", "cubic") == "dry-cylinder":
+        if "valid_phi_deg" not in aero:
+            raise SpecError(path, "aero.valid_phi_deg", 'outside = "dry-cylinder" needs the range of phi the fits '
+                                                        'hold over: give [lo, hi] in degrees (e.g. the static '
+                                                        'angle phi0 that `autocable derive` prints, +- 15)')
+    else:
+        for key in ("blend_deg", "dry_drag"):
+            if key in aero:
+                raise SpecError(path, f"aero.{key}", 'used only with outside = "dry-cylinder"; set that or '
+                                                     'remove this field')
 
 
 def _section(data, name, rules, path):
@@ -314,6 +499,7 @@ def parse_model(data: dict, path="<spec>") -> ModelSpec:
     aero_fields.setdefault("calibration_root", "smallest")
     aero_fields.setdefault("load_axes", "reference")
     aero_fields.setdefault("load", "cubic")
+    _check_curve_fields(aero_fields, path)
     aero = AeroSpec(**aero_fields)
     if aero.yaw_deg is None and aero.rivulet_angle_deg is None:
         raise SpecError(path, "aero.yaw_deg", 'only one of yaw_deg and rivulet_angle_deg may be "calibrate"')

@@ -6,6 +6,11 @@ the trivial solution of eq. (21) at eta = 0 loses stability at U* = 1 (U = U_c) 
 mode (Fig. 3 is in-plane galloping), while the out-of-plane mode stays stable up to U* = 1.3, the
 largest wind of Sect. 5. Stability is judged on the eigenvalues of the linear part of eq. (21),
 both modes and all their aerodynamic couplings included.
+
+With curves other than eq. (13)'s cubics (a table, a fit bounded by the dry cylinder:
+`autocable.model.curves`) every candidate angle moves the static angle phi0, and the linear load is
+that of the curves' own cubic at that phi0 (`equivalent_cubic`), the cubic eq. (21) is then derived
+with: the calibrated angle is the one the derived model has its onset at.
 """
 from __future__ import annotations
 
@@ -15,7 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
-from autocable.model.aero import linear_load
+from autocable.model.aero import expand_load_jet, linear_load
+from autocable.model.curves import curves_from_spec, static_angle
 from autocable.model.galerkin import linear_aero_matrix
 
 
@@ -62,11 +68,28 @@ def calibrate(aero_spec, st, modes, integrator, K: float, nu: float, xi_s: float
     solve_yaw = aero_spec.yaw_deg is None
     lift, drag = aero_spec.lift, aero_spec.drag
     lo, hi = (-90.0, 90.0)
+    curves = curves_from_spec(aero_spec)
+    local: dict = {}
+    conv, axes = aero_spec.angle_convention, aero_spec.load_axes
+
+    def linear(beta, th0):
+        if curves.kind == "cubic":
+            return linear_load(lift, drag, st.alpha, beta, th0, conv, axes)
+        if (beta, th0) not in local:
+            l4, d4 = curves.equivalent_cubic(static_angle(st.alpha, beta, th0, conv))
+            if lift is not None and (l4, d4) == (tuple(lift), tuple(drag)):    # a blend inside its range
+                local[beta, th0] = linear_load(l4, d4, st.alpha, beta, th0, conv, axes)
+            else:
+                # a new cubic at every angle: the jet's millisecond, not a sympy lambdify per angle
+                exp = expand_load_jet(l4, d4, st.alpha, beta, th0, conv, axes)
+                local[beta, th0] = {(c, m): (exp.b2 if c == 2 else exp.b3)[m] for c in (2, 3)
+                                    for m in ((1, 0, 0), (0, 1, 0), (0, 0, 1))}
+        return local[beta, th0]
 
     def matrix(angle_deg, U):
         beta = math.radians(angle_deg) if solve_yaw else math.radians(aero_spec.yaw_deg)
         th0 = math.radians(aero_spec.rivulet_angle_deg) if solve_yaw else math.radians(angle_deg)
-        lin = linear_load(lift, drag, st.alpha, beta, th0, aero_spec.angle_convention, aero_spec.load_axes)
+        lin = linear(beta, th0)
         al = linear_aero_matrix(integrator, K, nu, st.m_star, lin)
         return _linear_matrix(modes.omega1, modes.omega2, xi_s, al, U)
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field, replace
 from autocable._store import cache_dir, content_hash, load_checked_json, store_checked_json
 from autocable.model.aero import expand_load_jet
 from autocable.model.calibration import CalibrationError, calibrate
-from autocable.model.curves import curves_from_spec
+from autocable.model.curves import curves_from_spec, static_angle
 from autocable.model.equations import TwoModeODE
 from autocable.model.exact_load import exact_load_of
 from autocable.model.galerkin import aero_scales, project
@@ -160,8 +160,13 @@ def _compute(spec: ModelSpec, integrator: str) -> dict:
     # differentiation (`expand_load`; tests/test_calibration.py, every angle sense and both axes, to
     # 1e-12 relative) in a millisecond instead of 5-10 s, which every new model (a calibration
     # candidate, a user's cable) paid once.
-    aero = expand_load_jet(spec.aero.lift, spec.aero.drag, st.alpha, beta, theta0, spec.aero.angle_convention,
-                           spec.aero.load_axes)
+    # Curves other than eq. (13)'s cubics (a table, a fit bounded by the dry cylinder) enter eq. (21)
+    # through their cubic at the static angle: value and three derivatives (docs/aero-curves.md).
+    lift, drag = spec.aero.lift, spec.aero.drag
+    curves = curves_from_spec(spec.aero)
+    if curves.kind != "cubic":
+        lift, drag = curves.equivalent_cubic(static_angle(st.alpha, beta, theta0, spec.aero.angle_convention))
+    aero = expand_load_jet(lift, drag, st.alpha, beta, theta0, spec.aero.angle_convention, spec.aero.load_axes)
     timings["aero_expansion_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
