@@ -367,6 +367,7 @@ class BlendedCubic:
         du = np.where(above, 1.0 / b, -1.0 / b)
         out = f[order] + sum(math.comb(order, k) * _smoothstep(u, k) * du**k
                              * ((dry - f[0]) if order == k else -f[order - k]) for k in range(order + 1))
+        out = np.where(u >= 1.0, dry if order == 0 else 0.0, out)      # the dry cylinder's constants exactly
         out = np.where((phi >= lo) & (phi <= hi), f[order], out)
         return out if out.ndim else float(out)
 
