@@ -451,6 +451,23 @@ def test_calibration_through_a_table_finds_the_cubics_angle(stay):
     assert abs(table.theta0_deg - d.theta0_deg) < 1e-7, (table.theta0_deg, d.theta0_deg)
 
 
+def test_calibration_rejects_roots_whose_static_angle_leaves_the_curves(stay):
+    """A blend over phi0 +- 10 deg offers a root of its own (Theta0 = +0.87 deg, static angle 29.8 deg
+    in the lower blend zone, a smaller angle than the fits' -10.98 deg): it is rejected, with the
+    reason, and the fits' angle is kept, to the last bit."""
+    from autocable.model.derive import derive
+    spec, d = stay
+    phi0 = d.static_angle_deg
+    blend = dataclasses.replace(spec.aero, rivulet_angle_deg=None, outside="dry-cylinder",
+                                valid_phi_deg=(phi0 - 10.0, phi0 + 10.0))
+    b = derive(dataclasses.replace(spec, aero=blend), use_cache=False)
+    assert b.theta0 == d.theta0
+    why = {round(r, 2): reason for r, reason in b.calibration_roots}
+    near = [r for r in why if 0.5 < r < 1.2]
+    assert len(near) == 1 and "outside the curves' valid range" in why[near[0]], why
+    assert all(("outside" in reason) == (r != round(d.theta0_deg, 2)) for r, reason in why.items()), why
+
+
 def _compiled_checks(d, rng, n=6):
     """The compiled exact rung's right-hand side against the numpy accelerations at states that
     sweep phi over tens of degrees, and its Jacobian against central differences of it."""

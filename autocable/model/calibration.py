@@ -10,7 +10,10 @@ both modes and all their aerodynamic couplings included.
 With curves other than eq. (13)'s cubics (a table, a fit bounded by the dry cylinder:
 `autocable.model.curves`) every candidate angle moves the static angle phi0, and the linear load is
 that of the curves' own cubic at that phi0 (`equivalent_cubic`), the cubic eq. (21) is then derived
-with: the calibrated angle is the one the derived model has its onset at.
+with: the calibrated angle is the one the derived model has its onset at. A root whose static angle
+lies outside the curves' stated valid range (``aero.valid_phi_deg``, a table's range, a blend's fit
+range) is rejected: there the curves are not the measured section's (a blend's zone would otherwise
+offer roots of its own).
 """
 from __future__ import annotations
 
@@ -86,6 +89,20 @@ def calibrate(aero_spec, st, modes, integrator, K: float, nu: float, xi_s: float
                                     for m in ((1, 0, 0), (0, 1, 0), (0, 0, 1))}
         return local[beta, th0]
 
+    def _outside_curves(angle_deg) -> str:
+        # A static state where the curves do not hold (a blend's zone, beyond a table) is no onset
+        # of the measured section; the paper's fits state no range (theirs is about phi0 itself).
+        if curves.valid_phi is None:
+            return ""
+        beta = math.radians(angle_deg) if solve_yaw else math.radians(aero_spec.yaw_deg)
+        th0 = math.radians(aero_spec.rivulet_angle_deg) if solve_yaw else math.radians(angle_deg)
+        phi0 = static_angle(st.alpha, beta, th0, conv)
+        lo, hi = curves.valid_phi
+        if lo <= phi0 <= hi:
+            return ""
+        return (f"its static angle phi0 = {math.degrees(phi0):.2f} deg is outside the curves' valid range "
+                f"[{math.degrees(lo):.2f}, {math.degrees(hi):.2f}] deg")
+
     def matrix(angle_deg, U):
         beta = math.radians(angle_deg) if solve_yaw else math.radians(aero_spec.yaw_deg)
         th0 = math.radians(aero_spec.rivulet_angle_deg) if solve_yaw else math.radians(angle_deg)
@@ -106,7 +123,7 @@ def calibrate(aero_spec, st, modes, integrator, K: float, nu: float, xi_s: float
             roots.append(brentq(g, a0, a1, xtol=1e-13, rtol=1e-15))
     accepted, rejected = [], []
     for r in roots:
-        reason = _reject_reason(lambda U: matrix(r, U))
+        reason = _outside_curves(r) or _reject_reason(lambda U: matrix(r, U))
         (rejected.append((r, reason)) if reason else accepted.append(r))
     field = "yaw_deg" if solve_yaw else "rivulet_angle_deg"
     if not accepted:
