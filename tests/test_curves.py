@@ -5,8 +5,8 @@ definitions (a C1 blend, checked here to fail the C2 test, shows the test bites)
 test compares eq. (21) of a model given by a table sampled from the paper's cubic with eq. (21) of
 the cubic itself (an independent route: spline -> equivalent cubic -> cubic_about against the
 coefficients typed in); the compiled test compares the C right-hand side and Jacobian of the exact
-rung with the numpy evaluation of the same load and with finite differences. About 11 s with a cold
-cache (two C builds of the exact rung), 6 s warm.
+rung with the numpy evaluation of the same load and with finite differences. About 10 s with a cold
+cache (two C builds of the exact rung), 3-4 s warm.
 """
 from __future__ import annotations
 
