@@ -156,7 +156,8 @@ def cmd_simulate(args) -> int:
     if args.method == "shooting":
         return _simulate_shooting(args, d, q0)
     plot = getattr(args, "plot", None)
-    integ = Ode21Integrator(d.ode)
+    # the exact load's curves (a table, a blend) are printed by autocable's own C code only
+    integ = Ode21Integrator(d.ode, engine="compiled" if d.ode.exact_load is not None else "dopri")
     r = integ.simulate(args.U, args.eta, args.sigma, q0, max_time=args.max_time,
                        keep_history=bool(args.csv or plot), progress=progress)
     bar.close(f"t* = {r.t_end:.1f}: {r.message}")

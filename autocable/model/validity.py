@@ -87,7 +87,8 @@ def motion_validity(d, states, U, Ed=0.0) -> dict:
     wind = U != 0.0
     reasons = []
     out = {"twist_max_deg": float(np.degrees(np.max(np.abs(theta)))),
-           "valid_phi_deg": [math.degrees(lo), math.degrees(hi)],
+           # an unbounded side (a periodic table holds at every angle) is null in JSON
+           "valid_phi_deg": [math.degrees(x) if math.isfinite(x) else None for x in (lo, hi)],
            "load": "exact" if d.ode.exact_load is not None else "cubic"}
     if wind.any():
         p = phi[wind]
@@ -116,8 +117,9 @@ def validity_line(v: dict) -> str:
     """One line for a report: the swept angle, the twist and the verdict."""
     if v.get("phi_swept_deg") is None:
         return f"validity: {'; '.join(v.get('reasons', [])) or 'not measured'}"
-    text = (f"validity: phi swept +-{v['phi_swept_deg']:.1f} deg (valid {v['valid_phi_deg'][0]:.1f} to "
-            f"{v['valid_phi_deg'][1]:.1f} deg), twist up to {v['twist_max_deg']:.1f} deg")
+    lo, hi = ("-inf" if x is None else f"{x:.1f}" for x in v["valid_phi_deg"])
+    text = (f"validity: phi swept +-{v['phi_swept_deg']:.1f} deg (valid {lo} to {hi} deg), "
+            f"twist up to {v['twist_max_deg']:.1f} deg")
     if v.get("cubic_load_error") is not None:
         text += f", cubic load error {100 * v['cubic_load_error']:.2g} %"
     return text + (": BEYOND THE MODEL'S RANGE (" + "; ".join(v["reasons"]) + ")" if v["beyond_valid_range"]

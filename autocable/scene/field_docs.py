@@ -45,6 +45,16 @@ MODEL = {
     "aero.calibration_root": "Which root a calibration keeps: \"smallest\" |angle| (default, the only choice).",
     "aero.load_axes": "The axes the load is projected on in eq. (14): \"reference\" (initial section axes; "
                       "default) or \"twisted\" (turned by the twist).",
+    "aero.valid_phi_deg": "[lo, hi]: the range of phi (eq. 12, deg) over which the curves hold; results whose "
+                          "motion leaves it are flagged (beyond_valid_range). Default: phi0 +- 15 deg for the cubic "
+                          "fits, a table's own range (docs/aero-curves.md).",
+    "aero.outside": "Beyond valid_phi_deg: \"cubic\" (the fits as they are; default) or \"dry-cylinder\" (the "
+                    "fits blended smoothly to the dry cylinder's c_l = 0, c_d = dry_drag).",
+    "aero.blend_deg": "The width of that blend [deg]; default 10.",
+    "aero.dry_drag": "The dry circular cylinder's drag coefficient beyond the blend; default 1.2 (subcritical "
+                     "Reynolds number; stays sit near the drag crisis, docs/aero-curves.md).",
+    "aero.table": "Lift and drag measured against phi: a CSV file (relative to the model file) or an "
+                  "[aero.table] with phi_deg, lift, drag (and periodic); replaces the cubic fits.",
     "aero.load": "The rung of the load: \"cubic\" (its cubic expansion, eq. 14: the paper's eq. 21; default) or "
                  "\"exact\" (eqs. 11-13 without expansion at every section, projected by quadrature; "
                  "docs/exact-load.md). `--load` of simulate, onset and gallop overrides it.",
