@@ -306,7 +306,8 @@ def test_onset_modes_below_3_hz_on_the_190m_stay(capsys, stay):
     assert all(a < b for a, b in zip(f_in, f_in[1:])) and all(a < b for a, b in zip(f_out, f_out[1:]))
     assert max(min(a, b) for a, b in zip(f_in, f_out)) < 3.0
     for r in rows:
-        assert r["least_damping_global"] is None and r["amplitude_at_design_wind_m"] is None
+        # filled by the galloping study (autocable.studies.pairs_galloping): a damping ratio for every pair
+        assert r["least_damping_global"] is not None and 0.0 <= r["least_damping_global"] < 1.0
         assert r["crowded_with"] == [] and r["least_damping_linear"] is not None
     code, out, _ = _cli(capsys, "onset", STAY, "--design-wind", 25, "--json")
     single = json.loads(out)

@@ -181,28 +181,30 @@ def cmd_simulate(args) -> int:
                                         "20 forcing periods; a_k_error = their scatter plus the sampling "
                                         "error (peak modal amplitude = peak displacement / l)")
     out = si_fields(d, out)
-    out.update(_validity(d, integ, r))
+    period = r.period if r.autonomous and math.isfinite(r.period) else 2 * math.pi / r.Omega
+    out.update(_validity(d, integ, out["status"], r.final_state, r.t_end, r.U, r.eta, r.Omega, period))
     _print_simulation(args, r, out)
     return 0
 
 
-def _validity(d, integ, r) -> dict:
+def _validity(d, integ, status, state, t0, U, eta, Omega, period) -> dict:
     """Where the steady response lies against the model's range (`autocable.model.validity`): the
     phi it sweeps, the largest twist and whether it left the curves' valid range or the cubic load's,
-    measured on 20 periods of the response sampled 64 times a period from its final state."""
+    measured on 20 periods of the response sampled 64 times a period from ``state`` at time ``t0``."""
     import numpy as np
 
     from autocable.model.symbolic import parameter_values
     from autocable.model.validity import motion_validity
-    if response_status(r.a1, r.steady) == "diverged" or not all(map(math.isfinite, r.final_state)):
-        v = {"phi_swept_deg": None, "twist_max_deg": None, "beyond_valid_range": True,
-             "reasons": ["the response diverged: it left every model's range"]}
-        return {"phi_swept_deg": None, "twist_max_deg": None, "beyond_valid_range": True, "validity": v}
-    period = r.period if r.autonomous and math.isfinite(r.period) else 2 * math.pi / r.Omega
-    run = integ.run_compiled(r.final_state, r.t_end, r.t_end + 20 * period, period / 64,
-                             parameter_values(r.U, r.eta, r.Omega))
+    if status == "diverged" or not all(map(math.isfinite, state)) or not math.isfinite(period):
+        why = ("the response diverged: it left every model's range" if status == "diverged"
+               else "no steady response to measure")
+        v = {"phi_swept_deg": None, "twist_max_deg": None, "beyond_valid_range": status == "diverged",
+             "reasons": [why]}
+        return {"phi_swept_deg": None, "twist_max_deg": None, "beyond_valid_range": v["beyond_valid_range"],
+                "validity": v}
+    run = integ.run_compiled(state, t0, t0 + 20 * period, period / 64, parameter_values(U, eta, Omega))
     t, y = run.t, run.y
-    v = motion_validity(d, y, r.U, r.eta * r.Omega * np.cos(r.Omega * t))
+    v = motion_validity(d, y, U, eta * Omega * np.cos(Omega * t))
     if v["beyond_valid_range"]:
         print(f"warning: the response lies beyond the model's range: {'; '.join(v['reasons'])}", file=sys.stderr)
     return {"phi_swept_deg": v["phi_swept_deg"], "twist_max_deg": v["twist_max_deg"],
@@ -216,8 +218,12 @@ def _simulate_shooting(args, d, q0) -> int:
     if args.csv:
         raise SpecError("--csv", "", "--method shooting computes no time history; use --method ode21 "
                         "for --csv")
-    r = ShootingSolver(d.ode).steady(args.U, args.eta, args.sigma, q0, max_time=args.max_time)
+    solver = ShootingSolver(d.ode)
+    r = solver.steady(args.U, args.eta, args.sigma, q0, max_time=args.max_time)
     out = si_fields(d, {"status": response_status(r.a1, r.steady), **response_json(r)})
+    # state0 is the orbit at forcing phase 0 (t = 0 modulo the forcing period)
+    period = r.period if math.isfinite(r.period) else 2 * math.pi / r.Omega
+    out.update(_validity(d, solver.integrator, out["status"], r.state0, 0.0, r.U, r.eta, r.Omega, period))
     if args.json:
         print(dumps(out, indent=1))
         return 0
