@@ -232,3 +232,13 @@ def test_load_field_is_checked():
     data["aero"]["load"] = "exakt"
     with pytest.raises(SpecError, match=r"aero\.load.*\"cubic\".*\"exact\""):
         parse_model(data, SAMPLE)
+
+
+def test_amplitude_equations_refuse_the_exact_load():
+    """The AME (22)-(24) expand eq. (21)'s cubic load: a scene on an exact-load model is refused with
+    the field named, not run silently on the cubic load."""
+    from autocable.model.ame_cache import derive_ame
+    cubic, exact = _pair(SAMPLE)
+    derive_ame(cubic)                        # the cubic rung has its AME
+    with pytest.raises(SpecError, match=r"aero\.load.*cubic"):
+        derive_ame(exact)

@@ -54,6 +54,13 @@ def derive_ame(source, *, omega: str = "exact", ordering: str = "paper", use_cac
         raise SpecError(where, "cable.mode_pair", f"the amplitude equations (22)-(24) are derived for the first "
                                                   f"mode pair only, got pair {pair}; integrate eq. (21) instead "
                                                   "(simulate --method ode21 or shooting, onset) or set mode_pair = 1")
+    if ode.exact_load is not None:
+        # the Multiple Scales reduction expands the cubic load of eq. (21); it would silently drop
+        # the exact load the model file asks for
+        where = getattr(getattr(source, "spec", None), "path", "") or ode.provenance.get("model", "<model>")
+        raise SpecError(where, "aero.load", 'the amplitude equations (22)-(24) carry eq. (21)\'s cubic load, not the '
+                                            'exact one; set load = "cubic" for AME scenes, or integrate eq. (21) '
+                                            '(simulate --method ode21 or shooting, gallop)')
     key = ame_key(ode, omega, ordering)
     path = cache_dir("ame") / f"ame-{key}.json"
     t0 = time.perf_counter()
