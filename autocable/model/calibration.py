@@ -127,10 +127,16 @@ def calibrate(aero_spec, st, modes, integrator, K: float, nu: float, xi_s: float
         (rejected.append((r, reason)) if reason else accepted.append(r))
     field = "yaw_deg" if solve_yaw else "rivulet_angle_deg"
     if not accepted:
+        # The fix first, then the evidence: a message that must be cut keeps the fix. Most often
+        # the yaw's sign is the wrong one for the chord slope's (only their relative sign matters).
+        if solve_yaw:
+            fix = f"try aero.rivulet_angle_deg = {-aero_spec.rivulet_angle_deg:g} or the other angle_convention"
+        else:
+            fix = (f"try aero.yaw_deg = {-aero_spec.yaw_deg:g} (its sign against the chord slope's) or the other "
+                   "angle_convention")
         raise CalibrationError(
-            f"aero.{field}", f"no angle in [{lo}, {hi}] deg makes the in-plane mode lose stability at "
-            f"U_c with the out-of-plane mode stable up to 1.3 U_c (roots found: "
-            f"{[round(r, 3) for r in roots]}); give the angle explicitly or change the other one")
+            f"aero.{field}", f"no angle gives an in-plane onset at U_c (out-of-plane stable to 1.3 U_c): {fix} "
+            f"(roots {[round(r, 2) for r in roots]})")
     best = min(accepted, key=abs)
     beta = math.radians(best) if solve_yaw else math.radians(aero_spec.yaw_deg)
     th0 = math.radians(aero_spec.rivulet_angle_deg) if solve_yaw else math.radians(best)

@@ -213,10 +213,33 @@ def damping_curve(d, xis, U_max: float = U_MAX_DEFAULT) -> list[dict]:
     return rows
 
 
-def design_damping(d, U_design_m_s: float, U_max: float = U_MAX_DEFAULT, rtol: float = 1e-8) -> dict:
-    """The least damping ratio for which the trivial state is stable for every U <= U_design (the
-    first onset at or above it), by bisection on xi (the onset rises with damping). The current
-    damping ratio includes a model's ``[damper]`` (`with_damper`)."""
+def worst_growth(ode, U_top: float, n: int = 401) -> tuple[float, float]:
+    """(the largest real part of the linearised eq. (21) at eta = 0 over U* in [0, U_top], the U* where
+    it is): every local maximum of a coarse grid's abscissa refined by bounded Brent on the bracket of
+    its two neighbours, the ends included. The grid only brackets: the value is the refined maximum,
+    not a sample, so a window of instability narrower than the grid's step is not stepped over."""
+    from scipy.optimize import minimize_scalar
+
+    from autocable.model.onset import LinearPencil
+    pencil = LinearPencil(ode)
+    grid = np.linspace(0.0, U_top, n)
+    g = pencil.abscissa(grid)
+    best = max((float(g[0]), 0.0), (float(g[-1]), float(U_top)))
+    xatol = 1e-12 * max(U_top, 1.0)
+    for i in np.flatnonzero((g[1:-1] >= g[:-2]) & (g[1:-1] >= g[2:])) + 1:
+        res = minimize_scalar(lambda U: -float(pencil.abscissa(U)[0]), bounds=(grid[i - 1], grid[i + 1]),
+                              method="bounded", options={"xatol": xatol, "maxiter": 200})
+        best = max(best, (float(g[i]), float(grid[i])), (float(-res.fun), float(res.x)))
+    return best
+
+
+def design_damping(d, U_design_m_s: float, U_max: float = U_MAX_DEFAULT, rtol: float = 1e-10) -> dict:
+    """The least damping ratio for which the trivial state is stable for every U <= U_design: the
+    damping at which the largest real part of the linearised eq. (21) over U in [0, U_design]
+    (`worst_growth`, the worst speed bracketed and refined, not sampled) is zero, by bisection on xi
+    to ``rtol`` keeping the stable end (the value returned is never below the least one by more than
+    the maximisation's own accuracy). The current damping ratio includes a model's ``[damper]``
+    (`with_damper`)."""
     d, _ = with_damper(d)
     units = units_of(d.spec, d.statics)
     U_des = units.wind_star(U_design_m_s)
@@ -224,27 +247,38 @@ def design_damping(d, U_design_m_s: float, U_max: float = U_MAX_DEFAULT, rtol: f
         raise SpecError("arguments", "--design-wind", f"expected a wind speed in (0, {units.wind_m_s(U_max):.4g}] "
                                                       f"m/s (U* <= {U_max:g}), got {U_design_m_s:g}")
 
-    def onset(xi):
-        return first_onset_U(with_damping(d.ode, xi), U_des * (1 + 1e-9), n=201)
+    def growth(xi):
+        return worst_growth(with_damping(d.ode, xi), U_des)
 
-    # (at xi = 0 exactly the trivial state is only marginally stable without wind, and the scan
-    # cannot see a crossing at U = 0+: a damping of 1e-12 stands for "none")
-    if onset(1e-12) > U_des:
+    # (at xi = 0 exactly the trivial state is only marginally stable without wind: the abscissa at
+    # U = 0 is 0, so a damping of 1e-12 stands for "none")
+    g0, U_w = growth(1e-12)
+    if g0 < 0:
         xi = 0.0
     else:
         lo, hi = 1e-12, 1e-3
-        while onset(hi) <= U_des:
+        while True:
+            g_hi, U_hi = growth(hi)
+            if g_hi < 0:
+                break
             lo, hi = hi, 2 * hi
             if hi >= 1.0:
                 raise SpecError("arguments", "--design-wind", f"no damping ratio below 100 % keeps the trivial "
                                                               f"state stable up to {U_design_m_s:g} m/s")
+        U_w = U_hi
         while hi - lo > rtol * hi:
             mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if onset(mid) <= U_des else (lo, mid)
+            g_mid, U_mid = growth(mid)
+            if g_mid < 0:
+                hi, U_w = mid, U_mid
+            else:
+                lo = mid
         xi = hi
     return {"design_wind_m_s": U_design_m_s, "least_damping_ratio": xi, "scruton": units.scruton(xi),
             "current_damping_ratio": d.ode.xi_s, "current_scruton": units.scruton(d.ode.xi_s),
-            "enough": d.ode.xi_s >= xi}
+            "enough": d.ode.xi_s >= xi, "worst_wind_m_s": units.wind_m_s(U_w),
+            "search": "max Re lambda over U in [0, U_design] (coarse grid, every local maximum refined by "
+                      "bounded Brent) set to zero by bisection on xi"}
 
 
 # -- post-critical amplitude -------------------------------------------------------------------------
