@@ -41,6 +41,13 @@ class SpecError(ValueError):
         self.field = field
         text = f"{self.path}: {field}: {message}" if field else f"{self.path}: {message}"
         text = " ".join(text.split())
+        if len(text) > MAX_MESSAGE and field:
+            # a long path gives way first: the field and the message (its hint, the fix) are what
+            # the user acts on, and a cut that depends on where the file lies hid the fix
+            rest = " ".join(f"{field}: {message}".split())
+            room = MAX_MESSAGE - len(rest) - 5
+            if room >= 16 and len(self.path) > room:
+                text = f"...{self.path[-room:]}: {rest}"
         if len(text) > MAX_MESSAGE:
             text = text[:MAX_MESSAGE - 3] + "..."
         super().__init__(text)
