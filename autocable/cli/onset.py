@@ -45,6 +45,13 @@ def add_onset_parser(sub) -> None:
     o.add_argument("--modes-below", type=float, metavar="HZ",
                    help="one row per mode pair k = 1, 2, ... below this frequency [Hz]: its frequencies, onset, "
                         "mechanism, criticality and (with --design-wind) its least damping (JSON key 'pairs')")
+    o.add_argument("--band", action="store_true",
+                   help="the onset and (with --design-wind) the least damping over what is not known: the onset "
+                        "speed U_c (--uc), both frame-indifferent angle readings, the yaw's sign and every "
+                        "admissible calibration root, each as a band [lo, hi] with the inputs setting each end "
+                        "(JSON key 'band'; docs/band.md)")
+    o.add_argument("--uc", metavar="A:B", help="with --band: the range of onset speeds U_c in m/s (e.g. 7:13; "
+                                               "default the model's U_c)")
     o.set_defaults(func=cmd_onset)
 
 
@@ -105,6 +112,11 @@ def cmd_onset(args) -> int:
     from autocable.studies.onset import damping_study, design_damping, onset_report, onset_text, vary
 
     check_out("--out", args.out)
+    if getattr(args, "band", False):
+        return _band(args)
+    if getattr(args, "uc", None) is not None:
+        raise refuse("--uc", "sets the range of onset speeds of --band: add --band (a single onset speed is the "
+                             "model's aero.critical_wind_speed_m_s)")
     check_number("--checks", args.checks, 0, 20, integer=True)
     grid = _damping_grid(args.damping) if args.damping else None
     changes = _changes(args.set)
@@ -199,6 +211,57 @@ def cmd_onset(args) -> int:
     if args.out:
         print(f"wrote {args.out}/onset.json, damping.csv, amplitude.csv, onset.png, onset.pdf", file=sys.stderr)
     return 0
+
+
+def _uc_range(text: str | None, spec) -> tuple[float, float]:
+    """``--uc A:B`` (or A) as (lo, hi) in m/s, each within the model file's bound on U_c."""
+    if text is None:
+        u = spec.aero.critical_wind_speed_m_s
+        return u, u
+    parts = text.split(":")
+    try:
+        vals = [float(p) for p in parts]
+    except ValueError:
+        raise refuse("--uc", f"expected A:B (onset speeds in m/s, e.g. 7:13) or A, got {text!r}") from None
+    if len(vals) not in (1, 2) or not all(math.isfinite(v) and 0 < v <= 100 for v in vals) or vals[0] > vals[-1]:
+        raise refuse("--uc", f"expected A:B with 0 < A <= B <= 100 (onset speeds in m/s, e.g. 7:13), got {text!r}")
+    return vals[0], vals[-1]
+
+
+def _band(args) -> int:
+    """``onset --band``: `autocable.studies.band.band_study` on the model file, its JSON, text and plot."""
+    from autocable.spec import load_model
+    from autocable.studies.band import band_study, band_text
+    for option, given in (("--damping", args.damping), ("--set", args.set), ("--refit", args.refit),
+                          ("--pair", getattr(args, "pair", None) is not None),
+                          ("--modes-below", getattr(args, "modes_below", None) is not None),
+                          ("--load", getattr(args, "load", None) is not None)):
+        if given:
+            raise refuse(option, f"studies one cable as written; --band varies what is not known about it: drop "
+                                 f"{option} or --band")
+    spec = load_model(args.model)
+    uc = _uc_range(args.uc, spec)
+    check_number("--max-wind", args.max_wind, 0.0, 500.0, lo_open=True)
+    check_number("--design-wind", args.design_wind, 0.0, 500.0, lo_open=True)
+    band = band_study(spec, uc, args.design_wind, args.max_wind)
+    report = {"model": spec.name, "band": band, "warnings": list(band["notes"])}
+    if args.out:
+        _write_band(report, Path(args.out), spec.name)
+    if args.json:
+        print(dumps(report, indent=1))
+    else:
+        print("\n".join(band_text(band)))
+    if args.out:
+        print(f"wrote {args.out}/onset.json, band.png, band.pdf", file=sys.stderr)
+    return 0
+
+
+def _write_band(report: dict, out: Path, name: str) -> None:
+    from autocable._store import atomic_write_json
+    from autocable.plotting.band import plot_band
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_json(out / "onset.json", strict(report))
+    plot_band(strict(report)["band"], out / "band", title=f"{name}: onset and least damping over what is not known")
 
 
 def _pairs(args, d, below: float, U_max: float, messages: list) -> int:

@@ -1,0 +1,59 @@
+"""The band of `autocable onset --band`: one row per combination of the inputs nobody knows (onset
+speed U_c, angle reading, the yaw's sign, calibration root), its onset speed and, with a design
+wind, its least damping ratio (and the least damper constant with a ``[damper]``) as points, the
+band [lo, hi] shaded and its two ends ringed; a combination without an admissible calibration is a
+row with a cross and no value. Reads the ``band`` object only (onset.json)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from autocable.plotting.style import new_figure, save_figure, styled
+
+#: (key of a case, axis label, scale of the value on the axis)
+PANELS = (("onset_U_m_s", "onset speed [m/s]", 1.0),
+          ("least_damping", "least damping ratio [%]", 100.0),
+          ("damper_constant_N_s_m", "least damper constant [N s/m]", 1.0))
+
+
+def plot_band(band: dict, stem: str | Path, title: str = "") -> list[Path]:
+    """``stem``.png/.pdf of a `autocable.studies.band.band_study` result."""
+    cases = band["cases"]
+    panels = [p for p in PANELS if p[0] in band]
+    with styled():
+        fig = new_figure((3.2 * len(panels) + 2.6, 0.9 + 0.22 * max(len(cases), 4)))
+        axes = fig.subplots(1, len(panels), sharey=True, squeeze=False)[0]
+        ys = list(range(len(cases)))[::-1]
+        colors = {"eq12": "C0", "mirrored": "C1"}
+        for ax, (key, label, scale) in zip(axes, panels):
+            rng = band.get(key)
+            if rng is not None:
+                ax.axvspan(rng[0] * scale, rng[1] * scale, color="0.88", zorder=0, label="band")
+            for y, c in zip(ys, cases):
+                v = c.get(key)
+                if c["status"] != "ok" or v is None:
+                    ax.plot([], [])
+                    if ax is axes[0]:
+                        ax.text(0.02, y, "no admissible calibration" if c["status"] != "ok" else "",
+                                transform=ax.get_yaxis_transform(), va="center", fontsize=6, color="0.4")
+                    continue
+                ax.plot(v * scale, y, "o", ms=3.5, color=colors.get(c["inputs"]["angle_convention"], "k"))
+            if rng is not None:
+                for end in ("lo", "hi"):
+                    by = band["set_by"][key][end]["label"]
+                    i = next(k for k, c in enumerate(cases) if c["label"] == by)
+                    ax.plot(rng[0 if end == "lo" else 1] * scale, ys[i], "o", ms=8, mfc="none", color="C3")
+            ax.set_xlabel(label, fontsize=8)
+            ax.grid(alpha=0.3, axis="x")
+        axes[0].set_yticks(ys)
+        axes[0].set_yticklabels([c["label"] for c in cases], fontsize=6)
+        axes[0].set_ylim(-0.7, len(cases) - 0.3)
+        handles = [axes[0].plot([], [], "o", ms=3.5, color=col, label=f'"{conv}" reading')[0]
+                   for conv, col in colors.items()]
+        handles.append(axes[0].plot([], [], "o", ms=8, mfc="none", color="C3", label="end of the band")[0])
+        fig.legend(handles=handles, loc="upper center", ncol=3, fontsize=7, frameon=False,
+                   bbox_to_anchor=(0.5, 1.0))
+        if title:
+            fig.suptitle(title, fontsize=9, y=1.04)
+        fig.tight_layout(rect=(0, 0, 1, 0.95))
+        paths = save_figure(fig, Path(stem))
+    return paths

@@ -1,0 +1,222 @@
+"""`autocable onset --band`: the onset and the least damping over the inputs nobody knows.
+
+A stay's onset speed U_c (eq. 18: the wind at which rain-wind vibration was seen, a range on site),
+which of the two frame-indifferent readings of the load's angle applies (``angle_convention``
+"eq12", eq. (12) as printed, or "mirrored", the curves read as c(-phi): both satisfy the frame check
+of `autocable.model.aero`), the sign of the yaw relative to the chord slope, and which root of the
+calibration (`autocable.model.calibration`: every rivulet angle Theta0 that puts the in-plane onset
+at U_c) the stay has: none is measured. `band_study` runs the onset (`autocable.studies.onset`:
+the linear stability of eq. (21) at eta = 0) and, with a design wind, the least damping
+(`design_damping`) for every combination, and reports each quantity as a band [lo, hi] with the
+combination that sets each end. A model's ``[damper]`` position turns each least damping into the
+least damper constant there (`autocable.model.damper.least_constant`, corrected for bending and sag).
+
+A combination whose calibration has no admissible root is listed with its one-line reason (the
+calibration's own message, which names the fix), never dropped.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import replace
+
+import numpy as np
+
+from autocable.model.onset import U_MAX_DEFAULT, stability
+from autocable.model.units import units_of
+from autocable.spec import SpecError
+from autocable.studies.onset import design_damping, with_damper
+
+#: The two frame-indifferent readings of the angle of eq. (12) (the legacy "reversed" is not one).
+READINGS = ("eq12", "mirrored")
+#: Onset speeds tried over a range: its two ends and this many points in all, evenly spaced.
+UC_POINTS = 5
+
+
+def uc_values(lo: float, hi: float, n: int = UC_POINTS) -> list[float]:
+    """The onset speeds of a band: the ends of [lo, hi] and evenly spaced interior points (one value
+    if lo == hi)."""
+    if hi == lo:
+        return [float(lo)]
+    return [float(x) for x in np.linspace(lo, hi, n)]
+
+
+def _inputs(aero, root_kind: str) -> dict:
+    return {"critical_wind_speed_m_s": aero.critical_wind_speed_m_s, "angle_convention": aero.angle_convention,
+            "yaw_deg": aero.yaw_deg, "rivulet_angle_deg": aero.rivulet_angle_deg, "root": root_kind}
+
+
+def case_label(inputs: dict) -> str:
+    """A short name of one combination (the plot's rows, the text report)."""
+    th = inputs.get("rivulet_angle_deg")
+    yaw = inputs.get("yaw_deg")
+    angle = (f", Theta0 {th:.2f}" if isinstance(th, (int, float)) else "") if inputs["root"] != "given" else ""
+    yaw_text = f"yaw {yaw:+g}" if isinstance(yaw, (int, float)) else f"yaw {yaw}"
+    return f"{inputs['angle_convention']}, {yaw_text}, U_c {inputs['critical_wind_speed_m_s']:g}{angle}"
+
+
+def _case(d, inputs: dict, design_wind_m_s: float | None, U_max_m_s: float | None) -> dict:
+    """Onset, least damping and damper constant of one derivation."""
+    from autocable.model import damper as dm
+    units = units_of(d.spec, d.statics)
+    U_max = U_MAX_DEFAULT if U_max_m_s is None else min(U_MAX_DEFAULT, units.wind_star(U_max_m_s))
+    dd, damper = with_damper(d)
+    first = stability(dd.ode, U_max).first
+    out = {"inputs": inputs, "label": case_label(inputs), "status": "ok",
+           "onset_U_m_s": units.wind_m_s(first.U_star) if first else None,
+           "onset_frequency_Hz": units.frequency_hz(first.frequency) if first else None,
+           "mechanism": first.mechanism if first else f"stable up to {units.wind_m_s(U_max):.4g} m/s",
+           "criticality": first.criticality if first else None,
+           "scanned_U_m_s": units.wind_m_s(U_max), "damping_ratio": dd.ode.xi_s,
+           "least_damping": None, "damper_constant_N_s_m": None}
+    if design_wind_m_s is not None:
+        if units.wind_star(design_wind_m_s) > U_max:
+            out["least_damping_note"] = (f"the design wind {design_wind_m_s:g} m/s lies beyond this case's scanned "
+                                         f"range ({units.wind_m_s(U_max):.4g} m/s = {U_max:g} U_c)")
+        else:
+            try:
+                ds = design_damping(d, design_wind_m_s, U_max)
+            except SpecError as exc:        # no damping below 100 %: said in the case
+                out["least_damping_note"] = str(exc).split(": ", 2)[-1]
+            else:
+                out["least_damping"] = ds["least_damping_ratio"]
+                out["least_damping_scruton"] = ds["scruton"]
+                out["worst_wind_m_s"] = ds["worst_wind_m_s"]
+                if d.spec.damper is not None:
+                    target = ds["least_damping_ratio"] - d.spec.cable.damping_ratio
+                    if target <= 0:
+                        out["damper_constant_N_s_m"] = 0.0
+                        out["damper_note"] = "the cable's own damping suffices: no damper needed"
+                    else:
+                        dmp = d.spec.damper
+                        c, why = dm.least_constant(dm.cable_of(d.spec), dmp.position_m, target, dm.eq21_mode(d.spec),
+                                                   dmp.support_stiffness_N_m, corrected=True)
+                        out["damper_constant_N_s_m"] = c
+                        if why:
+                            out["damper_note"] = why
+    if damper is not None:
+        out["damper_added_damping"] = damper["added_damping"]
+    return out
+
+
+def _derive_quiet(spec, notes: list):
+    from autocable.model.derive import derive
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        d = derive(spec)
+    for w in caught:
+        text = " ".join(str(w.message).split())
+        if text not in notes:
+            notes.append(text)
+    return d
+
+
+def band_study(spec, uc_range: tuple[float, float] | None = None, design_wind_m_s: float | None = None,
+               U_max_m_s: float | None = None, n_uc: int = UC_POINTS) -> dict:
+    """The ``band`` object of `autocable onset --band` (module docstring): one case per onset speed of
+    ``uc_range`` (m/s; default the model's U_c alone), angle reading, sign of the yaw and admissible
+    calibration root; ``least_damping`` and ``onset_U_m_s`` as [lo, hi] with ``set_by`` naming the
+    inputs of each end, ``damper_constant_N_s_m`` too with a ``[damper]``, and every case (a failed
+    calibration with ``status`` "no calibration" and its ``reason``). ``U_max_m_s`` bounds every
+    case's scan (default 5 U_c of the case)."""
+    a = spec.aero
+    lo, hi = uc_range if uc_range is not None else (a.critical_wind_speed_m_s, a.critical_wind_speed_m_s)
+    calibrates = a.yaw_deg is None or a.rivulet_angle_deg is None
+    notes, varied = [], []
+    if not calibrates:
+        # both angles given: the onset is a prediction and U_c only scales U* (eq. 18)
+        ucs = [a.critical_wind_speed_m_s]
+        notes.append("both wind angles are given: the onset is a prediction, independent of U_c (eq. 18 only "
+                     "scales U*), so U_c is not varied")
+    else:
+        ucs = uc_values(lo, hi, n_uc)
+        varied.append("critical_wind_speed_m_s")
+    varied.append("angle_convention")
+    if a.yaw_deg is not None:
+        yaws = [abs(a.yaw_deg), -abs(a.yaw_deg)] if a.yaw_deg != 0 else [0.0]
+        varied.append("the yaw's sign")
+    else:
+        yaws = [None]
+        notes.append("the yaw is calibrated: its sign is one of the calibration's roots (every admissible root "
+                     "is a case)")
+    if calibrates:
+        varied.append("the calibration root")
+    cases = []
+    for conv in READINGS:
+        for yaw in yaws:
+            for uc in ucs:
+                aero = replace(a, angle_convention=conv, critical_wind_speed_m_s=uc,
+                               **({} if yaw is None else {"yaw_deg": yaw}))
+                s = replace(spec, aero=aero)
+                try:
+                    d = _derive_quiet(s, notes)
+                except SpecError as exc:
+                    # the calibration's own message (it names the fix), less the file's path
+                    reason = str(exc).removeprefix(f"{exc.path}: ")
+                    cases.append({"inputs": _inputs(aero, "fitted"), "label": case_label(_inputs(aero, "fitted")),
+                                  "status": "no calibration", "reason": reason})
+                    continue
+                if not calibrates:
+                    cases.append(_case(d, _inputs(aero, "given"), design_wind_m_s, U_max_m_s))
+                    continue
+                field = d.calibrated
+                fitted = math.degrees(d.theta0 if field == "rivulet_angle_deg" else d.beta)
+                cases.append(_case(d, _inputs(replace(aero, **{field: fitted}), "fitted (smallest |angle|)"),
+                                   design_wind_m_s, U_max_m_s))
+                for root, why in d.calibration_roots:
+                    if why or abs(root - fitted) < 1e-9:
+                        continue
+                    other = replace(aero, **{field: float(root)})
+                    dk = _derive_quiet(replace(spec, aero=other), notes)
+                    cases.append(_case(dk, _inputs(other, "another admissible root"), design_wind_m_s, U_max_m_s))
+    band = {"varied": varied, "critical_wind_speed_m_s": [lo, hi], "design_wind_m_s": design_wind_m_s,
+            "cases": cases, "notes": notes}
+    for key in ("onset_U_m_s", "least_damping", "damper_constant_N_s_m"):
+        have = [c for c in cases if c.get(key) is not None]
+        if key == "least_damping" and design_wind_m_s is None or key == "damper_constant_N_s_m" and (
+                spec.damper is None or design_wind_m_s is None):
+            continue
+        if not have:
+            band[key], band.setdefault("set_by", {})[key] = None, None
+            continue
+        low, high = min(have, key=lambda c: c[key]), max(have, key=lambda c: c[key])
+        band[key] = [low[key], high[key]]
+        # ties (the onset of every calibrated case at the same U_c) are counted, the first one named
+        ties = {end: sum(abs(c[key] - v) <= 1e-9 * max(abs(v), 1e-300) for c in have) - 1
+                for end, v in (("lo", low[key]), ("hi", high[key]))}
+        band.setdefault("set_by", {})[key] = {"lo": dict(low["inputs"], label=low["label"], tied_with=ties["lo"]),
+                                              "hi": dict(high["inputs"], label=high["label"], tied_with=ties["hi"])}
+    band["failed"] = sum(c["status"] != "ok" for c in cases)
+    return band
+
+
+def band_text(band: dict) -> list[str]:
+    """The readable lines of a `band_study`."""
+    lines = [f"Band over what is not known ({', '.join(band['varied'])}): {len(band['cases'])} cases, "
+             f"{band['failed']} without an admissible calibration"]
+    for n in band["notes"]:
+        lines.append(f"  note: {n}")
+    for key, name, fmt in (("onset_U_m_s", "onset", lambda x: f"{x:.4g} m/s"),
+                           ("least_damping", f"least damping to {band['design_wind_m_s']} m/s",
+                            lambda x: f"{100 * x:.4g} %"),
+                           ("damper_constant_N_s_m", "least damper constant", lambda x: f"{x:.4g} N s/m")):
+        if key not in band:
+            continue
+        if band[key] is None:
+            lines.append(f"  {name}: no case gives one")
+            continue
+        by = band["set_by"][key]
+        tie = {e: f" and {by[e]['tied_with']} more" if by[e]["tied_with"] else "" for e in ("lo", "hi")}
+        lines.append(f"  {name}: [{fmt(band[key][0])}, {fmt(band[key][1])}]  (lo: {by['lo']['label']}{tie['lo']}; "
+                     f"hi: {by['hi']['label']}{tie['hi']})")
+    lines.append("  case                                         onset [m/s]  least damping   damper [N s/m]")
+    for c in band["cases"]:
+        if c["status"] != "ok":
+            lines.append(f"  {c['label']:<44} {c['reason']}")
+            continue
+        on = f"{c['onset_U_m_s']:11.4g}" if c["onset_U_m_s"] is not None else f"{'stable':>11}"
+        xi = (f"{100 * c['least_damping']:11.4g} %" if c["least_damping"] is not None
+              else f"{c.get('least_damping_note', '-'):>13}")
+        dc = f"{c['damper_constant_N_s_m']:14.5g}" if c.get("damper_constant_N_s_m") is not None else ""
+        lines.append(f"  {c['label']:<44} {on}  {xi}  {dc}".rstrip())
+    return lines
