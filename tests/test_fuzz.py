@@ -1,6 +1,6 @@
-"""Hostile input, generated: mutated model specs, scenes and argument vectors (autocable.bench.fuzz)
+"""Hostile input, generated: mutated model specs, scenes and argument vectors (tools/hardening/fuzz.py)
 through the command line, with hypothesis drawing the mutations (derandomized: the same cases on
-every machine; a bounded count so the file stays short; ``autocable bench fuzz`` is the long run).
+every machine; a bounded count so the file stays short; ``python -m tools.hardening fuzz`` is the long run).
 
 Each test collects every case that breaks a property and lists them all in one assertion (a case
 is printed with its files and command line), instead of stopping at the first:
@@ -17,7 +17,7 @@ import random
 import pytest
 from hypothesis import Phase, example, given, settings
 
-from autocable.bench import fuzz
+from tools.hardening import fuzz
 from autocable.cli import main
 
 # No shrinking: the cases are single labelled mutations already, and a failing one is listed as is.
@@ -30,7 +30,7 @@ STRATEGIES = fuzz.strategies()
 def harness(tmp_path_factory):
     """Cases run in a private tree with its own cache (writes elsewhere in it are caught)."""
     # 20 s: a hang costs less; every case that ends ends within a few seconds here
-    from autocable.bench.fuzz_surfaces import run_mode
+    from tools.hardening.fuzz_surfaces import run_mode
     return fuzz.Harness(main, tmp_path_factory.mktemp("fuzz"), max_timeout=20.0, runner=run_mode)
 
 
@@ -150,15 +150,15 @@ def test_the_checks_catch_what_they_claim(tmp_path):
 
 def test_surfaces(harness):
     """Sweep files, chart tables, targets and search-space files and --map files, each read the
-    way its command reads it (`autocable.bench.fuzz_surfaces`)."""
-    from autocable.bench.fuzz_surfaces import strategies
+    way its command reads it (`tools.hardening.fuzz_surfaces`)."""
+    from tools.hardening.fuzz_surfaces import strategies
     failures = _collect(harness, strategies()["surfaces"], 60)
     assert not failures, _report(failures)
 
 
 def test_api_calls(harness):
     """Calls of the Python API: a bad argument is a SpecError naming it; no NaN as a result."""
-    from autocable.bench.fuzz_surfaces import strategies
+    from tools.hardening.fuzz_surfaces import strategies
     failures = _collect(harness, strategies()["api"], 40)
     assert not failures, _report(failures)
 
@@ -166,7 +166,7 @@ def test_api_calls(harness):
 def test_the_surface_checks_catch_what_they_claim(tmp_path):
     """The harness flags an accepted invalid input and a NaN result, and counts a refusal that
     names the case's file as named (cases built for each)."""
-    from autocable.bench.fuzz_surfaces import SWEEP_FILE, run_mode
+    from tools.hardening.fuzz_surfaces import SWEEP_FILE, run_mode
     h = fuzz.Harness(main, tmp_path, max_timeout=20.0, runner=run_mode)
     accepted = fuzz.Case("sweep", "a valid sweep labelled invalid", fuzz.INVALID, ("max_time",),
                          {fuzz.MODEL_FILE: fuzz.SAMPLE_MODEL.read_text(),

@@ -3,7 +3,8 @@ scene -> studies -> paper -> bench -> cli, each importing only from below, and n
 between the modules of any one package (``acyclic_siblings`` over all of autocable). The contracts
 pass on the repository; a deliberately wrong import (the physics importing the scene runner, a loop
 the layering exists to prevent) makes them fail, naming the import, and so does a circle inside a
-layer (the bound stage and the calibration importing each other)."""
+layer (the bound stage and the calibration importing each other), and so does the package importing
+the hardening harness, which lives outside it (tools/hardening)."""
 import shutil
 import subprocess
 import sys
@@ -23,7 +24,7 @@ def _lint(root: Path) -> subprocess.CompletedProcess:
 def test_the_layering_contract_holds():
     res = _lint(REPO)
     assert res.returncode == 0, res.stdout + res.stderr
-    assert "4 kept, 0 broken" in res.stdout
+    assert "5 kept, 0 broken" in res.stdout
 
 
 def test_the_contract_fails_on_a_wrong_import(tmp_path):
@@ -36,6 +37,21 @@ def test_the_contract_fails_on_a_wrong_import(tmp_path):
     assert res.returncode != 0
     assert "BROKEN" in res.stdout
     assert "autocable.model.statics -> autocable.scene.runner" in res.stdout
+
+
+def test_the_package_importing_the_harness_fails(tmp_path):
+    """The hardening harness lives outside the package (tools/hardening); a module of autocable
+    importing it (the bench commands calling the fuzzer again) breaks the no-harness contract."""
+    shutil.copytree(REPO / "autocable", tmp_path / "autocable", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(REPO / "tools", tmp_path / "tools", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(REPO / "setup.cfg", tmp_path / "setup.cfg")
+    commands = tmp_path / "autocable" / "bench" / "commands.py"
+    commands.write_text(commands.read_text() + "\n\ndef _fuzz():\n    from tools.hardening.fuzz import run_fuzz\n"
+                        "    return run_fuzz\n")
+    res = _lint(tmp_path)
+    assert res.returncode != 0
+    assert "The package never imports the hardening harness (tools/, outside the package) BROKEN" in res.stdout
+    assert "autocable.bench.commands -> tools" in res.stdout
 
 
 def test_a_circle_inside_a_layer_fails(tmp_path):

@@ -180,10 +180,10 @@ def test_a_hidden_file_that_is_no_temporary_file_of_autocable_is_not_removed(tmp
 
 
 def test_a_run_killed_at_random_moments_never_reads_complete(tmp_path):
-    """`autocable bench kill` with 4 trials (SIGKILL and SIGINT alternating, over the measured
+    """`python -m tools.hardening kill` with 4 trials (SIGKILL and SIGINT alternating, over the measured
     run time): no folder reads as complete unless its files are complete and consistent, no
     leftover survives the next run, and a last run publishes a complete, clean folder."""
-    from autocable.bench.kill import kill_bench
+    from tools.hardening.kill import kill_bench
     result = kill_bench(_scene(tmp_path, "killed"), trials=4, resolution="coarse", engine=None,
                         folder=tmp_path / "out")
     assert result["trials"] == 4

@@ -201,12 +201,12 @@ def test_workers_beyond_twice_the_cores_are_refused(tmp_path, capsys):
 
 
 def test_kill_bench_reads_a_sweep_folder_as_a_reader_would(tmp_path):
-    """`bench kill-surfaces`' reader: a finished sweep is complete and consistent; its sweep.json
+    """`python -m tools.hardening kill-surfaces`' reader: a finished sweep is complete and consistent; its sweep.json
     without the dataset, or with a dataset of other points, reads complete but inconsistent (what
     the trials count as read_as_complete_while_incomplete); no sweep.json is incomplete."""
     import shutil
 
-    from autocable.bench.kill_surfaces import sweep_state
+    from tools.hardening.kill_surfaces import sweep_state
     spec = load_sweep(write_sweep(tmp_path, SMALL))
     out = tmp_path / "o"
     run_sweep(spec, out, workers=0)

@@ -100,14 +100,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "kernel (coarse), their special points compared; shooting: steady points of eq. (21) by "
                         "shooting against transient integration at equal accuracy (Figs. 5-10, 77 points); "
                         "sweep: 'autocable sweep' throughput with 1 and 2 Dask workers and the scaling; "
-                        "kill: a scene run killed (SIGKILL, SIGINT) at random moments --repeats times (at least "
-                        "20), each folder checked not to read as complete, leftovers checked after a rerun; "
-                        "kill-surfaces: a grid and a followed sweep, a chart and a calibration killed --repeats "
-                        "times each, checked not to read as complete and to leave no orphaned process; "
+                        "fuzz, kill, kill-surfaces: moved out of the package (the hardening harness: "
+                        "python -m tools.hardening in the repository); "
                         "onset: the onset report and a 50-point damping grid of `autocable onset` (target under 2 s "
                         "warm); gallop: `autocable gallop` on one cable (--model) and mode pair, cold (compiled "
-                        "builds) and warm (target under 10 s); fuzz: hostile model specs, scenes and arguments, counts of tracebacks, exit-0 "
-                        "results for invalid input, unnamed rejections and hangs; calibration: the screen of "
+                        "builds) and warm (target under 10 s); calibration: the screen of "
                         "8 points on 1 and 2 workers (the scaling) and the bound stage on 20 candidate models "
                         "(stage wall time and summed scene time); pairs: `autocable onset --modes-below 3 "
                         "--design-wind 25` on models/stay_190m.toml (or --model), cold and warm (target 30 s); exact-load: "
@@ -125,14 +122,6 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--scene", action="append", metavar="SCENE",
                    help="work-precision bench: a scene name (fig06) or file; repeatable (default: "
                         "fig05a, fig06, fig09 and fig10 when its file exists)")
-    b.add_argument("--specs", type=int, default=1000, help="fuzz: mutated model specs (default 1000)")
-    b.add_argument("--scenes", type=int, default=300, help="fuzz: mutated scenes (default 300)")
-    b.add_argument("--args", type=int, default=60, help="fuzz: argument vectors (default 60)")
-    b.add_argument("--runs", type=int, default=16, help="fuzz: real scene runs at most (default 16)")
-    b.add_argument("--surfaces", type=int, default=0, help="fuzz: cases of each of sweep files, chart tables, "
-                   "targets files, search-space files and --map files (default 0)")
-    b.add_argument("--api", type=int, default=0, help="fuzz: calls of the Python API (default 0)")
-    b.add_argument("--seed", type=int, default=0, help="fuzz: seed of the mutations (default 0)")
     b.set_defaults(func=cmd_bench)
 
     adv = sub.add_parser("advise", help="which rung of the method ladder a scene needs at a tolerance "

@@ -2,13 +2,16 @@
 benchmarks and studies."""
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
 from autocable.cli.checks import (REPEATS_LIMIT, check_folder, check_number, check_out,
                                   check_workers, dumps, refuse, strict)
 from autocable.spec import SpecError, load_model
+
+#: The `bench` subcommands that were the hardening harness (now tools/hardening in the repository).
+HARNESS = ("fuzz", "kill", "kill-surfaces")
+
 
 def cmd_work_precision(args) -> int:
     """`autocable bench --out DIR` without a subcommand: the method ladder's work-precision bench."""
@@ -32,23 +35,16 @@ def cmd_advise(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    if args.what in HARNESS:
+        # test tools, not the product: they live in the repository, outside the shipped package
+        raise refuse(f"bench {args.what}", "the hardening harness moved out of the package; from the "
+                     f"repository's top folder run: python -m tools.hardening {args.what} (docs/robustness.md)")
     check_number("--repeats", args.repeats, 0, REPEATS_LIMIT, integer=True)
     check_out("--out", args.out)
     check_folder("--out", args.out)
     if args.what is None:
         return cmd_work_precision(args)
-    if args.what == "fuzz":
-        return cmd_fuzz(args)
-    if args.what == "kill-surfaces":
-        from autocable.bench.kill_surfaces import run_kill_surfaces
-        result = run_kill_surfaces(max(1, args.repeats), log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
-        print(dumps(result, indent=1))
-        bad = result["read_as_complete_while_incomplete"] or result["orphaned_processes"] or not result["final_runs_complete"]
-        return 1 if bad else 0
-    if args.what == "kill":
-        from autocable.bench.kill import run_kill_bench as run_bench
-    else:
-        from autocable.bench.commands import run_bench
+    from autocable.bench.commands import run_bench
     result = run_bench(args.what, args.model, repeats=args.repeats,
                        log=None if args.quiet else (lambda s: print(s, file=sys.stderr)),
                        out=args.out)
@@ -59,25 +55,6 @@ def cmd_bench(args) -> int:
         atomic_write_json(out / f"bench_{args.what}.json", strict(result))
     print(dumps(result, indent=1))
     return 0
-
-
-def cmd_fuzz(args) -> int:
-    """`autocable bench fuzz`: hostile specs, scenes and arguments through this command line;
-    exit 1 when any case shows a problem."""
-    from autocable.bench.fuzz import run_fuzz
-    from autocable.cli import main          # the whole command line is what the fuzz cases run
-    check_number("--surfaces", args.surfaces, 0, 10**6, integer=True)
-    check_number("--api", args.api, 0, 10**6, integer=True)
-    from autocable.bench.fuzz_surfaces import cases, run_mode
-    result = run_fuzz(main, specs=args.specs, scenes=args.scenes, args=args.args, seed=args.seed,
-                      out=args.out, real_runs=args.runs, extra=list(cases(args.surfaces, args.api, args.seed)),
-                      runner=run_mode,
-                      log=None if args.quiet else (lambda s: print(s, file=sys.stderr)))
-    if args.out:
-        from autocable._store import atomic_write_json
-        atomic_write_json(Path(args.out) / "bench_fuzz.json", result)
-    print(json.dumps(result, indent=1))
-    return 1 if result["problem_count"] else 0
 
 
 def cmd_failure_map(args) -> int:

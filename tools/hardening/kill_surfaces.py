@@ -1,12 +1,13 @@
-"""`autocable bench kill` on sweeps (grid and follow), charts and calibrations.
+"""`python -m tools.hardening kill-surfaces`: the kill trials on sweeps (grid and follow), charts and
+calibrations.
 
-As `autocable.bench.kill` does for a scene run: one uninterrupted run measures the wall time T, then
+As `tools.hardening.kill` does for a scene run: one uninterrupted run measures the wall time T, then
 ``trials`` runs into the same folder, each killed (SIGKILL and SIGINT alternating) at a moment drawn
 in its own slice of [0, T]. After each kill:
 
 * a sweep folder reads as complete (sweep.json ``"status": "complete"``) only if sweep.nc opens and
   holds the summary's points with as many not computed as the summary says missing; a chart folder
-  is checked by `autocable.bench.kill.folder_state`; a calibration reads as complete
+  is checked by `tools.hardening.kill.folder_state`; a calibration reads as complete
   (calibration.json) only if it counts every point of the space;
 * no process the killed run started (the Dask workers, the calibration's pool) is alive 10 s later
   (``orphans``).
@@ -229,8 +230,8 @@ def kill_calibrate(trials: int = 6, *, jobs: int = 2, seed: int = 0, log: Callab
 
 def kill_chart(trials: int = 4, *, seed: int = 0, log: Callable[[str], None] | None = None) -> dict:
     """Kill trials of ``autocable chart`` (runs/chart_sigma_eta_U0.toml, coarse), checked as a scene
-    folder (`autocable.bench.kill.folder_state`), with the orphan count."""
-    from autocable.bench.kill import folder_state
+    folder (`tools.hardening.kill.folder_state`), with the orphan count."""
+    from tools.hardening.kill import folder_state
     say = log or (lambda m: None)
     with tempfile.TemporaryDirectory(prefix="autocable-killchart-") as tmp:
         out = Path(tmp) / "out"
@@ -249,7 +250,7 @@ def kill_chart(trials: int = 4, *, seed: int = 0, log: Callable[[str], None] | N
 
 
 def run_kill_surfaces(trials: int = 4, log: Callable[[str], None] | None = None) -> dict:
-    """`autocable bench kill-surfaces`: ``trials`` kills each of a grid sweep and a followed sweep
+    """`python -m tools.hardening kill-surfaces`: ``trials`` kills each of a grid sweep and a followed sweep
     (2 Dask workers), a chart and a calibration; the totals and each bench's result."""
     parts = {"sweep_grid": kill_sweep("grid", trials, log=log), "sweep_follow": kill_sweep("follow", trials, log=log),
              "chart": kill_chart(trials, log=log), "calibrate": kill_calibrate(trials, log=log)}

@@ -14,7 +14,7 @@ exit 0, strict JSON where JSON is asked for, or a clean rejection). For every ca
 
 A generator is a function of a `random.Random`; `strategies()` wraps each one for hypothesis
 (``st.randoms(use_true_random=False)``, so hypothesis drives and shrinks the draws), and
-`run_fuzz` (``autocable bench fuzz``) draws from seeded generators in a plain loop.
+`run_fuzz` (``python -m tools.hardening fuzz``) draws from seeded generators in a plain loop.
 """
 from __future__ import annotations
 
@@ -821,7 +821,7 @@ class Harness:
     """Runs cases in a private folder tree (``base``), with its own cache inside it, so that files
     written anywhere under ``base`` outside the case's ``out`` and the cache are seen.
 
-    ``main`` is `autocable.cli.main` (passed in: the bench layer does not import the CLI)."""
+    ``main`` is `autocable.cli.main` (passed in, so that a test can hand in a stand-in)."""
 
     main: Callable
     base: Path
@@ -967,7 +967,7 @@ class Harness:
     def _surface(self, case, inp, cwd, timeout):
         if self.runner is None:
             raise ValueError(f"a case of mode {case.mode!r} needs the harness's runner "
-                             "(autocable.bench.fuzz_surfaces.run_mode)")
+                             "(tools.hardening.fuzz_surfaces.run_mode)")
         try:
             with self._in(cwd, timeout):
                 return self.runner(case, inp)
@@ -1055,11 +1055,11 @@ def strategies():
 def run_fuzz(main: Callable, specs: int = 1000, scenes: int = 300, args: int = 60, seed: int = 0,
              out: str | os.PathLike | None = None, real_runs: int = 16, log=None, extra=(),
              runner: Callable | None = None) -> dict:
-    """The long fuzz run (``autocable bench fuzz``): ``specs`` mutated models through ``derive --json``,
+    """The long fuzz run (``python -m tools.hardening fuzz``): ``specs`` mutated models through ``derive --json``,
     ``scenes`` mutated scenes through `load_scene` (of which up to ``real_runs`` real coarse runs),
     ``args`` argument vectors, then the ``extra`` cases ((count key, case) pairs: the sweep files,
     chart tables, targets and search-space files, --map files and API calls of
-    `autocable.bench.fuzz_surfaces`, run by ``runner``); counts and the first problems."""
+    `tools.hardening.fuzz_surfaces`, run by ``runner``); counts and the first problems."""
     say = log or (lambda s: None)
     t0 = time.perf_counter()
     tmp = None

@@ -1,7 +1,7 @@
 """Hostile inputs on the surfaces added after model specs and scenes: sweep files, chart tables,
-targets and search-space files, ``--map`` files and calls of the Python API (`autocable bench fuzz`
-with ``--surfaces`` and ``--api``). Cases are `autocable.bench.fuzz.Case` s, checked by the same
-`autocable.bench.fuzz.check`: no traceback or unforeseen exception, no acceptance of an invalid
+targets and search-space files, ``--map`` files and calls of the Python API (`python -m tools.hardening fuzz`
+with ``--surfaces`` and ``--api``). Cases are `tools.hardening.fuzz.Case` s, checked by the same
+`tools.hardening.fuzz.check`: no traceback or unforeseen exception, no acceptance of an invalid
 input, every refusal naming the file, field, option or argument, no write outside the case's
 folders, no hang; API calls also never return NaN as a result.
 
@@ -19,7 +19,7 @@ import random
 import tomllib
 
 from autocable._paths import RUNS_DIR, SAMPLE_MODEL
-from autocable.bench.fuzz import (INVALID, MODEL_FILE, ODD, SCENE_FILE, Case, InlineTable, Raw, _inline,
+from tools.hardening.fuzz import (INVALID, MODEL_FILE, ODD, SCENE_FILE, Case, InlineTable, Raw, _inline,
                                   dump_toml)
 
 __all__ = ["SURFACE_KINDS", "surface_case", "api_case", "run_mode", "cases", "strategies"]
@@ -356,7 +356,7 @@ def run_mode(case: Case, inp) -> tuple[int, str, str]:
 
 
 def cases(surfaces: int, api: int, seed: int = 0):
-    """(count key, case) pairs for `autocable.bench.fuzz.run_fuzz`'s ``extra``: ``surfaces`` cases of
+    """(count key, case) pairs for `tools.hardening.fuzz.run_fuzz`'s ``extra``: ``surfaces`` cases of
     each kind of `SURFACE_KINDS`, then ``api`` calls (seeded generators)."""
     for kind in SURFACE_KINDS:
         for i in range(surfaces):

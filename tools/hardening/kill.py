@@ -1,4 +1,4 @@
-"""`autocable bench kill`: a scene run killed at random moments never leaves a folder that reads as complete.
+"""`python -m tools.hardening kill`: a scene run killed at random moments never leaves a folder that reads as complete.
 
 One uninterrupted run first measures the run's wall time T (and warms the cache); then ``trials`` runs
 of the same scene into the same folder, each killed (SIGKILL and SIGINT alternating) at a moment
@@ -155,7 +155,7 @@ def kill_bench(scene: str | Path | None = None, trials: int = MIN_TRIALS, *, eng
 
 
 def run_kill_bench(what: str, model_path: str, repeats: int = MIN_TRIALS, log=None, out=None) -> dict:
-    """`autocable bench kill`: `kill_bench` of runs/fig06.toml (compiled engine), at least `MIN_TRIALS`
+    """`python -m tools.hardening kill`: `kill_bench` of runs/fig06.toml (compiled engine), at least `MIN_TRIALS`
     trials (``--repeats`` more). ``what`` and ``model_path`` are the bench command's (the scene names
     its own model)."""
     return kill_bench(trials=max(MIN_TRIALS, int(repeats)), log=log)
