@@ -24,7 +24,9 @@ Files in an output folder (written atomically, read back by `read_results`):
   the Hopf frequency, and the independent check's residual), the state, ``max_real`` (equilibria: the largest real part of an eigenvalue; cycles: the
   largest modulus of a non-trivial multiplier) and ``ev<k>_re, ev<k>_im``.
 * ``special_points.csv``: ``branch, type, label, parameter``, every system parameter, ``a1, a2``,
-  the state, ``converged, confirmed_by_pycont, origin, l1, omega, period, message``. ``parameter``
+  the state, ``converged, confirmed_by_pycont, origin, l1, criticality, omega, period, message``
+  (``criticality``: "supercritical" or "subcritical" at a Hopf point by the sign of its first
+  Lyapunov coefficient l1, empty elsewhere). ``parameter``
   is the branch's first parameter; on a two-parameter curve ``parameters`` holds both values.
 * Both tables end, when the run's provenance carries the cable's scales (``si_scales``, ``omega1``),
   with the same points in SI (`autocable.model.units.SI_COLUMNS`): ``U_m_s, eta_m, Omega_Hz,
@@ -32,6 +34,11 @@ Files in an output folder (written atomically, read back by `read_results`):
 * ``run.json``: provenance, per-branch metadata (ends, diagnostics) and every special point with
   its ``extra`` data; ``status`` (``"complete"`` only for a run that finished) and ``files`` (the
   other files of the run, the manifest). It is written last.
+
+A branch that stopped at its point budget (an `EndPoint` with reason ``"max_points"``) before the
+end of its range is *truncated*: `Branch.truncated` lists those ends, the DataFrames name them in
+``frame.attrs["truncated"]``, the plots mark them, and the continuation warns
+(`TruncatedBranchWarning`) when it happens.
 
 A run writes into a staging folder inside its output folder and publishes from there
 (`autocable.run_folder.output_folder`): the folder reads as complete (`is_complete`) only once run.json says so, and a
@@ -74,6 +81,9 @@ __all__ = [
     "run_status",
     "is_complete",
     "status_of",
+    "TruncatedBranchWarning",
+    "hopf_criticality",
+    "truncation_notes",
 ]
 
 #: Branch kinds.
@@ -116,6 +126,39 @@ def _frozen_array(values, dtype=float) -> np.ndarray:
     arr = np.array(values, dtype=dtype)
     arr.setflags(write=False)
     return arr
+
+
+class TruncatedBranchWarning(UserWarning):
+    """A branch stopped at its point budget (``max_points``) before the end of its range: what it
+    shows is part of the solution family, not all of it."""
+
+
+def hopf_criticality(l1) -> str:
+    """The criticality of a Hopf point from its first Lyapunov coefficient ``l1`` (Kuznetsov's
+    normalisation, Elements of Applied Bifurcation Theory, Sect. 3.5): "supercritical" (l1 < 0: a
+    stable cycle is born, the amplitude grows continuously), "subcritical" (l1 > 0: an unstable
+    cycle, the response jumps), "degenerate" (l1 = 0: a generalized Hopf point), "" without a
+    finite l1."""
+    try:
+        v = float(l1)
+    except (TypeError, ValueError):
+        return ""
+    if not math.isfinite(v):
+        return ""
+    return "supercritical" if v < 0 else "subcritical" if v > 0 else "degenerate"
+
+
+def _g(x) -> str:
+    """A number in at most 4 significant digits (reprs and summaries)."""
+    try:
+        return f"{float(x):.4g}"
+    except (TypeError, ValueError):
+        return str(x)
+
+
+def _short(text: str, n: int = 40) -> str:
+    text = str(text)
+    return text if len(text) <= n else text[:n - 3] + "..."
 
 
 def finite_or_none(x):
@@ -174,6 +217,23 @@ class SpecialPoint:
         """``<branch>:<label>``, the name a scene uses to start from this point."""
         return f"{self.branch}:{self.label}"
 
+    @property
+    def criticality(self) -> str:
+        """At a Hopf point (type H): "supercritical" or "subcritical" by the sign of ``extra["l1"]``
+        (`hopf_criticality`); "" at any other point or without l1."""
+        return hopf_criticality(self.extra.get("l1")) if self.type == "H" else ""
+
+    @property
+    def hopf_text(self) -> str:
+        """``"subcritical, l1 = 2.35e+04"`` at a Hopf point with l1, else "" (labels, summaries)."""
+        crit = self.criticality
+        return f"{crit}, l1 = {float(self.extra['l1']):.3g}" if crit else ""
+
+    def __repr__(self) -> str:
+        hopf = f", {self.hopf_text}" if self.hopf_text else ""
+        return (f"SpecialPoint({_short(self.name, 50)}: {self.type} at {self.parameter} = {_g(self.value)}, "
+                f"a1 = {_g(self.a1)}, a2 = {_g(self.a2)}{hopf})")
+
     def to_dict(self) -> dict:
         return {"branch": self.branch, "type": self.type, "label": self.label,
                 "parameter": self.parameter, "value": self.value, "a1": self.a1, "a2": self.a2,
@@ -213,6 +273,14 @@ class EndPoint:
     @property
     def hint(self) -> str:
         return END_REASONS[self.reason]
+
+    @property
+    def truncated(self) -> bool:
+        """Whether this end is the point budget's (``max_points``): the branch goes on beyond it."""
+        return self.reason == "max_points"
+
+    def __repr__(self) -> str:
+        return f"EndPoint({self.side}: {self.reason} at {_g(self.value)}, {self.points} points)"
 
     def to_dict(self) -> dict:
         return {"side": self.side, "reason": self.reason, "value": finite_or_none(self.value),
@@ -290,6 +358,33 @@ class Branch:
     def __len__(self) -> int:
         return len(self.stable)
 
+    def __repr__(self) -> str:
+        n = len(self)
+        if n:
+            v = np.asarray(self.values, float)
+            span = f"{self.parameter} in [{_g(np.nanmin(v))}, {_g(np.nanmax(v))}]" if np.any(np.isfinite(v)) \
+                else f"{self.parameter} not finite"
+        else:
+            span = f"{self.parameter}: no point"
+        if self.parameter2:
+            span += f" x {self.parameter2}"
+        labels = [sp.label for sp in self.special_points]
+        shown = " ".join(labels[:6]) + (f" +{len(labels) - 6}" if len(labels) > 6 else "")
+        ends = "/".join(e.reason for e in self.ends[:2]) or "none"
+        return (f"Branch({_short(self.name, 30)!r}, {self.kind}, {n} points, {span}, "
+                f"special: {shown or 'none'}, ends: {ends})")
+
+    @property
+    def truncated(self) -> tuple[EndPoint, ...]:
+        """The ends at which the branch stopped at its point budget (``max_points``) rather than at
+        the range, a closure or a failure: the solution family goes on beyond them."""
+        return tuple(e for e in self.ends if e.truncated)
+
+    def end_index(self, end: EndPoint) -> int:
+        """The row of the branch's point at ``end``: the first row for the side continued backwards
+        ("backward", or "-" after a branch point), the last row otherwise."""
+        return 0 if end.side in ("backward", "-") else len(self) - 1
+
     def __getitem__(self, column: str) -> np.ndarray:
         return self.table[column]
 
@@ -318,7 +413,8 @@ class Branch:
     def to_dataframe(self):
         """This branch as a pandas DataFrame with the columns and values of its rows in
         ``branches.csv`` (`branches_dataframe`; a branch alone has no run's SI scales:
-        `RunResults.to_dataframe` adds those columns)."""
+        `RunResults.to_dataframe` adds those columns). ``frame.attrs["truncated"]``: its ends at the
+        point budget (`truncation_notes`), empty when it is whole."""
         return branches_dataframe([self])
 
     def replace(self, **changes) -> "Branch":
@@ -347,6 +443,18 @@ class RunResults:
         object.__setattr__(self, "branches", tuple(self.branches))
         object.__setattr__(self, "provenance", MappingProxyType(dict(self.provenance)))
 
+    def __repr__(self) -> str:
+        parts = ", ".join(f"{_short(b.name, 16)}: {len(b)}" for b in self.branches[:4])
+        more = f", +{len(self.branches) - 4}" if len(self.branches) > 4 else ""
+        rng = self.provenance.get("range")
+        span = ""
+        if isinstance(rng, (list, tuple)) and len(rng) == 2:
+            span = f", range [{_g(rng[0])}, {_g(rng[1])}]"
+        cut = sum(len(b.truncated) for b in self.branches)
+        return (f"RunResults({_short(self.name, 30)!r}, {len(self.branches)} branches ({parts}{more}), "
+                f"{len(self.special_points)} special points{span}"
+                + (f", {cut} truncated end(s)" if cut else "") + ")")
+
     def branch(self, name: str) -> Branch:
         for b in self.branches:
             if b.name == name:
@@ -359,14 +467,17 @@ class RunResults:
 
     def to_dataframe(self):
         """Every branch as one pandas DataFrame: the columns and values of ``branches.csv``
-        (`branches_dataframe`), with its SI columns when the provenance has the scales."""
+        (`branches_dataframe`), with its SI columns when the provenance has the scales;
+        ``frame.attrs["truncated"]`` names every branch end at the point budget (`truncation_notes`)."""
         return branches_dataframe(self.branches, _si(self.provenance))
 
     def special_points_dataframe(self):
         """The special points as a pandas DataFrame with the columns of ``special_points.csv``."""
         import pandas as pd
-        return pd.read_csv(io.StringIO(special_points_csv(self.special_points, self.branches, _si(self.provenance))),
-                           float_precision="round_trip")   # the CSV writes repr: read back exactly
+        frame = pd.read_csv(io.StringIO(special_points_csv(self.special_points, self.branches, _si(self.provenance))),
+                            float_precision="round_trip")   # the CSV writes repr: read back exactly
+        frame["criticality"] = frame["criticality"].fillna("").astype(str)   # an empty column reads as NaN
+        return frame
 
     def special(self, name: str) -> SpecialPoint:
         """A special point by ``<branch>:<label>``."""
@@ -516,7 +627,21 @@ def branches_dataframe(branches: Sequence[Branch], si=None):
             frame[col] = frame[col].astype("int64")
         else:
             frame[col] = pd.to_numeric(frame[col], errors="coerce").astype("float64")
+    frame.attrs["truncated"] = truncation_notes(branches)
     return frame
+
+
+def truncation_notes(branches: Sequence[Branch]) -> list[str]:
+    """One line per branch end at the point budget (``max_points``): the branch, the side, the
+    parameter value reached and, where the branch's ``info`` has it, the range it was asked for."""
+    out = []
+    for b in branches:
+        rng = b.info.get("range")
+        for e in b.truncated:
+            where = f" of [{_g(rng[0])}, {_g(rng[1])}]" if isinstance(rng, (list, tuple)) and len(rng) == 2 else ""
+            out.append(f"branch {b.name} ({e.side}) stopped at max_points ({e.points} points) at "
+                       f"{b.parameter} = {_g(e.value)}{where}: raise max_points to cover the range")
+    return out
 
 
 def special_points_csv(points: Sequence[SpecialPoint], branches: Sequence[Branch] = (), si=None) -> str:
@@ -525,7 +650,7 @@ def special_points_csv(points: Sequence[SpecialPoint], branches: Sequence[Branch
     params = _union([b.parameter_names for b in branches] + [list(sp.parameters) for sp in points])
     states = _union(b.variables for b in branches)
     header = (["branch", "type", "label", "parameter"] + params + ["a1", "a2"] + states
-              + ["converged", "confirmed_by_pycont", "origin", "l1", "omega", "period", "message"]
+              + ["converged", "confirmed_by_pycont", "origin", "l1", "criticality", "omega", "period", "message"]
               + (list(SI_COLUMNS) if si else []))
     by_branch = {b.name: b for b in branches}
     buf = io.StringIO()
@@ -538,7 +663,7 @@ def special_points_csv(points: Sequence[SpecialPoint], branches: Sequence[Branch
         row += [sp.parameters.get(p) for p in params]
         row += [sp.a1, sp.a2]
         row += [state.get(s) for s in states]
-        row += [sp.converged, sp.confirmed_by_pycont, sp.origin, sp.extra.get("l1"),
+        row += [sp.converged, sp.confirmed_by_pycont, sp.origin, sp.extra.get("l1"), sp.criticality,
                 sp.extra.get("omega"), sp.extra.get("period"), sp.message]
         row += _si_row(si, {**sp.parameters, "a1": sp.a1, "a2": sp.a2})
         w.writerow([_fmt(x) for x in row])

@@ -5,13 +5,14 @@ Immutable values only (see `autocable.methods.continuation` for the design)."""
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Callable, Mapping
 
 from autocable.methods.continuation.settings import ContinuationSettings
 from autocable.methods.continuation.system import System, auto_state_scale
-from autocable.results import Branch, SpecialPoint
+from autocable.results import Branch, SpecialPoint, TruncatedBranchWarning, truncation_notes
 
 
 Progress = Callable[[str], None]
@@ -73,6 +74,20 @@ class ContinuationResult:
     problem: EquilibriumProblem
     settings: ContinuationSettings
     timings: Mapping[str, float] = field(default_factory=dict)
+
+    def __post_init__(self):
+        # Where every continuation hands its branch back: the branch learns the range it was asked
+        # for, and an end at the point budget is said at once (a truncated branch drawn or tabled
+        # as if whole would be read as the whole solution family).
+        b = self.branch
+        if b.parameter == self.problem.parameter and "range" not in b.info:
+            b = b.replace(info={**b.info, "range": [float(v) for v in self.problem.bounds]})
+            object.__setattr__(self, "branch", b)
+        for note in truncation_notes([b]):
+            warnings.warn(note, TruncatedBranchWarning, stacklevel=3)
+
+    def __repr__(self) -> str:
+        return f"ContinuationResult({self.branch!r})"
 
     def special(self, label: str) -> SpecialPoint:
         return self.branch.special(label)
