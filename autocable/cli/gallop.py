@@ -3,6 +3,7 @@ speed from each Hopf point of the rest state: the lowest wind speed at which gal
 hysteresis loop, the amplitude and frequency at a design wind (`autocable.studies.gallop`)."""
 from __future__ import annotations
 
+import argparse
 import csv
 import io
 import math
@@ -35,6 +36,10 @@ def add_gallop_parser(sub) -> None:
                         "looked for up to 4 times it")
     g.add_argument("--pair", type=int, metavar="K", help=PAIR_HELP)
     g.add_argument("--load", choices=("cubic", "exact"), help=LOAD_HELP)
+    g.add_argument("--sensitivity", action=argparse.BooleanOptionalAction, default=None,
+                   help="recompute the amplitude at the design wind and the lowest galloping speed with the curves' "
+                        "valid range narrowed and widened by 5 deg at each end and the blend halved and doubled "
+                        "(default: on where the curves are blended to the dry cylinder; four more continuations)")
     g.add_argument("--json", action="store_true", help="one JSON object instead of the report")
     g.add_argument("--out", metavar="DIR", help="write gallop.json, branches.csv, gallop.png and gallop.pdf")
     g.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
@@ -75,10 +80,10 @@ def cmd_gallop(args) -> int:
     if args.out:
         from autocable.run_folder import output_folder
         with output_folder(args.out, "gallop", inputs=[args.model]) as stage:
-            study = gallop_study(d, args.design_wind, xis, args.max_wind, log=log)
+            study = gallop_study(d, args.design_wind, xis, args.max_wind, log=log, with_sensitivity=args.sensitivity)
             _write(study, stage, d.spec.name)
     else:
-        study = gallop_study(d, args.design_wind, xis, args.max_wind, log=log)
+        study = gallop_study(d, args.design_wind, xis, args.max_wind, log=log, with_sensitivity=args.sensitivity)
     if args.json:
         print(dumps(study, indent=1))
         return 0
@@ -138,6 +143,15 @@ def gallop_text(study: dict) -> list[str]:
                     lines.append(f"    {validity_line(dc)}")
             else:
                 lines.append(f"  design wind {design:g} m/s: {case.get('design_note', 'no stable cycle found')}")
+                jc = case.get("judged_cycle")
+                if jc and "phi_swept_deg" in jc:
+                    from autocable.model.validity import validity_line
+                    lines.append(f"    {jc['what']} ({jc['U_m_s']:.5g} m/s, peak [{jc['peak_m'][0]:.3g}, "
+                                 f"{jc['peak_m'][1]:.3g}] m): {validity_line(jc)}")
+            line = missing_line(case)
+            if line:
+                lines.append(f"    {line}")
+    lines.extend(sensitivity_lines(study))
     for c in study.get("check", []):
         parts = []
         for name, text in (("from_cycle", "from the cycle"), ("from_large_start", "from a larger start")):
@@ -151,6 +165,59 @@ def gallop_text(study: dict) -> list[str]:
     if study.get("cases") and any(hp.get("rows") and "phi_swept_deg" not in hp["rows"][-1]
                                   for case in study["cases"] for hp in case["hopf_points"]):
         lines.append("validity: not measured (autocable.model.validity not available)")
+    return lines
+
+
+def missing_line(case: dict) -> str:
+    """One line: the ingredients the model lacks at the design wind (`studies.gallop.missing_ingredients`)."""
+    miss = case.get("missing_ingredient") or []
+    if miss:
+        return "missing ingredient: " + "; ".join(f"{m['ingredient']} ({m['reason']})" for m in miss)
+    if case.get("design_verdict") == "inside":
+        return "missing ingredient: none (a bounded cycle inside the valid range)"
+    if case.get("design_verdict") == "not known":
+        return "missing ingredient: none identified (the cycle judged lies inside the model's range)" \
+            if case.get("judged_cycle") else ""
+    return ""
+
+
+def _span_text(nominal, rng, fmt: str, unit: str) -> str:
+    if nominal is None and rng is None:
+        return "none in any case"
+    nom = "none" if nominal is None else f"{nominal:{fmt}} {unit}"
+    return nom + ("" if rng is None else f" ({rng[0]:{fmt}} to {rng[1]:{fmt}})")
+
+
+def sensitivity_lines(study: dict) -> list[str]:
+    """The sensitivity to the curves' band and blend (`studies.gallop.sensitivity`), or why it is
+    undefined, in one to a few lines."""
+    s = study.get("sensitivity")
+    if not s:
+        return []
+    if not s.get("defined") or s.get("computed") is False:
+        return [f"sensitivity: {s['reason']}"]
+    amp, low = s["amplitude_at_design_wind_m"], s["lowest_galloping_U_m_s"]
+    lo, hi = s["nominal_valid_phi_deg"]
+    lines = [f"sensitivity to the curves (valid {lo:.1f} to {hi:.1f} deg narrowed and widened by {s['band_deg']:g} deg "
+             f"at each end, blend {s['nominal_blend_deg']:g} deg x" + ", x".join(f"{f:g}" for f in s["blend_factors"])
+             + f"; damping {100 * s['damping_ratio']:.3g} %): nominal (range)"]
+    lines.append(f"  lowest galloping speed   {_span_text(low['nominal'], low['range'], '.4g', 'm/s')}")
+    if study.get("design_wind_m_s") is not None:
+        nom = amp["nominal"] or [None, None]
+        rng = amp["range"] or [None, None]
+        lines.append(f"  at {study['design_wind_m_s']:g} m/s in-plane  {_span_text(nom[0], rng[0], '.3g', 'm')}; "
+                     f"out-of-plane {_span_text(nom[1], rng[1], '.3g', 'm')} (a stable cycle in "
+                     f"{amp['cases_with_a_stable_cycle']} of {amp['cases']} cases)")
+    for c in s["cases"]:
+        if "skipped" in c:
+            lines.append(f"  {c['case']}: skipped, {c['skipped']}")
+            continue
+        a = c.get("amplitude_at_design_wind_m")
+        where = f"[{a[0]:.3g}, {a[1]:.3g}] m" if a else (c.get("design_verdict") or "-")
+        lines.append(f"  {c['case']:24s} lowest {_m_s(c.get('lowest_galloping_U_m_s'))}, design wind {where}"
+                     + (f", missing: {', '.join(c['missing_ingredient'])}" if c.get("missing_ingredient") else ""))
+    if s.get("reading"):
+        lines.append(f"  ({s['reading']})")
     return lines
 
 

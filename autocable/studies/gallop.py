@@ -67,6 +67,18 @@ HOPF_SCAN_FACTOR = 4.0
 HOPF_SCAN_POINTS = 4001
 #: Relative tolerance of `least_damping_global`'s bisection on the damping ratio.
 GLOBAL_DAMPING_RTOL = 1e-3
+#: The largest twist [deg] the slaved twist law is trusted with (a stated bound): the twist enters the
+#: angle phi of eq. (12) one for one, so this much twist alone takes phi across most of a fit's range
+#: (the paper's fits: phi0 +- 15 deg), and anchored stays restrain the section's rotation.
+TWIST_BOUND_DEG = 20.0
+#: "More modes": another mode of the cable lies within this fraction of the cycle's frequency, or the
+#: cycle's frequency lies this far from both of the pair's (it has left the pair's neighbourhood).
+MODES_FRACTION = 0.10
+#: The sensitivity of the amplitude to the curves: each end of their valid range moved out and in by
+#: this many degrees (`curves.with_band`), ...
+SENSITIVITY_BAND_DEG = 5.0
+#: ... and the blend's width multiplied by these factors.
+SENSITIVITY_BLEND_FACTORS = (0.5, 2.0)
 
 
 def _validity(derivation, states, U_star: float) -> dict:
@@ -150,26 +162,125 @@ def _stable_cycles_at(cont, branch, U_star: float) -> list:
     return out
 
 
+def _more_modes(derivation, frequency_star: float) -> str:
+    """Why a cycle of angular frequency ``frequency_star`` (eq. 17 units) needs more modes than the
+    pair (`MODES_FRACTION`), or "": another in-plane or out-of-plane mode of the cable (up to k + 2 of
+    each plane, `modes_n.mode_set`) lies that close to it, or it has left both of the pair's. Only
+    the fundamental is compared: a taut cable's modes lie near every harmonic of its first."""
+    from autocable.model.modes_n import mode_set
+    from autocable.model.units import units_of
+    d, w = derivation, float(frequency_star)
+    k = d.mode_pair
+    ms = mode_set(d.statics, k + 2, k + 2)
+    own = {ms.in_plane[k - 1].name, ms.out_of_plane[k - 1].name}
+    hz = units_of(d.spec, d.statics).frequency_hz
+    gap = min(abs(w - om) / om for om in (d.ode.omega1, d.ode.omega2))
+    if gap > MODES_FRACTION:
+        return (f"the cycle runs at {hz(w):.4g} Hz, {100 * gap:.0f} % from the pair's {hz(d.ode.omega1):.4g} and "
+                f"{hz(d.ode.omega2):.4g} Hz (bound {100 * MODES_FRACTION:g} %): more modes (--pair, docs/mode-pairs.md)")
+    near = [(m, abs(w - m.omega) / w) for m in ms.modes if m.name not in own and abs(w - m.omega) <= MODES_FRACTION * w]
+    if near:
+        m, g = min(near, key=lambda c: c[1])
+        return (f"the {m.plane} mode {m.name} at {hz(m.omega):.4g} Hz lies {100 * g:.1f} % from the cycle's "
+                f"{hz(w):.4g} Hz (bound {100 * MODES_FRACTION:g} %): more modes")
+    return ""
+
+
+def missing_ingredients(derivation, validity: dict, frequency_star: float | None = None) -> list[dict]:
+    """What the model lacks for a motion whose validity (`autocable.model.validity.motion_validity`)
+    is ``validity``, decided from it: ``[{"ingredient", "reason"}, ...]``, empty when nothing is
+    missing. The ingredients (docs/gallop.md):
+
+    * "the twist": the slaved twist of eq. (20) beyond `TWIST_BOUND_DEG` (with natural ends: a
+      restrained twist is needed, ``cable.twist_ends = "restrained"``);
+    * "the curves": phi beyond the curves' valid range (curves measured over a wider range);
+    * "the load": on the cubic rung, the cubic load of eq. (14) more than `aero.CUBIC_RTOL` off the
+      exact load (``--load exact``);
+    * "more modes": the cycle's frequency near another mode's or away from the pair's (`_more_modes`).
+    """
+    from autocable.model.aero import CUBIC_RTOL
+    from autocable.model.curves import curves_from_spec
+    if not validity:
+        return []
+    out = []
+    twist = validity.get("twist_max_deg")
+    if twist is not None and twist > TWIST_BOUND_DEG:
+        if derivation.spec.cable.twist_ends == "natural":
+            why = (f"the slaved twist reaches {twist:.0f} deg (bound {TWIST_BOUND_DEG:g} deg) with natural ends: "
+                   "a restrained twist is needed (cable.twist_ends = \"restrained\")")
+        else:
+            why = (f"the slaved twist reaches {twist:.0f} deg (bound {TWIST_BOUND_DEG:g} deg) even with restrained "
+                   "ends: the linear twist law of eq. (20) is beyond its range")
+        out.append({"ingredient": "the twist", "reason": why})
+    rng, valid = validity.get("phi_range_deg"), validity.get("valid_phi_deg")
+    if rng and valid:
+        lo = -math.inf if valid[0] is None else valid[0]
+        hi = math.inf if valid[1] is None else valid[1]
+        if rng[0] < lo or rng[1] > hi:
+            blend = curves_from_spec(derivation.spec.aero).kind == "blend"
+            out.append({"ingredient": "the curves",
+                        "reason": f"phi reached {rng[0]:.0f} to {rng[1]:.0f} deg, beyond the curves' valid range "
+                                  f"{lo:.1f} to {hi:.1f} deg"
+                                  + (" (the blend to the dry cylinder stands in beyond it)" if blend else "")
+                                  + ": curves measured over a wider range are needed (aero.table)"})
+    err = validity.get("cubic_load_error")
+    if validity.get("load") == "cubic" and err is not None and err > CUBIC_RTOL:
+        out.append({"ingredient": "the load",
+                    "reason": f"the cubic load of eq. (14) is {100 * err:.0f} % off the exact load "
+                              f"(bound {100 * CUBIC_RTOL:g} %): --load exact"})
+    if frequency_star is not None and math.isfinite(frequency_star):
+        more = _more_modes(derivation, frequency_star)
+        if more:
+            out.append({"ingredient": "more modes", "reason": more})
+    return out
+
+
+def _judged(derivation, point, units, what: str) -> dict:
+    """The validity of ``point`` (a `CyclePoint`) and the missing ingredients it shows, for a design
+    wind the branch has no stable cycle at: ``what`` says which cycle stands in."""
+    v = _validity(derivation, point.orbit, point.U) if point.orbit is not None else {}
+    return {"judged_cycle": dict({"what": what, "U_m_s": units.wind_m_s(point.U), "stable": bool(point.stable),
+                                  "peak_m": [units.peak_m(point.a1), units.peak_m(point.a2)],
+                                  "frequency_Hz": units.frequency_hz(point.frequency)}, **v),
+            "missing_ingredient": missing_ingredients(derivation, v, point.frequency)}
+
+
 def _design(cont, branches, U_des: float, units, derivation) -> dict:
-    """The largest stable cycle at the design wind U_des (U*) over the branches."""
+    """The largest stable cycle at the design wind U_des (U*) over the branches, its validity, the
+    verdict (``design_verdict``: "inside", "beyond", "no galloping" or "not known") and the
+    ingredients the model lacks there (``missing_ingredient``, `missing_ingredients`)."""
     found = []
     for br in branches:
         found.extend(_stable_cycles_at(cont, br, U_des))
     if not found:
         low = min((br.lowest_U for br in branches), default=math.inf)
         short = [br for br in branches if br.lowest_U <= U_des and max(p.U for p in br.points) < U_des]
+        judged = {"missing_ingredient": []}
         if not branches:
             note = ("no galloping cycle at the design wind: no branch of cycles was found (no Hopf point whose "
                     "cycles reach the range)")
+            verdict = "no galloping"
         elif low > U_des:
             note = f"no galloping cycle at the design wind: the lowest galloping speed is {units.wind_m_s(low):.5g} m/s"
+            verdict = "no galloping"
         elif short:
             note = ("the branch ends below the design wind, so its cycles there are not known: "
                     + "; ".join(br.end for br in short))
+            verdict = "not known"
+            # the branch's last cycle is the nearest the model got: what it lacks there
+            last = next((p for p in reversed(short[0].points) if p.kind != "H"), None)
+            if last is not None:
+                judged = _judged(derivation, last, units, "the last cycle of the branch")
         else:
             note = "no stable cycle of the branches at the design wind (only unstable ones)"
-        return {"amplitude_at_design_wind_m": None, "frequency_at_design_wind_Hz": None, "beyond_valid_range": None,
-                "design_note": note}
+            verdict = "not known"
+            below = [p for br in branches for p in br.points if p.kind != "H" and p.stable and p.U <= U_des]
+            if below:
+                judged = _judged(derivation, max(below, key=lambda p: p.U), units,
+                                 "the stable cycle nearest below the design wind (the motion at the design wind "
+                                 "is not a cycle of the branch: autocable simulate)")
+        return dict({"amplitude_at_design_wind_m": None, "frequency_at_design_wind_Hz": None,
+                     "beyond_valid_range": None, "design_note": note, "design_verdict": verdict}, **judged)
     p, interp = max(found, key=lambda c: max(c[0].a1, c[0].a2))
     out = {"amplitude_at_design_wind_m": [units.peak_m(p.a1), units.peak_m(p.a2)],
            "frequency_at_design_wind_Hz": units.frequency_hz(p.frequency),
@@ -177,11 +288,15 @@ def _design(cont, branches, U_des: float, units, derivation) -> dict:
                             "max_multiplier_modulus": p.max_modulus,
                             "interpolated_peak_m": [units.peak_m(interp["a1"]), units.peak_m(interp["a2"])],
                             "stable_cycles_found": len(found)},
-           "beyond_valid_range": None}
+           "beyond_valid_range": None, "design_verdict": "not known", "missing_ingredient": []}
     if p.orbit is not None:
         v = _validity(derivation, p.orbit, p.U)
         out["design_cycle"].update(v)
         out["beyond_valid_range"] = v.get("beyond_valid_range")
+        out["missing_ingredient"] = missing_ingredients(derivation, v, p.frequency)
+        if v:
+            out["design_verdict"] = "beyond" if (v.get("beyond_valid_range") or out["missing_ingredient"]) \
+                else "inside"
     return out
 
 
@@ -288,15 +403,129 @@ def _check_range(units, design_wind_m_s, U_max_m_s):
     return min(U_max, U_MAX_DEFAULT), U_des
 
 
+def _curves_variant(derivation, curves):
+    """``derivation`` with its aerodynamic curves replaced by ``curves`` (a `BlendedCubic` whose
+    range holds the static angle): the model file's [aero] fields for the validity and the cubic
+    rung's exact load, the exact rung's load itself. Eq. (21), the calibrated angle and the onset
+    stay those of the model: a range holding phi0 leaves the fits' expansion there unchanged."""
+    from dataclasses import replace
+    d = derivation
+    lo, hi = (math.degrees(x) for x in curves.valid_phi)
+    spec = replace(d.spec, aero=replace(d.spec.aero, valid_phi_deg=(lo, hi), outside="dry-cylinder",
+                                        blend_deg=curves.blend_deg, dry_drag=curves.dry_drag))
+    ode = d.ode
+    if ode.exact_load is not None:
+        ode = replace(ode, exact_load=replace(ode.exact_load, curves=curves.to_dict()))
+    return replace(d, spec=spec, ode=ode)
+
+
+def sensitivity_undefined(derivation) -> str:
+    """Why the curves of ``derivation`` have no band or blend to vary, or "" when they have one (a
+    blend of cubic fits to the dry cylinder beyond a stated range)."""
+    from autocable.model.curves import curves_from_spec
+    curves = curves_from_spec(derivation.spec.aero)
+    if curves.kind == "blend":
+        return ""
+    if curves.kind == "table":
+        return ("the sensitivity to the curves' band is undefined: a table holds its measured values over its own "
+                "range, with no band or blend to vary")
+    if curves.valid_phi is None:
+        return ("the sensitivity to the curves' band is undefined: the paper's cubic fits state no range (the "
+                "default phi0 +- 15 deg only sets the verdict)")
+    return ("the sensitivity to the curves' band is undefined: the fits are used at every angle (aero.outside = "
+            "\"cubic\"), their stated range only sets the verdict")
+
+
+def _span(values) -> list | None:
+    vals = [v for v in values if v is not None and math.isfinite(v)]
+    return [min(vals), max(vals)] if vals else None
+
+
+def sensitivity(derivation, xi: float, U_max: float, U_des: float | None, units, band_deg: float = SENSITIVITY_BAND_DEG,
+                blend_factors=SENSITIVITY_BLEND_FACTORS, nominal: dict | None = None, log=None) -> dict:
+    """The amplitude at the design wind and the lowest galloping speed at damping ``xi`` recomputed
+    with the curves' valid range narrowed and widened by ``band_deg`` at each end and the blend's
+    width times each of ``blend_factors`` (`curves.with_band`, one continuation each), beside the
+    nominal values (``nominal``: that damping's case of `gallop_study`, computed when None).
+
+    ``range`` is [lo, hi] over the nominal value and every case that has one (in-plane and
+    out-of-plane separately for the amplitude). On the cubic rung eq. (21) takes the curves only
+    through their expansion at phi0, which a range holding phi0 leaves unchanged: its amplitudes
+    and speeds are the same in every case, and only the validity verdict moves."""
+    from autocable.model.curves import curves_from_spec, with_band
+    why = sensitivity_undefined(derivation)
+    if why:
+        return {"defined": False, "reason": why}
+    if not (isinstance(band_deg, (int, float)) and math.isfinite(band_deg) and band_deg > 0):
+        raise SpecError("arguments", "band_deg", f"expected a positive number of degrees, got {band_deg!r}")
+    t0 = time.perf_counter()
+    d = derivation
+    curves = curves_from_spec(d.spec.aero)
+    phi0 = d.static_angle
+    half = math.degrees(curves.valid_phi[1] - curves.valid_phi[0]) / 2
+    plans = [(f"band narrowed by {band_deg:g} deg", half - band_deg, curves.blend_deg),
+             (f"band widened by {band_deg:g} deg", half + band_deg, curves.blend_deg)]
+    plans += [(f"blend x{f:g}", half, curves.blend_deg * f) for f in blend_factors]
+    if nominal is None:
+        nominal = _case(d, d.ode if xi == d.ode.xi_s else with_damping(d.ode, xi), xi, U_max, units, U_des, None)[0]
+    cases = []
+    for name, h, blend in plans:
+        if h <= 0:
+            cases.append({"case": name, "skipped": f"the band would be empty (half-width {h:g} deg)"})
+            continue
+        c = with_band(curves, h, blend_deg=blend)
+        row = {"case": name, "valid_phi_deg": [math.degrees(x) for x in c.valid_phi], "blend_deg": c.blend_deg}
+        if not c.valid_phi[0] <= phi0 <= c.valid_phi[1]:
+            cases.append(dict(row, skipped=f"the band no longer holds the static angle {math.degrees(phi0):.1f} deg"))
+            continue
+        if log:
+            log(f"sensitivity: {name} (phi {row['valid_phi_deg'][0]:.1f} to {row['valid_phi_deg'][1]:.1f} deg, "
+                f"blend {c.blend_deg:g} deg) ...")
+        dv = _curves_variant(d, c)
+        ode = dv.ode if xi == dv.ode.xi_s else with_damping(dv.ode, xi)
+        case = _case(dv, ode, xi, U_max, units, U_des, None)[0]
+        row.update({k: case.get(k) for k in ("lowest_galloping_U_m_s", "amplitude_at_design_wind_m",
+                                              "frequency_at_design_wind_Hz", "beyond_valid_range", "design_verdict",
+                                              "design_note")})
+        row["missing_ingredient"] = [m["ingredient"] for m in case.get("missing_ingredient", [])]
+        dc = case.get("design_cycle") or {}
+        row["phi_swept_deg"] = dc.get("phi_swept_deg")
+        row["twist_max_deg"] = dc.get("twist_max_deg")
+        cases.append(row)
+    done = [c for c in cases if "skipped" not in c]
+    amp = nominal.get("amplitude_at_design_wind_m")
+    amps = [c["amplitude_at_design_wind_m"] for c in done if c.get("amplitude_at_design_wind_m")]
+    low = nominal.get("lowest_galloping_U_m_s")
+    out = {"defined": True, "band_deg": band_deg, "blend_factors": list(blend_factors), "damping_ratio": xi,
+           "nominal_valid_phi_deg": [math.degrees(x) for x in curves.valid_phi], "nominal_blend_deg": curves.blend_deg,
+           "load": "exact" if d.ode.exact_load is not None else "cubic",
+           "amplitude_at_design_wind_m": {
+               "nominal": amp,
+               "range": None if U_des is None else [_span(([amp[i]] if amp else []) + [a[i] for a in amps])
+                                                   for i in (0, 1)],
+               "cases_with_a_stable_cycle": len(amps), "cases": len(done)},
+           "lowest_galloping_U_m_s": {"nominal": low,
+                                      "range": _span([low] + [c.get("lowest_galloping_U_m_s") for c in done])},
+           "cases": cases, "seconds": time.perf_counter() - t0}
+    if out["load"] == "cubic":
+        out["reading"] = ("eq. (21) takes the curves only through their cubic expansion at phi0, which these bands "
+                          "leave unchanged: the amplitudes and speeds cannot move, only the verdict; --load exact "
+                          "shows how the band and the blend move them")
+    return out
+
+
 def gallop_study(derivation, design_wind_m_s: float | None = None, dampings=None, U_max_m_s: float | None = None,
-                 checks: bool = True, log=None) -> dict:
+                 checks: bool = True, log=None, with_sensitivity: bool | None = None,
+                 band_deg: float = SENSITIVITY_BAND_DEG) -> dict:
     """The galloping branches of eq. (21) at eta = 0 (module docstring) as a plain dict.
 
     ``dampings``: damping ratios (default: the cable's own); the first is the primary one, whose
     values are also the top-level keys (``lowest_galloping_U_m_s``, ``hysteresis_m_s``,
-    ``amplitude_at_design_wind_m``, ``frequency_at_design_wind_Hz``, ``beyond_valid_range``) and
-    which the direct-integration ``check`` integrates. ``U_max_m_s``: the highest wind speed
-    (default and at most 5 U_c)."""
+    ``amplitude_at_design_wind_m``, ``frequency_at_design_wind_Hz``, ``beyond_valid_range``,
+    ``design_verdict``, ``missing_ingredient``) and which the direct-integration ``check`` and the
+    ``sensitivity`` (`sensitivity`) compute. ``U_max_m_s``: the highest wind speed (default and at
+    most 5 U_c). ``with_sensitivity``: None (default) computes it where the curves have a band and
+    a blend to vary, False never; where they have none the dict says why in one line."""
     d = derivation
     units = units_of(d.spec, d.statics)
     U_max, U_des = _check_range(units, design_wind_m_s, U_max_m_s)
@@ -316,14 +545,23 @@ def gallop_study(derivation, design_wind_m_s: float | None = None, dampings=None
         log("direct integration of eq. (21) on the stable cycles ...")
     check = _check(primary_ode, primary_branches, units) if checks else []
     first = cases[0]
+    if with_sensitivity is False:
+        sens = {"defined": bool(not sensitivity_undefined(d)), "computed": False,
+                "reason": "not computed (--no-sensitivity)"}
+    else:
+        sens = sensitivity(d, xis[0], U_max, U_des, units, band_deg, nominal=first, log=log)
     return {
         "model": d.spec.name, "primary_damping_ratio": xis[0], "damping_ratios": xis,
         "scanned_U_m_s": [units.wind_m_s(U_MIN), units.wind_m_s(U_max)], "design_wind_m_s": design_wind_m_s,
         "length_m": d.spec.cable.length_m, "critical_wind_speed_m_s": units.critical_wind_speed_m_s,
+        "load": "exact" if d.ode.exact_load is not None else "cubic",
         "lowest_galloping_U_m_s": first["lowest_galloping_U_m_s"], "hysteresis_m_s": first["hysteresis_m_s"],
         "amplitude_at_design_wind_m": first.get("amplitude_at_design_wind_m"),
         "frequency_at_design_wind_Hz": first.get("frequency_at_design_wind_Hz"),
         "beyond_valid_range": first.get("beyond_valid_range"),
+        "design_verdict": first.get("design_verdict"),
+        "missing_ingredient": first.get("missing_ingredient", []),
+        "sensitivity": sens,
         "cases": cases,
         "branches": {f"{xi:g}": [dict(r, hopf_U_m_s=h["hopf_U_m_s"]) for h in c["hopf_points"] for r in h["rows"]]
                      for xi, c in zip(xis, cases)},
@@ -332,7 +570,8 @@ def gallop_study(derivation, design_wind_m_s: float | None = None, dampings=None
         "conventions": {"peak_m": f"a_k l at {PEAK_STATION}; a_k = half the peak-to-peak of q_k over the cycle",
                         "U_m_s": "U* U_c", "frequency_Hz": "2 pi / T times omega / (2 pi), T the cycle's own period",
                         "stable": "every non-trivial Floquet multiplier inside the unit circle",
-                        "order": "amplitude pairs are [in-plane, out-of-plane]"},
+                        "order": "amplitude pairs are [in-plane, out-of-plane]",
+                        "twist_bound_deg": TWIST_BOUND_DEG, "modes_fraction": MODES_FRACTION},
         "seconds": time.perf_counter() - t0,
     }
 
