@@ -54,9 +54,26 @@ class SpecError(ValueError):
 
 
 def show(value, limit: int = 60) -> str:
-    """``repr(value)`` cut to ``limit`` characters, for quoting a rejected value in a message."""
-    text = repr(value)
+    """``repr(value)`` cut to ``limit`` characters, for quoting a rejected value in a message; a
+    float in its shortest form (`number_text`: ``1e9``, as typed, not ``1000000000.0``)."""
+    text = number_text(value) if type(value) is float else repr(value)
     return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def number_text(x: float) -> str:
+    """The shorter of ``repr(x)`` and the shortest exponent form that reads back as ``x`` (``1e9``,
+    ``2.5e-7``): the command line and TOML hand over floats, not the text typed, and ``repr`` spells
+    1e9 as ``1000000000.0``; a message quoting that is not the value the user wrote."""
+    text = repr(x)
+    if not math.isfinite(x):
+        return text
+    for digits in range(17):
+        short = f"{x:.{digits}e}"
+        if float(short) == x:
+            mantissa, exponent = short.split("e")
+            short = f"{mantissa}e{int(exponent)}"
+            return short if len(short) < len(text) else text
+    return text                          # pragma: no cover - 17 digits always read back
 
 
 @dataclass(frozen=True)
@@ -252,14 +269,14 @@ def _check(value, rule, path, field):
         out = tuple(finite_number(v, path, field, expected) for v in value)
         for k, x in enumerate(out):
             if not bounds[0] <= x <= bounds[1]:
-                raise SpecError(path, f"{field}[{k}]", f"expected {expected}, got {x!r}")
+                raise SpecError(path, f"{field}[{k}]", f"expected {expected}, got {show(value[k])}")
         return out
     if kind == "phi_range":
         if not isinstance(value, list) or len(value) != 2:
             raise SpecError(path, field, f"expected {expected}, got {show(value)}")
         lo, hi = (finite_number(v, path, field, expected) for v in value)
         if not (bounds[0] <= lo < hi <= bounds[1]):
-            raise SpecError(path, field, f"expected {expected}, got {[lo, hi]!r}")
+            raise SpecError(path, field, f"expected {expected}, got {show(value)}")
         return (lo, hi)
     if kind == "curve_table":
         return _curve_table(value, path, field)
@@ -268,7 +285,7 @@ def _check(value, rule, path, field):
             return None
         x = finite_number(value, path, field, expected)
         if not bounds[0] <= x <= bounds[1]:
-            raise SpecError(path, field, f"expected {expected}, got {x!r}")
+            raise SpecError(path, field, f"expected {expected}, got {show(value)}")
         return x
     if kind == "count":
         # an integer as TOML writes it: 2.0, "2" and true are refused, not rounded or coerced
@@ -277,11 +294,11 @@ def _check(value, rule, path, field):
         return value
     x = finite_number(value, path, field, expected)
     if kind == "pos" and not x > 0:
-        raise SpecError(path, field, f"expected {expected}, got {x!r}")
+        raise SpecError(path, field, f"expected {expected}, got {show(value)}")
     if kind == "range" and not bounds[0] < x < bounds[1]:
-        raise SpecError(path, field, f"expected {expected}, got {x!r}")
+        raise SpecError(path, field, f"expected {expected}, got {show(value)}")
     if kind == "bounded" and not bounds[0] < x <= bounds[1]:
-        raise SpecError(path, field, f"expected {expected}, got {x!r}")
+        raise SpecError(path, field, f"expected {expected}, got {show(value)}")
     return x
 
 
@@ -468,11 +485,11 @@ def _damper(data, path, cable: CableSpec) -> DamperSpec | None:
             raise SpecError(path, f"damper.{key}", f"missing; add it to [damper]: {expected}")
         x = finite_number(table[key], path, f"damper.{key}", expected)
         if not x > 0:
-            raise SpecError(path, f"damper.{key}", f"expected {expected}, got {x!r}")
+            raise SpecError(path, f"damper.{key}", f"expected {expected}, got {show(table[key])}")
         out[key] = x
     if not out["position_m"] < cable.length_m / 2:
         raise SpecError(path, "damper.position_m", f"expected {_DAMPER_RULES['position_m']} "
-                                                   f"({cable.length_m / 2:g} m), got {out['position_m']!r}; "
+                                                   f"({cable.length_m / 2:g} m), got {show(table['position_m'])}; "
                                                    "measure it from the nearer (lower) anchorage")
     return DamperSpec(**out)
 

@@ -163,9 +163,13 @@ def dumps(obj, **kw) -> str:
     return json.dumps(strict(obj), allow_nan=False, **kw)
 
 
-def response_status(a1: float, steady: bool) -> str:
+def response_status(a1: float, steady: bool, decay_rate: float = math.nan) -> str:
     """The ``status`` of a simulated response: "diverged" (growth past the model's range; the
-    amplitudes are null), "steady", or "not_steady" (``--max-time`` reached first)."""
+    amplitudes are null), "steady", "decaying" (``--max-time`` reached while the amplitudes fell
+    exponentially at ``decay_rate``: on their way to rest, `autocable.methods.integration.ode21.decay_rate`)
+    or "not_steady" (``--max-time`` reached first)."""
     if not math.isfinite(a1):
         return "diverged"
+    if not steady and decay_rate > 0:
+        return "decaying"
     return "steady" if steady else "not_steady"

@@ -70,7 +70,8 @@ def _damping_grid(text: str):
     # the onset (U -> 0+ for a negatively damping wind) cannot be told from none by the scan.
     if not (math.isfinite(a) and math.isfinite(b) and 0 < a < b < 1):
         raise refuse("--damping", f"expected damping ratios 0 < A < B < 1 (0.004 is 0.4 %), got {text!r}")
-    if n != int(n) or not 2 <= n <= DAMPING_POINTS_LIMIT:
+    # n is checked finite before int(n): int(nan) and int(inf) raise, not refuse
+    if not math.isfinite(n) or n != int(n) or not 2 <= n <= DAMPING_POINTS_LIMIT:
         raise refuse("--damping", f"N: expected an integer from 2 to {DAMPING_POINTS_LIMIT}, got {parts[2]!r}")
     return np.linspace(a, b, int(n))
 
@@ -86,6 +87,9 @@ def _changes(items) -> dict:
         if key[len("cable."):] not in VARIABLE_FIELDS:
             raise refuse("--set", f"cannot vary {key!r}; give one of "
                                   f"{', '.join('cable.' + f for f in VARIABLE_FIELDS)}")
+        if key[len("cable."):] in out:
+            # two values for one field: keeping the last silently hides a typing error
+            raise refuse("--set", f"{key} given twice; give each field once")
         try:
             x = float(value)
         except ValueError:

@@ -112,6 +112,9 @@ def settle_hint(r, U: float, max_time: float) -> str:
     diverged): near the threshold U* = 1 the transients are long."""
     if r.steady or not all(math.isfinite(a) for a in (r.a1, r.a2)):
         return ""
+    if getattr(r, "decay_rate", math.nan) > 0:
+        # on its way to rest at a measured rate: the message says when it gets there
+        return ""
     near = f" (U* = {U:g} is near the galloping threshold U* = 1, where transients are long)" \
         if abs(U - 1.0) <= NEAR_THRESHOLD else ""
     return (f"autocable: hint: the response has not settled by t* = {r.t_end:g}{near}; raise --max-time "
@@ -165,7 +168,7 @@ def cmd_simulate(args) -> int:
         _write_history(Path(args.csv), r, getattr(args, "every", None), getattr(args, "samples", None))
     if plot:
         _plot_history(args, d, r)
-    out = {"status": response_status(r.a1, r.steady),
+    out = {"status": response_status(r.a1, r.steady, r.decay_rate),
            "a1": r.a1, "a2": r.a2, "steady": r.steady, "periodic": r.periodic, "t_end": r.t_end,
            "U": r.U, "eta": r.eta, "sigma": r.sigma, "Omega": r.Omega,
            "a1_min": r.a1_min, "a1_max": r.a1_max, "a2_min": r.a2_min, "a2_max": r.a2_max,

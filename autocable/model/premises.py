@@ -101,6 +101,9 @@ CABLE_LIMITS: dict[str, tuple[float, float]] = {
 }
 LAMBDA2_MIN = 1e-12
 CHI_MIN = 1e-6
+#: Below this D/l no stay exists (a 1 mm wire over 1 km); the Scruton number m xi/(rho D^2) and the
+#: load's D^2 underflow to 0 far below it (D = 1e-200 m divided by zero).
+SLENDERNESS_MIN = 1e-6
 
 
 def check_model(spec: ModelSpec) -> dict[str, float]:
@@ -122,10 +125,12 @@ def check_model(spec: ModelSpec) -> dict[str, float]:
                    "a nearly taut elastic cable"),
         "slenderness": ("slenderness D/l", "cable.diameter_m, cable.length_m", "a slender cable"),
         "delta": ("sag parameter delta = m g l cos^2(alpha)/H",
-                  "cable.mass_per_length_kg_m, cable.gravity_m_s2, cable.horizontal_tension_N",
+                  "cable.mass_per_length_kg_m, cable.gravity_m_s2, cable.length_m, cable.horizontal_tension_N, "
+                  "cable.chord_slope_deg",
                   "a nearly taut cable"),
-        "lambda2": ("Irvine's lambda^2 = delta^2/tau", "cable.gravity_m_s2, cable.horizontal_tension_N, "
-                    "cable.axial_stiffness_N", "the 1:1 resonance (omega1 < 2 omega2)"),
+        "lambda2": ("Irvine's lambda^2 = delta^2/tau", "cable.mass_per_length_kg_m, cable.gravity_m_s2, "
+                    "cable.length_m, cable.horizontal_tension_N, cable.axial_stiffness_N",
+                    "the 1:1 resonance (omega1 < 2 omega2)"),
         "detuning": ("internal detuning |omega2 - omega1|", "the cable's sag and stiffness",
                      "a near 1:1 resonance"),
         "chi": ("torsion ratio chi = GJ/EI", "cable.torsional_stiffness_Nm2, cable.bending_stiffness_Nm2",
@@ -142,7 +147,7 @@ def check_model(spec: ModelSpec) -> dict[str, float]:
         warnings.warn(PremiseWarning(f"{where}: {what} = {value:.3g} exceeds {limit:g}: eq. (21) assumes "
                                      f"{needs}, and is stretched here ({fields})"), stacklevel=3)
 
-    lows = {"lambda2": LAMBDA2_MIN, "chi": CHI_MIN}
+    lows = {"lambda2": LAMBDA2_MIN, "chi": CHI_MIN, "slenderness": SLENDERNESS_MIN}
     for key in ("strain", "slenderness", "delta", "lambda2", "chi"):
         lo, hi = lows.get(key, 0.0), CABLE_LIMITS[key][1]
         if not lo <= q[key] <= hi:      # also catches NaN

@@ -132,6 +132,48 @@ class Response:
     #: error by Richardson from the window at half the sampling); nan where not measured
     a1_error: float = math.nan
     a2_error: float = math.nan
+    #: a run ended at max_time while its amplitudes fell exponentially (`decay_rate`): the rate r
+    #: of exp(-r t*) (t* units); nan otherwise
+    decay_rate: float = math.nan
+
+
+#: `decay_rate`: the judged chunks it fits (the last ones), the fewest it needs, and how far the
+#: per-chunk rates may scatter about their mean (relative) for the decay to count as exponential.
+DECAY_CHUNKS = 8
+DECAY_MIN_CHUNKS = 4
+DECAY_SCATTER = 0.2
+
+
+def decay_rate(times, amplitudes) -> float | None:
+    """The rate r > 0 of an exponential decay exp(-r t) of the envelope max(a1, a2) over the last
+    `DECAY_CHUNKS` judged chunks (``times``, ``amplitudes`` = [(a1, a2), ...], oldest first), from a
+    least-squares fit of its logarithm; None unless every chunk fell and every chunk's own rate lies
+    within `DECAY_SCATTER` of their mean. A response settling on a cycle slows down (its rates
+    shrink chunk by chunk) and a modulated one rises and falls: neither passes. Below the onset the
+    trivial state of eq. (21) is a stable focus, so a small response decays at the linear rate
+    (the least damped eigenvalue's real part) for as long as it takes: that is its steady state."""
+    pts = [(float(t), max(a)) for t, a in zip(times, amplitudes)
+           if all(math.isfinite(x) and x > 0 for x in a)][-DECAY_CHUNKS:]
+    if len(pts) < DECAY_MIN_CHUNKS or len(pts) < min(DECAY_CHUNKS, len(times)):
+        return None
+    t = np.array([p[0] for p in pts])
+    y = np.log([p[1] for p in pts])
+    rates = -np.diff(y) / np.diff(t)
+    mean = float(np.mean(rates))
+    if not (np.all(rates > 0) and np.all(np.abs(rates - mean) <= DECAY_SCATTER * mean)):
+        return None
+    return float(-np.polyfit(t, y, 1)[0])
+
+
+def _decaying(rate: float, times, amplitudes, rest_floor: float) -> str:
+    """The message of a run that ended decaying exponentially (`decay_rate`)."""
+    n = min(DECAY_CHUNKS, len(times))
+    a, t = max(amplitudes[-1]), times[-1]
+    rest = t + math.log(a / rest_floor) / rate
+    # "not steady" stays in it: callers (shooting's fallback, sweeps) read a run that has not settled by it
+    return (f"not steady after t = {t:g} but decaying to rest: max(a1, a2) = {a:.3g} falls as "
+            f"exp(-{rate:.4g} t*) over the last {n} chunks (halving every {math.log(2) / rate:.4g}); "
+            f"below the rest floor {rest_floor:.0e} near t = {rest:.4g}")
 
 
 def refined_peak(samples: np.ndarray, sign: int) -> float:
@@ -356,6 +398,7 @@ class Ode21Integrator:
         cycles = None
         steps = []           # |change| of each amplitude between consecutive chunks
         judged, changes = [], []     # the judged chunks' amplitudes and relative changes, for ``recurrence``
+        judged_t = []                # and when each ended, for `decay_rate`
         while t < max_time - 1e-9:
             t1 = min(t + chunk, max_time)
             if t1 - t < dt * (1 - 1e-9):
@@ -449,6 +492,7 @@ class Ode21Integrator:
                     steady, at_rest = True, rest and not change < steady_tol
                     break
                 judged.append(amps)
+                judged_t.append(t)
                 changes.append(change)
                 if recurrence is not None and not autonomous:
                     note = recurrence(U, eta, Omega, judged, changes, y, t, max_time, steady_tol)
@@ -458,15 +502,21 @@ class Ode21Integrator:
                                               t, window, f"not steady at t = {t:g} (amplitudes still "
                                               f"changing): {note}", start, y, history, samples_per_period)
             previous = amps
+        rate = None if steady else decay_rate(judged_t, judged)
         if autonomous and cycles is not None and not at_rest:
-            return self._cycle_response(U, eta, sigma, Omega, cycles, steady, t, window, dt, start, y,
-                                        history, steps)
+            r = self._cycle_response(U, eta, sigma, Omega, cycles, steady, t, window, dt, start, y,
+                                     history, steps)
+            return r if rate is None else replace(r, decay_rate=rate,
+                                                  message=_decaying(rate, judged_t, judged, rest_floor))
         periodic = self._is_periodic(window, samples_per_period, rest_floor)
         msg = ("steady" if not at_rest else f"at rest (amplitudes below {rest_floor:.0e} and decaying)") \
             if steady else f"not steady after t = {t:g} (amplitudes still changing)"
-        return self._response(U, eta, sigma, Omega, amps, steady, periodic, t, window, msg, start, y,
-                              history, samples_per_period,
-                              period=period if periodic and not at_rest else math.nan)
+        if rate is not None:
+            msg = _decaying(rate, judged_t, judged, rest_floor)
+        r = self._response(U, eta, sigma, Omega, amps, steady, periodic, t, window, msg, start, y,
+                           history, samples_per_period,
+                           period=period if periodic and not at_rest else math.nan)
+        return r if rate is None else replace(r, decay_rate=rate)
 
     def _cycle_response(self, U, eta, sigma, Omega, cycles, steady, t, window, dt, start, y, history, steps):
         """The response of the autonomous eq. (21) measured on its own cycles: periodic when steady
