@@ -15,7 +15,7 @@ from autocable.errors import EXIT_FAILED, EXIT_INPUT
 # one rule for the worker count of every command (re-exported)
 from autocable.executor import WORKERS_LIMIT, check_workers  # noqa: F401
 from autocable.model.premises import MAX_INTEGRATION_TIME
-from autocable.spec import SpecError
+from autocable.spec import SpecError, show
 
 #: Accepted ranges of the numeric options that premises.check_parameters does not cover.
 #: Time limit of `simulate` (t* units): `autocable.model.premises.MAX_INTEGRATION_TIME`.
@@ -39,7 +39,7 @@ def check_number(option: str, value, lo: float, hi: float, *, integer: bool = Fa
     if value is None:
         return
     if not math.isfinite(value) or not (lo < value if lo_open else lo <= value) or not value <= hi:
-        raise refuse(option, f"expected {kind} in {span}, got {value!r}")
+        raise refuse(option, f"expected {kind} in {span}, got {show(value)}")
 
 
 def check_out(option: str, value) -> None:
