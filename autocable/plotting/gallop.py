@@ -1,6 +1,8 @@
 """The picture of `autocable gallop`: the galloping cycles' peak displacements at mid-span against the
 wind speed, in-plane and out-of-plane, one colour per damping ratio, stable cycles solid and unstable
-ones dashed, the folds of cycles and the Hopf points marked, the design wind as a vertical line.
+ones dashed, the folds of cycles and the Hopf points marked, the design wind as a vertical line; where
+the study has one, its sensitivity to the curves' band and blend as a shaded range of the lowest
+galloping speed and an error bar at the design wind.
 Reads the study's dict only (`autocable.studies.gallop.gallop_study`, as gallop.json holds it)."""
 from __future__ import annotations
 
@@ -31,6 +33,32 @@ def _finite(x) -> bool:
     return x is not None and isinstance(x, (int, float)) and math.isfinite(x)
 
 
+def _sensitivity(axes, sens: dict, design) -> None:
+    """The sensitivity to the curves' band and blend (`autocable.studies.gallop.sensitivity`): the
+    range of the lowest galloping speed shaded, the range of each peak at the design wind as an
+    error bar about the nominal cycle (a bare bar where the nominal case has no stable cycle there)."""
+    if not sens.get("defined") or sens.get("computed") is False:
+        return
+    low = (sens.get("lowest_galloping_U_m_s") or {}).get("range")
+    amp = sens.get("amplitude_at_design_wind_m") or {}
+    nominal, ranges = amp.get("nominal"), amp.get("range") or [None, None]
+    label = f"band +-{sens['band_deg']:g} deg, blend x" + ", x".join(f"{f:g}" for f in sens["blend_factors"])
+    for i, ax in enumerate(axes):
+        if low and _finite(low[0]) and _finite(low[1]):
+            ax.axvspan(low[0], max(low[1], low[0] + 1e-3), color="C0", alpha=0.13, lw=0,
+                       label=f"lowest galloping speed, {label}")
+        r = ranges[i]
+        if not (_finite(design) and r and _finite(r[0]) and _finite(r[1])):
+            continue
+        if nominal and _finite(nominal[i]):
+            y = nominal[i]
+            ax.errorbar([design], [y], yerr=[[y - r[0]], [r[1] - y]], fmt="s", color="k", ms=4, capsize=4,
+                        lw=1.2, zorder=5, label=f"at the design wind, {label}")
+        else:
+            ax.errorbar([design], [0.5 * (r[0] + r[1])], yerr=[[0.5 * (r[1] - r[0])]] * 2, fmt="none", ecolor="k",
+                        capsize=4, lw=1.2, zorder=5, label=f"at the design wind, {label} (no nominal cycle)")
+
+
 def plot_gallop(study: dict, stem: str | Path, title: str = "") -> list[Path]:
     """``stem``.png/.pdf from the dict of `gallop_study` (module docstring)."""
     U_top = study.get("scanned_U_m_s", [0.0, None])[1]
@@ -59,6 +87,7 @@ def plot_gallop(study: dict, stem: str | Path, title: str = "") -> list[Path]:
                 if first:                       # no stable cycle: the legend still names the damping
                     ax.plot([], [], "--", color=color, label=label)
         design = study.get("design_wind_m_s")
+        _sensitivity(axes, study.get("sensitivity") or {}, design)
         for n, (ax, (key, name)) in enumerate(zip(axes, keys)):
             if _finite(design):
                 ax.axvline(design, color="0.35", lw=0.9, ls=":", label=f"design wind {design:g} m/s")
