@@ -115,17 +115,9 @@ def cmd_run(args) -> int:
               + (f", {scene.name}.png, {scene.name}.pdf" if not getattr(args, "no_plot", False) else "") + ")")
     elif not quiet:
         print(f"{scene.title}")
-        for b in res.branches:
-            ends = "; ".join(f"{e.side}: {e.reason}" + (f" ({e.message})" if e.reason not in ("range",) and e.message else "")
-                             for e in b.ends)
-            print(f"  {b.name:<12} {b.kind:<11} {len(b):>5} points   {ends}")
-            for s in b.special_points:
-                conf = {True: "PyCont agrees", False: "PyCont missed it", None: ""}[s.confirmed_by_pycont] \
-                    if s.origin == "autocable" else "PyCont only, not confirmed"
-                extra = f" l1 = {s.extra['l1']:.4g}" if "l1" in s.extra else ""
-                second = f", {s.extra['parameter2']} = {s.extra['value2']: .8g}" if "value2" in s.extra else ""
-                print(f"    {s.label:<5} {s.parameter} = {s.value: .8g}{second}  a1 = {s.a1:.6e}  a2 = {s.a2:.6e}"
-                      f"{extra}  {conf}")
+        from autocable.scene.runner import summary_lines
+        for line in summary_lines(res, scene.plot.units):      # in SI with units = "si"
+            print(line)
         plane = scene.plot.plane and any(b.kind in ("fold", "hopf", "branch_point") for b in res.branches)
         print(f"  results in {out}/ (branches.csv, special_points.csv, run.json"
               + (f", {scene.name}.png, {scene.name}.pdf" if not getattr(args, "no_plot", False) else "")

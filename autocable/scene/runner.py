@@ -27,7 +27,7 @@ from autocable.scene.time_scene import run_time_scene
 from autocable.scene.schema import (ENGINES, PARAMETERS, RESOLUTIONS, Progress, RunSpec, Scene, load_scene,
                                     read_compare)
 
-__all__ = ["run_scene", "coarse_settings", "write_compare", "load_scene"]
+__all__ = ["run_scene", "coarse_settings", "write_compare", "load_scene", "summary_lines"]
 
 # ================================================================================================
 # running
@@ -823,3 +823,62 @@ def _write_overlay(rows: list[dict], path: Path, columns=("parameter",)) -> None
 
 
 
+
+
+# ================================================================================================
+# the summary `autocable run` prints
+# ================================================================================================
+#: The SI form of each parameter in a summary: (name, unit, conversion of the nondimensional value).
+_SI_PARAMETER = {"sigma": ("Omega", "Hz"), "U": ("U", "m/s"), "eta": ("eta", "m")}
+
+
+def _si_value(units, omega1: float, parameter: str, value: float) -> float:
+    """``value`` of ``parameter`` in SI (eqs. 17-18): sigma as the deck frequency (omega1 + sigma)
+    omega / 2 pi [Hz], U* U_c [m/s], eta* l [m]."""
+    if parameter == "sigma":
+        return units.frequency_hz(omega1 + value)
+    return units.wind_m_s(value) if parameter == "U" else units.support_m(value)
+
+
+def summary_lines(res, units: str = "paper") -> list[str]:
+    """The branch table `autocable run` prints: per branch its kind, points and ends (an end at
+    the point budget says ``max_points`` and where: the branch is cut short there), and per special
+    point its parameter value(s), amplitudes, a Hopf point's criticality with its first Lyapunov
+    coefficient l1, and whether PyCont agrees. ``units = "si"`` (a scene's ``[plot] units`` or
+    ``--units si``) gives the values in SI when the run carries its cable's scales: the deck
+    frequency in Hz for sigma, U in m/s, eta in m, the peak displacements a_k l in m."""
+    from autocable.model.units import units_from_dict
+
+    prov = res.provenance
+    si = None
+    if units == "si" and prov.get("si_scales") and prov.get("omega1") is not None:
+        si = units_from_dict(dict(prov["si_scales"])), float(prov["omega1"])
+
+    def value(parameter: str, v: float) -> str:
+        if si and parameter in _SI_PARAMETER:
+            name, unit = _SI_PARAMETER[parameter]
+            return f"{name} = {_si_value(si[0], si[1], parameter, v):.8g} {unit}"
+        return f"{parameter} = {v: .8g}"
+
+    def amplitudes(a1: float, a2: float) -> str:
+        if si:
+            return f"a1 l = {si[0].peak_m(a1):.4e} m  a2 l = {si[0].peak_m(a2):.4e} m"
+        return f"a1 = {a1:.6e}  a2 = {a2:.6e}"
+
+    lines = []
+    for b in res.branches:
+        ends = "; ".join(f"{e.side}: {e.reason}"
+                         + (f" at {value(b.parameter, e.value).strip()}" if e.truncated else "")
+                         + (f" ({e.message})" if e.reason not in ("range",) and e.message else "")
+                         for e in b.ends)
+        lines.append(f"  {b.name:<12} {b.kind:<11} {len(b):>5} points   {ends}")
+        for s in b.special_points:
+            conf = {True: "PyCont agrees", False: "PyCont missed it", None: ""}[s.confirmed_by_pycont] \
+                if s.origin == "autocable" else "PyCont only, not confirmed"
+            hopf = f"  {s.hopf_text}" if s.hopf_text else (f"  l1 = {s.extra['l1']:.4g}" if "l1" in s.extra else "")
+            second = f", {value(s.extra['parameter2'], s.extra['value2'])}" if "value2" in s.extra else ""
+            lines.append(f"    {s.label:<5} {value(s.parameter, s.value)}{second}  {amplitudes(s.a1, s.a2)}"
+                         f"{hopf}  {conf}".rstrip())
+    if units == "si" and si is None and res.branches:
+        lines.append("  (values nondimensional: this run carries no SI scales)")
+    return lines
