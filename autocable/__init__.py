@@ -115,8 +115,19 @@ def run_scene(scene, out_dir, *, progress=None, plot: bool = True, resolution: s
     """Run a scene (`autocable.scene.runner.run_scene`) as ``autocable run`` does: an ``ame =
     "auto"`` scene gets its AME from the probes of `autocable.studies.advise`; ``engine``
     ("pycont" | "compiled") overrides the scene's continuation engine. Returns the `RunResults`."""
+    import os
+
+    from autocable.model.premises import ArgumentError
     from autocable.scene.runner import run_scene as run
+    from autocable.scene.schema import Scene, load_scene
     from autocable.studies.advise import choose_ame
+    if isinstance(scene, (str, os.PathLike)):       # the path of a scene file: loaded as `load_scene` does
+        scene = load_scene(scene)
+    if not isinstance(scene, Scene):
+        raise ArgumentError("run_scene", "scene", f"expected a scene (ac.load_scene(path)) or the path of a "
+                                                  f"scene file, got {type(scene).__name__}")
+    if not isinstance(out_dir, (str, os.PathLike)) or not str(out_dir).strip():
+        raise ArgumentError("run_scene", "out_dir", f"expected the path of an output folder, got {out_dir!r}")
     return run(scene, out_dir, progress=progress, plot=plot, resolution=resolution, engine=engine,
                choose_ame=choose_ame)
 
@@ -126,10 +137,24 @@ def plot_branches(branches, stem=None, *, x: str, y=("a1",), title: str = "", la
     """Draw ``branches`` (`Branch` objects, or `ContinuationResult` objects) paper-style, stable
     continuous and unstable dashed, special points (LP, H, BP, ...) marked, labelled and named in the
     legend; return the matplotlib Figure, and write ``stem.png`` and ``stem.pdf`` when ``stem`` is
-    given (`autocable.plotting.diagrams.plot_scene`). ``units``: `si_scales` for SI axes; ``ax``: an
-    Axes (one per amplitude of ``y``) to draw into."""
-    from autocable.plotting.diagrams import plot_scene
+    given (`autocable.plotting.diagrams.plot_scene`). ``branches`` may be a `RunResults` (e.g.
+    `frequency_response`'s). ``y``: one column ("a1") or several; ``units``: "si" (the scales the
+    branches carry), `si_scales` or "paper"; ``ax``: an Axes (one per amplitude of ``y``) to draw
+    into. A bad argument is an `ArgumentError` naming it."""
+    from autocable.model.premises import ArgumentError
+    from autocable.plotting.diagrams import check_plot_arguments, plot_scene
     from autocable.results import RunResults
+    from autocable.results import Branch
+    provenance = getattr(branches, "provenance", {})     # a RunResults: its branches and SI scales
+    branches = getattr(branches, "branches", branches)
+    if isinstance(branches, (str, bytes)) or not hasattr(branches, "__iter__"):
+        raise ArgumentError("plot_branches", "branches", f"expected a sequence of Branch (or ContinuationResult) "
+                                                         f"objects, got {type(branches).__name__}")
     plain = tuple(getattr(b, "branch", b) for b in branches)
-    return plot_scene(RunResults("plot", plain, {}), stem, x=x, y=tuple(y), title=title, labels=labels,
-                      units=units, ax=ax)
+    for k, b in enumerate(plain):
+        if not isinstance(b, Branch):
+            raise ArgumentError("plot_branches", f"branches[{k}]", f"expected a Branch (or ContinuationResult), "
+                                                                   f"got {type(b).__name__}")
+    results = RunResults("plot", plain, dict(provenance))
+    y, units = check_plot_arguments("plot_branches", results, x, y, units, ax)
+    return plot_scene(results, stem, x=x, y=y, title=title, labels=labels, units=units, ax=ax)

@@ -24,7 +24,7 @@ from autocable.cli.damper import add_damper_parser
 from autocable.cli.gallop import add_gallop_parser
 from autocable.cli.onset import add_onset_parser
 from autocable.cli.runs import add_chart_parser, add_run_parser, add_sweep_parser
-from autocable.cli.simulate import cmd_simulate
+from autocable.cli.simulate import add_si_options, cmd_simulate
 from autocable.cli.studies import cmd_advise, cmd_bench, cmd_calibrate, cmd_failure_map
 from autocable.spec import SpecError
 
@@ -79,6 +79,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--pair", type=int, metavar="K", help=PAIR_HELP + "; the forcing is near the pair's in-plane "
                    "frequency, Omega = omega1 + sigma")
     s.add_argument("--load", choices=("cubic", "exact"), help=LOAD_HELP)
+    add_si_options(s)
     s.set_defaults(func=cmd_simulate)
 
     b = sub.add_parser("bench", help="benchmarks (speed and accuracy); prints JSON")

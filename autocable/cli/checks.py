@@ -15,7 +15,8 @@ from autocable.errors import EXIT_FAILED, EXIT_INPUT
 # one rule for the worker count of every command (re-exported)
 from autocable.executor import WORKERS_LIMIT, check_workers  # noqa: F401
 from autocable.model.premises import MAX_INTEGRATION_TIME
-from autocable.spec import SpecError, show
+from autocable.model.premises import check_number as check_api_number
+from autocable.spec import SpecError
 
 #: Accepted ranges of the numeric options that premises.check_parameters does not cover.
 #: Time limit of `simulate` (t* units): `autocable.model.premises.MAX_INTEGRATION_TIME`.
@@ -33,13 +34,31 @@ def refuse(option: str, message: str):
 
 def check_number(option: str, value, lo: float, hi: float, *, integer: bool = False,
                   lo_open: bool = False) -> None:
-    """Refuse a non-finite ``value`` or one outside [lo, hi] ((lo, hi] with ``lo_open``)."""
-    kind = "an integer" if integer else "a number"
-    span = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]"
+    """Refuse a non-finite ``value`` or one outside [lo, hi] ((lo, hi] with ``lo_open``): the
+    API's checker (`autocable.model.premises.check_number`) with the option's name; None (an
+    option not given) passes."""
     if value is None:
         return
-    if not math.isfinite(value) or not (lo < value if lo_open else lo <= value) or not value <= hi:
-        raise refuse(option, f"expected {kind} in {span}, got {show(value)}")
+    check_api_number("arguments", option, value, lo, hi, integer=integer, lo_open=lo_open)
+
+
+class Typed(float):
+    """A number as typed on the command line: a float whose ``repr`` is the text the user typed,
+    so that a refusal quotes ``1e9``, not ``1000000000.0`` (arithmetic gives plain floats)."""
+
+    def __new__(cls, text: str):
+        value = super().__new__(cls, text)
+        value.text = text.strip()
+        return value
+
+    def __repr__(self) -> str:
+        return self.text
+
+
+def typed_number(text: str) -> float:
+    """The argparse ``type`` of a numeric option: a `Typed` float (argparse names the option when
+    the text is not a number)."""
+    return Typed(text)
 
 
 def check_out(option: str, value) -> None:

@@ -3,11 +3,12 @@ N-mode model, or by shooting) at one (U*, eta*, sigma)."""
 from __future__ import annotations
 
 import math
+import re
 import sys
 from pathlib import Path
 
 from autocable.cli.checks import (MAX_TIME_LIMIT, MODES_LIMIT, check_file_target, check_number, check_out,
-                                  dumps, refuse, response_status)
+                                  dumps, refuse, response_status, typed_number)
 from autocable.cli.derivation import derivation
 from autocable.model.premises import MAX_AMPLITUDE
 from autocable.spec import SpecError
@@ -50,16 +51,69 @@ def _si_line(out: dict) -> str:
             + ("mid-span" if out.get("mode_pair", 1) == 1 else f"each mode's maximum (mode pair {out['mode_pair']})"))
 
 
-def _check_parameters(args) -> None:
+#: The SI options of `simulate` (m/s, m, Hz): parameter -> (attribute, option). Each converts
+#: through `autocable.model.units` (eqs. 17-18): U* = U/U_c, eta* = eta/l, sigma = 2 pi f/omega - omega1.
+SI_OPTIONS = {"U": ("wind", "--wind"), "eta": ("deck_amplitude", "--deck-amplitude"),
+              "sigma": ("deck_frequency", "--deck-frequency")}
+_STAR_OPTIONS = {"U": "--U", "eta": "--eta", "sigma": "--sigma"}
+
+
+def add_si_options(s) -> None:
+    """The SI options of the `simulate` parser ``s`` beside --U/--eta/--sigma (whose default becomes
+    "not given", 0 when neither kind is), and every numeric option keeping the text as typed."""
+    s.add_argument("--wind", type=typed_number, metavar="M_S",
+                   help="wind speed U [m/s], instead of --U (U* = U/U_c, eq. 18)")
+    s.add_argument("--deck-amplitude", type=typed_number, metavar="M",
+                   help="amplitude of the support (deck) motion eta [m] at the lower anchorage, instead of "
+                        "--eta (eta* = eta/l, eq. 18)")
+    s.add_argument("--deck-frequency", type=typed_number, metavar="HZ",
+                   help="frequency of the support (deck) motion [Hz], instead of --sigma (sigma = "
+                        "2 pi f/omega - omega1, eq. 17: the detuning from the first in-plane frequency)")
+    for action in s._actions:
+        if action.dest in ("U", "eta", "sigma", "max_time"):
+            action.type = typed_number
+    s.set_defaults(U=None, eta=None, sigma=None)
+    # "-1e-3" is a number, not an option (argparse's own pattern misses the exponent): --q0 -1e-3 ...
+    s._negative_number_matcher = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+
+
+def _si_given(args) -> dict:
+    """parameter -> (option, value) of the SI options given; one parameter given in both kinds is
+    refused naming both options. Fills a parameter given in neither kind with 0."""
+    from autocable.model.premises import NOT_GIVEN, choose_parameter
+    given = {}
+    for name, (attr, option) in SI_OPTIONS.items():
+        star, si = (getattr(args, a, None) for a in (name, attr))       # argparse: None = not given
+        kind = choose_parameter("arguments", name, NOT_GIVEN if star is None else star,
+                                NOT_GIVEN if si is None else si, _STAR_OPTIONS[name], option)
+        if kind is None:
+            setattr(args, name, 0.0)
+        elif kind[0] == "si":
+            given[name] = (option, kind[1])
+    return given
+
+
+def _apply_si(args, d, given: dict) -> None:
+    """Set args.U/eta/sigma from the SI options ``given`` on the derived cable ``d`` (refusing a
+    value outside eq. (21)'s premises, named by its option), then warn where stretched."""
+    from autocable.model.premises import STAR_NAMES, parameter_from_si
+    from autocable.model.units import units_of
+    u = units_of(d.spec, d.statics)
+    for name, (option, value) in given.items():
+        setattr(args, name, parameter_from_si("arguments", name, value, u, d.ode.omega1, option))
+    _check_parameters(args, {name: f"{STAR_NAMES[name]} (from {option})" for name, (option, _) in given.items()})
+
+
+def _check_parameters(args, labels: dict | None = None) -> None:
     """U*, eta*, sigma of `simulate` against the premises of eq. (21) (one line each; a stretched
-    premise is a one-line warning on stderr)."""
+    premise is a one-line warning on stderr). ``labels``: parameter -> the option it came from."""
     import warnings
 
     from autocable.model.premises import PremiseWarning, check_parameters
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", PremiseWarning)
         check_parameters({"U": args.U, "eta": args.eta, "sigma": args.sigma}, "arguments",
-                         {"U": "--U", "eta": "--eta", "sigma": "--sigma"})
+                         {**_STAR_OPTIONS, **(labels or {})})
     for w in caught:
         if issubclass(w.category, PremiseWarning):
             print(f"autocable: warning: {w.message}", file=sys.stderr)
@@ -67,9 +121,11 @@ def _check_parameters(args) -> None:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
 
 
-def _check_simulate(args) -> None:
-    """Every numeric option of `simulate`, where it enters, before any work."""
-    _check_parameters(args)
+def _check_simulate(args, si: dict | None = None) -> None:
+    """Every numeric option of `simulate`, where it enters, before any work (the SI options ``si``
+    once the cable is derived: `_apply_si`)."""
+    if not si:
+        _check_parameters(args)
     if args.q0:
         for name, v in zip(("Q1", "Q1DOT", "Q2", "Q2DOT"), args.q0):
             if not (math.isfinite(v) and abs(v) <= MAX_AMPLITUDE):
@@ -123,13 +179,16 @@ def settle_hint(r, U: float, max_time: float) -> str:
 
 def cmd_simulate(args) -> int:
     from autocable.methods.integration.ode21 import DEFAULT_Q0, Ode21Integrator
-    _check_simulate(args)
+    si = _si_given(args)
+    _check_simulate(args, si)
     pair = getattr(args, "pair", None)
     if pair is not None and getattr(args, "modes", None) is not None:
         raise refuse("--pair", "--modes integrates the first N modes of each plane, every pair up to N; "
                                "drop --pair (or --modes)")
     from autocable.progress import progress_for
     d = derivation(args.model, pair, getattr(args, "load", None))
+    if si:
+        _apply_si(args, d, si)
     if d.ode.exact_load is not None and (args.method == "ame" or getattr(args, "modes", None) is not None):
         option = "--method" if args.method == "ame" else "--modes"
         raise refuse(option, "the amplitude equations (22)-(24) and the N-mode model carry eq. (21)'s cubic load; "

@@ -9,6 +9,7 @@ flagged here, not discovered later as nonsense amplitudes.
 from __future__ import annotations
 
 import math
+import numbers
 import warnings
 from typing import Mapping
 
@@ -63,7 +64,7 @@ def check_parameters(values: Mapping[str, float], where: str = "arguments",
             raise SpecError(where, label, f"expected a finite number, {what}, got {value!r}")
         if not lo <= x <= hi:
             raise SpecError(where, label, f"{what} must lie in [{lo:g}, {hi:g}] for eq. (21) to apply, "
-                                          f"got {x!r}")
+                                          f"got {show(value)}")
         if abs(x) > warn:
             warnings.warn(PremiseWarning(f"{where}: {label} = {x:g}: {what} beyond {warn:g}, where the "
                                          f"small-amplitude expansions of Sect. 4 are stretched"),
@@ -213,7 +214,9 @@ class ArgumentError(SpecError):
 
 
 def _number(function: str, name: str, value) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) and type(value).__module__ != "numpy":
+    # numbers.Real: int, float and numpy's float32/int64 (registered there); bool (and numpy's
+    # bool_, not registered) is a flag, not a number
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ArgumentError(function, name, f"expected a number, got {show(value)}")
     try:
         x = float(value)
@@ -251,7 +254,8 @@ def check_call(function: str, *, U=NOT_GIVEN, eta=NOT_GIVEN, sigma=NOT_GIVEN, q0
     values = {}
     for name, value in (("U", U), ("eta", eta), ("sigma", sigma)):
         if value is not NOT_GIVEN:
-            values[name] = _number(function, name, value)
+            _number(function, name, value)
+            values[name] = value        # as given: a refusal quotes it as the caller wrote it
     try:
         # errors only: a stretched value is the command line's and the input files' to warn about
         # once (a sweep would otherwise warn at every point)
@@ -274,3 +278,142 @@ def check_call(function: str, *, U=NOT_GIVEN, eta=NOT_GIVEN, sigma=NOT_GIVEN, q0
             if t < period:
                 raise ArgumentError(function, time_name, f"expected at least one forcing period, 2 pi/Omega = "
                                                          f"{period:.6g} at sigma = {values['sigma']:g}, got {max_time!r}")
+
+
+# -- the one argument checker of the command line and the Python API ---------------------------------
+#
+# Both raise `ArgumentError` (a `SpecError`): the command line names the option (``where`` =
+# "arguments", ``name`` = "--wind"), the API the function and the keyword. Every message quotes the
+# value as given (``show``: the typed text on the command line, ``np.float32(0.0014)`` from numpy).
+
+def check_number(function: str, name: str, value, lo: float = -math.inf, hi: float = math.inf, *,
+                 integer: bool = False, lo_open: bool = False, what: str = "") -> float:
+    """``value`` as a float: a real number (numpy scalars included, bool refused), finite, in
+    [lo, hi] ((lo, hi] with ``lo_open``), an integer with ``integer``; else `ArgumentError` naming
+    ``function`` and ``name``, ``what`` the value is, and the value as given."""
+    kind = "an integer" if integer else "a number"
+    span = ("" if lo == -math.inf and hi == math.inf else f" {'>' if lo_open else '>='} {lo:g}" if hi == math.inf
+            else f" in {'(' if lo_open else '['}{lo:g}, {hi:g}]")
+    expected = f"expected {kind}{span}{f' ({what})' if what else ''}"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or integer and not isinstance(
+            value, numbers.Integral) and not (isinstance(value, float) and value.is_integer()):
+        raise ArgumentError(function, name, f"{expected}, got {show(value)}")
+    try:
+        x = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ArgumentError(function, name, f"{expected}, got {show(value)}") from None
+    if not math.isfinite(x) or not (lo < x if lo_open else lo <= x) or not x <= hi:
+        raise ArgumentError(function, name, f"{expected}, got {show(value)}")
+    return x
+
+
+def check_interval(function: str, name: str, value, lo: float = -math.inf, hi: float = math.inf,
+                   what: str = "") -> tuple[float, float]:
+    """``value`` = (a, b): two numbers (`check_number`, in [lo, hi]) with a < b."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2:
+        raise ArgumentError(function, name, f"expected a range (lo, hi) of two numbers{f' ({what})' if what else ''}, "
+                                            f"got {show(value)}")
+    a, b = (check_number(function, f"{name}[{k}]", v, lo, hi, what=what) for k, v in enumerate(value))
+    if not a < b:
+        raise ArgumentError(function, name, f"expected a range (lo, hi) with lo < hi, got {show(value)}")
+    return a, b
+
+
+def check_choice(function: str, name: str, value, choices):
+    """``value`` if it is one of ``choices`` (compared by equality, strings only as strings)."""
+    if not any(value is c or type(value) is type(c) and value == c for c in choices):
+        raise ArgumentError(function, name, f"expected one of {', '.join(repr(c) for c in choices)}, got {show(value)}")
+    return value
+
+
+def check_type(function: str, name: str, value, types, expected: str):
+    """``value`` if it is an instance of ``types``; else `ArgumentError` saying what is ``expected``
+    (the fix, e.g. "a ContinuationSettings (ac.ContinuationSettings(...))")."""
+    if not isinstance(value, types):
+        raise ArgumentError(function, name, f"expected {expected}, got {show(value)}")
+    return value
+
+
+#: The SI twin of each parameter of eq. (21) (eq. 18: U* = U/U_c, eta* = eta/l; eq. 17: the forcing
+#: Omega = omega1 + sigma in units of omega): parameter -> (API keyword, unit, what it is).
+SI_PARAMETERS: dict[str, tuple[str, str, str]] = {
+    "U": ("wind_m_s", "m/s", "the wind speed U [m/s]"),
+    "eta": ("deck_amplitude_m", "m", "the support (deck) motion's amplitude eta [m]"),
+    "sigma": ("deck_frequency_Hz", "Hz", "the support (deck) motion's frequency Omega/2pi [Hz]"),
+}
+
+
+#: The nondimensional symbols of eqs. (17)-(18) in messages.
+STAR_NAMES = {"U": "U*", "eta": "eta*", "sigma": "sigma"}
+
+
+def choose_parameter(function: str, name: str, star, si, star_label: str | None = None,
+                     si_label: str | None = None):
+    """Which of a parameter's two kinds was given: ("star", value), ("si", value) or None; both
+    given (not `NOT_GIVEN`; None is a value to refuse) is refused naming both (``--U`` or
+    ``--wind``, not both)."""
+    star_label = star_label or name
+    si_label = si_label or SI_PARAMETERS[name][0]
+    has_star, has_si = star is not NOT_GIVEN, si is not NOT_GIVEN
+    if has_star and has_si:
+        raise ArgumentError(function, si_label, f"{name} given twice: as {star_label} = {show(star)} and as "
+                                                f"{si_label} = {show(si)}; give one of them")
+    return ("si", si) if has_si else ("star", star) if has_star else None
+
+
+def parameter_from_si(function: str, name: str, value, units, omega1: float, label: str | None = None) -> float:
+    """The nondimensional ``name`` (U*, eta* or sigma) of an SI ``value`` (m/s, m, Hz) on the cable
+    of ``units`` (`autocable.model.units.Units`) with first in-plane frequency ``omega1`` (eq. 21
+    units), checked against `PARAMETER_RANGES`: `ArgumentError` naming ``label`` (default the API
+    keyword of `SI_PARAMETERS`) with the value as given and the converted one."""
+    keyword, unit, what = SI_PARAMETERS[name]
+    label = label or keyword
+    x = check_number(function, label, value, 0.0 if name != "sigma" else -math.inf, lo_open=name == "sigma",
+                     what=what)
+    if name == "sigma" and not x > 0:
+        raise ArgumentError(function, label, f"expected a frequency > 0 Hz, got {show(value)}")
+    star = {"U": units.wind_star, "eta": units.support_star}[name](x) if name != "sigma" \
+        else units.detuning(x, omega1)
+    lo, hi, _, what_star = PARAMETER_RANGES[name]
+    if not lo <= star <= hi:
+        si_lo, si_hi = ((units.wind_m_s(lo), units.wind_m_s(hi)) if name == "U" else
+                        (units.support_m(lo), units.support_m(hi)) if name == "eta" else
+                        (units.frequency_hz(omega1 + lo), units.frequency_hz(omega1 + hi)))
+        raise ArgumentError(function, label, f"{what_star} must lie in [{lo:g}, {hi:g}] for eq. (21) to apply, "
+                                             f"that is {label} in [{si_lo:.4g}, {si_hi:.4g}] {unit} on this "
+                                             f"cable; got {show(value)} ({STAR_NAMES[name]} = {star:.4g})")
+    return star
+
+
+# -- wind speeds of a result (`autocable onset`) against the premises -------------------------------
+#: The speed of sound in air at 20 deg C [m/s]: the Mach number of a wind speed.
+SPEED_OF_SOUND_M_S = 343.0
+#: The Mach number above which air is not incompressible: the quasi-steady load of eqs. (9-14) and
+#: its fitted coefficients (eq. 13) are those of incompressible flow.
+MACH_LIMIT = 0.3
+#: The model files' own bound on a wind speed (aero.critical_wind_speed_m_s): about Mach 0.3.
+WIND_LIMIT_M_S = 100.0
+
+
+def wind_premises(U_m_s: float, U_star: float) -> list[str]:
+    """Why a wind speed U [m/s] (U* = U/U_c) of a result lies past the model's premises: U* beyond
+    the bound where `simulate` warns (`PARAMETER_RANGES`, the expansions of Sect. 4 stretched), U
+    above the model files' `WIND_LIMIT_M_S` or a Mach number above `MACH_LIMIT`. Empty if none."""
+    out = []
+    warn = PARAMETER_RANGES["U"][2]
+    if math.isfinite(U_star) and U_star > warn:
+        out.append(f"U* = U/U_c = {U_star:.3g} > {warn:g} (where `simulate` warns: the expansions of Sect. 4 "
+                   "are stretched)")
+    if math.isfinite(U_m_s) and U_m_s > WIND_LIMIT_M_S:
+        out.append(f"above {WIND_LIMIT_M_S:g} m/s, the model files' bound on a wind speed")
+    if math.isfinite(U_m_s) and U_m_s / SPEED_OF_SOUND_M_S > MACH_LIMIT:
+        out.append(f"Mach {U_m_s / SPEED_OF_SOUND_M_S:.3g} > {MACH_LIMIT:g} (the quasi-steady load is that of "
+                   "incompressible air)")
+    return out
+
+
+def wind_warning(what: str, U_m_s: float, U_star: float) -> str | None:
+    """One line: ``what`` at U m/s lies past the model's premises, and why (`wind_premises`); None
+    if it does not."""
+    why = wind_premises(U_m_s, U_star)
+    return f"{what} U = {U_m_s:.4g} m/s lies past the model's premises: {'; '.join(why)}" if why else None

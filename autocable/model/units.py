@@ -44,10 +44,23 @@ class Units:
         """eta = eta* l [m], the support amplitude."""
         return eta_star * self.length_m
 
+    def support_star(self, eta_m: float) -> float:
+        """eta* = eta / l."""
+        return eta_m / self.length_m
+
     # -- eq. (17) ----------------------------------------------------------------------------------
     def frequency_hz(self, frequency_star: float) -> float:
         """f = Omega omega / (2 pi) [Hz] for a nondimensional circular frequency Omega (t* = omega t)."""
         return frequency_star * self.omega_rad_s / (2 * math.pi)
+
+    def frequency_star(self, f_hz: float) -> float:
+        """Omega = 2 pi f / omega: a frequency f [Hz] in units of omega (the inverse of `frequency_hz`)."""
+        return 2 * math.pi * f_hz / self.omega_rad_s
+
+    def detuning(self, f_hz: float, omega1: float) -> float:
+        """sigma = Omega - omega1 of a support motion at f [Hz] (eq. 21: the external resonance is
+        Omega ~ omega1, the first in-plane frequency in units of omega)."""
+        return self.frequency_star(f_hz) - omega1
 
     def time_s(self, t_star: float) -> float:
         """t = t* / omega [s]."""

@@ -112,7 +112,11 @@ def plot_scene(results, stem: str | Path | None = None, *, x: str, y: Sequence[s
     (digitised points) as red circles, with ``compare_stats`` (compare.json: RMS and largest
     distance per curve) written in their panel. ``units``: `autocable.plotting.units.si_scales`
     for SI axes (default: the paper's nondimensional symbols). ``ax``: an Axes (or one per panel)
-    to draw into."""
+    to draw into; ``units = "si"`` takes the scales the results carry (a run's or a
+    `frequency_response`'s), ``"paper"`` the paper's symbols. Bad arguments are refused before
+    drawing (`autocable.model.premises.ArgumentError` naming the argument: an unknown column, a
+    ``y`` given as one string is one panel)."""
+    y, units = check_plot_arguments("plot_scene", results, x, y, units, ax)
     with styled():
         fig = _plot_scene(results, x=x, y=y, title=title, labels=labels, compare=compare,
                           compare_panel=compare_panel, compare_label=compare_label, overlay=overlay,
@@ -120,6 +124,55 @@ def plot_scene(results, stem: str | Path | None = None, *, x: str, y: Sequence[s
         if stem is not None:
             save_figure(fig, stem)
     return fig
+
+
+def check_plot_arguments(function: str, results, x, y, units, ax) -> tuple:
+    """(y as a tuple of panels, units) of `plot_scene`, or `ArgumentError` naming the argument:
+    ``x`` and each ``y`` a column of the branches (an amplitude, a parameter, the min/max pair of a
+    cycle branch's amplitude) or, for ``x``, an SI axis of `autocable.plotting.units.SI_AXES`;
+    ``units`` None, "paper" (None), "si" (the scales of the cable the results carry, as
+    `SiWordScales`; refused naming the fix when they carry none) or an `si_scales` mapping; ``ax``
+    None, an Axes or a sequence of them. A ``y`` given as one string is one panel."""
+    from autocable.model.premises import ArgumentError, check_type
+    from autocable.plotting.units import SI_AXES, SiWordScales, cable_of, scales_of
+    from autocable.spec import show
+    branches = getattr(results, "branches", ())
+    columns = {"sigma", "U", "eta", "a1", "a2"}
+    for b in branches:
+        table = getattr(b, "table", {})
+        columns |= set(table) | {k[:-4] for k in table if k.endswith("_min")}
+    check_type(function, "x", x, str, "a column name, e.g. \"sigma\"")
+    if x not in columns and x not in SI_AXES:
+        raise ArgumentError(function, "x", f"no column {x!r} in these branches; one of "
+                                           f"{', '.join(sorted(columns | set(SI_AXES)))}")
+    panels = (y,) if isinstance(y, str) else y
+    if isinstance(panels, (bytes, Mapping)) or not isinstance(panels, Sequence) or not panels:
+        raise ArgumentError(function, "y", f"expected a column name or a sequence of them, e.g. (\"a1\", \"a2\"), "
+                                           f"got {show(y)}")
+    for k, amp in enumerate(panels):
+        if not isinstance(amp, str) or amp not in columns:
+            raise ArgumentError(function, "y" if isinstance(y, str) else f"y[{k}]",
+                                f"no column {show(amp)} in these branches; one of {', '.join(sorted(columns))}")
+    if isinstance(units, str):
+        if units == "paper":
+            units = None
+        elif units == "si":
+            cable = cable_of(results)
+            if cable is None:
+                raise ArgumentError(function, "units", "'si' needs the cable's scales, which these branches do not "
+                                                       "carry: give units=ac.si_scales(length_m, omega_rad_s, "
+                                                       "critical_wind_speed_m_s)")
+            units = SiWordScales(scales_of(cable[0]))
+        else:
+            raise ArgumentError(function, "units", f"expected 'paper', 'si' or ac.si_scales(...), got {show(units)}")
+    elif units is not None and not (isinstance(units, Mapping) and all(
+            isinstance(v, tuple) and len(v) == 2 for v in units.values())):
+        raise ArgumentError(function, "units", f"expected 'paper', 'si' or ac.si_scales(...), got {show(units)}")
+    if ax is not None:
+        axes = np.atleast_1d(np.asarray(ax, dtype=object)).ravel()
+        if not len(axes) or any(not (hasattr(a, "figure") and hasattr(a, "plot")) for a in axes):
+            raise ArgumentError(function, "ax", f"expected a matplotlib Axes (or one per panel), got {show(ax)}")
+    return tuple(panels), units
 
 
 def _plot_overlay(ax, rows, x: str, amp: str, fx: float, fy: float) -> list:

@@ -40,7 +40,7 @@ import numpy as np
 from autocable.errors import BudgetExceeded, ComputationError
 from autocable.methods.integration.ode21 import DEFAULT_Q0, refined_peak
 from autocable.model.ame import AmplitudeEquations
-from autocable.model.premises import NOT_GIVEN, check_call
+from autocable.model.premises import NOT_GIVEN, ArgumentError, check_call
 
 METHODS = ("LSODA", "Radau", "BDF", "DOP853")
 
@@ -142,6 +142,9 @@ class AmeIntegrator:
 
     def __init__(self, ame: AmplitudeEquations, *, method: str = "LSODA", rtol: float = 1e-10,
                  atol: float = 1e-16, values=None, compiled: bool = True):
+        if not isinstance(ame, AmplitudeEquations):
+            raise ArgumentError("AmeIntegrator", "ame", f"expected the amplitude equations of a derivation "
+                                                        f"(ac.derive_ame(eq21).ame), got {type(ame).__name__}")
         if method not in METHODS:
             raise ValueError(f"unknown method {method!r}: use one of {METHODS}")
         if ame.n_modes != 2:

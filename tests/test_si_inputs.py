@@ -1,0 +1,150 @@
+"""SI inputs (m/s, m, Hz) beside the nondimensional U*, eta*, sigma of eqs. (17)-(18): the
+conversions of `autocable.model.units`, `autocable simulate --wind/--deck-amplitude/--deck-frequency`
+and `frequency_response(wind_m_s=..., deck_amplitude_m=..., deck_frequency_Hz=...)`.
+
+What each test checks against: the conversions against their closed forms (U* = U/U_c,
+eta* = eta/l, sigma = 2 pi f/omega - omega1 with omega = (pi/l) sqrt(T/m), eq. 17); the SI run
+against the nondimensional run at the converted values (the same numbers, to 1e-12); the echo of
+``--json`` against what was typed."""
+from __future__ import annotations
+
+import json
+import math
+import re
+
+import numpy as np
+import pytest
+
+import autocable as ac
+from autocable._paths import SAMPLE_MODEL
+from autocable.cli import main
+from autocable.model.premises import ArgumentError, parameter_from_si
+from autocable.model.units import units_of
+
+SAMPLE = str(SAMPLE_MODEL)
+
+
+@pytest.fixture(scope="module")
+def eq21():
+    return ac.derive(SAMPLE)
+
+
+def test_conversions_are_the_closed_forms(eq21):
+    """U* = U/U_c, eta* = eta/l and sigma = 2 pi f/omega - omega1, with omega = (pi/l) sqrt(T/m)
+    computed here from the model file's fields (eq. 17; T = H/cos(alpha) along the chord of a
+    nearly taut cable), each the inverse of the SI column it feeds (1e-12)."""
+    spec = eq21.spec
+    c = spec.cable
+    u = units_of(spec, eq21.statics)
+    T = c.horizontal_tension_N / math.cos(math.radians(c.chord_slope_deg))
+    omega = math.pi / c.length_m * math.sqrt(T / c.mass_per_length_kg_m)
+    # the statics' omega is that of the chord tension (the taut string; sag changes it by < 1e-3)
+    assert u.omega_rad_s == pytest.approx(omega, rel=1e-3)
+    w1 = eq21.ode.omega1
+    assert parameter_from_si("t", "U", 18.0, u, w1) == pytest.approx(18.0 / spec.aero.critical_wind_speed_m_s,
+                                                                     rel=1e-12)
+    assert parameter_from_si("t", "eta", 0.1, u, w1) == pytest.approx(0.1 / c.length_m, rel=1e-12)
+    f = 1.1
+    assert parameter_from_si("t", "sigma", f, u, w1) == pytest.approx(2 * math.pi * f / u.omega_rad_s - w1,
+                                                                      abs=1e-12)
+    for s in (-0.05, 0.0, 0.031):
+        assert u.detuning(u.frequency_hz(w1 + s), w1) == pytest.approx(s, abs=1e-13)
+    assert u.support_star(u.support_m(1.4e-3)) == pytest.approx(1.4e-3, rel=1e-14)
+    assert u.wind_star(u.wind_m_s(0.7)) == pytest.approx(0.7, rel=1e-14)
+
+
+def _simulate(capsys, *options) -> dict:
+    code = main(["simulate", SAMPLE, "--max-time", "3000", "--quiet", "--json", *options])
+    assert code == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_simulate_si_equals_the_nondimensional_run(capsys, eq21):
+    """--wind/--deck-amplitude/--deck-frequency give the run of --U/--eta/--sigma at the converted
+    values (amplitudes to 1e-12), and --json echoes both kinds: the SI ones as typed (1e-12)."""
+    f1 = units_of(eq21.spec, eq21.statics).frequency_hz(eq21.ode.omega1)
+    f = round(f1 * 0.98, 4)                     # 2 % below the first in-plane frequency
+    si = _simulate(capsys, "--wind", "18", "--deck-amplitude", "0.1", "--deck-frequency", repr(f))
+    assert si["U_m_s"] == pytest.approx(18.0, rel=1e-12)
+    assert si["eta_m"] == pytest.approx(0.1, rel=1e-12)
+    assert si["Omega_Hz"] == pytest.approx(f, rel=1e-12)
+    star = _simulate(capsys, "--U", repr(si["U"]), "--eta", repr(si["eta"]), "--sigma", repr(si["sigma"]))
+    for key in ("U", "eta", "sigma", "Omega"):
+        assert star[key] == si[key]
+    for key in ("a1", "a2", "a1_max", "a2_max"):
+        assert star[key] == pytest.approx(si[key], rel=1e-12, abs=1e-300)
+    assert si["a1"] > 1e-4          # a response, not rest: the comparison can fail
+    # the echo read back: U_m_s, eta_m, Omega_Hz of the nondimensional run are the typed SI values
+    assert star["U_m_s"] == pytest.approx(18.0, rel=1e-12) and star["Omega_Hz"] == pytest.approx(f, rel=1e-12)
+
+
+@pytest.mark.parametrize("options, named", [
+    (("--U", "0.5", "--wind", "18"), ("--wind", "--U")),
+    (("--eta", "1e-3", "--deck-amplitude", "0.1"), ("--deck-amplitude", "--eta")),
+    (("--sigma", "0", "--deck-frequency", "1.1"), ("--deck-frequency", "--sigma")),
+    (("--wind", "1e9",), ("--wind", "1e9")),
+    (("--wind", "-1",), ("--wind", "-1")),
+    (("--deck-amplitude", "100",), ("--deck-amplitude", "100")),
+    (("--deck-frequency", "0",), ("--deck-frequency",)),
+    (("--deck-frequency", "40",), ("--deck-frequency", "40")),
+    (("--max-time", "1e9",), ("--max-time", "1e9")),
+])
+def test_simulate_refuses_by_name(capsys, options, named):
+    """Both kinds of one quantity, or an SI value outside eq. (21)'s premises: exit 2, one line
+    naming the option(s) and the value as typed (``1e9``, not ``1000000000.0``)."""
+    code = main(["simulate", SAMPLE, "--quiet", *options])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1
+    assert all(n in err for n in named), err
+    assert "1000000000.0" not in err
+
+
+def test_negative_numbers_in_e_notation(capsys):
+    """``--q0 -1e-3 ...`` is a start, not an unknown option."""
+    out = _simulate(capsys, "--q0", "-1e-3", "0", "-2e-6", "0", "--max-time", "200")
+    assert out["status"] in ("steady", "not_steady", "decaying")
+
+
+def test_frequency_response_in_si_equals_the_nondimensional_one(eq21):
+    """frequency_response(wind_m_s, deck_amplitude_m, deck_frequency_Hz=(lo, hi)) is the response at
+    the converted U*, eta*, sigma range (branch tables to 1e-12); its DataFrame's Omega_Hz spans the
+    given Hz range (1e-9)."""
+    u = units_of(eq21.spec, eq21.statics)
+    w1 = eq21.ode.omega1
+    f1 = u.frequency_hz(w1)
+    hz = (round(f1 * 0.97, 4), round(f1 * 1.03, 4))
+    si = ac.frequency_response(eq21, wind_m_s=0.0, deck_amplitude_m=0.17, deck_frequency_Hz=hz, switch=False)
+    sig = tuple(u.detuning(f, w1) for f in hz)
+    star = ac.frequency_response(eq21, U=0.0, eta=0.17 / eq21.spec.cable.length_m, sigma=sig, switch=False)
+    a, b = si.branch("I"), star.branch("I")
+    assert len(a) == len(b) > 10
+    for col in ("sigma", "a1", "a2"):
+        np.testing.assert_allclose(a[col], b[col], rtol=1e-12, atol=1e-15)
+    assert si.provenance["range"] == pytest.approx(list(sig), abs=1e-13)
+    frame = si.to_dataframe()
+    if "Omega_Hz" in frame:         # the SI columns, where the results carry the cable's scales
+        assert frame["Omega_Hz"].min() == pytest.approx(hz[0], rel=1e-9)
+        assert frame["Omega_Hz"].max() == pytest.approx(hz[1], rel=1e-9)
+
+
+@pytest.mark.parametrize("kwargs, named", [
+    ({"U": 0.1, "wind_m_s": 3.0, "eta": 1e-3}, "wind_m_s"),
+    ({"eta": 1e-3, "deck_amplitude_m": 0.1}, "deck_amplitude_m"),
+    ({"eta": 1e-3, "sigma": (-0.05, 0.05), "deck_frequency_Hz": (1.0, 1.2)}, "deck_frequency_Hz"),
+    ({"deck_amplitude_m": 1e3}, "deck_amplitude_m"),
+    ({"eta": 1e-3, "wind_m_s": 1e6}, "wind_m_s"),
+    ({"eta": 1e-3, "deck_frequency_Hz": (1.2, 1.0)}, "deck_frequency_Hz"),
+    ({"eta": 1e-3, "deck_frequency_Hz": (0.2, 1.0)}, "deck_frequency_Hz[0]"),
+    ({"eta": 1e-3, "deck_frequency_Hz": 1.1}, "deck_frequency_Hz"),
+])
+def test_frequency_response_si_refusals(eq21, kwargs, named):
+    """Both kinds of a quantity, an SI value outside the premises, a reversed or scalar Hz range:
+    `ArgumentError` naming the keyword."""
+    with pytest.raises(ArgumentError, match=f"frequency_response: {re.escape(named)}:"):
+        ac.frequency_response(eq21, **kwargs)
+
+
+def test_si_needs_the_cable(eq21):
+    """eq. (21)'s ode alone has no length, U_c or omega: SI keywords refused, naming the fix."""
+    with pytest.raises(ArgumentError, match="wind_m_s: .*Derivation"):
+        ac.frequency_response(eq21.ode, wind_m_s=10.0, eta=1e-3)
