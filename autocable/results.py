@@ -700,7 +700,9 @@ def _num(text: str) -> float:
 
 
 def read_results(out_dir: str | Path) -> RunResults:
-    """Read what `write_results` wrote. Branch info and special points come from ``run.json``."""
+    """Read what `write_results` wrote. Branch info and special points come from ``run.json``; each
+    branch's ``info`` gets the run's ``si_scales`` and ``omega1`` when the provenance has them (a
+    branch then plots in SI on its own: `autocable.plotting.units.cable_of`)."""
     folder = Path(out_dir)
     meta = read_json(folder / RUN_JSON)
     if not isinstance(meta, dict):
@@ -736,6 +738,10 @@ def read_results(out_dir: str | Path) -> RunResults:
         ev = [[complex(_num(r[f"ev{k}_re"]), _num(r[f"ev{k}_im"])) for k in range(1, nev + 1)]
               for r in mine]
         info = dict(bm.get("info") or {})
+        prov = meta.get("provenance") or {}
+        if prov.get("si_scales") and prov.get("omega1") is not None and "si_scales" not in info:
+            # each branch carries its cable, so that it plots in SI (the deck frequency in Hz) alone
+            info.update(si_scales=prov["si_scales"], omega1=prov["omega1"])
         branches.append(Branch(
             name=bm["name"], kind=bm["kind"], parameter=bm["parameter"],
             parameter_names=tuple(bm["parameter_names"]), variables=tuple(bm["variables"]),
