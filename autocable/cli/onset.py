@@ -3,6 +3,7 @@
 (`autocable.studies.onset`)."""
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import math
@@ -110,14 +111,76 @@ def _csv(rows, columns) -> str:
     return buf.getvalue()
 
 
+#: The files `autocable onset --out` writes (with run.json, which lists those of the last run).
+ONSET_FILES = ("onset.json", "damping.csv", "amplitude.csv", "onset.png", "onset.pdf", "band.png", "band.pdf")
+
+
+@contextlib.contextmanager
+def onset_folder(out: Path):
+    """The output folder of ``onset --out``, safe to write: locked against a second onset for the
+    whole run (an advisory ``flock`` on the folder itself, released by the kernel however the
+    process ends), refused (one line naming ``--out``) if it holds files an earlier onset did not
+    write (run.json lists those), temporaries of a killed onset removed (the lock proves their writer
+    dead); then staged and published by `autocable.run_folder.output_folder` (run.json last). Yields
+    the staging folder."""
+    import fcntl
+    import os
+
+    from autocable._store import read_json
+    from autocable.results import RUN_JSON
+    from autocable.run_folder import _TEMP, is_leftover, output_folder
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        fd = os.open(out, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError as exc:
+        raise refuse("--out", f"cannot use {out}: {exc.strerror or exc}; give a folder that can be written") from None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise refuse("--out", f"another autocable onset is writing into {out}; wait for it or give another "
+                                  "folder") from None
+        meta = read_json(out / RUN_JSON)
+        ours = isinstance(meta, dict) and meta.get("name") == "onset" and isinstance(meta.get("files"), list)
+        listed = {str(f) for f in meta["files"]} if ours else set()
+        foreign, temporaries = [], []
+        for entry in sorted(out.iterdir()):
+            n = entry.name
+            m = _TEMP.match(n)
+            if m and m["name"] in ONSET_FILES + (RUN_JSON,) and entry.is_file():
+                temporaries.append(entry)       # a killed onset's half-written file: its writer is dead
+            elif is_leftover(n) or (ours and (n == RUN_JSON or n in listed)):
+                continue                        # output_folder's: a live run's staging folder is refused there
+            else:
+                foreign.append(n)
+        if foreign:
+            shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
+            raise refuse("--out", f"{out} holds files autocable onset did not write ({shown}); onset replaces only "
+                                  "the files its earlier run listed in run.json: give an empty or new folder, or "
+                                  "move them away")
+        for entry in temporaries:
+            entry.unlink(missing_ok=True)
+        with output_folder(out, "onset") as staging:
+            yield staging
+    finally:
+        os.close(fd)
+
+
 def cmd_onset(args) -> int:
+    if args.out is not None and str(args.out).strip() and getattr(args, "modes_below", None) is None:
+        with onset_folder(Path(args.out)) as staging:
+            return _onset(args, staging)
+    return _onset(args, None)
+
+
+def _onset(args, staging: Path | None) -> int:
     from autocable.model.onset import U_MAX_DEFAULT
     from autocable.model.units import units_of
     from autocable.studies.onset import damping_study, design_damping, onset_report, onset_text, vary
 
     check_out("--out", args.out)
     if getattr(args, "band", False):
-        return _band(args)
+        return _band(args, staging)
     if getattr(args, "uc", None) is not None:
         raise refuse("--uc", "sets the range of onset speeds of --band: add --band (a single onset speed is the "
                              "model's aero.critical_wind_speed_m_s)")
@@ -171,8 +234,12 @@ def cmd_onset(args) -> int:
     if "design" in report:
         report["design"].update(_global_damping(d, args.design_wind, units.wind_m_s(U_max)))
     report["study"] = messages
+    premise = _premise_warnings(report, args, units)
+    report["warnings"] = list(report["warnings"]) + premise
+    for w in premise:
+        print(f"warning: {w}", file=sys.stderr)
     if args.out:
-        _write(report, Path(args.out), d.spec.name)
+        _write(report, staging, d.spec.name)
     if args.json:
         print(dumps(report, indent=1))
         return 0
@@ -180,7 +247,8 @@ def cmd_onset(args) -> int:
         print(m)
     print("\n".join(onset_text(report)))
     for w in report["warnings"]:
-        print(f"warning: {w}")
+        if w not in premise:        # (those went to stderr above)
+            print(f"warning: {w}")
     if "design" in report:
         ds = report["design"]
         print(f"design wind {ds['design_wind_m_s']:g} m/s: least damping ratio {100 * ds['least_damping_ratio']:.4g} % "
@@ -217,6 +285,31 @@ def cmd_onset(args) -> int:
     return 0
 
 
+def _premise_warnings(report: dict, args, units) -> list[str]:
+    """Where a wind speed of the study lies past the model's premises (`autocable.model.premises.
+    wind_premises`: U* beyond where `simulate` warns, above 100 m/s, Mach > 0.3): the onsets, the
+    options --max-wind and --design-wind, and the rows of damping.csv (column ``past_premises``)."""
+    from autocable.model.premises import wind_premises, wind_warning
+    out = []
+    for o in report.get("onsets", []):
+        out.append(wind_warning(f"the onset ({o['mechanism'].split(',')[0]}) at", o["U_m_s"], o["U_star"]))
+    for option, value in (("--max-wind", args.max_wind), ("--design-wind", args.design_wind)):
+        if value is not None:
+            out.append(wind_warning(f"{option}:", value, units.wind_star(value)))
+    rows = report.get("damping", [])
+    past = []
+    for r in rows:
+        why = wind_premises(r["U_cr_m_s"], r["U_cr_star"])
+        r["past_premises"] = "; ".join(why)
+        if why:
+            past.append(r)
+    if past:
+        out.append(f"damping.csv: {len(past)} of {len(rows)} rows have U_cr past the model's premises (from damping "
+                   f"ratio {past[0]['damping_ratio']:.4g}, U_cr = {past[0]['U_cr_m_s']:.4g} m/s: "
+                   f"{past[0]['past_premises']}); column past_premises says why for each")
+    return [w for w in out if w]
+
+
 def _uc_range(text: str | None, spec) -> tuple[float, float]:
     """``--uc A:B`` (or A) as (lo, hi) in m/s, each within the model file's bound on U_c."""
     if text is None:
@@ -232,7 +325,7 @@ def _uc_range(text: str | None, spec) -> tuple[float, float]:
     return vals[0], vals[-1]
 
 
-def _band(args) -> int:
+def _band(args, staging: Path | None) -> int:
     """``onset --band``: `autocable.studies.band.band_study` on the model file, its JSON, text and plot."""
     from autocable.spec import load_model
     from autocable.studies.band import band_study, band_text
@@ -249,8 +342,12 @@ def _band(args) -> int:
     check_number("--design-wind", args.design_wind, 0.0, 500.0, lo_open=True)
     band = band_study(spec, uc, args.design_wind, args.max_wind)
     report = {"model": spec.name, "band": band, "warnings": list(band["notes"])}
+    premise = _band_premises(band, args, uc)
+    report["warnings"] += premise
+    for w in premise:
+        print(f"warning: {w}", file=sys.stderr)
     if args.out:
-        _write_band(report, Path(args.out), spec.name)
+        _write_band(report, staging, spec.name)
     if args.json:
         print(dumps(report, indent=1))
     else:
@@ -258,6 +355,24 @@ def _band(args) -> int:
     if args.out:
         print(f"wrote {args.out}/onset.json, band.png, band.pdf", file=sys.stderr)
     return 0
+
+
+def _band_premises(band: dict, args, uc: tuple[float, float]) -> list[str]:
+    """`_premise_warnings` for a band: every case's onset (key ``past_premises`` of the case), and
+    --max-wind, --design-wind at the lowest U_c of the band (the largest U*)."""
+    from autocable.model.premises import wind_premises, wind_warning
+    out = []
+    for c in band["cases"]:
+        if c["status"] == "ok" and c["onset_U_m_s"] is not None:
+            why = wind_premises(c["onset_U_m_s"], c["onset_U_m_s"] / c["inputs"]["critical_wind_speed_m_s"])
+            c["past_premises"] = "; ".join(why)
+            if why:
+                out.append(f"the onset of case {c['label']} at U = {c['onset_U_m_s']:.4g} m/s lies past the "
+                           f"model's premises: {c['past_premises']}")
+    for option, value in (("--max-wind", args.max_wind), ("--design-wind", args.design_wind)):
+        if value is not None:
+            out.append(wind_warning(f"{option} (at U_c = {uc[0]:g} m/s):", value, value / uc[0]))
+    return [w for w in out if w]
 
 
 def _write_band(report: dict, out: Path, name: str) -> None:
@@ -312,7 +427,8 @@ def _write(report: dict, out: Path, name: str) -> None:
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_json(out / "onset.json", strict(report))
     atomic_write_text(out / "damping.csv", _csv(report.get("damping", []), [
-        "damping_ratio", "scruton", "U_cr_m_s", "U_cr_star", "frequency_Hz", "criticality", "mechanism"]))
+        "damping_ratio", "scruton", "U_cr_m_s", "U_cr_star", "frequency_Hz", "criticality", "mechanism",
+        "past_premises"]))
     rows = []
     for c in report.get("amplitude", []):
         for r in c["rows"]:

@@ -1,0 +1,179 @@
+"""`autocable onset --band` (`autocable.studies.band`), the conservative least damping
+(`autocable.studies.onset.design_damping`) and the calibration's failure message.
+
+The 145 m stay (tests/data/stay_145m.toml): its band over U_c = 7-13 m/s, both frame-indifferent
+readings and both signs of the yaw, the inputs that set each end, and each end equal to a single
+`autocable onset` run of a model file written with that end's inputs (an independent route: the
+file, the calibration and the command line, not the band's loop). The least damping is checked on
+the 190 m stay in the legacy reading (tests/data/stay_190m_legacy.toml), whose worst speed lies
+inside the design range: at the returned damping the rest state is stable on a 1e-3 m/s grid,
+at 0.999 of it not (eigenvalues of `TwoModeODE.linear_matrix` by numpy, not the search's pencil).
+Run time: about 20 s.
+"""
+import json
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+DATA = Path(__file__).parent / "data"
+STAY_145 = DATA / "stay_145m.toml"
+STAY_190_LEGACY = DATA / "stay_190m_legacy.toml"
+DESIGN = 25.0
+
+
+def _cli(capsys, *args):
+    from autocable.cli import main
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def band145():
+    from autocable.spec import load_model
+    from autocable.studies.band import band_study
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return band_study(load_model(STAY_145), (7.0, 13.0), DESIGN)
+
+
+def test_the_145m_stay_is_the_issues_cable():
+    """The taut string of the model file is the 0.7668 Hz the engineer computed (f = sqrt(T/m)/(2 l),
+    T = H/cos(alpha)): the chord slope assumed in the file is the one that gives it (to 1e-4)."""
+    from autocable.model.statics import cable_statics
+    from autocable.model.units import units_of
+    from autocable.spec import load_model
+    spec = load_model(STAY_145)
+    assert units_of(spec, cable_statics(spec.cable)).frequency_hz(1.0) == pytest.approx(0.7668, rel=1e-4)
+
+
+def test_band_covers_every_combination_and_lists_the_failures(band145):
+    """2 readings x 2 yaw signs x 5 onset speeds = 20 calibrations, each a case (more with a second
+    admissible root); a failed one keeps its one-line reason, which names the fix (the yaw's sign)."""
+    combos = {(c["inputs"]["angle_convention"], c["inputs"]["yaw_deg"], c["inputs"]["critical_wind_speed_m_s"])
+              for c in band145["cases"]}
+    assert combos == {(r, y, u) for r in ("eq12", "mirrored") for y in (30.0, -30.0)
+                      for u in (7.0, 8.5, 10.0, 11.5, 13.0)}
+    failed = [c for c in band145["cases"] if c["status"] != "ok"]
+    assert band145["failed"] == len(failed) > 0
+    for c in failed:
+        assert c["inputs"]["yaw_deg"] == 30.0      # the yaw's sign, against this chord slope
+        assert "try aero.yaw_deg = -30" in c["reason"] and "\n" not in c["reason"]
+        assert not c["reason"].endswith("...")
+    # a failed calibration is no end of the band
+    assert all(c["least_damping"] is not None for c in band145["cases"] if c["status"] == "ok")
+
+
+def test_band_ends_and_who_sets_them(band145):
+    """The ends are the extremes of the cases, each named by its inputs; the onset band is the U_c
+    range (every case is calibrated to its U_c: the onset is an input there, to 1e-9)."""
+    ok = [c for c in band145["cases"] if c["status"] == "ok"]
+    lo, hi = band145["least_damping"]
+    assert lo == min(c["least_damping"] for c in ok) and hi == max(c["least_damping"] for c in ok)
+    assert band145["onset_U_m_s"] == pytest.approx([7.0, 13.0], rel=1e-9)
+    for c in ok:
+        assert c["onset_U_m_s"] == pytest.approx(c["inputs"]["critical_wind_speed_m_s"], rel=1e-9)
+    by = band145["set_by"]["least_damping"]
+    assert by["lo"]["label"] != by["hi"]["label"]
+    assert {"critical_wind_speed_m_s", "angle_convention", "yaw_deg", "rivulet_angle_deg", "root"} <= set(by["lo"])
+    # the spread the issue reported (0.19 % to 0.51 % over U_c and the reading): at least 2.7x here too
+    assert hi / lo > 2.7
+
+
+def test_eq12_reading_matches_the_issues_hand_runs(band145):
+    """The issue's least damping to 25 m/s in the eq12 reading, yaw -30: 0.509 % (U_c 7), 0.417 % (10),
+    0.353 % (13). Its EA and chord slope were not stated (this file assumes them): 1 % agreement."""
+    got = {c["inputs"]["critical_wind_speed_m_s"]: c["least_damping"] for c in band145["cases"]
+           if c["status"] == "ok" and c["inputs"]["angle_convention"] == "eq12" and c["inputs"]["yaw_deg"] == -30}
+    for uc, issue in ((7.0, 0.00509), (10.0, 0.00417), (13.0, 0.00353)):
+        assert got[uc] == pytest.approx(issue, rel=0.01)
+
+
+def _single_model(tmp_path, inputs, name):
+    """The 145 m stay's file with one case's inputs written in: the fitted root as "calibrate" (the
+    calibration picks it again), another root as the number."""
+    text = STAY_145.read_text()
+    angle = '"calibrate"' if inputs["root"].startswith("fitted") else repr(inputs["rivulet_angle_deg"])
+    for field, value in (("critical_wind_speed_m_s", repr(inputs["critical_wind_speed_m_s"])),
+                         ("angle_convention", f'"{inputs["angle_convention"]}"'),
+                         ("yaw_deg", repr(inputs["yaw_deg"])), ("rivulet_angle_deg", angle)):
+        text, n = re.subn(rf"(?m)^{field} = .*$", f"{field} = {value}", text)
+        assert n == 1
+    p = tmp_path / f"{name}.toml"
+    p.write_text(text)
+    return p
+
+
+@pytest.mark.parametrize("key", ["least_damping", "onset_U_m_s"])
+def test_band_ends_equal_single_onset_runs(band145, tmp_path, capsys, key):
+    """Each end of the band is what `autocable onset FILE [--design-wind 25] --json` gives for a model
+    file holding that end's inputs (1e-9 relative)."""
+    for end, value in zip(("lo", "hi"), band145[key]):
+        path = _single_model(tmp_path, band145["set_by"][key][end], f"{key}_{end}")
+        design = ("--design-wind", DESIGN) if key == "least_damping" else ()
+        code, out, err = _cli(capsys, "onset", path, *design, "--json")
+        assert code == 0, err
+        rep = json.loads(out)
+        single = rep["design"]["least_damping_ratio"] if key == "least_damping" else rep["onsets"][0]["U_m_s"]
+        assert single == pytest.approx(value, rel=1e-9)
+
+
+def test_band_command_line(tmp_path, capsys):
+    """`onset --band --uc 7:13 --json`: the band object with both ends and who sets them; the plot
+    with --out; --uc without --band and a bad range are one-line refusals naming --uc."""
+    code, out, err = _cli(capsys, "onset", STAY_145, "--band", "--uc", "7:13", "--json", "--out", tmp_path / "b")
+    assert code == 0, err
+    band = json.loads(out)["band"]
+    assert band["onset_U_m_s"] == pytest.approx([7.0, 13.0], rel=1e-9)
+    assert "least_damping" not in band                  # no design wind, no least damping
+    assert set(band["set_by"]["onset_U_m_s"]) == {"lo", "hi"}
+    assert (tmp_path / "b" / "band.png").stat().st_size > 10000
+    for args, word in ((("--uc", "7:13"), "add --band"), (("--band", "--uc", "13:7"), "0 < A <= B <= 100"),
+                       (("--band", "--uc", "7:x"), "expected A:B"), (("--band", "--damping", "0.001:0.01"),
+                                                                     "drop --damping")):
+        code, out, err = _cli(capsys, "onset", STAY_145, *args)
+        assert code == 2 and word in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_calibration_failure_names_the_fix_and_is_never_cut(tmp_path, capsys):
+    """Yaw +30 in the eq12 reading at U_c = 7 m/s admits no root: the message names the fix (the yaw's
+    other sign) and is whole, however deep the file lies (the path gives way, not the hint)."""
+    deep = tmp_path.joinpath(*(["a_rather_long_folder_name_" + str(k) for k in range(8)]))
+    deep.mkdir(parents=True)
+    path = deep / "stay.toml"
+    path.write_text(STAY_145.read_text())
+    assert len(str(path)) > 240
+    code, out, err = _cli(capsys, "onset", path)
+    assert code == 2
+    line = err.strip()
+    assert len(line.splitlines()) == 1
+    assert "aero.rivulet_angle_deg" in line and "try aero.yaw_deg = -30" in line and line.endswith("(roots [77.98])")
+
+
+def test_least_damping_brackets_the_worst_speed():
+    """On the 190 m stay in the legacy reading the worst speed lies inside 0-25 m/s. At the least
+    damping returned the rest state is stable at every U of a 1e-3 m/s grid within 1 m/s of the worst
+    speed and of a 1e-2 m/s grid over the whole range; at 0.999 of it, not (the sampled search of
+    before returned 1.3e-5 less, unstable in a 0.075 m/s window)."""
+    from autocable.model.derive import derive
+    from autocable.model.onset import with_damping
+    from autocable.model.units import units_of
+    from autocable.studies.onset import design_damping
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        d = derive(STAY_190_LEGACY)
+    ds = design_damping(d, DESIGN)
+    xi, Uw = ds["least_damping_ratio"], ds["worst_wind_m_s"]
+    assert 1.0 < Uw < DESIGN - 1.0
+    u = units_of(d.spec, d.statics)
+    grid = np.concatenate([np.arange(Uw - 1.0, Uw + 1.0, 1e-3), np.arange(0.0, DESIGN + 1e-9, 1e-2)])
+
+    def worst(x):
+        ode = with_damping(d.ode, x)
+        return max(np.linalg.eigvals(ode.linear_matrix(u.wind_star(U))).real.max() for U in grid)
+
+    assert worst(xi) <= 0.0
+    assert worst(0.999 * xi) > 1e-7
