@@ -29,6 +29,9 @@ from autocable.spec import SpecError, load_model, parse_model, read_toml
 ROOT = Path(__file__).resolve().parents[1]
 STAY = ROOT / "models" / "stay_190m.toml"
 BLENDED = ROOT / "models" / "stay_190m.blended.toml"
+#: the 190 m stay with the paper's natural twist ends and a 45 deg yaw (static angle 41.7 deg): the
+#: curve tests below were built on it, and the twist's end condition plays no part in them
+NATURAL = ROOT / "models" / "stay_190m.natural.toml"
 A = (-0.48, 0.84, 4.69, 0.86)      # the paper's fits (eq. 13), as in the shipped models
 B = (1.25, -0.65, -0.08, 6.81)
 PHI = sp.Symbol("phi", real=True)
@@ -280,7 +283,7 @@ def test_valid_range_defaults():
     assert valid_phi(PolynomialCurves(A, B, (0.1, 0.2)), phi0) == (0.1, 0.2)
     spec = load_model(STAY)
     assert valid_phi(spec, phi0) == valid_phi(spec.aero, phi0) == (lo, hi)
-    assert valid_phi(load_model(BLENDED), phi0) == (math.radians(26.7), math.radians(56.7))
+    assert valid_phi(load_model(BLENDED), phi0) == (math.radians(-69.85), math.radians(-39.85))
 
 
 def test_with_band_changes_the_band_and_refuses_what_it_cannot():
@@ -407,7 +410,7 @@ def test_a_model_without_curve_fields_keeps_its_hash():
 def stay():
     """The 190 m stay with its fitted rivulet angle held explicit (so other curves see the same wind)."""
     from autocable.model.derive import derive
-    spec = load_model(STAY)
+    spec = load_model(NATURAL)
     d = derive(spec)
     return dataclasses.replace(spec, aero=dataclasses.replace(spec.aero, rivulet_angle_deg=d.theta0_deg)), d
 

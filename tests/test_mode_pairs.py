@@ -135,6 +135,9 @@ def test_the_slaved_twist_of_every_pair_solves_eq_19_3(stay):
         def bc(ya, yb, kp=kp):
             return np.array([ya[1] + delta * kp, yb[1] + delta * kp * math.cos(kp)])
 
+        def bc_restrained(ya, yb):
+            return np.array([ya[0], yb[0]])
+
         x = np.linspace(0.0, 1.0, 401)
         sol = solve_bvp(rhs, bc, x, np.zeros((2, x.size)), tol=1e-8, max_nodes=200000)
         assert sol.success, sol.message
@@ -142,6 +145,11 @@ def test_the_slaved_twist_of_every_pair_solves_eq_19_3(stay):
         assert np.max(np.abs(sol.sol(s)[0] - theta)) < 1e-6 * np.max(np.abs(theta))
         m = pair_modes(st, k)
         assert (m.twist_C != 0.0, m.twist_D != 0.0) == ((True, False) if k % 2 else (False, True))
+        # theta = 0 at both anchorages (the shipped stays): the particular part alone
+        sol = solve_bvp(rhs, bc_restrained, x, np.zeros((2, x.size)), tol=1e-8, max_nodes=200000)
+        assert sol.success, sol.message
+        theta = pair_modes(st, k, "restrained").shapes["theta2"].evaluate(s)
+        assert np.max(np.abs(sol.sol(s)[0] - theta)) < 1e-6 * np.max(np.abs(theta))
 
 
 # -- eq. (21) on the pair -----------------------------------------------------------------------------
@@ -174,7 +182,7 @@ class _Quadrature:
     """int_0^1 of products of shapes written here, by 200-node Gauss-Legendre: phi1 the pair's in-plane
     mode (unit maximum), phi2 = sin(k pi s), theta2 from solve_bvp (as in the test above)."""
 
-    def __init__(self, st, k, lambda2, delta, chi):
+    def __init__(self, st, k, lambda2, delta, chi, twist_ends="natural"):
         x, w = np.polynomial.legendre.leggauss(200)
         s, self.w = 0.5 * (x + 1), 0.5 * w
         kp = k * math.pi
@@ -189,6 +197,8 @@ class _Quadrature:
             return np.vstack([y[1], (delta ** 2 * y[0] + (1 + chi) * delta * kp ** 2 * np.sin(kp * x)) / chi])
 
         def bc(ya, yb):
+            if twist_ends == "restrained":
+                return np.array([ya[0], yb[0]])
             return np.array([ya[1] + delta * kp, yb[1] + delta * kp * math.cos(kp)])
 
         grid = np.linspace(0.0, 1.0, 401)
@@ -227,7 +237,7 @@ def test_linear_terms_of_pair_k_against_an_independent_projection(stay, k):
     assert _linear(ode, 1, 2)["damping"] == pytest.approx(2 * spec.cable.damping_ratio * om1, rel=1e-12)
     a = spec.aero
     lin = linear_load(a.lift, a.drag, st.alpha, d.beta, d.theta0, a.angle_convention, a.load_axes)
-    ref = linear_aero_matrix(_Quadrature(st, k, lambda2, delta, chi), d.aero_scale, d.velocity_ratio, st.m_star, lin)
+    ref = linear_aero_matrix(_Quadrature(st, k, lambda2, delta, chi, spec.cable.twist_ends), d.aero_scale, d.velocity_ratio, st.m_star, lin)
     for (eq, j), c in ref.items():
         got = _linear(ode, eq, j).get("aerodynamic", 0.0)
         assert got == pytest.approx(c, rel=1e-7, abs=1e-12 * max(abs(v) for v in ref.values())), (eq, j)
@@ -349,7 +359,7 @@ def test_bad_pair_options_are_one_line(capsys, args, option):
 
 @pytest.mark.parametrize("value", ['"x"', "0", "2.0", "true", "51"])
 def test_a_bad_mode_pair_in_the_file_is_one_line(capsys, tmp_path, value):
-    text = STAY.read_text().replace('twist_ends = "natural"', f'twist_ends = "natural"\nmode_pair = {value}')
+    text = STAY.read_text().replace('[cable]\n', f'[cable]\nmode_pair = {value}\n')
     path = tmp_path / "m.toml"
     path.write_text(text)
     with pytest.raises(SpecError) as err:
@@ -363,7 +373,7 @@ def test_the_amplitude_equations_refuse_pair_2(capsys, tmp_path):
     """The AME (22)-(24) are the first pair's: a model file with mode_pair = 2 runs `onset` but not the AME."""
     from autocable.model.ame_cache import derive_ame
     path = tmp_path / "pair2.toml"
-    path.write_text(STAY.read_text().replace('twist_ends = "natural"', 'twist_ends = "natural"\nmode_pair = 2'))
+    path.write_text(STAY.read_text().replace('[cable]\n', '[cable]\nmode_pair = 2\n'))
     d = _derive(load_model(path))
     with pytest.raises(SpecError) as err:
         derive_ame(d)
