@@ -109,9 +109,9 @@ def test_frequency_response_example(tmp_path):
     Fig. 6's setting; the DataFrame holds every point of every branch; the SI figure's a1 axis is
     a1 l (l = 121.9 m), its data the nondimensional a1 times l."""
     res, table, fig = _example("frequency_response").main(tmp_path)
-    assert [b.name for b in res.branches] == ["I", "I-BP1", "I-BP2"]
+    assert [b.name for b in res.branches] == ["I", "II", "III"]
     assert len(table) == sum(len(b) for b in res.branches)
-    assert table.groupby("branch")["a2"].max()[["I-BP1", "I-BP2"]].min() > 1e-3
+    assert table.groupby("branch")["a2"].max()[["II", "III"]].min() > 1e-3
     ax = fig.axes[0]
     assert ax.get_ylabel() == r"$a_1 l$ [m]"
     drawn = max(np.nanmax(ln.get_ydata()) for ln in ax.lines if ln.get_linestyle() in ("-", "--"))

@@ -15,13 +15,48 @@ The same in SI (eqs. 17-18: U* = U/U_c, eta* = eta/l, sigma = 2 pi f/omega - ome
 from __future__ import annotations
 
 import os
+import warnings
+from dataclasses import replace
 
 from autocable.model.premises import (NOT_GIVEN, SI_PARAMETERS, ArgumentError, check_call, check_choice,
                                       check_interval, check_type, choose_parameter, parameter_from_si)
-from autocable.results import RunResults
+from autocable.results import RunResults, TruncatedBranchWarning, truncation_notes
 from autocable.spec import show
 
-__all__ = ["frequency_response"]
+__all__ = ["frequency_response", "ROMAN", "COVER_TRIES", "COVER_FACTOR"]
+
+#: Branch names in the paper's manner (Figs. 5-10 number their branches I, II, III, ...).
+ROMAN = ("I", "II", "III", "IV", "V", "VI", "VII", "VIII", "IX", "X", "XI", "XII")
+#: A branch that stops at its point budget before the end of the range is continued again with
+#: ``max_points`` times `COVER_FACTOR`, at most `COVER_TRIES` times (2000 -> 8000 -> 32000 points
+#: per direction by default: the compiled kernel spends microseconds a point).
+COVER_TRIES, COVER_FACTOR = 2, 4
+
+
+def _name(k: int) -> str:
+    return ROMAN[k] if k < len(ROMAN) else f"B{k + 1}"
+
+
+def _covering(run, settings):
+    """``run(settings)`` (a `ContinuationResult`), again with a larger point budget while its branch
+    stops at ``max_points`` (`COVER_TRIES` times, x `COVER_FACTOR`); the warnings of a superseded
+    try are dropped, a branch still cut short after the last says so with the budget it had."""
+    for attempt in range(COVER_TRIES + 1):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result = run(settings)
+        if not result.branch.truncated or attempt == COVER_TRIES:
+            break
+        settings = replace(settings, max_points=settings.max_points * COVER_FACTOR)
+    for w in caught:
+        if issubclass(w.category, TruncatedBranchWarning):
+            continue
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    for note in truncation_notes([result.branch]):
+        warnings.warn(f"{note} (frequency_response already raised max_points {COVER_TRIES} times, to "
+                      f"{settings.max_points}; give settings=ContinuationSettings(max_points=...) or a "
+                      f"larger max_step)" if attempt else note, TruncatedBranchWarning, stacklevel=3)
+    return result
 
 
 def frequency_response(source, *, U=NOT_GIVEN, eta=NOT_GIVEN, sigma=NOT_GIVEN, wind_m_s=NOT_GIVEN,
@@ -32,8 +67,15 @@ def frequency_response(source, *, U=NOT_GIVEN, eta=NOT_GIVEN, sigma=NOT_GIVEN, w
     support amplitude ``eta`` (``eta*``), over ``sigma = (lo, hi)`` (default (-0.05, 0.05)): branch
     ``I`` from the small forced
     response at sigma = lo (the zero state refined by Newton), and with ``switch`` every branch
-    through one of its branch points (``I-BP1``, ...). Each `Branch` has its special points and a
-    ``stable`` column (autocable's own eigenvalues).
+    through one of its branch points, named ``II``, ``III``, ... in the order of I's branch points
+    (as the paper's figures number theirs; ``info["origin"]`` says where each was born, e.g.
+    ``"I:BP1"``). Each `Branch` has its special points and a ``stable`` column (autocable's own
+    eigenvalues).
+
+    Nothing is cut silently: a branch that stops at its point budget (``max_points``) before the
+    end of the range is continued again with 4 times the budget, twice at most; one still cut short
+    warns (`TruncatedBranchWarning`), names the end in its ``ends`` and in
+    ``to_dataframe().attrs["truncated"]``, and is marked on the plot.
 
     ``source``: a `Derivation` (`derive`), its ``ode`` (eq. 21 as a `TwoModeODE`), a `ModelSpec` or
     the path of a model file. ``ame``:
@@ -71,15 +113,33 @@ def frequency_response(source, *, U=NOT_GIVEN, eta=NOT_GIVEN, sigma=NOT_GIVEN, w
     values = {"U": float(U), "eta": float(eta), "sigma": lo}
     problem = EquilibriumProblem(system, "sigma", values, (lo, hi))
     settings = settings or ContinuationSettings(max_step=(hi - lo) / 5)
-    main = continue_equilibria(problem, settings, name="I", engine=engine, progress=progress)
-    results = [main]
+    main = _covering(lambda s: continue_equilibria(problem, s, name="I", engine=engine, progress=progress),
+                     settings)
+    branches = [main.branch]
     if switch:
-        results += [switch_branch(main, p, settings, name=f"I-{p.label}", engine=engine, progress=progress)
-                    for p in main.branch.special_points if p.type == "BP" and p.label != "BP0"]
+        for p in (p for p in main.branch.special_points if p.type == "BP" and p.label != "BP0"):
+            res = _covering(lambda s, p=p: switch_branch(main, p, s, name=_name(len(branches)), engine=engine,
+                                                         progress=progress), settings)
+            branches.append(res.branch.replace(info={**res.branch.info, "origin": f"I:{p.label}"}))
+    si = _si_info(eq21)
+    if si:      # SI columns in to_dataframe() and plot_branches(..., units="si") from the branches alone
+        branches = [b.replace(info={**b.info, **si}) for b in branches]
     provenance = {"model": name, "model_hash": key, "ame": ame, "ordering": ordering,
                   "engine": engine, "fixed": {"U": float(U), "eta": float(eta)}, "range": [lo, hi],
-                  "state_scale": problem.state_scale}
-    return RunResults("frequency_response", tuple(r.branch for r in results), provenance)
+                  "state_scale": problem.state_scale, **si}
+    return RunResults("frequency_response", tuple(branches), provenance)
+
+
+def _si_info(eq21) -> dict:
+    """The cable's SI scales and omega1 (`autocable.model.units`) of a `Derivation`; {} for eq. (21)
+    given alone (a `TwoModeODE` carries no cable)."""
+    from dataclasses import asdict
+
+    from autocable.model.units import units_of
+    spec, statics, ode = (getattr(eq21, k, None) for k in ("spec", "statics", "ode"))
+    if spec is None or statics is None or ode is None:
+        return {}
+    return {"si_scales": asdict(units_of(spec, statics)), "omega1": float(ode.omega1)}
 
 
 def _check_arguments(source, *, U, eta, sigma, wind_m_s, deck_amplitude_m, deck_frequency_Hz, ame, ordering,

@@ -27,7 +27,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from autocable.plotting.style import new_figure, place_labels, save_figure, styled
-from autocable.plotting.units import PAPER_LABELS, axis_scale
+from autocable.plotting.units import PAPER_LABELS, SI_AXES, SiWordScales, axis_scale, cable_of, x_axis
 
 __all__ = ["plot_scene", "plot_plane", "plot_time_series", "plot_simulation", "save_figure", "AXIS_LABELS",
            "MARKERS"]
@@ -46,6 +46,24 @@ MARKERS = {
     "PD": (dict(marker="+", color="black", ms=6, ls="none"), "period doubling (PD)"),
     "NS": (dict(marker="1", color="black", ms=7, ls="none"), "Neimark-Sacker (NS)"),
 }
+#: The end of a branch cut short by its point budget (an `EndPoint` "max_points": not the range's end).
+TRUNCATED_MARKER = (dict(marker="X", color="tab:red", ms=7, ls="none"), "branch cut at max_points")
+
+
+def _label_text(s) -> str:
+    """A special point's label; a Hopf point's with its criticality and l1 (``H1 (subcritical,
+    l1 = 2.3e+04)``): which of the two a Hopf point is decides whether the response jumps."""
+    text = getattr(s, "hopf_text", "")
+    return f"{s.label} ({text})" if text else s.label
+
+
+def _resolve_x(results, x: str, units):
+    """(column, factor, offset, label) of the x axis (`autocable.plotting.units.x_axis`): an SI
+    axis of `SI_AXES` (or sigma, U, eta with ``units = "si"`` given as the word) from the cable the
+    results carry, else ``units``' linear scale."""
+    si_word = isinstance(units, SiWordScales) or units == "si"
+    cable = cable_of(results) if (x in SI_AXES or (si_word and x in SI_AXES.values())) else None
+    return x_axis(x, units, cable)
 
 
 def _segments(x: np.ndarray, y: np.ndarray, stable: np.ndarray):
@@ -115,7 +133,11 @@ def plot_scene(results, stem: str | Path | None = None, *, x: str, y: Sequence[s
     to draw into; ``units = "si"`` takes the scales the results carry (a run's or a
     `frequency_response`'s), ``"paper"`` the paper's symbols. Bad arguments are refused before
     drawing (`autocable.model.premises.ArgumentError` naming the argument: an unknown column, a
-    ``y`` given as one string is one panel)."""
+    ``y`` given as one string is one panel). ``x`` may be ``"Omega_Hz"`` (the deck frequency
+    (omega1 + sigma) omega / 2 pi), ``"U_m_s"`` or ``"eta_m"``, drawn from sigma, U, eta with the
+    cable the results carry; with ``units = "si"`` an x of sigma, U or eta is drawn so. A Hopf
+    point's label says whether it is super- or subcritical, with l1; the end of a branch cut short
+    at its point budget (``max_points``) is marked by a red cross."""
     y, units = check_plot_arguments("plot_scene", results, x, y, units, ax)
     with styled():
         fig = _plot_scene(results, x=x, y=y, title=title, labels=labels, compare=compare,
@@ -218,7 +240,7 @@ def _plot_scene(results, *, x, y, title, labels, compare, compare_panel, compare
     panels = list(y)
     fig, grid, made = _axes_grid(ax, len(panels), (6.0, 3.2 * len(panels)))
     axes = grid[:, 0]
-    fx, xlabel = axis_scale(x, units)
+    x, fx, x0, xlabel = _resolve_x(results, x, units)
     seen = {"stable": False, "unstable": False, "cycles": False}
     types_drawn: list[str] = []
     extra_handles: list = []
@@ -229,7 +251,7 @@ def _plot_scene(results, *, x, y, title, labels, compare, compare_panel, compare
         for b in results.branches:
             if x not in b.table or len(b) == 0 or b.kind in ("fold", "hopf", "branch_point"):
                 continue      # two-parameter curves: see plot_plane
-            xs = np.asarray(b.table[x], float) * fx
+            xs = np.asarray(b.table[x], float) * fx + x0
             if b.kind == "equilibrium":
                 if amp not in b.table:
                     continue
@@ -248,6 +270,13 @@ def _plot_scene(results, *, x, y, title, labels, compare, compare_panel, compare
                         ax_.plot(sx, sy, color="black", lw=_THIN, ls="-" if st else "--")
                         seen["cycles"] = True
                         seen["stable" if st else "unstable"] = True
+            ycol = amp if b.kind == "equilibrium" else f"{amp}_max"
+            for e in getattr(b, "truncated", ()):       # an end at max_points: not the range's end
+                i = b.end_index(e)
+                if ycol in b.table and 0 <= i < len(b) and np.isfinite(b.table[ycol][i]):
+                    ax_.plot(xs[i], b.table[ycol][i] * fy, zorder=8, **TRUNCATED_MARKER[0])
+                    if "truncated" not in types_drawn:
+                        types_drawn.append("truncated")
             for s in b.special_points:
                 if x not in s.parameters or s.type not in MARKERS:
                     continue
@@ -258,13 +287,13 @@ def _plot_scene(results, *, x, y, title, labels, compare, compare_panel, compare
                 if not (np.isfinite(px) and np.isfinite(py)):
                     continue
                 style, _ = MARKERS[s.type]
-                ax_.plot(px * fx, py * fy, zorder=7, **style)
+                ax_.plot(px * fx + x0, py * fy, zorder=7, **style)
                 if s.type not in types_drawn:
                     types_drawn.append(s.type)
                 if labels and s.label != "BP0":
-                    items.append((px * fx, py * fy, s.label))
+                    items.append((px * fx + x0, py * fy, _label_text(s)))
                 else:
-                    avoid.append((px * fx, py * fy))
+                    avoid.append((px * fx + x0, py * fy))
         if compare and (compare_panel or panels[0]) == amp:
             curves = sorted({r["curve"] for r in compare})
             for c in curves:
@@ -295,6 +324,8 @@ def _plot_scene(results, *, x, y, title, labels, compare, compare_panel, compare
         axes[0].set_title(title)
     handles = _line_handles(seen["stable"], seen["unstable"], seen["cycles"])
     handles += [Line2D([], [], label=MARKERS[t][1], **MARKERS[t][0]) for t in MARKERS if t in types_drawn]
+    if "truncated" in types_drawn:
+        handles.append(Line2D([], [], label=TRUNCATED_MARKER[1], **TRUNCATED_MARKER[0]))
     handles += extra_handles
     _finish(fig, made, axes[0], handles, place)
     return fig
