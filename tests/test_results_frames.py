@@ -1,8 +1,8 @@
 """to_dataframe and read_results on the results of every kind of scene: those that once broke
 them (the 1-dof AME's state a1 is also its amplitude a1, Fig. 3; a time scene writes no
 branches.csv, Fig. 11) and one scene with every kind of run (equilibria, a switched bi-modal branch,
-a curve of pitchforks, cycles from a Hopf point) in SI. Run time: four coarse or
-small scene runs in subprocesses; about 60 s on two shared cores)."""
+a curve of pitchforks, cycles from a Hopf point) in SI. Run time: about 60 s on two shared cores
+(four small or coarse scene runs in subprocesses)."""
 from __future__ import annotations
 
 import json
