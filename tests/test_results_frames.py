@@ -117,6 +117,10 @@ def test_every_run_kind_makes_dataframes_and_reads_back(tmp_path):
     bp = res.branch("I").special("BP1")
     assert f"Omega = {f0 * (d.ode.omega1 + bp.value):.8g} Hz" in proc.stdout
     assert "forward: max_points at U = " in proc.stdout
+    # and said as it happened, on one line (not a Python warning with its source line)
+    said = [ln for ln in proc.stderr.splitlines() if "stopped at max_points" in ln]
+    assert len(said) == 1 and said[0].startswith("autocable: warning: branch W-H1 (forward) stopped at max_points")
+    assert "TruncatedBranchWarning" not in proc.stderr
 
 
 def test_fig03_results_make_dataframes(tmp_path):

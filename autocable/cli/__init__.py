@@ -186,10 +186,12 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     import warnings
     from autocable.model.premises import PremiseWarning
+    from autocable.results import TruncatedBranchWarning
 
     def one_line(message, category, filename, lineno, file=None, line=None):
-        # a stretched premise is news for the user, not a Python warning with a source line
-        if issubclass(category, PremiseWarning):
+        # a stretched premise or a branch cut at its point budget is news for the user, not a
+        # Python warning with a source line
+        if issubclass(category, (PremiseWarning, TruncatedBranchWarning)):
             print(f"autocable: warning: {message}", file=sys.stderr)
         else:
             shown(message, category, filename, lineno, file, line)
