@@ -148,3 +148,45 @@ def test_si_needs_the_cable(eq21):
     """eq. (21)'s ode alone has no length, U_c or omega: SI keywords refused, naming the fix."""
     with pytest.raises(ArgumentError, match="wind_m_s: .*Derivation"):
         ac.frequency_response(eq21.ode, wind_m_s=10.0, eta=1e-3)
+
+
+def _scene(tmp_path, name, text):
+    path = tmp_path / f"{name}.toml"
+    path.write_text(f'model = "{SAMPLE}"\n' + text)
+    return ac.load_scene(path)
+
+
+def test_scene_in_si_is_the_scene_in_paper_units(tmp_path, eq21):
+    """``units = "si"``: [fixed], a run's range and at, [overlay] range and [time] in m/s, m and Hz
+    parse to the scene written in U*, eta*, sigma at the converted values (1e-12); [plot] draws SI."""
+    u = units_of(eq21.spec, eq21.statics)
+    w1, l, Uc = eq21.ode.omega1, eq21.spec.cable.length_m, eq21.spec.aero.critical_wind_speed_m_s
+    hz = [u.frequency_hz(w1 + s) for s in (-0.05, 0.05, -0.01)]
+    si = _scene(tmp_path, "si", f'units = "si"\n[fixed]\nU = {0.7 * Uc!r}\neta = {4.1e-4 * l!r}\n'
+                                f'[[run]]\nname = "I"\nparameter = "sigma"\nrange = [{hz[0]!r}, {hz[1]!r}]\n'
+                                f'at = {hz[2]!r}\n[overlay]\nrange = [{hz[0]!r}, {hz[1]!r}]\npoints = 3\n')
+    star = _scene(tmp_path, "star", '[fixed]\nU = 0.7\neta = 4.1e-4\n[[run]]\nname = "I"\nparameter = "sigma"\n'
+                                    'range = [-0.05, 0.05]\nat = -0.01\n[overlay]\nrange = [-0.05, 0.05]\npoints = 3\n')
+    assert si.units == "si" and star.units == "paper"
+    assert si.fixed["U"] == pytest.approx(0.7, rel=1e-12) and si.fixed["eta"] == pytest.approx(4.1e-4, rel=1e-12)
+    assert si.runs[0].range == pytest.approx((-0.05, 0.05), abs=1e-12)
+    assert si.runs[0].at == pytest.approx(-0.01, abs=1e-12)
+    assert si.overlay.range == pytest.approx((-0.05, 0.05), abs=1e-12)
+    assert si.plot.units == "si" and star.plot.units == "paper"
+    t = _scene(tmp_path, "time", f'units = "si"\n[time]\nU = {1.3 * Uc!r}\neta = {1.4e-3 * l!r}\n'
+                                 f'sigma = {u.frequency_hz(w1 - 0.042)!r}\nt_end = 1000.0\n')
+    assert (t.time.U, t.time.eta, t.time.sigma) == pytest.approx((1.3, 1.4e-3, -0.042), rel=1e-12)
+
+
+@pytest.mark.parametrize("text, field", [
+    ('units = "si"\n[fixed]\neta = 100.0\n[[run]]\nparameter = "sigma"\nrange = [1.0, 1.2]\n', "fixed.eta"),
+    ('units = "si"\n[fixed]\neta = 0.1\n[[run]]\nparameter = "sigma"\nrange = [0.1, 1.2]\n', r"run\[0\].range\[0\]"),
+    ('units = "si"\n[fixed]\neta = 0.1\n[[run]]\nparameter = "sigma"\nrange = [1.0, 1.2]\nat = -3.0\n',
+     r"run\[0\].at"),
+    ('units = "metric"\n[[run]]\nparameter = "sigma"\nrange = [1.0, 1.2]\n', "units"),
+])
+def test_scene_in_si_refusals(tmp_path, text, field):
+    """An SI value outside eq. (21)'s premises (or an unknown ``units``): one line naming the field."""
+    from autocable.spec import SpecError
+    with pytest.raises(SpecError, match=rf"bad\.toml: {field}: "):
+        _scene(tmp_path, "bad", text)

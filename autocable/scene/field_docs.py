@@ -75,6 +75,10 @@ SCENE = {
               "(autocable's C kernel and collocation; the same branches, 25-100x faster). Curves always use PyCont.",
     "state_scale": "The amplitude scale of the continuation: \"auto\" (default: the linear forced response) or "
                    "a positive number.",
+    "units": "The units of the file's inputs: \"paper\" (U*, eta*, sigma of eqs. 17-18; default) or \"si\": "
+             "every U in m/s, eta in m (the support motion) and sigma as the deck frequency in Hz, converted on "
+             "the model's cable (U* = U/U_c, eta* = eta/l, sigma = 2 pi f/omega - omega1); [plot] units then "
+             "defaults to \"si\".",
     "fixed": "U, eta, sigma shared by every run (table; default 0 each).",
     "fixed.U": "U* = U / U_c, the nondimensional wind speed (eq. 18).",
     "fixed.eta": "eta* = eta / l, the nondimensional support amplitude (eq. 18).",

@@ -28,6 +28,10 @@ at most 0.1, and step controls have bounded values (`_STEP_BOUNDS`).
                                       # collocation: the same branches, tested to agree, 25-100x
                                       # faster); curves always use PyCont
     state_scale = "auto"              # amplitude scale for the continuation ("auto" or a number)
+    units = "paper"                   # the inputs: "paper" (U*, eta*, sigma of eqs. 17-18) or "si":
+                                      # U in m/s, eta in m (the support motion), sigma as the deck
+                                      # frequency in Hz, converted on the model's cable (`si_inputs`;
+                                      # [plot] units then defaults to "si")
     [fixed]                           # U, eta, sigma shared by every run (default 0)
     [[run]]
     name = "I"                        # branch name; letters, digits, '_' and '-'
@@ -135,7 +139,7 @@ PARAMETERS = ("sigma", "U", "eta")
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_\-]*$")
 _LABEL = re.compile(r"^([A-Za-z0-9_\-]+):([A-Z]+[0-9]+)$")
 _TOP_KEYS = ("title", "description", "model", "ame", "ame_tol", "ordering", "engine", "state_scale", "fixed", "run",
-             "plot", "compare", "overlay", "time", "chart")
+             "plot", "compare", "overlay", "time", "chart", "units")
 _CHART_KEYS = ("plane", "x_range", "y_range", "grid", "t_end", "starts", "map")
 _RUN_KEYS = ("name", "kind", "parameter", "range", "start", "at", "directions", "cycles", "switch",
              "fixed", "steps", "parameter2", "range2")
@@ -258,6 +262,7 @@ class Scene:
     ame_tol: float = 0.02              # with ame = "auto": the tolerance the advice uses
     ordering: str = "paper"            # the Multiple Scales ordering of the AME (ORDERINGS)
     chart: ChartSpec | None = None     # a stability chart in a parameter plane
+    units: str = "paper"               # the file's inputs: "paper" (U*, eta*, sigma) or "si" (converted here)
 
 
 @dataclass(frozen=True)
@@ -442,9 +447,15 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
     for key in ("title", "description"):
         if key in data and not isinstance(data[key], str):
             raise SpecError(path, key, "expected a string")
+    units = data.get("units", "paper")
+    if units not in PLOT_UNITS:
+        raise SpecError(path, "units", f"the units of the file's inputs: expected "
+                                       f"{' or '.join(repr(u) for u in PLOT_UNITS)}, got {show(units)}")
+    if units == "si":
+        data = si_inputs(data, path, model)
     fixed = _params(data.get("fixed", {}), path, "fixed")
     if "time" in data:
-        return replace(_time_scene(data, path, text, model, ame, scale), ordering=ordering)
+        return replace(_time_scene(data, path, text, model, ame, scale), ordering=ordering, units=units)
     raw_runs = data.get("run")
     if not isinstance(raw_runs, list) or not raw_runs:
         raise SpecError(path, "run", "missing; add at least one [[run]] table")
@@ -581,7 +592,7 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
     if not isinstance(ptitle, str):
         raise SpecError(path, "plot.title", "expected a string")
     labels = _bool(plot.get("labels", True), path, "plot.labels")
-    units = _plot_units(plot, path)
+    plot_units = _plot_units(plot, path)
     curves = [r for r in runs if r.kind == "curve"]
     plane = plot.get("plane")
     if plane is not None:
@@ -612,8 +623,9 @@ def parse_scene(data: Mapping, path: str | Path = "<scene>", text: str = "") -> 
     chart = _chart(data["chart"], path, plane, runs, fixed) if "chart" in data else None
     return Scene(path=path, name=path.stem, title=title, description=data.get("description", ""),
                  model=model, ame=ame, state_scale=scale, fixed=fixed, runs=tuple(runs),
-                 plot=PlotSpec(x, tuple(y), ptitle, labels, plane, units), compare=compare, text=text,
-                 overlay=overlay, engine=engine, ame_tol=float(ame_tol), ordering=ordering, chart=chart)
+                 plot=PlotSpec(x, tuple(y), ptitle, labels, plane, plot_units), compare=compare, text=text,
+                 overlay=overlay, engine=engine, ame_tol=float(ame_tol), ordering=ordering, chart=chart,
+                 units=units)
 
 
 def _pair(table, key, path, where, default):
@@ -766,10 +778,80 @@ def _time_scene(data, path: Path, text: str, model: Path, ame: str, scale) -> Sc
 
 
 def _plot_units(plot: Mapping, path) -> str:
-    units = plot.get("units", "paper")
+    units = plot.get("units", "paper")      # an SI scene's [plot] defaults to "si" (`si_inputs`)
     if units not in PLOT_UNITS:
         raise SpecError(path, "plot.units", f"expected {' or '.join(repr(u) for u in PLOT_UNITS)}, got {show(units)}")
     return units
+
+
+def si_inputs(data: Mapping, path, model: Path) -> dict:
+    """A scene document with ``units = "si"`` in the paper's quantities (eqs. 17-18,
+    `autocable.model.units`): every U [m/s] -> U* = U/U_c, eta [m] -> eta* = eta/l, and sigma,
+    given as the deck (support) frequency f [Hz], -> sigma = 2 pi f/omega - omega1, on the cable of
+    ``model`` (its statics; no derivation). The fields: ``[fixed]``, each run's ``range``, ``at``,
+    ``range2``, ``[run.fixed]`` and ``start.search`` values, ``[overlay] range``, ``[chart]
+    x_range, y_range`` and ``[time]`` U, eta, sigma. A value outside eq. (21)'s premises is refused
+    naming its field, with the range in SI; a value that is not a number is left for the
+    schema to refuse. ``[plot] units`` defaults to "si"."""
+    import copy
+
+    from autocable.model.premises import parameter_from_si
+    from autocable.model.units import input_scales
+    from autocable.spec import load_model
+    units, omega1 = input_scales(load_model(model))
+    out = copy.deepcopy(dict(data))
+
+    def one(name, value, field):
+        if name not in PARAMETERS or isinstance(value, bool) or not isinstance(value, (int, float)):
+            return value
+        return parameter_from_si(str(path), name, value, units, omega1, field)
+
+    def many(name, values, field):
+        if not isinstance(values, list):
+            return values
+        return [one(name, v, f"{field}[{k}]") for k, v in enumerate(values)]
+
+    def params(table, where):
+        if isinstance(table, dict):
+            for k in list(table):
+                table[k] = one(k, table[k], f"{where}.{k}")
+
+    params(out.get("fixed"), "fixed")
+    params(out.get("time"), "time")
+    runs = out.get("run") if isinstance(out.get("run"), list) else []
+    for i, r in enumerate(runs):
+        if not isinstance(r, dict):
+            continue
+        where, p, p2 = f"run[{i}]", r.get("parameter"), r.get("parameter2")
+        if "range" in r:
+            r["range"] = many(p, r["range"], f"{where}.range")
+        if "at" in r:
+            r["at"] = one(p, r["at"], f"{where}.at")
+        if "range2" in r:
+            r["range2"] = many(p2, r["range2"], f"{where}.range2")
+        params(r.get("fixed"), f"{where}.fixed")
+        start = r.get("start")
+        if isinstance(start, dict) and "search" in start:
+            start["search"] = many(p, start["search"], f"{where}.start.search")
+    plot = out.get("plot") if isinstance(out.get("plot"), dict) else None
+    overlay = out.get("overlay")
+    if isinstance(overlay, dict) and "range" in overlay:
+        x = overlay.get("parameter") or (plot or {}).get("x") or next(
+            (r.get("parameter") for r in runs if isinstance(r, dict)), None)
+        overlay["range"] = many(x, overlay["range"], "overlay.range")
+    chart = out.get("chart")
+    if isinstance(chart, dict):
+        plane = chart.get("plane") or (plot or {}).get("plane") or next(
+            ([r.get("parameter"), r.get("parameter2")] for r in runs if isinstance(r, dict)
+             and r.get("kind") == "curve"), None)
+        for k, key in enumerate(("x_range", "y_range")):
+            if key in chart and isinstance(plane, list) and len(plane) == 2:
+                chart[key] = many(plane[k], chart[key], f"chart.{key}")
+    if "plot" not in out:
+        out["plot"] = {}
+    if isinstance(out["plot"], dict):
+        out["plot"].setdefault("units", "si")
+    return out
 
 
 def load_scene(path: str | Path) -> Scene:
