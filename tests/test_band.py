@@ -177,3 +177,51 @@ def test_least_damping_brackets_the_worst_speed():
 
     assert worst(xi) <= 0.0
     assert worst(0.999 * xi) > 1e-7
+
+
+def test_with_a_damper_the_band_gives_the_least_constant(tmp_path):
+    """With a [damper] position the band carries the least constant of each case: at that constant the
+    damper adds (bending and sag corrected, `mode_damping`) what the case's least damping lacks, to
+    1e-9; the band's ends are the extreme constants, set by the same cases as the least damping
+    (the constant rises with the target)."""
+    from autocable.model import damper as dm
+    from autocable.spec import load_model
+    from autocable.studies.band import band_study
+    path = tmp_path / "damped.toml"
+    path.write_text(STAY_145.read_text() + "\n[damper]\nposition_m = 2.9\nconstant_N_s_m = 1.0e5\n")
+    spec = load_model(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        band = band_study(spec, (7.0, 7.0), DESIGN)
+    ok = [c for c in band["cases"] if c["status"] == "ok"]
+    assert len(ok) >= 3
+    cable, k = dm.cable_of(spec), dm.eq21_mode(spec)
+    for c in ok:
+        added = dm.mode_damping(cable, k, 2.9, c["damper_constant_N_s_m"]).added_damping_corrected
+        assert added == pytest.approx(c["least_damping"] - spec.cable.damping_ratio, rel=1e-9)
+    assert band["damper_constant_N_s_m"] == [min(c["damper_constant_N_s_m"] for c in ok),
+                                             max(c["damper_constant_N_s_m"] for c in ok)]
+    for end in ("lo", "hi"):
+        assert band["set_by"]["damper_constant_N_s_m"][end]["label"] == band["set_by"]["least_damping"][end]["label"]
+
+
+def test_only_the_relative_sign_of_yaw_and_chord_slope_counts():
+    """The in-plane wind across the cable is U sin(alpha) sin(beta) and the rest of eq. (21) at
+    eta = 0 holds alpha through cos(alpha) only: turning both signs gives the same linear eq. (21)
+    (to 1e-12), turning one of them another (docs/band.md draws the signs)."""
+    from dataclasses import replace
+
+    from autocable.model.derive import derive
+    from autocable.spec import load_model
+    spec = load_model(STAY_145)
+    spec = replace(spec, aero=replace(spec.aero, rivulet_angle_deg=20.0))
+
+    def matrix(alpha, beta):
+        s = replace(spec, cable=replace(spec.cable, chord_slope_deg=alpha), aero=replace(spec.aero, yaw_deg=beta))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return derive(s).ode.linear_matrix(1.3)
+
+    a = matrix(-32.0, -30.0)
+    assert np.allclose(matrix(32.0, 30.0), a, rtol=1e-12, atol=1e-12 * np.abs(a).max())
+    assert np.abs(matrix(-32.0, 30.0) - a).max() > 1e-3 * np.abs(a).max()

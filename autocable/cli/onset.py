@@ -361,14 +361,18 @@ def _band_premises(band: dict, args, uc: tuple[float, float]) -> list[str]:
     """`_premise_warnings` for a band: every case's onset (key ``past_premises`` of the case), and
     --max-wind, --design-wind at the lowest U_c of the band (the largest U*)."""
     from autocable.model.premises import wind_premises, wind_warning
-    out = []
+    out, past = [], []
     for c in band["cases"]:
         if c["status"] == "ok" and c["onset_U_m_s"] is not None:
             why = wind_premises(c["onset_U_m_s"], c["onset_U_m_s"] / c["inputs"]["critical_wind_speed_m_s"])
             c["past_premises"] = "; ".join(why)
             if why:
-                out.append(f"the onset of case {c['label']} at U = {c['onset_U_m_s']:.4g} m/s lies past the "
-                           f"model's premises: {c['past_premises']}")
+                past.append(c)
+    if past:        # one line for all: the cases' key past_premises says why for each
+        c = max(past, key=lambda c: c["onset_U_m_s"])
+        out.append(f"the onsets of {len(past)} of {len(band['cases'])} cases lie past the model's premises (the "
+                   f"highest, {c['label']}, at U = {c['onset_U_m_s']:.4g} m/s: {c['past_premises']}); each case's "
+                   "past_premises says why")
     for option, value in (("--max-wind", args.max_wind), ("--design-wind", args.design_wind)):
         if value is not None:
             out.append(wind_warning(f"{option} (at U_c = {uc[0]:g} m/s):", value, value / uc[0]))

@@ -187,6 +187,8 @@ def band_study(spec, uc_range: tuple[float, float] | None = None, design_wind_m_
         band.setdefault("set_by", {})[key] = {"lo": dict(low["inputs"], label=low["label"], tied_with=ties["lo"]),
                                               "hi": dict(high["inputs"], label=high["label"], tied_with=ties["hi"])}
     band["failed"] = sum(c["status"] != "ok" for c in cases)
+    # a case stable over its whole scan has no onset to enter the onset band: counted, not hidden
+    band["stable_cases"] = sum(c["status"] == "ok" and c["onset_U_m_s"] is None for c in cases)
     return band
 
 
@@ -209,6 +211,9 @@ def band_text(band: dict) -> list[str]:
         tie = {e: f" and {by[e]['tied_with']} more" if by[e]["tied_with"] else "" for e in ("lo", "hi")}
         lines.append(f"  {name}: [{fmt(band[key][0])}, {fmt(band[key][1])}]  (lo: {by['lo']['label']}{tie['lo']}; "
                      f"hi: {by['hi']['label']}{tie['hi']})")
+        if key == "onset_U_m_s" and band["stable_cases"]:
+            lines.append(f"    and {band['stable_cases']} cases stable up to their scanned range (no onset: not "
+                         "in the band)")
     lines.append("  case                                         onset [m/s]  least damping   damper [N s/m]")
     for c in band["cases"]:
         if c["status"] != "ok":
