@@ -2,8 +2,8 @@
 criticality in labels, tables and the run summary, plots against the deck frequency in Hz, distinct
 branch names, and no branch cut at its point budget without saying so.
 
-Run time: about 20-30 s warm (the 145 m stay's frequency response is computed three times with the
-compiled kernel; the sample cable's once).
+Run time: about 15 s warm on two shared cores (the 145 m stay's frequency response is computed
+three times with the compiled kernel, the sample cable's once).
 """
 from __future__ import annotations
 
