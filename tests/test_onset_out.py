@@ -133,3 +133,15 @@ def test_temporaries_of_a_dead_writer_are_cleared_a_live_runs_are_not(tmp_path, 
     live.mkdir(parents=True)
     code, _, err = _run(capsys, other)
     assert code == 2 and "another autocable run" in err and live.is_dir()
+
+
+def test_mode_pairs_past_the_premises_warn(capsys):
+    """--modes-below: the sample's pairs gallop at 36, 71.7, 107.6 and 143.4 m/s (U* = k, about): the
+    onsets of pairs 3 and 4 lie past the premises (U* > 2, above 100 m/s, Mach > 0.3), those of pairs
+    1 and 2 do not."""
+    code, out, err = _cli(capsys, "onset", SAMPLE, "--modes-below", 5, "--json")
+    assert code == 0
+    rep = json.loads(out)
+    w = [x for x in rep["warnings"] if "past the model's premises" in x]
+    assert [x.split(")")[0] for x in w] == ["the onset (mode pair 3", "the onset (mode pair 4"]
+    assert all(x in err for x in w) and "Mach 0.314" in w[0]

@@ -393,6 +393,14 @@ def _pairs(args, d, below: float, U_max: float, messages: list) -> int:
     from autocable.studies.pairs_galloping import galloping_lines, pairs_with_galloping
     report = pairs_with_galloping(d, below, args.design_wind, U_max)
     report["study"] = messages
+    # every pair's onset as an onset of `_premise_warnings` (the table has no 'onsets' of its own)
+    from autocable.model.units import units_of
+    onsets = [{"mechanism": f"mode pair {r['k']}, {r['mechanism_short']}", "U_m_s": r["onset_U_m_s"],
+               "U_star": r["onset_U_star"]} for r in report["pairs"] if r.get("onset_U_m_s") is not None]
+    premise = _premise_warnings({"onsets": onsets}, args, units_of(d.spec, d.statics))
+    report["warnings"] = list(report.get("warnings", [])) + premise
+    for w in premise:
+        print(f"warning: {w}", file=sys.stderr)
     if args.json:
         print(dumps(report, indent=1))
         return 0
