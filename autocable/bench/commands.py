@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from autocable._paths import REPO as _REPO
+from autocable._paths import MODELS_DIR
 from autocable.plotting.style import styled
 
 
@@ -177,7 +177,7 @@ def bench_onset(model_path: str, repeats: int = 3, log=None, n: int = 50) -> dic
 
 # -- pairs: `autocable onset --modes-below 3` -------------------------------------------------------
 #: The cable of the pairs bench unless --model says otherwise, and its target.
-PAIRS_MODEL = _REPO / "models" / "stay_190m.toml"
+PAIRS_MODEL = MODELS_DIR / "stay_190m.toml"
 PAIRS_TARGET_S = 30.0
 
 

@@ -59,6 +59,7 @@ from pathlib import Path
 
 import numpy as np
 
+from autocable._paths import RUNS_DIR
 from autocable.errors import EXIT_FAILED
 from autocable.paper import targets as tg
 from autocable.paper.candidates import (Readings, _drop_run, _failed_start, _finite, _recorded_drops,
@@ -1042,7 +1043,7 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
             raise tg.TargetsError(targets_path, "statement.scene",
                                   f"{', '.join(unknown)}: not a scene of the bound stage (it runs "
                                   f"{', '.join(ORDER + NO_WIND)})")
-    runs = runs or Path(__file__).resolve().parents[2] / "runs"
+    runs = runs or RUNS_DIR
     tg.check_scenes(targets, goal, runs, targets_path)
     space = space or SearchSpace()
     say = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
@@ -1113,7 +1114,7 @@ def _stages(model_path, targets_path, targets, goal, out, space, runs, executor,
     # stage 2
     full = []
     ranked = sorted(cands, key=screen_score, reverse=True)
-    runs = runs or Path(__file__).resolve().parents[2] / "runs"
+    runs = runs or RUNS_DIR
     # one full evaluation per model: the orderings differ only in the screen's AME (the scenes
     # keep the orderings written in them)
     # keep the screen's best, then the best of every (twist ends, angle sense) family not yet in,
