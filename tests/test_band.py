@@ -225,3 +225,28 @@ def test_only_the_relative_sign_of_yaw_and_chord_slope_counts():
     a = matrix(-32.0, -30.0)
     assert np.allclose(matrix(32.0, 30.0), a, rtol=1e-12, atol=1e-12 * np.abs(a).max())
     assert np.abs(matrix(-32.0, 30.0) - a).max() > 1e-3 * np.abs(a).max()
+
+
+def test_a_model_file_may_give_the_onset_speed_as_a_range(tmp_path, capsys):
+    """critical_wind_speed_m_s = [9, 10] is the band's U_c range (its ends and three points between);
+    --uc overrides it; a bad range and a range given to a single onset are one-line refusals naming
+    the field (the latter pointing to --band)."""
+    def model(value, name):
+        p = tmp_path / f"{name}.toml"
+        p.write_text(re.sub(r"(?m)^critical_wind_speed_m_s = .*$", f"critical_wind_speed_m_s = {value}",
+                            STAY_145.read_text()))
+        return p
+    good = model("[9, 10]", "good")
+    code, out, err = _cli(capsys, "onset", good, "--band", "--json")
+    assert code == 0, err
+    band = json.loads(out)["band"]
+    assert band["critical_wind_speed_m_s"] == [9.0, 10.0]
+    assert {c["inputs"]["critical_wind_speed_m_s"] for c in band["cases"]} == {9.0, 9.25, 9.5, 9.75, 10.0}
+    code, out, err = _cli(capsys, "onset", good, "--band", "--uc", "9.5", "--json")
+    assert {c["inputs"]["critical_wind_speed_m_s"] for c in json.loads(out)["band"]["cases"]} == {9.5}
+    code, out, err = _cli(capsys, "onset", good)
+    assert code == 2 and "aero.critical_wind_speed_m_s" in err and "--band" in err
+    for bad in ("[10, 9]", "[0, 9]", "[9, 10, 11]", '[9, "x"]'):
+        code, out, err = _cli(capsys, "onset", model(bad, "bad"), "--band")
+        assert code == 2 and "aero.critical_wind_speed_m_s" in err and "[lo, hi]" in err, (bad, err)
+        assert len(err.strip().splitlines()) == 1

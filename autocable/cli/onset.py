@@ -12,6 +12,7 @@ from pathlib import Path
 
 from autocable.cli.checks import check_number, check_out, dumps, refuse, strict
 from autocable.cli.derivation import LOAD_HELP, PAIR_HELP, derivation
+from autocable.spec import SpecError
 
 #: Points of a damping grid at most: each costs about 2 ms; more is a typing error.
 DAMPING_POINTS_LIMIT = 10000
@@ -197,7 +198,14 @@ def _onset(args, staging: Path | None) -> int:
             if given:
                 raise refuse(option, "studies one mode pair; --modes-below tabulates every pair below a frequency: "
                                      f"drop {option} or --modes-below")
-    d = derivation(args.model, pair, getattr(args, "load", None))
+    try:
+        d = derivation(args.model, pair, getattr(args, "load", None))
+    except SpecError as exc:
+        if exc.field == "aero.critical_wind_speed_m_s" and "got [" in str(exc):
+            # a range of onset speeds is what --band reads: say so where one value is needed
+            raise SpecError(args.model, exc.field, "one onset speed in m/s here; a range [lo, hi] is read by "
+                                                   "`onset --band` (add --band, or give one value)") from None
+        raise
     messages = []
     if changes:
         d, messages = vary(d, changes, refit=args.refit)
@@ -336,8 +344,8 @@ def _band(args, staging: Path | None) -> int:
         if given:
             raise refuse(option, f"studies one cable as written; --band varies what is not known about it: drop "
                                  f"{option} or --band")
-    spec = load_model(args.model)
-    uc = _uc_range(args.uc, spec)
+    spec, file_range = _band_model(args.model)
+    uc = _uc_range(args.uc, spec) if args.uc is not None or file_range is None else file_range
     check_number("--max-wind", args.max_wind, 0.0, 500.0, lo_open=True)
     check_number("--design-wind", args.design_wind, 0.0, 500.0, lo_open=True)
     band = band_study(spec, uc, args.design_wind, args.max_wind)
@@ -355,6 +363,24 @@ def _band(args, staging: Path | None) -> int:
     if args.out:
         print(f"wrote {args.out}/onset.json, band.png, band.pdf", file=sys.stderr)
     return 0
+
+
+def _band_model(path):
+    """(spec, (lo, hi) or None): the model file of ``--band``, whose ``aero.critical_wind_speed_m_s``
+    may be a range [lo, hi] in m/s (read as its lower end; every other command takes one value)."""
+    from autocable.spec import SpecError, load_model, parse_model, read_toml
+    data, _ = read_toml(path)
+    aero = data.get("aero")
+    value = aero.get("critical_wind_speed_m_s") if isinstance(aero, dict) else None
+    if not isinstance(value, list):
+        return load_model(path), None
+    field = "aero.critical_wind_speed_m_s"
+    if not (len(value) == 2 and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+            and all(math.isfinite(v) and 0 < v <= 100 for v in value) and value[0] <= value[1]):
+        raise SpecError(path, field, f"a range of onset speeds (onset --band) is [lo, hi] in m/s with "
+                                     f"0 < lo <= hi <= 100, e.g. [7, 13]; got {value!r}")
+    data = {**data, "aero": {**aero, "critical_wind_speed_m_s": float(value[0])}}
+    return parse_model(data, Path(path)), (float(value[0]), float(value[1]))
 
 
 def _band_premises(band: dict, args, uc: tuple[float, float]) -> list[str]:
