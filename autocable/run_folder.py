@@ -62,9 +62,13 @@ def pid_alive(pid: int) -> bool:
 
 def _owned_files(meta, name: str) -> set[str]:
     """The files of ``folder`` a new run may replace: those the earlier run.json lists, or, from a
-    run.json without a manifest (or none), the names a run writes."""
+    run.json without a manifest, the names a run writes; none without a run.json."""
     if isinstance(meta, dict) and isinstance(meta.get("files"), list):
         return {str(f) for f in meta["files"]}
+    if not isinstance(meta, dict):
+        # no run.json: no earlier run wrote here, so a file named like an output (a user's own
+        # damper.png or branches.csv) is the user's, refused, not replaced
+        return set()
     return _run_names(meta, name)
 
 

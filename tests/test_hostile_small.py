@@ -162,3 +162,36 @@ def test_simulate_reports_decaying(capsys):
                  "5000", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["status"] == "decaying" and "decaying to rest" in out["message"] and not out["steady"]
+
+
+# -- simulate --q0 with negative numbers in e-notation ------------------------------------------------
+@pytest.mark.parametrize("tokens", [("-1e-3", "0", "-2E-6", "0"), ("-.5e-3", "-1e-300", "0", "-1.5e+0"),
+                                    ("0", "0", "-1e-3", "-0.0")])
+def test_q0_takes_negative_numbers_in_e_notation(tokens):
+    """argparse's own negative-number pattern misses the exponent, so "-1e-3" read as an option."""
+    from autocable.cli import build_parser
+    args = build_parser().parse_args(["simulate", str(SAMPLE), "--q0", *tokens, "--max-time", "200"])
+    assert args.q0 == [float(t) for t in tokens]
+
+
+def test_q0_in_one_comma_separated_token_is_a_named_refusal(capsys):
+    """``--q0=-1e-3,0,0,0`` is not a form --q0 takes (four values, separated by spaces): refused in one
+    line naming --q0, not run with a misread start."""
+    with pytest.raises(SystemExit) as exc:
+        main(["simulate", str(SAMPLE), "--q0=-1e-3,0,0,0"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "--q0" in err
+
+
+# -- a user's file named like an output --------------------------------------------------------------
+def test_out_without_run_json_keeps_a_users_file_named_like_an_output(tmp_path, capsys):
+    """Found by the generated runs (tools/hardening/fuzz_options.py): ``damper --out`` into a folder
+    holding only the user's own damper.png replaced it (a folder without run.json counted every
+    output name as autocable's). Now refused naming --out, the file untouched."""
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "damper.png").write_text("my photo")
+    _refused(capsys, ["damper", str(SAMPLE), "--position", "2", "--constant", "1e5", "--out", str(out)], "--out",
+             "damper.png")
+    assert (out / "damper.png").read_text() == "my photo" and sorted(p.name for p in out.iterdir()) == ["damper.png"]

@@ -36,9 +36,16 @@ def _parser() -> argparse.ArgumentParser:
     ks = sub.add_parser("kill-surfaces", help="a grid and a followed sweep, a chart and a calibration killed "
                                               "--repeats times each, checked not to read as complete and to "
                                               "leave no orphaned process")
+    o = sub.add_parser("options", help="onset and damper options and specs, the API's keywords "
+                                       "(tools/hardening/fuzz_options.py): --cases of each kind, classified")
+    o.add_argument("--cases", type=int, default=1000, help="cases of each kind (default 1000)")
+    o.add_argument("--kinds", default="", help="comma-separated kinds (default all: onset_args, onset_specs, "
+                                               "damper_args, damper_specs, api_keywords)")
+    o.add_argument("--light", action="store_true", help="leave out the valid cases that compute for seconds")
+    o.add_argument("--seed", type=int, default=0, help="seed of the cases (default 0)")
     for s, repeats in ((k, 20), (ks, 4)):
         s.add_argument("--repeats", type=int, default=repeats, help=f"trials (default {repeats})")
-    for s in (f, k, ks):
+    for s in (f, k, ks, o):
         s.add_argument("--out", help="folder to write bench_<what>.json")
         s.add_argument("--quiet", action="store_true")
     return p
@@ -56,6 +63,18 @@ def _fuzz(args, log) -> tuple[dict, bool]:
     return result, bool(result["problem_count"])
 
 
+def _options(args, log) -> tuple[dict, bool]:
+    from tools.hardening.fuzz_options import KINDS, run_options
+    check_number("--cases", args.cases, 0, 10**6, integer=True)
+    kinds = [k.strip() for k in args.kinds.split(",") if k.strip()] or list(KINDS)
+    for k in kinds:
+        if k not in KINDS:
+            raise SpecError("arguments", "--kinds", f"unknown kind {k!r}; give some of {', '.join(KINDS)}")
+    result = run_options(args.cases, args.seed, kinds, heavy=not args.light, log=log)
+    bad = any(n for row in result["table"].values() for c, n in row.items() if c not in ("ok", "refused_named"))
+    return result, bad
+
+
 def run(argv: list[str] | None = None) -> int:
     """The command; the exit status."""
     args = _parser().parse_args(argv)
@@ -65,6 +84,8 @@ def run(argv: list[str] | None = None) -> int:
         check_folder("--out", args.out)
         if args.what == "fuzz":
             result, bad = _fuzz(args, log)
+        elif args.what == "options":
+            result, bad = _options(args, log)
         else:
             check_number("--repeats", args.repeats, 0, REPEATS_LIMIT, integer=True)
             if args.what == "kill":

@@ -66,6 +66,8 @@ class Case:
     mode: str = "cli"                 # "cli": the command line; "load_scene": the scene schema only;
     #                                   the surfaces of `fuzz_surfaces` ("load_sweep", "api", ...)
     call: tuple = ()                  # mode "api": (function, arguments)
+    out_files: dict = field(default_factory=dict)   # a user's files already in {out} before the run
+    post: Callable | None = None      # (input folder, output folder, outcome) -> more (kind, what) problems
 
     def key(self) -> str:
         """A content hash of the case (files and command), to run identical expensive cases once."""
@@ -860,6 +862,10 @@ class Harness:
                 p.write_bytes(v)
             else:
                 p.write_text(v.replace("{base}", str(self.base)))
+        if case.out_files:
+            out.mkdir(parents=True)
+            for name, v in case.out_files.items():
+                (out / name).write_text(v)
         subs = {"{case}": str(inp), "{out}": str(out), "{model}": str(SAMPLE_MODEL),
                 "{scene}": str(RUNS_DIR / "fig05a.toml"), "{chart}": str(RUNS_DIR / "chart_U_eta.toml"),
                 "{sweep}": str(RUNS_DIR / "sweep_fig05a.toml")}
@@ -896,6 +902,8 @@ class Harness:
         escaped = sorted(_tree(self.base, skip) - before)
         outcome = Outcome(code, so, se, seconds, escaped, [])
         outcome.problems = check(case, outcome, argv, limit)
+        if case.post is not None and outcome.exit is not None:
+            outcome.problems += case.post(inp, out, outcome)
         if case.subprocess:
             self._seen[case.key()] = outcome
         # a case's folders are not needed after the checks (FIFOs and modes would trouble rmtree)
@@ -1075,11 +1083,13 @@ def run_fuzz(main: Callable, specs: int = 1000, scenes: int = 300, args: int = 6
     counts = {"specs": 0, "scenes": 0, "scene_real_runs": 0, "args": 0, "invalid": 0, "odd": 0,
               "rejected": 0, "accepted": 0, "tracebacks": 0, "unforeseen_exceptions": 0, "exit0_invalid": 0,
               "unnamed_rejections": 0, "long_messages": 0, "bad_json": 0, "escaped_writes": 0, "hangs": 0,
-              "nan_results": 0, "skipped_real_runs": 0, "surfaces": {}}
+              "nan_results": 0, "foreign_files_lost": 0, "wrong_results": 0, "skipped_real_runs": 0,
+              "surfaces": {}}
     kind_count = {"traceback": "tracebacks", "unforeseen_exception": "unforeseen_exceptions",
                   "exit0_invalid": "exit0_invalid", "unnamed_rejection": "unnamed_rejections",
                   "long_message": "long_messages", "bad_json": "bad_json", "escaped_write": "escaped_writes",
-                  "hang": "hangs", "nan_result": "nan_results"}
+                  "hang": "hangs", "nan_result": "nan_results", "foreign_file_lost": "foreign_files_lost",
+                  "wrong_result": "wrong_results"}
     problems, groups, odd_accepted = [], {}, {}
 
     def record(case, o):
