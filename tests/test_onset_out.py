@@ -145,3 +145,16 @@ def test_mode_pairs_past_the_premises_warn(capsys):
     w = [x for x in rep["warnings"] if "past the model's premises" in x]
     assert [x.split(")")[0] for x in w] == ["the onset (mode pair 3", "the onset (mode pair 4"]
     assert all(x in err for x in w) and "Mach 0.314" in w[0]
+
+
+def test_a_typing_error_leaves_the_folder_as_it_was(tmp_path, capsys):
+    """The options and the model are read before the folder is taken: a bad --damping makes no new
+    folder, and leaves an earlier onset's files and its complete run.json untouched."""
+    code, _, err = _run(capsys, tmp_path / "new", "--damping", "0.1:0.01")
+    assert code == 2 and not (tmp_path / "new").exists()
+    out = tmp_path / "o"
+    assert _run(capsys, out)[0] == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    code, _, err = _run(capsys, out, "--damping", "0.1:0.01")
+    assert code == 2 and "--damping" in err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before

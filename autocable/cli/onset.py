@@ -168,20 +168,22 @@ def onset_folder(out: Path):
 
 
 def cmd_onset(args) -> int:
-    if args.out is not None and str(args.out).strip() and getattr(args, "modes_below", None) is None:
-        with onset_folder(Path(args.out)) as staging:
-            return _onset(args, staging)
-    return _onset(args, None)
+    # The folder is taken (locked, checked, staged) once the options and the model are read, before
+    # the computation: a typing error leaves the folder and an earlier run's files as they were.
+    with contextlib.ExitStack() as stack:
+        def folder() -> Path | None:
+            return stack.enter_context(onset_folder(Path(args.out))) if args.out else None
+        return _onset(args, folder)
 
 
-def _onset(args, staging: Path | None) -> int:
+def _onset(args, folder) -> int:
     from autocable.model.onset import U_MAX_DEFAULT
     from autocable.model.units import units_of
     from autocable.studies.onset import damping_study, design_damping, onset_report, onset_text, vary
 
     check_out("--out", args.out)
     if getattr(args, "band", False):
-        return _band(args, staging)
+        return _band(args, folder)
     if getattr(args, "uc", None) is not None:
         raise refuse("--uc", "sets the range of onset speeds of --band: add --band (a single onset speed is the "
                              "model's aero.critical_wind_speed_m_s)")
@@ -222,6 +224,7 @@ def _onset(args, staging: Path | None) -> int:
         check_number("--design-wind", args.design_wind, 0.0, units.wind_m_s(U_max), lo_open=True)
     if below is not None:
         return _pairs(args, d, below, U_max, messages)
+    staging = folder()
     if grid is not None or args.out:
         xis = grid if grid is not None else [d.ode.xi_s]
         amp = sorted({d.ode.xi_s, float(xis[0]), float(xis[len(xis) // 2])}) if args.out else []
@@ -333,7 +336,7 @@ def _uc_range(text: str | None, spec) -> tuple[float, float]:
     return vals[0], vals[-1]
 
 
-def _band(args, staging: Path | None) -> int:
+def _band(args, folder) -> int:
     """``onset --band``: `autocable.studies.band.band_study` on the model file, its JSON, text and plot."""
     from autocable.spec import load_model
     from autocable.studies.band import band_study, band_text
@@ -348,6 +351,7 @@ def _band(args, staging: Path | None) -> int:
     uc = _uc_range(args.uc, spec) if args.uc is not None or file_range is None else file_range
     check_number("--max-wind", args.max_wind, 0.0, 500.0, lo_open=True)
     check_number("--design-wind", args.design_wind, 0.0, 500.0, lo_open=True)
+    staging = folder()
     band = band_study(spec, uc, args.design_wind, args.max_wind)
     report = {"model": spec.name, "band": band, "warnings": list(band["notes"])}
     premise = _band_premises(band, args, uc)

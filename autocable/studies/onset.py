@@ -8,7 +8,8 @@ what damping keeps it stable (`autocable.model.onset` does the eigenvalue and Ho
   refit, and a refit says from where to where it moved the angle.
 * **Damping.** `damping_curve` (U_cr against the damping ratio and the Scruton number
   Sc = m xi / (rho_a D^2)), `design_damping` (the least damping ratio keeping the trivial state stable
-  up to a design wind, by bisection on the onset), with the wind angles as derived.
+  up to a design wind: the largest real part over U in [0, U_design] maximised, not sampled, and set
+  to zero by bisection on the damping), with the wind angles as derived.
 * **How hard it gallops.** `ame_galloping`: the galloping cycle of the amplitude equations (24) at
   eta = 0, a relative equilibrium (the AME are invariant under a common phase rotation there): its
   amplitudes, the frequency shift sigma and s1 = 0 solved by Newton, continued in U* from the normal
