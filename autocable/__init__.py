@@ -101,7 +101,8 @@ __all__ = sorted([*_API, "run_scene", "plot_branches", "__version__"])
 def __getattr__(name: str):
     if name not in _API:
         raise AttributeError(f"module 'autocable' has no attribute {name!r}")
-    value = getattr(importlib.import_module(_API[name]), name)
+    from autocable.api_checks import guarded     # the arguments checked before each call
+    value = guarded(name, getattr(importlib.import_module(_API[name]), name))
     globals()[name] = value     # later look-ups skip this hook
     return value
 

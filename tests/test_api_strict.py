@@ -79,7 +79,47 @@ CASES = {
     "plot x unknown": (lambda e, b: ac.plot_branches([b], x="zz"), "x", None),
     "plot branches='x'": (lambda e, b: ac.plot_branches("x", x="sigma"), "branches", None),
     "plot branches=[3]": (lambda e, b: ac.plot_branches([3], x="sigma"), "branches[0]", None),
+    # the table of autocable.api_checks, and the classes' own checks
+    "derive_ame(3)": (lambda e, b: ac.derive_ame(3), "source", 3),
+    "derive_ame ordering": (lambda e, b: ac.derive_ame(e, ordering="x"), "ordering", "x"),
+    "ame_system(None)": (lambda e, b: ac.ame_system(None, "2dof"), "ame", None),
+    "ame_system dof": (lambda e, b: ac.ame_system(ac.derive_ame(e).ame, "3dof"), "dof", "3dof"),
+    "EquilibriumProblem(None)": (lambda e, b: ac.EquilibriumProblem(None, "sigma", {}, (0, 1)), "system", None),
+    "EquilibriumProblem parameter": (lambda e, b: ac.EquilibriumProblem(_system(e), "x", {}, (0, 1)), "parameter", "x"),
+    "EquilibriumProblem values": (lambda e, b: ac.EquilibriumProblem(_system(e), "sigma", None, (0, 1)), "values", None),
+    "EquilibriumProblem values key": (lambda e, b: ac.EquilibriumProblem(_system(e), "sigma", {"zz": 1.0}, (0, 1)),
+                                      "values['zz']", None),
+    "EquilibriumProblem bounds": (lambda e, b: ac.EquilibriumProblem(_system(e), "sigma", {}, (1,)), "bounds", (1,)),
+    "ContinuationSettings max_step": (lambda e, b: ac.ContinuationSettings(max_step="x"), "max_step", "x"),
+    "ContinuationSettings max_points": (lambda e, b: ac.ContinuationSettings(max_points=True), "max_points", True),
+    "continue_equilibria problem": (lambda e, b: ac.continue_equilibria("x"), "problem", "x"),
+    "continue_equilibria settings": (lambda e, b: ac.continue_equilibria(_problem(e), "x"), "settings", "x"),
+    "continue_equilibria engine": (lambda e, b: ac.continue_equilibria(_problem(e), engine="x"), "engine", "x"),
+    "switch_branch('x')": (lambda e, b: ac.switch_branch("x", "BP1"), "source", "x"),
+    "continue_cycles(None)": (lambda e, b: ac.continue_cycles(None, "H1"), "source", None),
+    "continue_folds bounds": (lambda e, b: ac.continue_folds(_result(e), "LP1", "eta", (1.0,)), "bounds", (1.0,)),
+    "read_results(3)": (lambda e, b: ac.read_results(3), "out_dir", 3),
+    "load_scene(3)": (lambda e, b: ac.load_scene(3), "path", 3),
+    "load_sweep(None)": (lambda e, b: ac.load_sweep(None), "path", None),
+    "si_scales('x')": (lambda e, b: ac.si_scales("x", 1.0, 1.0), "length_m", "x"),
+    "sweep missing": (lambda e, b: ac.sweep(None), "parameter", None),
+    "plot_plane(None)": (lambda e, b: ac.plot_plane(None, x="sigma", y="eta"), "results", None),
+    "save_figure(None)": (lambda e, b: ac.save_figure(None, "x"), "fig", None),
+    "write_results(None)": (lambda e, b: ac.write_results(None, "x"), "results", None),
+    "branches_dataframe(3)": (lambda e, b: ac.branches_dataframe(3), "branches", 3),
 }
+
+
+def _system(eq21):
+    return ac.ame_system(ac.derive_ame(eq21).ame, "2dof", wind=False)
+
+
+def _problem(eq21):
+    return ac.EquilibriumProblem(_system(eq21), "sigma", {"U": 0.0, "eta": 1.4e-3, "sigma": -0.05}, (-0.05, 0.05))
+
+
+def _result(eq21):
+    return ac.continue_equilibria(_problem(eq21), ac.ContinuationSettings(max_step=0.02, max_points=5))
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
@@ -172,3 +212,28 @@ def test_run_scene_takes_a_path(tmp_path):
     b = ac.run_scene(ac.load_scene(path), tmp_path / "b", plot=False, resolution="coarse")
     assert [x.name for x in a.branches] == [x.name for x in b.branches] and len(a.branches) > 0
     np.testing.assert_array_equal(a.branches[0]["a1"], b.branches[0]["a1"])
+
+
+def test_the_api_table_matches_the_functions():
+    """Every function of `autocable.api_checks.RULES` is public and has the arguments the table
+    names (a renamed argument would otherwise go unchecked), and is handed out guarded with the
+    plain function's docstring and signature."""
+    import inspect
+
+    from autocable.api_checks import RULES
+    for name, rules in RULES.items():
+        assert name in ac._API, name
+        fn = getattr(ac, name)
+        params = inspect.signature(fn).parameters
+        assert set(rules) <= set(params), (name, set(rules) - set(params))
+        plain = fn.__wrapped__
+        assert fn.__doc__ == plain.__doc__ and inspect.signature(fn) == inspect.signature(plain)
+
+
+def test_guarded_calls_give_the_same_results(eq21):
+    """A guarded function returns what the plain one does (the check only reads the arguments)."""
+    from autocable.methods.continuation import continue_equilibria
+    settings = ac.ContinuationSettings(max_step=0.02, max_points=40)
+    a = ac.continue_equilibria(_problem(eq21), settings, engine="compiled")
+    b = continue_equilibria(_problem(eq21), settings, engine="compiled")
+    np.testing.assert_array_equal(a.branch["a1"], b.branch["a1"])

@@ -190,3 +190,17 @@ def test_scene_in_si_refusals(tmp_path, text, field):
     from autocable.spec import SpecError
     with pytest.raises(SpecError, match=rf"bad\.toml: {field}: "):
         _scene(tmp_path, "bad", text)
+
+
+def test_a_narrow_frequency_range_is_continued(eq21):
+    """A deck frequency range of 5 mHz (sigma span 0.0045, below the default first step 0.005):
+    the default settings shrink the first step with the range instead of refusing it; the branch
+    covers the range (1e-9)."""
+    u = units_of(eq21.spec, eq21.statics)
+    f1 = u.frequency_hz(eq21.ode.omega1)
+    hz = (round(f1, 3), round(f1, 3) + 0.005)
+    res = ac.frequency_response(eq21, deck_amplitude_m=0.01, deck_frequency_Hz=hz, switch=False)
+    sigma = res.branch("I")["sigma"]
+    lo, hi = (u.detuning(f, eq21.ode.omega1) for f in hz)
+    assert hi - lo < 0.005
+    assert sigma.min() == pytest.approx(lo, abs=1e-9) and sigma.max() == pytest.approx(hi, abs=1e-9)

@@ -112,7 +112,10 @@ def frequency_response(source, *, U=NOT_GIVEN, eta=NOT_GIVEN, sigma=NOT_GIVEN, w
     system = ame_system(cached.ame, ame, wind=U != 0.0)
     values = {"U": float(U), "eta": float(eta), "sigma": lo}
     problem = EquilibriumProblem(system, "sigma", values, (lo, hi))
-    settings = settings or ContinuationSettings(max_step=(hi - lo) / 5)
+    # steps of at most a fifth of the range (a narrow range, e.g. 0.770-0.775 Hz, too: the first step
+    # no longer than the largest)
+    settings = settings or ContinuationSettings(max_step=(hi - lo) / 5,
+                                                step=min(ContinuationSettings.step, (hi - lo) / 5))
     main = _covering(lambda s: continue_equilibria(problem, s, name="I", engine=engine, progress=progress),
                      settings)
     branches = [main.branch]

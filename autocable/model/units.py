@@ -94,16 +94,6 @@ def units_of(spec, statics) -> Units:
                  diameter_m=c.diameter_m)
 
 
-def input_scales(spec) -> tuple[Units, float]:
-    """(`Units`, omega1) of a model spec without deriving eq. (21): its statics and the in-plane
-    frequency of its mode pair (`autocable.model.mode_pairs.pair_info`, the ode's omega1), what an
-    input in SI (m/s, m, Hz) needs to become U*, eta*, sigma (a scene with ``units = "si"``)."""
-    from autocable.model.mode_pairs import pair_info
-    from autocable.model.statics import cable_statics
-    st = cable_statics(spec.cable)
-    return units_of(spec, st), pair_info(st, spec.cable.mode_pair).in_plane.omega
-
-
 #: The SI columns of branches.csv and special_points.csv (`si_columns`), after the nondimensional ones.
 SI_COLUMNS = ("U_m_s", "eta_m", "Omega_Hz", "peak_in_plane_m", "peak_out_of_plane_m")
 

@@ -788,17 +788,22 @@ def si_inputs(data: Mapping, path, model: Path) -> dict:
     """A scene document with ``units = "si"`` in the paper's quantities (eqs. 17-18,
     `autocable.model.units`): every U [m/s] -> U* = U/U_c, eta [m] -> eta* = eta/l, and sigma,
     given as the deck (support) frequency f [Hz], -> sigma = 2 pi f/omega - omega1, on the cable of
-    ``model`` (its statics; no derivation). The fields: ``[fixed]``, each run's ``range``, ``at``,
+    ``model`` (its statics and `autocable.model.mode_pairs.pair_info`; no derivation). The fields: ``[fixed]``, each run's ``range``, ``at``,
     ``range2``, ``[run.fixed]`` and ``start.search`` values, ``[overlay] range``, ``[chart]
     x_range, y_range`` and ``[time]`` U, eta, sigma. A value outside eq. (21)'s premises is refused
     naming its field, with the range in SI; a value that is not a number is left for the
     schema to refuse. ``[plot] units`` defaults to "si"."""
     import copy
 
+    from autocable.model.mode_pairs import pair_info
     from autocable.model.premises import parameter_from_si
-    from autocable.model.units import input_scales
+    from autocable.model.statics import cable_statics
+    from autocable.model.units import units_of
     from autocable.spec import load_model
-    units, omega1 = input_scales(load_model(model))
+    # the cable's scales and its pair's in-plane frequency (the ode's omega1) without deriving eq. (21)
+    spec = load_model(model)
+    st = cable_statics(spec.cable)
+    units, omega1 = units_of(spec, st), pair_info(st, spec.cable.mode_pair).in_plane.omega
     out = copy.deepcopy(dict(data))
 
     def one(name, value, field):

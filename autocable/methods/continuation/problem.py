@@ -11,8 +11,10 @@ from types import MappingProxyType
 from typing import Callable, Mapping
 
 from autocable.methods.continuation.settings import ContinuationSettings
+from autocable.model.premises import ArgumentError, check_interval, check_number, check_type
 from autocable.methods.continuation.system import System, auto_state_scale
 from autocable.results import Branch, SpecialPoint, TruncatedBranchWarning, truncation_notes
+from autocable.spec import show
 
 
 Progress = Callable[[str], None]
@@ -38,13 +40,20 @@ class EquilibriumProblem:
     state_scale: float | None = None
 
     def __post_init__(self):
-        if self.parameter not in self.system.parameter_names:
-            raise ValueError(f"{self.parameter!r} is not a parameter of {self.system.name!r} "
-                             f"(it has {list(self.system.parameter_names)})")
+        # the API's checker (autocable.model.premises): a wrong argument named, not an AttributeError
+        f = "EquilibriumProblem"
+        check_type(f, "system", self.system, System, "a System (ac.ame_system(...))")
+        if not isinstance(self.parameter, str) or self.parameter not in self.system.parameter_names:
+            raise ArgumentError(f, "parameter", f"expected a parameter of {self.system.name!r}, one of "
+                                                f"{', '.join(self.system.parameter_names)}, got {show(self.parameter)}")
+        check_type(f, "values", self.values, Mapping, "a mapping of parameter values, e.g. {\"sigma\": -0.05}")
+        for k, v in self.values.items():
+            if k not in self.system.parameter_names:
+                raise ArgumentError(f, f"values[{k!r}]", f"not a parameter of {self.system.name!r} (it has "
+                                                         f"{', '.join(self.system.parameter_names)})")
+            check_number(f, f"values[{k!r}]", v)
+        lo, hi = check_interval(f, "bounds", self.bounds, what=f"the range of {self.parameter}")
         values = dict(zip(self.system.parameter_names, self.system.parameter_vector(self.values)))
-        lo, hi = (float(b) for b in self.bounds)
-        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-            raise ValueError(f"range of {self.parameter} must be two finite numbers lo < hi, got {self.bounds}")
         if not lo <= values[self.parameter] <= hi:
             raise ValueError(f"start value {self.parameter} = {values[self.parameter]:g} is outside "
                              f"the range [{lo:g}, {hi:g}]")

@@ -57,24 +57,27 @@ class ContinuationSettings:
     orbit_seconds: float = 120.0
 
     def __post_init__(self):
+        # the API's checker (autocable.model.premises): an ArgumentError naming the setting
+        from autocable.model.premises import ArgumentError, check_number
+        f = "ContinuationSettings"
         for name in ("step", "min_step", "max_step", "tol", "test_tol", "newton_tol", "cycle_step",
                      "cycle_max_step", "switch_step", "curve_step", "curve_max_step", "curve_check_tol",
                      "settle_seconds", "orbit_seconds"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and v > 0 and math.isfinite(v)):
-                raise ValueError(f"{name} must be a positive number, got {v!r}")
+            check_number(f, name, getattr(self, name), 0.0, lo_open=True)
         if not self.min_step <= self.step <= self.max_step:
-            raise ValueError(f"need min_step <= step <= max_step, got {self.min_step}, {self.step}, {self.max_step}")
+            raise ArgumentError(f, "step", f"need min_step <= step <= max_step, got {self.min_step}, {self.step}, "
+                                           f"{self.max_step}")
         if not self.min_step <= self.curve_step <= self.curve_max_step:
-            raise ValueError(f"need min_step <= curve_step <= curve_max_step, got {self.min_step}, "
-                             f"{self.curve_step}, {self.curve_max_step}")
+            raise ArgumentError(f, "curve_step", f"need min_step <= curve_step <= curve_max_step, got {self.min_step}, "
+                                                 f"{self.curve_step}, {self.curve_max_step}")
         for name in ("max_points", "chunk", "cycle_max_points", "ntst", "ncol", "max_corrector_iters",
                      "curve_max_points", "settle_evaluations"):
-            if int(getattr(self, name)) < 1:
-                raise ValueError(f"{name} must be a positive integer")
+            check_number(f, name, getattr(self, name), 1, integer=True)
+        if isinstance(self.locate, str) or not hasattr(self.locate, "__iter__"):
+            raise ArgumentError(f, "locate", f"expected a sequence of \"LP\", \"H\", \"BP\", got {self.locate!r}")
         bad = set(self.locate) - {"LP", "H", "BP"}
         if bad:
-            raise ValueError(f"locate: unknown special points {sorted(bad)}; use LP, H, BP")
+            raise ArgumentError(f, "locate", f"unknown special points {sorted(bad)}; use LP, H, BP")
 
 
 
