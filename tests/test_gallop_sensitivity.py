@@ -130,7 +130,7 @@ def test_blended_stay_on_the_cubic_rung_the_band_moves_only_the_verdict():
     got = curves_from_spec(dv.spec.aero)
     assert (got.kind, got.blend_deg, got.dry_drag) == ("blend", wide.blend_deg, wide.dry_drag)
     assert got.valid_phi == pytest.approx(wide.valid_phi, abs=1e-12)
-    s = G.gallop_study(d, 25.0, checks=False)
+    s = G.gallop_study(d, 25.0, checks=False, with_sensitivity=None)
     sens = s["sensitivity"]
     assert sens["defined"] and sens["load"] == "cubic" and "cannot move" in sens["reading"]
     assert [c["case"] for c in sens["cases"]] == ["band narrowed by 5 deg", "band widened by 5 deg",
@@ -147,8 +147,21 @@ def test_blended_stay_on_the_cubic_rung_the_band_moves_only_the_verdict():
     if s["design_verdict"] in ("beyond", "not known") and s["cases"][0].get("judged_cycle", s["cases"][0].get(
             "design_cycle", {})).get("beyond_valid_range"):
         assert s["missing_ingredient"]
-    off = G.gallop_study(d, 25.0, checks=False, with_sensitivity=False)["sensitivity"]
+    off = G.gallop_study(d, 25.0, checks=False)["sensitivity"]      # off by default in the library
     assert off["computed"] is False and off["defined"] is True
+
+
+def test_gallop_command_sensitivity_switch(capsys):
+    """`--no-sensitivity` skips it on blended curves (one line in the report says so); the option
+    takes no value."""
+    from autocable.cli import main
+    assert main(["gallop", str(BLENDED), "--design-wind", "25", "--quiet", "--no-sensitivity"]) == 0
+    text = capsys.readouterr().out.splitlines()
+    assert [line for line in text if line.startswith("sensitivity")] == [
+        "sensitivity: not computed (asked off: --no-sensitivity, or with_sensitivity=False)"]
+    with pytest.raises(SystemExit):
+        main(["gallop", str(BLENDED), "--sensitivity=5"])
+    assert "--sensitivity" in capsys.readouterr().err
 
 
 def test_blended_stay_on_the_exact_rung_follows_its_band():

@@ -24,7 +24,15 @@ folds and Floquet multipliers. From it:
   (`Ode21Integrator.simulate`, compiled engine) from the continued cycle's state and from a larger
   start, which must land on the same cycle (relative amplitude differences reported);
 * `least_damping_global`: the least damping ratio for which no cycle of the branches exists up to
-  the design wind (bisection on the damping ratio, one continuation per step).
+  the design wind (bisection on the damping ratio, one continuation per step);
+* ``design_verdict`` and ``missing_ingredient``: whether the design-wind cycle is bounded and inside
+  the model's range, and if not which ingredient the model lacks there (`missing_ingredients`: the
+  twist, the curves, the load, more modes), judged on that cycle or, without one, on the cycle that
+  stands in for it (the branch's last, or the stable one nearest below the design wind);
+* ``sensitivity``: the amplitude at the design wind and the lowest galloping speed with the curves'
+  valid range narrowed and widened and the blend to the dry cylinder halved and doubled
+  (`sensitivity`), where the curves have a band and a blend (docs/aero-curves.md); the cycle's size
+  follows them on the exact rung.
 
 What it does not see. Only cycles connected to a Hopf point of the rest state up to U_max: an
 isolated branch of cycles (an isola), or one born at a Hopf point above U_max, is not found.
@@ -177,7 +185,8 @@ def _more_modes(derivation, frequency_star: float) -> str:
     gap = min(abs(w - om) / om for om in (d.ode.omega1, d.ode.omega2))
     if gap > MODES_FRACTION:
         return (f"the cycle runs at {hz(w):.4g} Hz, {100 * gap:.0f} % from the pair's {hz(d.ode.omega1):.4g} and "
-                f"{hz(d.ode.omega2):.4g} Hz (bound {100 * MODES_FRACTION:g} %): more modes (--pair, docs/mode-pairs.md)")
+                f"{hz(d.ode.omega2):.4g} Hz (bound {100 * MODES_FRACTION:g} %): more modes (--pair, "
+                "docs/mode-pairs.md)")
     near = [(m, abs(w - m.omega) / w) for m in ms.modes if m.name not in own and abs(w - m.omega) <= MODES_FRACTION * w]
     if near:
         m, g = min(near, key=lambda c: c[1])
@@ -517,7 +526,7 @@ def sensitivity(derivation, xi: float, U_max: float, U_des: float | None, units,
 
 
 def gallop_study(derivation, design_wind_m_s: float | None = None, dampings=None, U_max_m_s: float | None = None,
-                 checks: bool = True, log=None, with_sensitivity: bool | None = None,
+                 checks: bool = True, log=None, with_sensitivity: bool | None = False,
                  band_deg: float = SENSITIVITY_BAND_DEG) -> dict:
     """The galloping branches of eq. (21) at eta = 0 (module docstring) as a plain dict.
 
@@ -526,8 +535,10 @@ def gallop_study(derivation, design_wind_m_s: float | None = None, dampings=None
     ``amplitude_at_design_wind_m``, ``frequency_at_design_wind_Hz``, ``beyond_valid_range``,
     ``design_verdict``, ``missing_ingredient``) and which the direct-integration ``check`` and the
     ``sensitivity`` (`sensitivity`) compute. ``U_max_m_s``: the highest wind speed (default and at
-    most 5 U_c). ``with_sensitivity``: None (default) computes it where the curves have a band and
-    a blend to vary, False never; where they have none the dict says why in one line."""
+    most 5 U_c). ``with_sensitivity``: True or None (`autocable gallop`'s default) compute it where
+    the curves have a band and a blend to vary (four more continuations), False (the default here,
+    so that studies built on this one do not pay for it) does not; where the curves have none the
+    dict says why in one line either way."""
     d = derivation
     units = units_of(d.spec, d.statics)
     U_max, U_des = _check_range(units, design_wind_m_s, U_max_m_s)
@@ -547,9 +558,9 @@ def gallop_study(derivation, design_wind_m_s: float | None = None, dampings=None
         log("direct integration of eq. (21) on the stable cycles ...")
     check = _check(primary_ode, primary_branches, units) if checks else []
     first = cases[0]
-    if with_sensitivity is False:
-        sens = {"defined": bool(not sensitivity_undefined(d)), "computed": False,
-                "reason": "not computed (--no-sensitivity)"}
+    if with_sensitivity is False and not sensitivity_undefined(d):
+        sens = {"defined": True, "computed": False,
+                "reason": "not computed (asked off: --no-sensitivity, or with_sensitivity=False)"}
     else:
         sens = sensitivity(d, xis[0], U_max, U_des, units, band_deg, nominal=first, log=log)
     return {
