@@ -51,7 +51,7 @@ def case_label(inputs: dict) -> str:
     th = inputs.get("rivulet_angle_deg")
     yaw = inputs.get("yaw_deg")
     angle = (f", Theta0 {th:.2f}" if isinstance(th, (int, float)) else "") if inputs["root"] != "given" else ""
-    yaw_text = f"yaw {yaw:+g}" if isinstance(yaw, (int, float)) else f"yaw {yaw}"
+    yaw_text = f"yaw {yaw:+g}" if isinstance(yaw, (int, float)) else "yaw calibrated"
     return f"{inputs['angle_convention']}, {yaw_text}, U_c {inputs['critical_wind_speed_m_s']:g}{angle}"
 
 
