@@ -46,6 +46,12 @@ __all__ = [
     "file_sha256",
     "report_rebuilt",
     "cache_lock",
+    "CODE_DEPS",
+    "code_fingerprint",
+    "code_refusal",
+    "running_code",
+    "report_not_stored",
+    "store_checked_json_for_code",
 ]
 
 #: Environment variable that overrides the cache folder.
@@ -331,3 +337,159 @@ def read_json(path: str | os.PathLike) -> Any | None:
     except (OSError, ValueError):
         return None
 
+
+
+# ------------------------------------------------------------------------------------------------
+# the code a cached artefact depends on
+# ------------------------------------------------------------------------------------------------
+#: The source files (relative to the package; a folder means every file under it) whose code
+#: computes each kind of cached artefact. Its cache key holds the sha256 of their bytes
+#: (`code_fingerprint`), so a change to that code never serves an artefact the old code made,
+#: whether or not a version label was bumped. ``""`` is the whole package.
+CODE_DEPS: dict[str, tuple[str, ...]] = {
+    "derivation": ("model", "spec.py"),                          # statics, modes, aero, Galerkin: eq. (21)
+    "ame": ("model",),                                           # Multiple Scales, eqs. (22)-(24)
+    "system": ("model", "methods/continuation/system.py"),      # the Cartesian AME (24) as sympy
+    "lambda": ("methods/lambda_cache.py",),                     # the text lambdify writes from a rhs
+    "kernel": ("codegen",),                                      # C kernels, DOP853 integrators, PyDSTool
+    "package": ("",),                                            # a stored figure scene: all of it
+}
+
+_PACKAGE = Path(__file__).resolve().parent
+
+
+def _code_root() -> Path:
+    """The package folder whose files are fingerprinted (a test points it at a copy)."""
+    return _PACKAGE
+
+
+def _code_files(root: Path, deps: tuple[str, ...]) -> list[Path]:
+    files: set[Path] = set()
+    for dep in deps:
+        where = root / dep if dep else root
+        if where.is_file():
+            files.add(where)
+        elif where.is_dir():
+            for folder, dirs, names in os.walk(where):
+                dirs[:] = [d for d in dirs if d != "__pycache__"]
+                files.update(Path(folder, n) for n in names if not n.endswith((".pyc", ".pyo")))
+    return sorted(files)
+
+
+def _stat_key(path: Path) -> tuple | None:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return (st.st_mtime_ns, st.st_size, st.st_ino, st.st_ctime_ns)
+
+
+def _snapshot(root: Path) -> dict[str, tuple | None]:
+    return {str(p): _stat_key(p) for p in _code_files(root, ("",))}
+
+
+#: The stat of every package file when this process first imported autocable: the code it runs
+#: (modules are imported from these files). A file whose stat differs later may hold other code
+#: than the process runs, so nothing computed is stored under its fingerprint (`code_refusal`).
+_LOADED: dict[str, tuple | None] = _snapshot(_PACKAGE)
+#: path -> (stat, sha256): the fast path. Every call stats every file; only a file whose stat
+#: changed is read and hashed again (a cache of hashes, not of the answer).
+_SHA_OF: dict[str, tuple] = {}
+#: fingerprint -> {relative path: sha256} of the last fingerprints made, to name a changed file.
+_MANIFESTS: dict[str, dict[str, str]] = {}
+
+
+def _file_digest(path: Path) -> str | None:
+    key = _stat_key(path)
+    memo = _SHA_OF.get(str(path))
+    if key is not None and memo is not None and memo[0] == key:
+        return memo[1]
+    sha = file_sha256(path)
+    if key is not None and sha is not None:
+        _SHA_OF[str(path)] = (key, sha)
+    return sha
+
+
+def code_fingerprint(kind: str) -> str:
+    """The sha256 (hex) of the source files of `CODE_DEPS` ``[kind]``, by relative path and bytes,
+    as they are on disk now (computed on every call: stat of each file, bytes hashed again only
+    when its stat changed)."""
+    root = _code_root()
+    digest = hashlib.sha256()
+    manifest = {}
+    for path in _code_files(root, CODE_DEPS[kind]):
+        rel = path.relative_to(root).as_posix()
+        if root != _PACKAGE:
+            _LOADED.setdefault(str(path), _stat_key(path))   # a copy (a test's): loaded when first seen
+        sha = _file_digest(path) or "unreadable"
+        manifest[rel] = sha
+        digest.update(rel.encode() + b"\0" + sha.encode() + b"\0")
+    value = digest.hexdigest()
+    if len(_MANIFESTS) > 64:
+        _MANIFESTS.clear()
+    _MANIFESTS[value] = manifest
+    return value
+
+
+def _changed_since_loaded(kind: str) -> str:
+    """The first file of ``kind``'s code whose stat differs from when this process loaded
+    autocable ("" when none): this process may run other code than the files now hold."""
+    root = _code_root()
+    for path in _code_files(root, CODE_DEPS[kind]):
+        # a file the process had not seen at its start (a copy a test points at): seen now
+        loaded = _LOADED.setdefault(str(path), _stat_key(path)) if root != _PACKAGE else _LOADED.get(str(path))
+        if loaded is None or loaded != _stat_key(path):
+            return path.relative_to(root).as_posix()
+    if root == _PACKAGE and any(_stat_key(Path(p)) is None for p in _LOADED
+                                if _within(Path(p), root, CODE_DEPS[kind])):
+        return "a removed file"
+    return ""
+
+
+def _within(path: Path, root: Path, deps: tuple[str, ...]) -> bool:
+    rel = path.relative_to(root).as_posix() if path.is_relative_to(root) else None
+    return rel is not None and any(not d or rel == d or rel.startswith(d.rstrip("/") + "/") for d in deps)
+
+
+def code_refusal(kind: str, keyed: str) -> str:
+    """Why an artefact of ``kind`` computed now must not be stored under a key made with the code
+    fingerprint ``keyed`` ("" when it may): a file of its code changed since the key was made, or
+    since this process loaded autocable (the computation then ran code the key does not name)."""
+    now = code_fingerprint(kind)
+    if now != keyed:
+        before, after = _MANIFESTS.get(keyed, {}), _MANIFESTS.get(now, {})
+        diff = sorted(k for k in set(before) | set(after) if before.get(k) != after.get(k))
+        name = f"autocable/{diff[0]}" if diff else "autocable's code"
+        return f"{name} changed while it was computed"
+    changed = _changed_since_loaded(kind)
+    if changed:
+        return f"autocable/{changed} changed after this process loaded it"
+    return ""
+
+
+def report_not_stored(what: str, why: str) -> None:
+    """The one stderr line saying a computed artefact was used but not kept in the cache."""
+    print(f"autocable: cache: {what} not stored: {why}", file=sys.stderr, flush=True)
+
+
+def running_code() -> dict:
+    """The autocable this process runs: its version, where it lives, and the fingerprint of the
+    whole package (`code_fingerprint` ``"package"``), or None with ``changed`` naming a file that
+    changed since the process loaded it. A worker returns this with each result
+    (`autocable.executor`), so that a result is stored or trusted only for the command's code."""
+    from autocable._version import __version__
+    changed = _changed_since_loaded("package")
+    return {"version": __version__, "path": str(_code_root()), "code": None if changed else
+            code_fingerprint("package"), "changed": changed}
+
+
+def store_checked_json_for_code(kind: str, keyed: str, path: str | os.PathLike, payload: Any, what: str) -> bool:
+    """`store_checked_json` of ``payload`` computed under a key holding the code fingerprint
+    ``keyed`` of ``kind``, unless that code changed meanwhile (`code_refusal`): then nothing is
+    stored and one line says why (the result is still used by this process). Whether it was stored."""
+    why = code_refusal(kind, keyed)
+    if why:
+        report_not_stored(what, why)
+        return False
+    store_checked_json(path, payload)
+    return True

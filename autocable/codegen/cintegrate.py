@@ -458,10 +458,12 @@ class Repeated:
         return self.ys if self.info[0] == 0.0 else None
 
 
-def _key(variables, parameters, time_symbol, template: Template, cc) -> str:
-    # The structure only (the template's key): neither the coefficients nor the caller's name.
+def _key(variables, parameters, time_symbol, template: Template, cc, code: str | None = None) -> str:
+    # The structure only (the template's key): neither the coefficients nor the caller's name;
+    # and the generator's files (``code``): an edit there without a version bump still rebuilds.
     A, B, C, E3, E5, D = _coefficients()
     return cache.content_hash({"version": INTEGRATOR_VERSION, "variables": list(variables),
+                               "code": code or cache.code_fingerprint("kernel"),
                                "parameters": list(parameters), "time": time_symbol,
                                "rhs": template.key, "weights": list(template.weight_names),
                                "cc": cc, "cflags": list(CFLAGS),
@@ -497,7 +499,8 @@ def _load(path: Path, n: int, m: int, nw: int, timings) -> CIntegrator:
 def _integrator_for(variables: tuple, parameters: tuple, time_symbol, template: Template,
                     cc: str) -> CIntegrator:
     # The folder is named by the content hash only: the caller's name is free text.
-    folder = cache.cache_dir("cintegrate", _key(variables, parameters, time_symbol, template, cc))
+    code = cache.code_fingerprint("kernel")
+    folder = cache.cache_dir("cintegrate", _key(variables, parameters, time_symbol, template, cc, code))
     times = {"emit_s": 0.0, "compile_s": 0.0}
 
     def build() -> None:
@@ -518,7 +521,7 @@ def _integrator_for(variables: tuple, parameters: tuple, time_symbol, template: 
             raise KernelBuildError(str(exc).replace("engine='pycont'", "engine='dopri'")) from None
         times.update(emit_s=t1 - t0, compile_s=time.perf_counter() - t1)
 
-    lib, _ = cached_library(folder, build, "C integrator")
+    lib, _ = cached_library(folder, build, "C integrator", code)
     emit_s, compile_s = times["emit_s"], times["compile_s"]
     t2 = time.perf_counter()
     k = _load(lib, len(variables), len(parameters), len(template.weight_names), ())

@@ -894,10 +894,13 @@ def _library_ok(folder: Path) -> bool:
             and manifest.get("library_sha256") == cache.file_sha256(lib))
 
 
-def cached_library(folder: Path, build: Callable[[], None], what: str) -> tuple[Path, bool]:
+def cached_library(folder: Path, build: Callable[[], None], what: str, code: str | None = None) -> tuple[Path, bool]:
     """``folder/kernel.so``, built by ``build()`` unless a library that matches its manifest's
     sha256 is there; returns (path, built). A library that fails the check (edited, truncated,
-    from a killed build) is rebuilt with one stderr line. A warm folder is only read."""
+    from a killed build) is rebuilt with one stderr line. A warm folder is only read. ``code``: the
+    fingerprint of the code generator the folder's key holds (`autocable._store.code_fingerprint`);
+    a library built while that code changed gets no manifest (used now, rebuilt by the next
+    process) and one line says so."""
     lib = folder / "kernel.so"
     if _library_ok(folder):
         return lib, False
@@ -907,15 +910,23 @@ def cached_library(folder: Path, build: Callable[[], None], what: str) -> tuple[
         if lib.exists() or (folder / MANIFEST).exists():
             cache.report_rebuilt(f"{what} {folder.name}")
         build()
-        cache.store_checked_json(folder / MANIFEST, {"library_sha256": cache.file_sha256(lib)})
+        why = cache.code_refusal("kernel", code) if code else ""
+        if why:
+            cache.report_not_stored(f"{what} {folder.name}", why)
+            (folder / MANIFEST).unlink(missing_ok=True)
+        else:
+            cache.store_checked_json(folder / MANIFEST, {"library_sha256": cache.file_sha256(lib)})
     return lib, True
 
 
-def _key(variables, parameters, template, cc: str) -> str:
-    # The system-independent C text too: an edit to it that forgets KERNEL_VERSION still rebuilds.
+def _key(variables, parameters, template, cc: str, code: str | None = None) -> str:
+    # The system-independent C text too: an edit to it that forgets KERNEL_VERSION still rebuilds;
+    # and the generator's own files (``code``, `autocable._store.code_fingerprint`), for an edit
+    # anywhere in the code that prints the C.
     # The structure only (the template's key): neither the coefficients nor the system's name,
     # so every model of one structure shares the library.
     return cache.content_hash({"version": KERNEL_VERSION, "generic": _GENERIC, "variables": list(variables),
+                               "code": code or cache.code_fingerprint("kernel"),
                                "parameters": list(parameters), "rhs": template.key,
                                "weights": list(template.weight_names), "cc": cc, "cflags": list(CFLAGS)})
 
@@ -1183,7 +1194,8 @@ def _load(path: Path, n: int, m: int, nw: int, timings) -> CKernel:
 def _kernel_for(variables: tuple, parameters: tuple, template: Template, cc: str) -> CKernel:
     # Errors name no system (one library serves many): `compiled_kernel` puts the caller's in front.
     # The folder is named by the content hash only: a system's name is free text.
-    folder = cache.cache_dir("ckernel", _key(variables, parameters, template, cc))
+    code = cache.code_fingerprint("kernel")
+    folder = cache.cache_dir("ckernel", _key(variables, parameters, template, cc, code))
     times = {"emit_s": 0.0, "compile_s": 0.0}
     rhs = template.rhs
 
@@ -1205,7 +1217,7 @@ def _kernel_for(variables: tuple, parameters: tuple, template: Template, cc: str
         _compile(source, folder, cc, None)
         times.update(emit_s=t1 - t0, compile_s=time.perf_counter() - t1)
 
-    lib, _ = cached_library(folder, build, "C kernel")
+    lib, _ = cached_library(folder, build, "C kernel", code)
     emit_s, compile_s = times["emit_s"], times["compile_s"]
     t2 = time.perf_counter()
     k = _load(lib, len(variables), len(parameters), len(template.weight_names), ())

@@ -386,6 +386,8 @@ def jacobian_spec(vf: VectorField) -> tuple[list[str], str]:
 def _spec_payload(vf: VectorField, jacobian: bool) -> dict[str, Any]:
     return {
         "codegen": CODEGEN_VERSION,
+        # the generator's files by their bytes: an edit that forgets CODEGEN_VERSION still rebuilds
+        "code": cache.code_fingerprint("kernel"),
         "jacobian": bool(jacobian),
         "variables": list(vf.variables),
         "rhs": [pydstool_str(e) for e in vf.rhs],
@@ -396,7 +398,8 @@ def _spec_payload(vf: VectorField, jacobian: bool) -> dict[str, Any]:
 
 def model_name(vf: VectorField, jacobian: bool = True) -> str:
     """``<vf.name>_<12 hex>``: the hash covers the equations, the variable, parameter and
-    auxiliary function names, whether the explicit Jacobian is compiled in, and `CODEGEN_VERSION`.
+    auxiliary function names, whether the explicit Jacobian is compiled in, `CODEGEN_VERSION` and
+    the sha256 of ``autocable/codegen``'s files (`autocable._store.code_fingerprint`).
 
     Parameter *values* are excluded (they are set at run time without rebuilding).
     """

@@ -5,8 +5,10 @@ Why. For the wind AME (24) the Jacobians, the second and third derivative tensor
 subexpression elimination take 5-15 s per process, every process, although the text sympy prints
 is the same each time: a scene of Figs. 7-10 spent most of its warm run there. The text that
 ``sympy.lambdify`` generates is therefore stored under ``cache_dir("lambdas")``, named by a content
-hash of the right-hand side (``sympy.srepr``), the argument names, the kind of function and the
-sympy version, and executed on later calls in the namespace lambdify itself uses: the function is
+hash of the right-hand side (``sympy.srepr``), the argument names, the kind of function, the
+sympy version and the sha256 of this module's code (`autocable._store.code_fingerprint`; a text
+written while that code changed is not kept), and executed on later calls in the namespace lambdify
+itself uses: the function is
 the one lambdify would have made, without the differentiation and the elimination. The file's first
 line holds the sha256 of the rest, checked before it is executed (a file that fails is written again).
 """
@@ -19,7 +21,8 @@ from typing import Callable, Sequence
 
 import sympy as sp
 
-from autocable._store import atomic_write_text, cache_dir, cache_error, content_hash, report_rebuilt
+from autocable._store import (atomic_write_text, cache_dir, cache_error, code_fingerprint, code_refusal,
+                              content_hash, report_not_stored, report_rebuilt)
 from autocable.model import derivatives
 
 #: What `numeric_function` can build from any right-hand side F(x; p).
@@ -97,12 +100,12 @@ def rhs_key_of_srepr(texts: Sequence[str]) -> str:
 
 
 def function_key(kind: str, variables: Sequence[str], parameters: Sequence[str], key: str,
-                 constants: Sequence[str] = ()) -> str:
-    """The content hash that names a cached function; ``key`` is `rhs_key` of the right-hand side.
-    Without ``constants`` the name is the one earlier versions gave, so their texts stay valid (the
-    polynomial form is now split without sympy.Poly, the same polynomial)."""
+                 constants: Sequence[str] = (), code: str | None = None) -> str:
+    """The content hash that names a cached function; ``key`` is `rhs_key` of the right-hand side,
+    ``code`` the fingerprint of this module's code (default: its files now)."""
+    # the code that writes the text (this module) by its bytes: an edit here needs no bump of "format"
     payload = {"kind": kind, "variables": list(variables), "parameters": list(parameters),
-               "rhs": key, "sympy": sp.__version__, "format": 2}
+               "rhs": key, "sympy": sp.__version__, "format": 2, "code": code or code_fingerprint("lambda")}
     if constants:
         payload["constants"] = list(constants)
     return content_hash(payload)
@@ -128,7 +131,8 @@ def numeric_function(kind: str, variables: Sequence[str], parameters: Sequence[s
     args = (xs, ps + [sp.Symbol(c) for c in constants])
     if not use_cache:
         return sp.lambdify(args, _expression(kind, rhs, xs, ps), modules="numpy", cse=True)
-    name = function_key(kind, variables, parameters, key or rhs_key(rhs), constants)
+    code = code_fingerprint("lambda")
+    name = function_key(kind, variables, parameters, key or rhs_key(rhs), constants, code)
     path = cache_dir("lambdas") / f"{kind}-{name}.py"
     source = _checked_source(path) if path.exists() else None
     if source is not None:
@@ -137,6 +141,10 @@ def numeric_function(kind: str, variables: Sequence[str], parameters: Sequence[s
         return namespace["_lambdifygenerated"]
     fn = sp.lambdify(args, _expression(kind, rhs, xs, ps), modules="numpy", cse=True)
     source = inspect.getsource(fn)
+    why = code_refusal("lambda", code)
+    if why:
+        report_not_stored(f"numeric function {path.name}", why)
+        return fn
     try:
         atomic_write_text(path, f"{_HEADER}{_sha(source)}\n{source}")
     except OSError as exc:

@@ -2,8 +2,11 @@
 
 `derive_ame(derivation)` runs the Multiple Scales engine (`autocable.model.multiscale`, Sect. 4) on
 eq. (21) of the derivation and stores the result (`AmplitudeEquations.to_dict`, plain JSON) in the
-autocable cache folder under a key made of the ODE's `content_hash()`, the engine options and
-`AME_VERSION` (the file carries the sha256 of its content, checked on load), so a changed eq. (21), a changed ordering rule or a changed engine never reuses a stale
+autocable cache folder under a key made of the ODE's `content_hash()`, the engine options,
+`AME_VERSION` and the sha256 of the files of ``autocable/model`` (`autocable._store.code_fingerprint`:
+a change of the engine is seen without a version bump; an AME derived while that code changed is
+not stored). The file carries the sha256 of its content, checked on load. So a changed eq. (21), a
+changed ordering rule or a changed engine never reuses a stale
 table. A cached AME loads without sympy work.
 """
 from __future__ import annotations
@@ -11,7 +14,8 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-from autocable._store import cache_dir, content_hash, load_checked_json, store_checked_json
+from autocable._store import (cache_dir, code_fingerprint, content_hash, load_checked_json,
+                              store_checked_json_for_code)
 from autocable.model.ame import AmplitudeEquations
 from autocable.model.equations import TwoModeODE
 from autocable.spec import SpecError
@@ -31,11 +35,12 @@ class CachedAME:
     timings: dict = field(default_factory=dict, compare=False)
 
 
-def ame_key(ode: TwoModeODE, omega: str = "exact", ordering: str = "paper") -> str:
+def ame_key(ode: TwoModeODE, omega: str = "exact", ordering: str = "paper", code: str | None = None) -> str:
     """The cache key of the AME of ``ode``: its content hash, the Omega treatment, the named
-    ordering and `AME_VERSION`."""
+    ordering, `AME_VERSION` and the fingerprint of the code that derives it (``code``, default
+    the files now: `autocable._store.code_fingerprint`)."""
     return content_hash({"ode": ode.content_hash(), "omega": omega, "ordering": ordering,
-                         "version": AME_VERSION})
+                         "version": AME_VERSION, "code": code or code_fingerprint("ame")})
 
 
 def derive_ame(source, *, omega: str = "exact", ordering: str = "paper", use_cache: bool = True) -> CachedAME:
@@ -61,7 +66,8 @@ def derive_ame(source, *, omega: str = "exact", ordering: str = "paper", use_cac
         raise SpecError(where, "aero.load", 'the amplitude equations (22)-(24) carry eq. (21)\'s cubic load, not the '
                                             'exact one; set load = "cubic" for AME scenes, or integrate eq. (21) '
                                             '(simulate --method ode21 or shooting, gallop)')
-    key = ame_key(ode, omega, ordering)
+    code = code_fingerprint("ame")
+    key = ame_key(ode, omega, ordering, code)
     path = cache_dir("ame") / f"ame-{key}.json"
     t0 = time.perf_counter()
     data = load_checked_json(path, f"amplitude equations {path.name}") if use_cache else None
@@ -77,5 +83,5 @@ def derive_ame(source, *, omega: str = "exact", ordering: str = "paper", use_cac
     from autocable.model import multiscale
     ame = multiscale.derive(ode, ordering, omega=omega)
     seconds = time.perf_counter() - t0
-    store_checked_json(path, ame.to_dict())
+    store_checked_json_for_code("ame", code, path, ame.to_dict(), f"amplitude equations {path.name}")
     return CachedAME(ame, False, seconds, key, {"multiscale_s": seconds})

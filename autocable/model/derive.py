@@ -1,9 +1,11 @@
 """From a model spec to eq. (21): statics -> modes -> calibration -> aerodynamics -> Galerkin.
 
 `derive(spec)` (a spec or a model file) runs the whole chain and returns a `Derivation` (plain frozen data). The result is
-cached in the autocable cache folder under a hash of the spec's physical content and of
-`DERIVATION_VERSION` (never under the model's name), so a second call with the same spec costs only a
-JSON read; the file carries the sha256 of its content and is derived again if it fails that check.
+cached in the autocable cache folder under a hash of the spec's physical content and of the code that
+derives it (the sha256 of the files of ``autocable/model`` and ``spec.py``, `autocable._store.code_fingerprint`;
+`DERIVATION_VERSION` is kept beside it as a label), never under the model's name, so a second call with
+the same spec and code costs only a JSON read; the file carries the sha256 of its content and is derived
+again if it fails that check. A derivation during which that code changed is not stored.
 """
 from __future__ import annotations
 
@@ -12,7 +14,8 @@ import os
 import time
 from dataclasses import dataclass, field, replace
 
-from autocable._store import cache_dir, content_hash, load_checked_json, store_checked_json
+from autocable._store import (cache_dir, code_fingerprint, content_hash, load_checked_json,
+                              store_checked_json_for_code)
 from autocable.model.aero import expand_load_jet
 from autocable.model.calibration import CalibrationError, calibrate
 from autocable.model.curves import curves_from_spec, static_angle
@@ -201,7 +204,8 @@ def derive(spec: ModelSpec | str | os.PathLike, integrator: str = "closed-form",
     if spec.cable.mode_pair > 1:
         pair_premises(spec, cable_statics(spec.cable), spec.cable.mode_pair)
     # (the spec's hash covers cable.mode_pair: every pair has its own entry)
-    key = content_hash({"spec": spec.content_hash(), "version": DERIVATION_VERSION,
+    code = code_fingerprint("derivation")      # the code, not a version label someone must bump
+    key = content_hash({"spec": spec.content_hash(), "version": DERIVATION_VERSION, "code": code,
                         "integrator": integrator})
     path = cache_dir("derivations") / f"eq21-{key}.json"
     data = load_checked_json(path, f"derivation {path.name}") if use_cache else None
@@ -209,7 +213,7 @@ def derive(spec: ModelSpec | str | os.PathLike, integrator: str = "closed-form",
     t0 = time.perf_counter()
     if data is None:
         data = _compute(spec, integrator)
-        store_checked_json(path, data)
+        store_checked_json_for_code("derivation", code, path, data, f"derivation {path.name}")
     st = cable_statics(spec.cable)
     timings = dict(data["timings"]) if not from_cache else {"cache_read_s": time.perf_counter() - t0}
     ode = TwoModeODE.from_dict(data["ode"])

@@ -6,7 +6,8 @@ only the trial functions change (`modes_n.mode_set`).
 """
 from __future__ import annotations
 
-from autocable._store import cache_dir, content_hash, load_checked_json, store_checked_json
+from autocable._store import (cache_dir, code_fingerprint, content_hash, load_checked_json,
+                              store_checked_json_for_code)
 from autocable.model.aero import expand_load_jet
 from autocable.model.derive import DERIVATION_VERSION, Derivation, derive
 from autocable.model.galerkin_n import ExactZeroIntegrator, project_n
@@ -30,8 +31,11 @@ def derive_nmode(source: Derivation | ModelSpec, n_in: int, n_out: int,
     if not (isinstance(n_in, int) and isinstance(n_out, int) and n_in >= 1 and n_out >= 1):
         raise ValueError(f"the number of modes must be integers >= 1, got n_in = {n_in!r}, n_out = {n_out!r}")
     spec = d.spec
+    # keyed by the code (`code_fingerprint`): a change to the projection without a bump of
+    # NMODE_VERSION never serves the old equations
+    code = code_fingerprint("derivation")
     key = content_hash({"spec": spec.content_hash(), "eq21": DERIVATION_VERSION, "version": NMODE_VERSION,
-                        "n_in": n_in, "n_out": n_out, "integrator": integrator})
+                        "code": code, "n_in": n_in, "n_out": n_out, "integrator": integrator})
     if integrator not in ("closed-form", "quadrature"):
         raise ValueError(f"unknown integrator {integrator!r}; use 'closed-form' or 'quadrature'")
     path = cache_dir("derivations") / f"nmode{n_in}x{n_out}-{key}.json"
@@ -47,5 +51,5 @@ def derive_nmode(source: Derivation | ModelSpec, n_in: int, n_out: int,
                     else QuadratureIntegrator(ms.shapes, nodes=128),
                     provenance={"model": spec.name, "model_hash": spec.content_hash(),
                                 "derivation": NMODE_VERSION, "n_in": n_in, "n_out": n_out})
-    store_checked_json(path, ode.to_dict())
+    store_checked_json_for_code("derivation", code, path, ode.to_dict(), f"derivation {path.name}")
     return ode

@@ -17,7 +17,10 @@ twelve scenes (docs/benchmarks.md). ``autocable figures --recompute`` computes e
 (and stores the result again).
 
 A stored entry is checked before it is used (every file's sha256); one that fails is removed,
-reported on stderr, and the scene computed. A read-only cache is only read.
+reported on stderr, and the scene computed. A read-only cache is only read. A scene is stored only
+when the process that computed it ran the code its key names (`code_mismatch`: the worker's
+`autocable._store.running_code`, returned with the result by `autocable.executor`), so code edited
+while a run goes on can never leave its results under the old code's key.
 """
 from __future__ import annotations
 
@@ -35,7 +38,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-__all__ = ["FORMAT", "code_fingerprint", "tree_sha256", "scene_inputs", "scene_key", "lookup", "restore", "store", "entry_folder"]
+__all__ = ["FORMAT", "code_fingerprint", "code_mismatch", "tree_sha256", "scene_inputs", "scene_key", "lookup",
+           "restore", "store", "entry_folder"]
 
 #: Format of a stored entry (`store`); another format is never read.
 FORMAT = "autocable.reuse/1"
@@ -44,22 +48,25 @@ _ENTRY_JSON = "entry.json"
 _LIBRARIES = ("numpy", "scipy", "sympy", "matplotlib", "PyDSTool")
 
 
-@functools.lru_cache(maxsize=1)
 def code_fingerprint() -> str:
-    """The sha256 of every file of the autocable package (`tree_sha256`): any change to the code
-    that computes a scene makes another key."""
-    return tree_sha256(Path(__file__).resolve().parent.parent)
+    """The sha256 of every file of the autocable package (`tree_sha256` of it), computed from the
+    files on every call (`autocable._store.code_fingerprint`: stat, and the bytes of a file whose
+    stat changed): any change to the code that computes a scene makes another key, also one made
+    while this process runs."""
+    from autocable._store import code_fingerprint as fingerprint
+    return fingerprint("package")
 
 
 def tree_sha256(root: Path) -> str:
-    """The sha256 of every file under ``root``, by relative path and bytes, compiled caches
-    (``__pycache__``, .pyc) left out."""
+    """The sha256 of every file under ``root`` by relative path and the sha256 of its bytes,
+    compiled caches (``__pycache__``, .pyc) left out: what `code_fingerprint` computes for the
+    package, from scratch."""
+    from autocable._store import file_sha256
     digest = hashlib.sha256()
     for path in sorted(p for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts
                        and p.suffix not in (".pyc", ".pyo")):
-        digest.update(path.relative_to(root).as_posix().encode() + b"\0")
-        digest.update(path.read_bytes())
-        digest.update(b"\0")
+        rel = path.relative_to(root).as_posix()
+        digest.update(rel.encode() + b"\0" + (file_sha256(path) or "unreadable").encode() + b"\0")
     return digest.hexdigest()
 
 
@@ -186,17 +193,39 @@ def lookup(inputs: dict) -> dict | None:
     return {**meta, "folder": str(folder)}
 
 
-def store(inputs: dict, scene_folder: str | Path, wall_s: float) -> bool:
+def code_mismatch(inputs: dict, ran: dict | None) -> str:
+    """Why a scene computed by the code ``ran`` (`autocable._store.running_code` of the process
+    that computed it, returned with its result by `autocable.executor`) must not be stored under
+    the key of ``inputs`` ("" when it may): that process's code is unknown, changed while it ran,
+    or is not the code the key names; or this process's files changed since the key was made."""
+    from autocable._store import code_refusal
+    keyed = inputs.get("code")
+    if not isinstance(ran, dict):
+        return "the code that computed it is not known"
+    if not ran.get("code"):
+        return f"autocable/{ran.get('changed') or '?'} changed while it was computed"
+    if ran["code"] != keyed:
+        return (f"it was computed by other code than the key names (autocable {ran.get('version')} at "
+                f"{ran.get('path')}): autocable's files changed after the run started")
+    return code_refusal("package", keyed)
+
+
+def store(inputs: dict, scene_folder: str | Path, wall_s: float, ran: dict | None = None) -> bool:
     """Keep the complete scene in ``scene_folder`` under the key of ``inputs`` (its files as listed
     by its run.json, each with its sha256; the computation's wall time and date), and remove the
     older entries of its slot (`_slot`). Written beside the entry and renamed into place, so a
     reader sees a whole entry or none; an entry already there is left. False (and nothing stored)
-    when the folder is not a complete run or the cache cannot be written (a shared read-only
-    cache)."""
-    from autocable._store import read_json, store_checked_json
+    when the folder is not a complete run, the cache cannot be written (a shared read-only
+    cache), or the code that computed it, ``ran`` (`autocable._store.running_code` returned by the
+    worker), is not the code the key names (`code_mismatch`; one line on stderr says why)."""
+    from autocable._store import read_json, report_not_stored, store_checked_json
     from autocable.results import RUN_JSON, is_complete
     src = Path(scene_folder)
     if not is_complete(src):
+        return False
+    why = code_mismatch(inputs, ran)
+    if why:
+        report_not_stored(f"the results of scene {src.name}", why)
         return False
     meta = read_json(src / RUN_JSON)
     names = [n for n in meta.get("files", []) if isinstance(n, str) and "/" not in n] + [RUN_JSON]

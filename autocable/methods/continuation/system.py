@@ -12,7 +12,8 @@ from typing import Any, Mapping
 import numpy as np
 import sympy as sp
 
-from autocable._store import cache_dir, content_hash, load_checked_json, store_checked_json
+from autocable._store import (cache_dir, code_fingerprint, content_hash, load_checked_json,
+                              store_checked_json_for_code)
 from autocable.codegen.coefficients import coefficient_template
 from autocable.codegen.pydstool import VectorField
 from autocable.methods.lambda_cache import numeric_function, rhs_key, rhs_key_of_srepr
@@ -299,10 +300,11 @@ def ame_system(ame, dof: str = "2dof", *, wind: bool = True, name: str | None = 
     params = (("sigma", 0.0), ("U", 0.0), ("eta", 0.0))
     description = f"Cartesian AME (24), {dof}, {'with' if wind else 'without'} wind terms"
     path = None
+    code = code_fingerprint("system")     # the code that builds the rows: no version bump needed
     if use_cache:
         data = {k: v for k, v in ame.to_dict().items() if k != "provenance"}
         key = content_hash({"ame": data, "dof": dof, "wind": wind, "sympy": sp.__version__,
-                            "version": AME_SYSTEM_VERSION})
+                            "version": AME_SYSTEM_VERSION, "code": code})
         path = cache_dir("systems") / f"ame-system-{key}.json"
         rhs = _cached_rhs(path, len(variables))
         if rhs is not None:
@@ -328,7 +330,9 @@ def ame_system(ame, dof: str = "2dof", *, wind: bool = True, name: str | None = 
     rhs = [plain_symbols(sp.expand(e.xreplace(rel)).xreplace(ren)) for e in exprs]
     system = System(tag, variables, rhs, params, tuple(amps), description=description, amplitude_equations=True)
     if path is not None:
-        store_checked_json(path, {"format": AME_SYSTEM_VERSION, "rhs": [sp.srepr(e) for e in system.rhs]})
+        store_checked_json_for_code("system", code, path, {"format": AME_SYSTEM_VERSION,
+                                                           "rhs": [sp.srepr(e) for e in system.rhs]},
+                                    f"AME system {path.name}")
     return system
 
 
