@@ -250,3 +250,32 @@ def test_a_model_file_may_give_the_onset_speed_as_a_range(tmp_path, capsys):
         code, out, err = _cli(capsys, "onset", model(bad, "bad"), "--band")
         assert code == 2 and "aero.critical_wind_speed_m_s" in err and "[lo, hi]" in err, (bad, err)
         assert len(err.strip().splitlines()) == 1
+
+
+def test_band_with_both_angles_given_and_with_the_yaw_calibrated():
+    """Both angles given: U_c only scales U* (eq. 18), so it is not varied and the band says so (4
+    cases: readings x yaw signs). The yaw calibrated: its sign comes from the roots, every case at
+    its own U_c has its onset there (1e-9), and a failed case is labelled 'yaw calibrated'."""
+    import tomllib
+
+    from test_onset import STAY_190
+
+    from autocable.spec import parse_model
+    from autocable.studies.band import band_study
+    given = parse_model(tomllib.loads(STAY_190))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        band = band_study(given, (7.0, 13.0))
+    assert len(band["cases"]) == 4 and "critical_wind_speed_m_s" not in band["varied"]
+    assert {c["inputs"]["critical_wind_speed_m_s"] for c in band["cases"]} == {10.0}
+    assert any("U_c is not varied" in n for n in band["notes"])
+    fitted = parse_model(tomllib.loads(STAY_190.replace("yaw_deg = 30.0", 'yaw_deg = "calibrate"')))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        band = band_study(fitted, (9.0, 11.0))
+    assert "the yaw's sign" not in band["varied"]
+    for c in band["cases"]:
+        if c["status"] == "ok":
+            assert c["onset_U_m_s"] == pytest.approx(c["inputs"]["critical_wind_speed_m_s"], rel=1e-9)
+        else:
+            assert "yaw calibrated" in c["label"] and "aero.yaw_deg" in c["reason"]
