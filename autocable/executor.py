@@ -44,22 +44,61 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Iterator
 
+from autocable.errors import ComputationError
+
 __all__ = ["Executor", "Done", "run_forked", "attempts", "check_scheduler", "check_workers", "scheduler_address",
-           "SCHEDULER_TIMEOUT", "time_left"]
+           "SCHEDULER_TIMEOUT", "NO_WORKER_TIMEOUT", "NO_WORKER_ENV", "NoLiveWorker", "no_worker_seconds",
+           "time_left"]
 
 #: Seconds to reach a Dask scheduler and hear it answer (`check_scheduler`): a refused port, a
 #: service that is not Dask or a peer that never answers is named at once, not after minutes.
 SCHEDULER_TIMEOUT = 10.0
 
 
+#: Seconds a run on Dask waits with tasks to do and no live worker before it stops
+#: (`NoLiveWorker`): every worker died, the scheduler never had one, or the only one cannot import
+#: autocable. Overridden by ``$AUTOCABLE_NO_WORKER_TIMEOUT`` or `Executor` ``no_worker_timeout``.
+NO_WORKER_TIMEOUT = 60.0
+NO_WORKER_ENV = "AUTOCABLE_NO_WORKER_TIMEOUT"
+
+
+class NoLiveWorker(ComputationError):
+    """A run on Dask had tasks to do and no live worker for `no_worker_seconds` seconds
+    (exit status 3); ``str(err)`` is one line naming ``--scheduler`` (or ``--workers``)."""
+
+
+def no_worker_seconds(value: float | None = None) -> float:
+    """``value``, else ``$AUTOCABLE_NO_WORKER_TIMEOUT``, else `NO_WORKER_TIMEOUT`; a value that is
+    not a positive number of seconds is refused (`SpecError` naming the variable)."""
+    from autocable.spec import SpecError
+    if value is None:
+        text = os.environ.get(NO_WORKER_ENV, "").strip()
+        if not text:
+            return NO_WORKER_TIMEOUT
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and value > 0):
+            raise SpecError("environment", NO_WORKER_ENV, f"expected a positive number of seconds, got {text!r}; "
+                                                          f"unset it for the default of {NO_WORKER_TIMEOUT:g} s")
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+        raise SpecError("arguments", "no_worker_timeout", f"expected a positive number of seconds, got {value!r}")
+    return float(value)
+
+
 @dataclass
 class Done:
     """A finished task: its ``label``, the function's return ``value``, or ``error`` (one line) when
-    the task raised or its workers kept dying (Dask's ``KilledWorker``)."""
+    the task raised or its workers kept dying (Dask's ``KilledWorker``). ``code``: the autocable the
+    task ran on (`autocable._store.running_code` of its worker, taken when it ended; None for a
+    failed task), which decides whether its result may be stored under a key naming the code."""
 
     label: str
     value: Any = None
     error: str = ""
+    code: dict | None = None
 
     @property
     def ok(self) -> bool:
@@ -161,9 +200,39 @@ def check_scheduler(address: str, timeout: float | None = None) -> None:
 # ------------------------------------------------------------------------------------------------
 # the journal of task starts
 # ------------------------------------------------------------------------------------------------
-def _journaled(journal: str | None, label: str, fn: Callable, *args):
+def _foreign(ran: dict, expected: dict) -> str:
+    """Why a worker running ``ran`` (`autocable._store.running_code`) may not run the tasks of a
+    command running ``expected`` ("" when it may)."""
+    if ran.get("version") != expected.get("version"):
+        return f"runs autocable {ran.get('version')} (at {ran.get('path')}), the command {expected.get('version')}"
+    if not ran.get("code"):
+        return f"runs autocable whose file {ran.get('changed')} changed after it started (at {ran.get('path')})"
+    if ran.get("code") != expected.get("code"):
+        return (f"runs other autocable code than the command's (at {ran.get('path')}: package sha256 "
+                f"{str(ran.get('code'))[:12]}, the command's {str(expected.get('code'))[:12]})")
+    return ""
+
+
+def _worker_name() -> str:
+    try:
+        from distributed import get_worker
+        return get_worker().address
+    except Exception:   # noqa: BLE001 - not on a Dask worker (the serial path)
+        return f"process {os.getpid()}"
+
+
+def _journaled(journal: str | None, label: str, expected: dict | None, fn: Callable, *args):
     """Run ``fn(*args)`` on a worker after appending ``label`` to the journal (one short line, one
-    ``write`` on a file opened for appending: lines of concurrent workers do not interleave)."""
+    ``write`` on a file opened for appending: lines of concurrent workers do not interleave), and
+    return (its value, the autocable the worker runs: `autocable._store.running_code`). With
+    ``expected`` (the command's), a worker running another autocable refuses the task, by name,
+    before it writes anything."""
+    from autocable._store import running_code
+    if expected is not None:
+        why = _foreign(running_code(), expected)
+        if why:
+            raise RuntimeError(f"the worker {_worker_name()} {why}; install the command's autocable on the "
+                               "workers (docs/cluster.md)")
     if journal:
         try:
             fd = os.open(journal, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
@@ -173,7 +242,8 @@ def _journaled(journal: str | None, label: str, fn: Callable, *args):
                 os.close(fd)
         except OSError:
             pass    # a worker without the shared folder: the journal only counts, the task still runs
-    return fn(*args)
+    value = fn(*args)
+    return value, running_code()      # taken after the task: a file edited meanwhile is seen
 
 
 def attempts(journal: str | Path) -> Counter:
@@ -210,12 +280,19 @@ class Executor:
     appended to (`attempts`), emptied at the start; ``cluster_kwargs``: more LocalCluster
     arguments; ``strict_priority``: tasks are handed to the cluster one per free worker, the one of
     highest priority at that moment (tasks of seconds, whose order matters: figure scenes and
-    calibration points; on the serial path too)."""
+    calibration points; on the serial path too). ``no_worker_timeout``: seconds with tasks to do
+    and no live worker before `completed` raises `NoLiveWorker` (default `no_worker_seconds`). On
+    a ``scheduler``'s cluster every worker must run the command's autocable (same version and
+    package sha256): the workers there at the start are checked at once (a `SpecError` naming
+    ``--scheduler`` and the worker), one that joins later refuses its tasks by name."""
 
     def __init__(self, workers: int | None = None, scheduler: str | None = None, *,
                  warm: Callable[[], Any] | None = None, journal: str | Path | None = None,
-                 cluster_kwargs: dict | None = None, strict_priority: bool = False):
+                 cluster_kwargs: dict | None = None, strict_priority: bool = False,
+                 no_worker_timeout: float | None = None):
         self.workers, self.scheduler, self.warm = workers, scheduler, warm
+        self.no_worker_timeout = no_worker_seconds(no_worker_timeout)
+        self._expected: dict | None = None     # the command's autocable, checked on a scheduler's workers
         self.strict_priority = strict_priority
         self.journal = str(Path(journal).resolve()) if journal else None
         self.cluster_kwargs = dict(cluster_kwargs or {})
@@ -263,6 +340,7 @@ class Executor:
                     address = scheduler_address(self.scheduler)
                     self.client = Client(address, timeout=SCHEDULER_TIMEOUT)
                     self.where = {"mode": "scheduler", "address": address}
+                    self._check_workers_code(address)
                 else:
                     n = self.workers if self.workers else (os.cpu_count() or 1)
                     with warnings.catch_warnings():
@@ -280,6 +358,34 @@ class Executor:
             self.where["workers_seen"] = self.n_workers
         self.where["startup_seconds"] = time.perf_counter() - t0
         return self
+
+    def _check_workers_code(self, address: str) -> None:
+        """Refuse (`SpecError` naming ``--scheduler`` and the worker) a cluster whose workers at
+        hand run another autocable than this command (version or package sha256), or cannot
+        import it; workers that join later are checked by each task (`_journaled`)."""
+        from autocable._store import code_fingerprint
+        from autocable._version import __version__
+        from autocable.spec import SpecError
+        self._expected = {"version": __version__, "code": code_fingerprint("package")}
+        from autocable._store import running_code
+        try:
+            seen = self.client.run(running_code, on_error="return")
+        except Exception as exc:   # noqa: BLE001 - the scheduler went away meanwhile
+            self.close()
+            raise SpecError("arguments", "--scheduler", f"cannot ask the workers of {address} which autocable they "
+                                                        f"run ({_one_line(exc)}); check the scheduler") from None
+        for worker, ran in sorted(seen.items()):
+            if isinstance(ran, BaseException):
+                why = f"cannot run autocable's code ({_one_line(ran)})"
+            elif not isinstance(ran, dict):
+                why = "answered with something else than its autocable"
+            else:
+                why = _foreign(ran, self._expected)
+            if why:
+                self.close()
+                raise SpecError("arguments", "--scheduler", f"the worker {worker} of {address} {why}; install the "
+                                                            "command's autocable in the workers' environment "
+                                                            "(docs/cluster.md) or stop that worker")
 
     def __exit__(self, *exc) -> None:
         self.close()
@@ -313,7 +419,8 @@ class Executor:
         return self._send(label, fn, args, priority)
 
     def _send(self, label: str, fn: Callable, args: tuple, priority: int):
-        fut = self.client.submit(_journaled, self.journal, label, fn, *args, pure=False, priority=priority,
+        fut = self.client.submit(_journaled, self.journal, label, self._expected, fn, *args, pure=False,
+                                 priority=priority,
                                  key=f"{label}-{uuid.uuid4().hex[:12]}")
         fut._autocable_label = label
         self._in_flight += 1
@@ -351,8 +458,8 @@ class Executor:
                 else:
                     label, fn, args = self._queue.pop(0)
                 try:
-                    value = _journaled(self.journal, label, fn, *args)
-                    done = Done(label, value)
+                    value, code = _journaled(self.journal, label, None, fn, *args)
+                    done = Done(label, value, code=code)
                 except Exception as exc:  # noqa: BLE001 - the caller decides what a failed task means
                     done = Done(label, None, _one_line(exc))
                 self._pending -= 1
@@ -363,10 +470,14 @@ class Executor:
         self._ac = as_completed(self._queue)
         self._queue = []
         try:
-            for fut in self._ac:
+            while True:
+                fut = self._next_finished()
+                if fut is None:
+                    break
                 label = getattr(fut, "_autocable_label", str(fut.key))
                 try:
-                    done = Done(label, fut.result())
+                    value, code = fut.result()
+                    done = Done(label, value, code=code)
                 except Exception as exc:  # noqa: BLE001 - KilledWorker, or the task's own error
                     done = Done(label, None, _one_line(exc))
                 fut.release()
@@ -376,6 +487,52 @@ class Executor:
                 yield done
         finally:
             self._ac = None
+
+    def _live_workers(self) -> int:
+        """Workers the scheduler knows now (0 when the client lost its scheduler)."""
+        try:
+            if getattr(self.client, "status", "running") != "running":
+                return 0
+            return len(self.client.scheduler_info().get("workers", {}))
+        except Exception:   # noqa: BLE001 - a scheduler gone: no worker either
+            return 0
+
+    def _next_finished(self):
+        """The next finished future (None when none is left), waiting as Dask's own iterator does,
+        but raising `NoLiveWorker` once tasks have waited `no_worker_timeout` seconds with no live
+        worker: Dask keeps such tasks queued forever."""
+        ac = self._ac
+        alone_since = None
+        next_look = 0.0
+        while not ac.has_ready():
+            if ac.is_empty():
+                return None
+            now = time.monotonic()
+            if now >= next_look:
+                next_look = now + 0.5
+                if self._live_workers() > 0:
+                    alone_since = None
+                elif alone_since is None:
+                    alone_since = now
+                elif now - alone_since >= self.no_worker_timeout:
+                    raise NoLiveWorker(self._no_worker_message(ac.count()))
+            cond = getattr(ac, "thread_condition", None)
+            if cond is not None:
+                with cond:
+                    cond.wait(timeout=0.1)
+            else:   # pragma: no cover - an older Dask
+                time.sleep(0.1)
+        return next(ac)
+
+    def _no_worker_message(self, waiting: int) -> str:
+        tasks = f"{waiting + len(self._held)} task(s) waiting"
+        if self.scheduler:
+            return (f"--scheduler {self.where.get('address', self.scheduler)}: no live worker for "
+                    f"{self.no_worker_timeout:g} s with {tasks} (every worker died, none ever joined, or "
+                    f"none can import autocable); start workers (dask worker ADDRESS --nthreads 1) with "
+                    f"autocable installed, or raise {NO_WORKER_ENV}")
+        return (f"--workers: no live worker process for {self.no_worker_timeout:g} s with {tasks} "
+                f"(every worker died and none restarted); run again, or with --workers 0, or raise {NO_WORKER_ENV}")
 
     def worker_pids(self) -> list[int]:
         """The pids of the worker processes (this process on the serial path)."""

@@ -10,6 +10,7 @@ the traceback below it), to ``DIR/figures.json`` and to the report, and the comm
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import sys
@@ -24,6 +25,7 @@ from autocable.errors import EXIT_FAILED
 from autocable.spec import SpecError
 
 __all__ = ["QUICK", "SceneOutcome", "cold_group", "default_runs_dir", "discover", "expected_cost", "run_figures",
+           "run_figures_in", "figures_folder", "FIGURES_LOCK",
            "add_figures_parser",
            "cmd_figures", "SUMMARY_JSON", "ERROR_TXT"]
 
@@ -287,7 +289,106 @@ def _reuse_stored(pending: list[Path], out: Path, model_arg: str | None, engine:
     return left, inputs_of, reused
 
 
-def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None = None,
+#: The lock a running `autocable figures` holds on its ``--out`` (an advisory ``flock``, released by
+#: the kernel however the process ends; the file holds the holder's pid, to name it).
+FIGURES_LOCK = ".autocable-figures.lock"
+
+
+def _ours(out: Path, entry: Path) -> bool:
+    """Whether ``entry`` of a figures ``--out`` is something `autocable figures` writes there: a
+    scene folder (its run.json, or an error.txt, names it), a figure copied up from one
+    (``<scene>.png``/``.pdf``, ``<scene>_plane.*``, of a scene folder there), figures.json,
+    report.md beside a figures.json, the journal and the lock."""
+    import re
+
+    from autocable._store import read_json
+    from autocable.paper.report import REPORT_MD
+    from autocable.results import RUN_JSON
+    n = entry.name
+    if n in (FIGURES_LOCK, TASKS_JOURNAL, SUMMARY_JSON) and entry.is_file():
+        return True
+    if n == REPORT_MD and entry.is_file():
+        return (out / SUMMARY_JSON).is_file()
+    if entry.is_dir() and not entry.is_symlink():
+        meta = read_json(entry / RUN_JSON)
+        return ((isinstance(meta, dict) and meta.get("name") == n) or (entry / ERROR_TXT).is_file()
+                or not any(entry.iterdir()))
+    m = re.fullmatch(r"(?P<scene>.+?)(_plane)?\.(png|pdf)", n)
+    if m and entry.is_file():
+        meta = read_json(out / m["scene"] / RUN_JSON)
+        return isinstance(meta, dict) and meta.get("name") == m["scene"]
+    return False
+
+
+@contextlib.contextmanager
+def figures_folder(out: Path):
+    """Hold ``out`` for one `autocable figures` run: a folder another live run holds is refused
+    (one line naming ``--out`` and that run's process: two runs would share the journal of task
+    starts and remove each other's temporaries); one holding files `autocable figures` did not
+    write (`_ours`) is refused; the half-written temporaries of a killed run are removed (the lock
+    proves their writer dead). Yields ``out``."""
+    import fcntl
+
+    from autocable.run_folder import _TEMP
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        fd = os.open(out / FIGURES_LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as exc:
+        raise SpecError("arguments", "--out", f"cannot use {out}: {exc.strerror or exc}; give a folder that "
+                                              "can be written") from None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 32, 0).decode("ascii", "replace").strip() or "?"
+            raise SpecError("arguments", "--out", f"another autocable figures (process {holder}) is writing into "
+                                                  f"{out}; wait for it or give another folder") from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, str(os.getpid()).encode(), 0)
+        foreign, temporaries = [], []
+        for entry in sorted(out.iterdir()):
+            m = _TEMP.match(entry.name)
+            if m and entry.is_file() and (m["name"] in (SUMMARY_JSON, "report.md")
+                                          or m["name"].endswith((".png", ".pdf"))):
+                temporaries.append(entry)        # a killed run's: we hold the lock, its writer is dead
+            elif not _ours(out, entry):
+                foreign.append(entry.name)
+        if foreign:
+            shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
+            raise SpecError("arguments", "--out", f"{out} holds files autocable figures did not write ({shown}); "
+                                                  "give an empty or new folder, or move them away")
+        for entry in temporaries:
+            entry.unlink(missing_ok=True)
+        yield out
+    finally:
+        os.close(fd)
+
+
+def run_figures(scenes: Sequence[Path], out_dir: str | Path, **kwargs) -> list[SceneOutcome]:
+    """`run_figures_in` under the folder's lock (`figures_folder`): one writer per output folder."""
+    with figures_folder(Path(out_dir)):
+        return run_figures_in(scenes, out_dir, **kwargs)
+
+
+def _mark_unfinished(out: Path, names: Sequence[str], error: str) -> None:
+    """Scenes a run stopped without (no live worker): error.txt, and their run.json "failed" where
+    it still says "running" (its writer is gone, or the folder would read as busy forever)."""
+    from autocable._store import atomic_write_json, read_json
+    from autocable.results import RUN_JSON
+    for name in names:
+        folder = out / name
+        try:
+            _error_file(folder, f"{name}: {error}", "")
+            meta = read_json(folder / RUN_JSON)
+            if isinstance(meta, dict) and meta.get("status") == "running":
+                meta = {k: v for k, v in meta.items() if k != "pid"}
+                meta.update(status="failed", reason=error)
+                atomic_write_json(folder / RUN_JSON, meta)
+        except OSError:
+            pass
+
+
+def run_figures_in(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None = None,
                 timeout: float | None = None, say: Say | None = None,
                 engine: str | None = None, model: str | Path | None = None,
                 on_done: Callable[[int, int, str, str], None] | None = None,
@@ -308,9 +409,14 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
     overrides, autocable's code, the libraries) are those of a scene stored in the cache is not
     computed: its stored files are published into ``out_dir/<scene>/`` (run.json says so under
     ``reused``). With ``keep``, every scene this run computes is stored (not the scenes of a
-    ``scheduler``'s workers, whose code may not be this process's)."""
-    from autocable.executor import Executor, attempts, time_left
+    ``scheduler``'s workers, whose code may not be this process's), and only when the worker that
+    computed it ran the code its key names (`autocable.paper.reuse.store`). When the cluster has no
+    live worker for the executor's ``no_worker_timeout``, the unfinished scenes are marked failed
+    (error.txt, run.json), figures.json is written and `autocable.executor.NoLiveWorker` raised.
+    Without the folder's lock: `run_figures` takes it."""
+    from autocable.executor import Executor, NoLiveWorker, attempts, time_left
     out = Path(out_dir)
+    stopped: list = []
     out.mkdir(parents=True, exist_ok=True)
     tell = say or (lambda msg: None)
     if workers is None:
@@ -387,7 +493,15 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
         for leader, followers in held.items():
             tell(f"{', '.join(p.stem for p in followers)}: after {leader} (the same model and amplitude "
                  f"equations, not yet in the cache)")
-        for done in executor.completed():
+        stopped.clear()
+
+        def until_stopped():
+            try:
+                yield from executor.completed()
+            except NoLiveWorker as exc:      # the cluster has no worker left: no scene stays "running"
+                stopped.append(exc)
+
+        for done in until_stopped():
             name = done.label.split(":", 1)[1]
             path = paths[name]
             if done.ok:
@@ -407,7 +521,7 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
                     from autocable.paper.reuse import scene_inputs, store
                     # stored only if no input changed while the scene ran (an edited model, say)
                     if scene_inputs(path, model_arg, engine, plot) == keys[name]:
-                        store(keys[name], folder, wall)
+                        store(keys[name], folder, wall, ran=done.code)    # the code the worker ran
             outcomes[name] = SceneOutcome(name, str(path), status, wall, error, files)
             n = len(outcomes)
             left = time_left(n - n_reused, total - n_reused, time.perf_counter() - t_compute)
@@ -417,6 +531,11 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
                 on_done(n, total, name, status)
             for path in held.pop(name, ()):     # its group is in the cache now (or failed: then each computes)
                 submit(path)
+        if stopped:
+            unfinished = [p for p in scenes if p.stem not in outcomes]
+            _mark_unfinished(out, [p.stem for p in unfinished], str(stopped[0]))
+            for p in unfinished:
+                outcomes[p.stem] = SceneOutcome(p.stem, str(p), "failed", 0.0, str(stopped[0]))
     finally:
         where = dict(executor.where)
         if owned:
@@ -438,6 +557,8 @@ def run_figures(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | None
     atomic_write_json(out / SUMMARY_JSON, {"format": "autocable.paper.figures/2", "where": where, "jobs": n_workers,
                                            "recomputed": recomputed,
                                            "scenes": [asdict(o) for o in ordered]})
+    if stopped:
+        raise stopped[0]        # one line naming --scheduler, exit status 3 (figures.json says which scenes)
     return ordered
 
 
@@ -559,15 +680,16 @@ def cmd_figures(args) -> int:
         on_done = None
     t0 = time.perf_counter()
     try:
-        outcomes = run_figures(scenes, out, workers=args.workers, scheduler=args.scheduler, timeout=args.timeout,
-                               say=say,
-                               engine=getattr(args, "engine", None), model=model, on_done=on_done,
-                               reuse=not getattr(args, "recompute", False), keep=True)
+        with figures_folder(out):        # one writer: the scenes, figures.json and report.md
+            outcomes = run_figures_in(scenes, out, workers=args.workers, scheduler=args.scheduler,
+                                      timeout=args.timeout, say=say,
+                                      engine=getattr(args, "engine", None), model=model, on_done=on_done,
+                                      reuse=not getattr(args, "recompute", False), keep=True)
+            wall = time.perf_counter() - t0
+            report = write_report(out, targets)
     finally:
         if isinstance(bar, BarProgress):
             bar.close()
-    wall = time.perf_counter() - t0
-    report = write_report(out, targets)
     failed = [o for o in outcomes if o.status != "ok"]
     if not args.quiet:
         print(f"{len(outcomes) - len(failed)} of {len(outcomes)} scenes done in {wall:.1f} s "
