@@ -88,6 +88,7 @@ def test_simulate_si_equals_the_nondimensional_run(capsys, eq21):
     (("--deck-frequency", "0",), ("--deck-frequency",)),
     (("--deck-frequency", "40",), ("--deck-frequency", "40")),
     (("--max-time", "1e9",), ("--max-time", "1e9")),
+    (("--q0", "1e9", "0", "0", "0"), ("--q0", "1e9")),
 ])
 def test_simulate_refuses_by_name(capsys, options, named):
     """Both kinds of one quantity, or an SI value outside eq. (21)'s premises: exit 2, one line

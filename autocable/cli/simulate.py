@@ -70,7 +70,7 @@ def add_si_options(s) -> None:
                    help="frequency of the support (deck) motion [Hz], instead of --sigma (sigma = "
                         "2 pi f/omega - omega1, eq. 17: the detuning from the first in-plane frequency)")
     for action in s._actions:
-        if action.dest in ("U", "eta", "sigma", "max_time"):
+        if action.dest in ("U", "eta", "sigma", "max_time", "q0"):
             action.type = typed_number
     s.set_defaults(U=None, eta=None, sigma=None)
     # "-1e-3" is a number, not an option (argparse's own pattern misses the exponent): --q0 -1e-3 ...
