@@ -532,3 +532,55 @@ def test_compiled_exact_rung_with_the_blend_integrates():
     plain = derive(load_model(STAY))
     assert exact.theta0 == plain.theta0        # the calibration through the blend: the fits' angle, every bit
     assert [t.coefficient for t in derive(spec).ode.terms] == [t.coefficient for t in plain.ode.terms]
+
+
+def test_every_consumer_of_the_cubic_reads_a_tables_cubic(stay):
+    """A table sampled from the fits is the fits (not-a-knot spline through a cubic): the N-mode
+    equations (2 + 2 modes), a scene's cubic-load error columns and the decoupling calibration of the
+    sample's yaw, each derived through the table, equal their cubic counterparts (1e-9 relative); before,
+    each read ``aero.lift`` directly and failed with a TypeError on a table model."""
+    from autocable.model.calibration import decoupled_angles
+    from autocable.model.derive import derive
+    from autocable.model.derive_n import derive_nmode
+    from autocable.scene.runner import _with_twist
+    spec, d = stay
+
+    def table_only(s, lo, hi, n):      # a table model holds no cubic fits of its own
+        t = _as_table(s, lo, hi, n)
+        return dataclasses.replace(t, aero=dataclasses.replace(t.aero, lift=None, drag=None))
+    tab = table_only(spec, 0.0, 85.0, 18)
+    dt = derive(tab, use_cache=False)
+    a = derive_nmode(d, 2, 2, use_cache=False)
+    b = derive_nmode(dt, 2, 2, use_cache=False)
+    ra = {(t.equation, t.powers, t.forcing, t.u_power): t.coefficient for t in a.terms}
+    rb = {(t.equation, t.powers, t.forcing, t.u_power): t.coefficient for t in b.terms}
+    scale = max(abs(v) for v in ra.values())
+    assert max(abs(ra.get(k, 0.0) - rb.get(k, 0.0)) for k in set(ra) | set(rb)) < 1e-9 * scale
+
+    @dataclasses.dataclass
+    class _Branch:      # what _with_twist reads of a Branch: its table, replace and length
+        table: dict
+
+        def replace(self, table):
+            return _Branch(table)
+
+        def __len__(self):
+            return len(self.table["a1"])
+
+    rows = {"U": np.array([1.0, 1.1]), "a1": np.array([1e-3, 2e-3]), "a2": np.array([1e-3, 3e-3])}
+    (bc,), vc = _with_twist([_Branch(dict(rows))], spec, d)
+    (bt,), vt = _with_twist([_Branch(dict(rows))], tab, dt)
+    assert np.all(bc.table["cubic_error"] > 0)
+    assert bt.table["cubic_error"] == pytest.approx(bc.table["cubic_error"], rel=1e-9)
+    assert vt["largest_cubic_error"] == pytest.approx(vc["largest_cubic_error"], rel=1e-9)
+    from autocable.model.galerkin import aero_scales
+    spec = load_model(ROOT / "models" / "luongo_zulli_2012.toml")      # the cable the decoupling is for
+    tab = table_only(spec, -45.0, 45.0, 19)
+    st = derive(spec).statics
+    from autocable.model.modes import linear_modes
+    from autocable.model.shapes import ClosedFormIntegrator
+    modes = linear_modes(st, spec.cable.twist_ends)
+    K, nu = aero_scales(spec.aero, spec.cable, st)
+    integ = ClosedFormIntegrator(modes.shapes)
+    xs = [decoupled_angles(s.aero, st, modes, integ, K, nu, spec.cable.damping_ratio) for s in (spec, tab)]
+    assert xs[1] == pytest.approx(xs[0], rel=1e-9, abs=1e-9)

@@ -24,7 +24,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from autocable.model.aero import expand_load_jet, linear_load
-from autocable.model.curves import curves_from_spec, static_angle
+from autocable.model.curves import curves_from_spec, eq21_fits, static_angle
 from autocable.model.galerkin import linear_aero_matrix
 
 
@@ -178,8 +178,9 @@ def decoupled_angles(aero_spec, st, modes, integrator, K: float, nu: float, xi_s
     target = -2 * xi_s * modes.omega1
 
     def residual(x):
-        lin = linear_load(aero_spec.lift, aero_spec.drag, st.alpha, math.radians(x[0]),
-                          math.radians(x[1]), aero_spec.angle_convention, aero_spec.load_axes)
+        beta, th0 = math.radians(x[0]), math.radians(x[1])
+        lift, drag = eq21_fits(aero_spec, st.alpha, beta, th0)    # a table or a blend: its cubic at phi0
+        lin = linear_load(lift, drag, st.alpha, beta, th0, aero_spec.angle_convention, aero_spec.load_axes)
         al = linear_aero_matrix(integrator, K, nu, st.m_star, lin)
         return [(al[(1, 2)] - target) / abs(target), al[(2, 2)] / abs(target)]
 

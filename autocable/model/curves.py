@@ -131,6 +131,18 @@ def static_angle(alpha: float, beta: float, theta0: float, convention: str) -> f
     return ANGLE_SIGNS[convention] * gamma - theta0
 
 
+def eq21_fits(aero_spec, alpha: float, beta: float, theta0: float) -> tuple[tuple, tuple]:
+    """The cubic lift and drag of eq. (13) that eq. (21) is derived with, at the angles (beta, Theta0):
+    the typed-in fits for the paper's curves, else the curves' own cubic at the static angle phi0
+    (`equivalent_cubic`: value and three derivatives there). Every consumer of eq. (13)'s cubic (the
+    N-mode derivation, the cubic-load error of a scene, the calibrations) goes through this, so a
+    table or a blend is never read as a cubic's four numbers."""
+    curves = curves_from_spec(aero_spec)
+    if curves.kind == "cubic":
+        return tuple(aero_spec.lift), tuple(aero_spec.drag)
+    return curves.equivalent_cubic(static_angle(alpha, beta, theta0, aero_spec.angle_convention))
+
+
 # ------------------------------------------------------------------------------------------------
 # Piecewise polynomials: the form the compiled right-hand sides evaluate a table or a blend in
 # ------------------------------------------------------------------------------------------------

@@ -208,6 +208,7 @@ def zeta11_roots(spec: ModelSpec, step_deg: float = 0.25) -> list[float]:
     from scipy.optimize import brentq
 
     from autocable.model.aero import linear_load
+    from autocable.model.curves import eq21_fits
     from autocable.model.galerkin import aero_scales, linear_aero_matrix
     st, modes, integ = _structure(spec, spec.cable.twist_ends)
     K, nu = aero_scales(spec.aero, spec.cable, st)
@@ -215,8 +216,9 @@ def zeta11_roots(spec: ModelSpec, step_deg: float = 0.25) -> list[float]:
     a = spec.aero
 
     def g(th_deg):
-        lin = linear_load(a.lift, a.drag, st.alpha, math.radians(a.yaw_deg), math.radians(th_deg),
-                          a.angle_convention, a.load_axes)
+        beta, th0 = math.radians(a.yaw_deg), math.radians(th_deg)
+        lift, drag = eq21_fits(a, st.alpha, beta, th0)      # a table or a blend: its cubic at phi0
+        lin = linear_load(lift, drag, st.alpha, beta, th0, a.angle_convention, a.load_axes)
         return linear_aero_matrix(integ, K, nu, st.m_star, lin)[(1, 2)] - target
 
     grid = np.arange(-90.0, 90.0 + 1e-9, step_deg)
@@ -246,12 +248,13 @@ def fast_ode(spec: ModelSpec):
     """Eq. (21) of a spec with both angles given, as `derive` computes it (same modes, statics and
     projection; the load expanded by `expand_load_jet`)."""
     from autocable.model.aero import expand_load_jet
+    from autocable.model.curves import eq21_fits
     from autocable.model.galerkin import aero_scales, project
     st, modes, integ = _structure(spec, spec.cable.twist_ends)
     K, nu = aero_scales(spec.aero, spec.cable, st)
-    aero = expand_load_jet(spec.aero.lift, spec.aero.drag, st.alpha, math.radians(spec.aero.yaw_deg),
-                           math.radians(spec.aero.rivulet_angle_deg), spec.aero.angle_convention,
-                           spec.aero.load_axes)
+    beta, th0 = math.radians(spec.aero.yaw_deg), math.radians(spec.aero.rivulet_angle_deg)
+    lift, drag = eq21_fits(spec.aero, st.alpha, beta, th0)
+    aero = expand_load_jet(lift, drag, st.alpha, beta, th0, spec.aero.angle_convention, spec.aero.load_axes)
     return project(st, modes, aero, K, nu, spec.cable.damping_ratio, integ,
                    provenance={"model": spec.name, "screen": True})
 

@@ -722,10 +722,12 @@ def _with_twist(branches, spec, deriv):
     import numpy as np
 
     from autocable.model.aero import CUBIC_RTOL, CubicLoadError
+    from autocable.model.curves import eq21_fits
     from autocable.model.modes import twist_peak
     per_q2 = twist_peak(*deriv.twist)
     a = spec.aero
-    err = CubicLoadError(a.lift, a.drag, deriv.statics.alpha, deriv.beta, deriv.theta0, a.angle_convention,
+    lift, drag = eq21_fits(a, deriv.statics.alpha, deriv.beta, deriv.theta0)
+    err = CubicLoadError(lift, drag, deriv.statics.alpha, deriv.beta, deriv.theta0, a.angle_convention,
                          a.load_axes)
     nu, om = deriv.velocity_ratio, deriv.ode.omega1
     out, largest, worst, beyond, total = [], 0.0, 0.0, 0, 0
