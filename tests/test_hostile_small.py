@@ -195,3 +195,24 @@ def test_out_without_run_json_keeps_a_users_file_named_like_an_output(tmp_path, 
     _refused(capsys, ["damper", str(SAMPLE), "--position", "2", "--constant", "1e5", "--out", str(out)], "--out",
              "damper.png")
     assert (out / "damper.png").read_text() == "my photo" and sorted(p.name for p in out.iterdir()) == ["damper.png"]
+
+
+# -- found by the generated runs on onset and damper ----------------------------------------------------
+def test_empty_damping_grid_is_refused_not_ignored(capsys):
+    """``--damping=`` (empty) was taken for "not given": exit 0 without a damping study."""
+    _refused(capsys, ["onset", str(SAMPLE), "--damping="], "--damping")
+
+
+@pytest.mark.parametrize("checks", ["21", "-1"])
+def test_band_does_not_skip_the_checks_option(capsys, checks):
+    """``onset --band --checks=21`` ran the band study and exited 0: --checks was checked only on
+    the path without --band."""
+    _refused(capsys, ["onset", str(SAMPLE), "--band", f"--checks={checks}"], "--checks")
+
+
+def test_a_damper_too_far_out_names_the_position(capsys):
+    """A damper near mid-span (x_d/L = 0.4996) cannot be followed from the undamped string: a
+    failure (exit 3) that names the field and the option to change."""
+    assert main(["damper", str(SAMPLE), "--position", "60.9", "--constant", "1e5"]) == 3
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "damper.position_m" in err and "--position" in err, err

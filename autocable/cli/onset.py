@@ -182,13 +182,16 @@ def _onset(args, folder) -> int:
     from autocable.studies.onset import damping_study, design_damping, onset_report, onset_text, vary
 
     check_out("--out", args.out)
+    # checked before --band branches off: an option given is never silently ignored
+    check_number("--checks", args.checks, 0, 20, integer=True)
     if getattr(args, "band", False):
         return _band(args, folder)
     if getattr(args, "uc", None) is not None:
         raise refuse("--uc", "sets the range of onset speeds of --band: add --band (a single onset speed is the "
                              "model's aero.critical_wind_speed_m_s)")
     check_number("--checks", args.checks, 0, 20, integer=True)
-    grid = _damping_grid(args.damping) if args.damping else None
+    # `is not None`: --damping= (empty) is refused, not taken for "not given"
+    grid = _damping_grid(args.damping) if args.damping is not None else None
     changes = _changes(args.set)
     if args.refit and not changes:
         raise refuse("--refit", "refits the calibrated angle of a changed cable: give --set cable.FIELD=VALUE")

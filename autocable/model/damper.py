@@ -230,7 +230,8 @@ def _continue(fun_at, k: int, eta: float, guard, what: str) -> tuple[complex, in
                 raise ComputationError(
                     f"damper: mode {k} {what} could not be followed up to eta = c / sqrt(T m) = {eta:.6g} from "
                     f"the undamped string (it turns overdamped on the way: a damper this far from the "
-                    f"anchorage for this mode; the damper formulas are for k x_d / L well below 1/2)")
+                    f"anchorage for this mode; the damper formulas are for k x_d / L well below 1/2): move it "
+                    f"nearer the anchorage (damper.position_m, or --position)")
     return z, total
 
 

@@ -73,8 +73,9 @@ def _onset_option(rng, heavy: bool):
         return opt, [f"{opt}={v}"], valid, False, ("damping", v)
     if opt == "--design-wind":
         v = _pick(rng, (["20", "40", "170"] if heavy else []) + _NUMBERS_BAD + ["200"])
-        valid = v in ("20", "40", "170")
-        return opt, [f"{opt}={v}"], valid, valid, ("design_wind", v)
+        # 200 m/s: past 5 U_c, refused, but inside --band's range of U_c up to 100 m/s (up to 500 m/s)
+        valid = True if v in ("20", "40", "170") else None if v == "200" else False
+        return opt, [f"{opt}={v}"], valid, valid is not False, ("design_wind", v)
     if opt == "--set":
         field = _pick(rng, ["damping_ratio", "horizontal_tension_N", "diameter_m", "mass_per_length_kg_m",
                             "length_m", "gravity_m_s2", "bogus", "DAMPING_RATIO"])
