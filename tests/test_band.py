@@ -8,7 +8,8 @@ file, the calibration and the command line, not the band's loop). The least damp
 the 190 m stay in the legacy reading (tests/data/stay_190m_legacy.toml), whose worst speed lies
 inside the design range: at the returned damping the rest state is stable on a 1e-3 m/s grid,
 at 0.999 of it not (eigenvalues of `TwoModeODE.linear_matrix` by numpy, not the search's pencil).
-Run time: about 20 s.
+Run time: about 40 s on two busy cores (about 12 s of CPU; 22 s of it the single `onset --design-wind` run,
+whose global least damping continues galloping cycles).
 """
 import json
 import re

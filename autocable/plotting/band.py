@@ -31,10 +31,13 @@ def plot_band(band: dict, stem: str | Path, title: str = "") -> list[Path]:
             for y, c in zip(ys, cases):
                 v = c.get(key)
                 if c["status"] != "ok" or v is None:
-                    ax.plot([], [])
-                    if ax is axes[0]:
-                        ax.text(0.02, y, "no admissible calibration" if c["status"] != "ok" else "",
-                                transform=ax.get_yaxis_transform(), va="center", fontsize=6, color="0.4")
+                    if ax is axes[0] and c["status"] != "ok":
+                        ax.text(0.02, y, "no admissible calibration", transform=ax.get_yaxis_transform(),
+                                va="center", fontsize=6, color="0.4")
+                    elif key == "onset_U_m_s" and c["status"] == "ok":
+                        # no onset over the case's scan: said at the right edge, not left blank
+                        ax.text(0.98, y, f"stable to {c['scanned_U_m_s']:.3g} m/s >", transform=ax.get_yaxis_transform(),
+                                va="center", ha="right", fontsize=6, color="0.4")
                     continue
                 ax.plot(v * scale, y, "o", ms=3.5, color=colors.get(c["inputs"]["angle_convention"], "k"))
             if rng is not None:
@@ -42,6 +45,9 @@ def plot_band(band: dict, stem: str | Path, title: str = "") -> list[Path]:
                     by = band["set_by"][key][end]["label"]
                     i = next(k for k, c in enumerate(cases) if c["label"] == by)
                     ax.plot(rng[0 if end == "lo" else 1] * scale, ys[i], "o", ms=8, mfc="none", color="C3")
+            vals = [c[key] for c in cases if c.get(key) is not None]
+            if key == "damper_constant_N_s_m" and vals and min(vals) > 0 and max(vals) > 100 * min(vals):
+                ax.set_xscale("log")      # constants of cases that need almost nothing and of those that need much
             ax.set_xlabel(label, fontsize=8)
             ax.grid(alpha=0.3, axis="x")
         axes[0].set_yticks(ys)
