@@ -36,8 +36,8 @@ def plot_band(band: dict, stem: str | Path, title: str = "") -> list[Path]:
                                 va="center", fontsize=6, color="0.4")
                     elif key == "onset_U_m_s" and c["status"] == "ok":
                         # no onset over the case's scan: said at the right edge, not left blank
-                        ax.text(0.98, y, f"stable to {c['scanned_U_m_s']:.3g} m/s >", transform=ax.get_yaxis_transform(),
-                                va="center", ha="right", fontsize=6, color="0.4")
+                        ax.text(0.98, y, f"stable to {c['scanned_U_m_s']:.3g} m/s >",
+                                transform=ax.get_yaxis_transform(), va="center", ha="right", fontsize=6, color="0.4")
                     continue
                 ax.plot(v * scale, y, "o", ms=3.5, color=colors.get(c["inputs"]["angle_convention"], "k"))
             if rng is not None:
