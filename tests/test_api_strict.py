@@ -69,6 +69,8 @@ CASES = {
     "ShootingSolver(None)": (lambda e, b: ac.ShootingSolver(None), "ode", None),
     "steady U=1e6": (lambda e, b: ac.ShootingSolver(e.ode).steady(1e6, 1e-3, 0.0), "U", 1e6),
     "steady eta=True": (lambda e, b: ac.ShootingSolver(e.ode).steady(0.0, True, 0.0), "eta", True),
+    "steady rest_floor=(0.1,)": (lambda e, b: ac.ShootingSolver(e.ode).steady(0.0, 1e-3, 0.0, rest_floor=(0.1,)),
+                                 "rest_floor", (0.1,)),
     "run_scene(3)": (lambda e, b: ac.run_scene(3, "out"), "scene", None),
     "run_scene out=None": (lambda e, b: ac.run_scene("runs/fig03.toml", None), "out_dir", None),
     "plot units='si' without scales": (lambda e, b: ac.plot_branches([b], x="sigma", units="si"), "units", None),

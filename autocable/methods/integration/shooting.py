@@ -67,7 +67,7 @@ from autocable.methods.integration.autonomous import newton_cycle, split_multipl
 from autocable.methods.integration.cycles import MAX_CROSSINGS_PER_PERIOD, orbit_amplitudes, own_cycles
 from autocable.methods.integration.ode21 import (DEFAULT_Q0, DIVERGED, Ode21Integrator, grew, half_range,
                                                  is_autonomous, _stopped)
-from autocable.model.premises import check_call, check_state
+from autocable.model.premises import check_call, check_number, check_state
 from autocable.model.symbolic import PARAMETERS, STATE, T, first_order_rhs, parameter_values
 
 #: The response classes, in the order of their integer codes (`RESPONSE_CODES`).
@@ -533,6 +533,9 @@ class ShootingSolver:
                    omega1=self.ode.omega1)
         if guess is not None:
             check_state("ShootingSolver.steady", "guess", guess, "(q1, q2, q1', q2')")
+        if rest_floor is not None:
+            check_number("ShootingSolver.steady", "rest_floor", rest_floor, 0.0, lo_open=True,
+                         what="the amplitude below which a response is rest")
         start = time.perf_counter()
         Omega = self.ode.omega1 + sigma
         if not Omega > 0:
