@@ -46,8 +46,8 @@ class SpecError(ValueError):
             # the user acts on, and a cut that depends on where the file lies hid the fix
             rest = " ".join(f"{field}: {message}".split())
             room = MAX_MESSAGE - len(rest) - 5
-            if room >= 16 and len(self.path) > room:
-                text = f"...{self.path[-room:]}: {rest}"
+            if room >= 0 and len(self.path) > room:
+                text = f"...{self.path[-room:] if room else ''}: {rest}"
         if len(text) > MAX_MESSAGE:
             text = text[:MAX_MESSAGE - 3] + "..."
         super().__init__(text)

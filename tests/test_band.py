@@ -280,3 +280,19 @@ def test_band_with_both_angles_given_and_with_the_yaw_calibrated():
             assert c["onset_U_m_s"] == pytest.approx(c["inputs"]["critical_wind_speed_m_s"], rel=1e-9)
         else:
             assert "yaw calibrated" in c["label"] and "aero.yaw_deg" in c["reason"]
+
+
+@pytest.mark.parametrize("path_length", [10, 100, 300, 3000])
+def test_a_long_path_gives_way_to_the_message(path_length):
+    """SpecError keeps a one-line message within its 240 characters by shortening the path first:
+    a field and message that fit are never cut (the path's tail kept as room allows); only a message
+    too long by itself is cut at its end."""
+    from autocable.spec import MAX_MESSAGE, SpecError
+    path = "/" + "p" * (path_length - 6) + ".toml"
+    message = "the fix: " + "m" * 205 + " END"          # 232 characters with the field: 3 left for a path
+    text = str(SpecError(path, "aero.yaw_deg", message))
+    full = f"{path}: aero.yaw_deg: {message}"
+    assert len(text) <= MAX_MESSAGE and text.endswith("aero.yaw_deg: " + message)
+    assert text == full if len(full) <= MAX_MESSAGE else text.startswith("...")
+    cut = str(SpecError(path, "aero.yaw_deg", "m" * 300))
+    assert len(cut) == MAX_MESSAGE and cut.endswith("...")

@@ -136,7 +136,7 @@ def calibrate(aero_spec, st, modes, integrator, K: float, nu: float, xi_s: float
                    "angle_convention")
         raise CalibrationError(
             f"aero.{field}", f"no angle gives an in-plane onset at U_c (out-of-plane stable to 1.3 U_c): {fix} "
-            f"(roots {[round(r, 2) for r in roots]})")
+            f"(roots {[round(r, 2) for r in roots[:3]]}{f' and {len(roots) - 3} more' if len(roots) > 3 else ''})")
     best = min(accepted, key=abs)
     beta = math.radians(best) if solve_yaw else math.radians(aero_spec.yaw_deg)
     th0 = math.radians(aero_spec.rivulet_angle_deg) if solve_yaw else math.radians(best)
