@@ -239,3 +239,22 @@ def test_guarded_calls_give_the_same_results(eq21):
     a = ac.continue_equilibria(_problem(eq21), settings, engine="compiled")
     b = continue_equilibria(_problem(eq21), settings, engine="compiled")
     np.testing.assert_array_equal(a.branch["a1"], b.branch["a1"])
+
+
+_BAD = [None, "8", True, np.bool_(False), float("nan"), float("inf"), -1.0, 1e300, 2 ** 2000, 1 + 2j, [1.0],
+        {"x": 1}, np.array([1.0, 2.0])]
+
+
+@pytest.mark.parametrize("keyword", ["wind_m_s", "deck_amplitude_m", "deck_frequency_Hz"])
+def test_si_keywords_refuse_every_bad_value(eq21, keyword):
+    """Each SI keyword with each of a pool of bad values (types, non-finite, negative, huge, the
+    wrong shape): an ArgumentError naming the keyword (or one end of the Hz range), never another
+    error, before any work."""
+    base = {"deck_amplitude_m": 0.01}
+    for bad in _BAD + ([(1.0,), (1.1, 1.0), (None, 1.2), (0.0, 1.2), (1.0, float("nan"))]
+                       if keyword == "deck_frequency_Hz" else []):
+        kwargs = {**base, keyword: (bad, 1.2) if keyword == "deck_frequency_Hz" and np.ndim(bad) == 0
+                  and not isinstance(bad, (str, dict)) and bad is not None else bad}
+        with pytest.raises(ArgumentError) as info:
+            ac.frequency_response(eq21, switch=False, **kwargs)
+        assert f": {keyword}" in str(info.value), (bad, str(info.value))
