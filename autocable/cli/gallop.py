@@ -112,8 +112,14 @@ def gallop_text(study: dict) -> list[str]:
                          f"{hp['criticality']} ({hp['mechanism']})")
             lines.append(f"    lowest galloping speed   {_m_s(hp['lowest_galloping_U_m_s'])}"
                          + (" (a fold of cycles)" if any(abs(f["U_m_s"] - hp["lowest_galloping_U_m_s"]) < 1e-9
-                                                        for f in hp["folds"]) else ""))
-            if hp["hysteresis_m_s"]:
+                                                        for f in hp["folds"]) else "")
+                         + (" (every cycle of the branch unstable: the edge of the rest state's basin, no stable "
+                            "galloping cycle)" if hp.get("stable_cycles") == 0 else ""))
+            if hp["hysteresis_m_s"] and hp.get("stable_cycles") == 0:
+                lo, hi = hp["hysteresis_m_s"]
+                lines.append(f"    unstable cycles          {lo:.5g} to {hi:.5g} m/s: a large enough gust leaves the rest "
+                             "state, towards a motion this branch does not hold")
+            elif hp["hysteresis_m_s"]:
                 lo, hi = hp["hysteresis_m_s"]
                 lines.append(f"    hysteresis loop          {lo:.5g} to {hi:.5g} m/s: the rest state and a large "
                              "galloping cycle coexist (a large enough gust starts galloping)")

@@ -137,7 +137,8 @@ def _branch_summary(branch, onset, units, derivation) -> dict:
            "lyapunov": onset.lyapunov, "mechanism": onset.mechanism,
            "lowest_galloping_U_m_s": units.wind_m_s(lowest), "lowest_galloping_U_star": lowest,
            "folds": folds, "stability_changes": changes, "end": branch.end, "end_code": branch.end_code,
-           "points": len(branch.points), "corrected_steps": branch.steps, "seconds": branch.seconds,
+           "points": len(branch.points), "stable_cycles": sum(1 for r in rows if r["stable"]),
+           "corrected_steps": branch.steps, "seconds": branch.seconds,
            "rows": rows, "hysteresis_m_s": None}
     if onset.criticality == "subcritical":
         out["hysteresis_m_s"] = [units.wind_m_s(lowest), units.wind_m_s(onset.U_star)]
