@@ -93,11 +93,12 @@ def test_number_text_reads_back_and_is_never_longer_than_repr():
     ("mass_per_length_kg_m = ", "mass_per_length_kg_m = 1e-300 #", "cable.mass_per_length_kg_m"),
     ("diameter_m = 0.119", "diameter_m = 1e-9", "cable.diameter_m"),
     ("diameter_m = 0.119", "diameter_m = 1e-300", "cable.diameter_m"),
+    ("chord_slope_deg = ", "chord_slope_deg = 89.999999 #", "cable.chord_slope_deg"),
 ])
 def test_premise_refusal_names_the_changed_field(tmp_path, old, new, field):
-    """The derived quantity's refusal lists every field it is made of: delta = m g l cos^2/H
-    named neither l nor alpha, lambda^2 = delta^2/tau named neither m nor l; a diameter of 1e-9 m
-    passed (D/l had no lower bound) and the calibration then blamed the wind angle."""
+    """The derived quantity's refusal lists every field it is made of: tau = H/(cos alpha EA) named
+    no alpha, delta = m g l cos^2/H neither l nor alpha, lambda^2 = delta^2/tau neither m nor l; a
+    diameter of 1e-9 m passed (D/l had no lower bound) and the calibration then blamed the wind angle."""
     with pytest.raises(SpecError) as err:
         check_model(load_model(_spec(tmp_path, old, new)))
     assert field in str(err.value) and "\n" not in str(err.value)

@@ -122,15 +122,15 @@ def check_model(spec: ModelSpec) -> dict[str, float]:
          "lambda2": delta * (delta / tau) if tau > 0 else math.inf,
          "chi": c.torsional_stiffness_Nm2 / c.bending_stiffness_Nm2}
     names = {
-        "strain": ("static strain tau = T/EA", "cable.horizontal_tension_N, cable.axial_stiffness_N",
-                   "a nearly taut elastic cable"),
+        "strain": ("static strain tau = T/EA", "cable.horizontal_tension_N, cable.axial_stiffness_N, "
+                   "cable.chord_slope_deg (T = H/cos alpha)", "a nearly taut elastic cable"),
         "slenderness": ("slenderness D/l", "cable.diameter_m, cable.length_m", "a slender cable"),
         "delta": ("sag parameter delta = m g l cos^2(alpha)/H",
                   "cable.mass_per_length_kg_m, cable.gravity_m_s2, cable.length_m, cable.horizontal_tension_N, "
                   "cable.chord_slope_deg",
                   "a nearly taut cable"),
         "lambda2": ("Irvine's lambda^2 = delta^2/tau", "cable.mass_per_length_kg_m, cable.gravity_m_s2, "
-                    "cable.length_m, cable.horizontal_tension_N, cable.axial_stiffness_N",
+                    "cable.length_m, cable.horizontal_tension_N, cable.axial_stiffness_N, cable.chord_slope_deg",
                     "the 1:1 resonance (omega1 < 2 omega2)"),
         "detuning": ("internal detuning |omega2 - omega1|", "the cable's sag and stiffness",
                      "a near 1:1 resonance"),
