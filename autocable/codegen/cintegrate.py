@@ -60,7 +60,7 @@ __all__ = ["INTEGRATOR_VERSION", "STATUS", "CIntegrator", "CRun", "Repeated", "c
            "integrator_source", "sample_grid"]
 
 #: Bump when the emitted C changes meaning: it is part of the content hash.
-INTEGRATOR_VERSION = "4"
+INTEGRATOR_VERSION = "5"
 
 #: How a run ended (the status code of the C loop).
 STATUS = {0: "done", 1: "step_budget", 2: "step_too_small", 3: "bound", 4: "not_finite"}
@@ -79,6 +79,66 @@ def _lin(weights, stages, skip_zero=True) -> str:
     """C text of sum_j w_j K_j[i] over the non-zero weights."""
     terms = [f"{float(w)!r} * K{j}[i]" for j, w in zip(stages, weights) if not (skip_zero and w == 0.0)]
     return " + ".join(terms) if terms else "0.0"
+
+
+#: atan2 for the exact quasi-steady load's angle of attack (eq. 12): one per quadrature node and
+#: stage, the costliest operation of the exact right-hand side. glibc's atan2 is correctly rounded
+#: and spends 10-25 ns; the divider is the bottleneck of the node's arithmetic (its one sqrt, and here
+#: one division). The octant is reduced to |t| <= tan(pi/8) (t = (num - den) / (num + den) beyond,
+#: plus pi/4), and atan(t) = t + t z g(z), z = t^2, with g the degree-9 polynomial interpolating
+#: (atan(t)/t - 1)/z at ten Chebyshev points of [0, tan(pi/8)^2] (computed in 50-digit arithmetic):
+#: 2.2e-16 relative on the reduced range, within 1e-15 of glibc over all octants
+#: (tests/test_exact_load.py). C99's signs of zero; for finite arguments only (a non-finite state
+#: stops the integrator anyway).
+_ATAN2_C = """
+static inline double ac_atan2(double y, double x) {
+    const double ax = fabs(x), ay = fabs(y);
+    const int swap = ay > ax;
+    const double num = swap ? ax : ay, den = swap ? ay : ax;
+    const int big = num > 0.41421356237309504880 * den;
+    const double tn = big ? num - den : num, td = big ? num + den : den;
+    const double t = tn / (td > 0.0 ? td : 1.0), z = t * t, z2 = z * z, z4 = z2 * z2;
+    /* Estrin's scheme: the node's latency, not its operation count, sets the cost */
+    const double g = ((-0.3333333333333325 + z * 0.19999999999898407) + z2 * (-0.1428571426609662
+                      + z * 0.11111109636534361)) + z4 * ((-0.09090852557176049 + z * 0.0769105515839315)
+                      + z2 * (-0.06649613695291669 + z * 0.05736332165907643)
+                      + z4 * (-0.04483334622272886 + z * 0.02275052699336167));
+    double r = t + t * z * g;
+    r += big ? 0.78539816339744830962 : 0.0;
+    r = swap ? 1.57079632679489661923 - r : r;
+    r = signbit(x) ? 3.14159265358979323846 - r : r;
+    return copysign(r, y);
+}
+"""
+
+
+#: The exact load's |V| (eq. 11), one per node and stage. C's sqrt may set errno, so the compiler
+#: guards every one with a call of libm's for negative arguments, and every value live across that
+#: call site is kept on the stack: measured, a third of the autonomous exact right-hand side
+#: (`autocable bench exact-load`). SSE2's instruction has no such path (|V|^2 >= 0 here anyway); on
+#: other machines C's sqrt.
+_SQRT_C = """
+#if defined(__SSE2__)
+#include <emmintrin.h>
+static inline double ac_sqrt(double v) { return _mm_cvtsd_f64(_mm_sqrt_sd(_mm_set_sd(v), _mm_set_sd(v))); }
+#else
+static inline double ac_sqrt(double v) { return sqrt(v); }
+#endif
+"""
+
+
+class _IntegratorPrinter(_Printer):
+    """The printer of `autocable.codegen.ckernel` with atan2 as ``ac_atan2`` (`_ATAN2_C`) and square
+    roots as ``ac_sqrt`` (`_SQRT_C`)."""
+
+    def _print_atan2(self, expr):
+        y, x = expr.args
+        return f"ac_atan2({self._print(y)}, {self._print(x)})"
+
+    def _print_Pow(self, expr):
+        if expr.exp == sp.Rational(1, 2):
+            return f"ac_sqrt({self._print(expr.base)})"
+        return super()._print_Pow(expr)
 
 
 def _transcendental(e, dynamic: set) -> bool:
@@ -136,7 +196,7 @@ def integrator_source(variables: Sequence[str], parameters: Sequence[str], rhs: 
     dynamic = {sp.Symbol(v) for v in variables} | ({sp.Symbol(time_symbol)} if time_symbol else set())
     coefs, split = _hoist([sp.sympify(e) for e in rhs], dynamic)
     names.update({f"ac_c{k}": f"c[{k}]" for k in range(len(coefs))})
-    pr = _Printer(names)
+    pr = _IntegratorPrinter(names)
     body_c = _block(pr, coefs, [f"c[{k}]" for k in range(len(coefs))], "ac_tc") if coefs else []
     body = _block(pr, split, [f"out[{i}]" for i in range(n)], "ac_ti")
     ys = [sp.Symbol(v) for v in variables]
@@ -163,7 +223,7 @@ def integrator_source(variables: Sequence[str], parameters: Sequence[str], rhs: 
 #define NP {m}
 #define NW {len(weights)}
 #define NC {max(len(coefs), 1)}
-
+{_SQRT_C + _ATAN2_C if any(sp.sympify(e).has(sp.atan2) for e in split) else ""}
 static void coef_eval(const double *p, double *c) {{
     (void)p; (void)c;
 {chr(10).join(body_c)}
@@ -462,7 +522,8 @@ def _key(variables, parameters, time_symbol, template: Template, cc, code: str |
     # The structure only (the template's key): neither the coefficients nor the caller's name;
     # and the generator's files (``code``): an edit there without a version bump still rebuilds.
     A, B, C, E3, E5, D = _coefficients()
-    return cache.content_hash({"version": INTEGRATOR_VERSION, "variables": list(variables),
+    return cache.content_hash({"version": INTEGRATOR_VERSION, "helpers": _SQRT_C + _ATAN2_C,
+                               "variables": list(variables),
                                "code": code or cache.code_fingerprint("kernel"),
                                "parameters": list(parameters), "time": time_symbol,
                                "rhs": template.key, "weights": list(template.weight_names),

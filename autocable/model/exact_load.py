@@ -186,22 +186,40 @@ def forces(ex: ExactLoad, q2, v1, v2, U, Ed=0.0):
 
 
 def force_exprs(ex: ExactLoad, q2, v1, v2, U, Ed):
-    """(F1, F2) of `forces` as sympy expressions in the given symbols (``Ed`` = eta f')."""
+    """(F1, F2) of `forces` as sympy expressions in the given symbols (``Ed`` = eta f').
+
+    Written for the compiled right-hand sides, where they are the cost (`autocable bench
+    exact-load`): per node one sqrt and one atan2 of the same V2 (atan2(-V2, V3) = -atan2(V2, V3):
+    sympy would otherwise print -V2 as a second linear combination), the polynomial curves in
+    Horner form, and the products of node constants (weights times mode values) folded into one
+    number per node and force."""
     curves = curves_from_dict(ex.curves)
+    s_psi, s_th = ANGLE_SENSES[ex.convention]
     f = lambda x: sp.Float(x, 17)  # noqa: E731 - a short name keeps the formulas readable
     sa_sb, ca = f(math.sin(ex.alpha) * math.sin(ex.beta)), f(math.cos(ex.alpha))
     # The static load is U^2 times its value at U = 1 (the load is homogeneous of degree 2 in the
     # velocities): one number per component instead of a second evaluation of the curves.
     z2, z3, _ = _section(ex, curves, np.array(math.sin(ex.alpha) * math.sin(ex.beta)),
                          np.array(math.cos(ex.alpha)), np.array(0.0), np)
+    phi = sp.Dummy("phi")
+    lift, drag = curves.lift_expr(phi), curves.drag_expr(phi)
+    if lift.is_polynomial(phi) and drag.is_polynomial(phi):
+        lift, drag = sp.horner(lift, phi), sp.horner(drag, phi)
+    U_sa_sb, U_ca = U * sa_sb, U * ca
     F1, F2 = sp.Integer(0), sp.Integer(0)
     for s_w, p1, p2, th2, vh in zip(ex.weights, ex.phi1, ex.phi2, ex.theta2, ex.vhat):
         theta = f(th2) * q2
-        V2 = U * sa_sb - f(ex.nu * p1) * v1 - f(ex.nu * vh) * Ed
-        V3 = U * ca - f(ex.nu * p2) * v2
-        b2, b3, _ = _section(ex, curves, V2, V3, theta, sp)
-        F1 += f(s_w * p1) * b2
-        F2 += f(s_w * p2) * b3
+        V2 = U_sa_sb - f(ex.nu * p1) * v1 - f(ex.nu * vh) * Ed
+        V3 = U_ca - f(ex.nu * p2) * v2
+        Vn = sp.sqrt(V2 * V2 + V3 * V3)
+        angle = -s_psi * sp.atan2(V2, V3) - f(ex.theta0) - s_th * theta
+        cl, cd = lift.xreplace({phi: angle}), drag.xreplace({phi: angle})
+        b2, b3 = cd * V2 - cl * V3, cd * V3 + cl * V2
+        if ex.axes == "twisted":
+            c, sn = sp.cos(theta), sp.sin(theta)
+            b2, b3 = c * b2 + sn * b3, -sn * b2 + c * b3
+        F1 += f(s_w * p1) * Vn * b2
+        F2 += f(s_w * p2) * Vn * b3
     int1 = float(np.dot(ex.weights, ex.phi1))
     int2 = float(np.dot(ex.weights, ex.phi2))
     F1 = f(ex.K / ex.mass1) * (F1 - f(float(z2) * int1) * U**2)
