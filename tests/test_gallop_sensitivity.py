@@ -10,9 +10,10 @@ must show that a band holding phi0 cannot move eq. (21)'s numbers (it sees the c
 their expansion there), and on the exact rung that it does, in the physical sense, while the onset
 stays where it was.
 
-Run time (2 shared cores, warm cache): about 10 s without the exact rung; the exact-rung test is
-the heavy one (four continuations of the blended stay's exact rung to 26 m/s: about 12 s of CPU,
-bounded by the wind range).
+Run time (2 shared cores under a load of 10, warm cache): about 15 s of CPU, 40 s wall without the
+exact rung; the exact-rung test is the heavy one (four continuations of the blended stay's exact
+rung to 26 m/s, each rebuilding the compiled right-hand side for its curves: 22 s of CPU, 60-80 s
+wall), bounded by the wind range.
 """
 import json
 import math

@@ -500,6 +500,7 @@ def sensitivity(derivation, xi: float, U_max: float, U_des: float | None, units,
         row["missing_ingredient"] = [m["ingredient"] for m in case.get("missing_ingredient", [])]
         row["hopf_U_m_s"] = [h["hopf_U_m_s"] for h in case["hopf_points"]]
         row["seconds"] = case["seconds"]
+        row["build_seconds"] = case["build_seconds"]
         dc = case.get("design_cycle") or {}
         row["phi_swept_deg"] = dc.get("phi_swept_deg")
         row["twist_max_deg"] = dc.get("twist_max_deg")
