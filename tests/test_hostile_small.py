@@ -217,3 +217,15 @@ def test_a_damper_too_far_out_names_the_position(capsys):
     assert main(["damper", str(SAMPLE), "--position", "60.9", "--constant", "1e5"]) == 3
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "damper.position_m" in err and "--position" in err, err
+
+
+def test_a_zero_dimensional_array_is_refused_by_name(derivation):
+    """Found by the generated API calls: ``sigma=np.array(1e-4)`` raised a bare TypeError ("len() of
+    unsized object": a 0-d array has ``__len__`` but no length); now the argument is named."""
+    from autocable.methods.frequency_response import frequency_response
+    from autocable.methods.integration.shooting import ShootingSolver
+    from autocable.model.premises import ArgumentError
+    with pytest.raises(ArgumentError, match="sigma"):
+        frequency_response(derivation, eta=8.2e-5, sigma=np.array(1e-4), switch=False)
+    with pytest.raises(ArgumentError, match="q0"):
+        ShootingSolver(derivation.ode).steady(0.0, 8.2e-5, 0.0, np.array(0.1))

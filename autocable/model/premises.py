@@ -213,6 +213,15 @@ class ArgumentError(SpecError):
     the command line reports it as bad input (exit 2)."""
 
 
+def _length(value) -> int | None:
+    """len(value), or None for a value without one (a number; a 0-d numpy array, whose ``__len__``
+    raises TypeError)."""
+    try:
+        return len(value)
+    except TypeError:
+        return None
+
+
 def _number(function: str, name: str, value) -> float:
     # numbers.Real: int, float and numpy's float32/int64 (registered there); bool (and numpy's
     # bool_, not registered) is a flag, not a number
@@ -229,7 +238,7 @@ def _number(function: str, name: str, value) -> float:
 
 def check_state(function: str, name: str, value, order: str = "(q1, q1', q2, q2')", limit: bool = True) -> tuple:
     """Four finite numbers, within `MAX_AMPLITUDE` with ``limit`` (a start of eq. (21)), as floats."""
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 4:
+    if isinstance(value, (str, bytes)) or _length(value) != 4:
         raise ArgumentError(function, name, f"expected four numbers {order}, got {show(value)}")
     out = tuple(_number(function, f"{name}[{k}]", v) for k, v in enumerate(value))
     for k, v in enumerate(out if limit else ()):
@@ -310,7 +319,7 @@ def check_number(function: str, name: str, value, lo: float = -math.inf, hi: flo
 def check_interval(function: str, name: str, value, lo: float = -math.inf, hi: float = math.inf,
                    what: str = "") -> tuple[float, float]:
     """``value`` = (a, b): two numbers (`check_number`, in [lo, hi]) with a < b."""
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2:
+    if isinstance(value, (str, bytes)) or _length(value) != 2:
         raise ArgumentError(function, name, f"expected a range (lo, hi) of two numbers{f' ({what})' if what else ''}, "
                                             f"got {show(value)}")
     a, b = (check_number(function, f"{name}[{k}]", v, lo, hi, what=what) for k, v in enumerate(value))
