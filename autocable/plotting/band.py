@@ -32,7 +32,8 @@ def plot_band(band: dict, stem: str | Path, title: str = "") -> list[Path]:
                 v = c.get(key)
                 if c["status"] != "ok" or v is None:
                     if ax is axes[0] and c["status"] != "ok":
-                        ax.text(0.02, y, "no admissible calibration", transform=ax.get_yaxis_transform(),
+                        ax.text(0.02, y, "no admissible calibration" if c["status"] == "no calibration" else "failed",
+                                transform=ax.get_yaxis_transform(),
                                 va="center", fontsize=6, color="0.4")
                     elif key == "onset_U_m_s" and c["status"] == "ok":
                         # no onset over the case's scan: said at the right edge, not left blank

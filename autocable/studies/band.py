@@ -117,8 +117,8 @@ def band_study(spec, uc_range: tuple[float, float] | None = None, design_wind_m_
     ``uc_range`` (m/s; default the model's U_c alone), angle reading, sign of the yaw and admissible
     calibration root; ``least_damping`` and ``onset_U_m_s`` as [lo, hi] with ``set_by`` naming the
     inputs of each end, ``damper_constant_N_s_m`` too with a ``[damper]``, and every case (a failed
-    calibration with ``status`` "no calibration" and its ``reason``). ``U_max_m_s`` bounds every
-    case's scan (default 5 U_c of the case)."""
+    calibration with ``status`` "no calibration", any other refusal "failed", each with its ``reason``).
+    ``U_max_m_s`` bounds every case's scan (default 5 U_c of the case)."""
     a = spec.aero
     lo, hi = uc_range if uc_range is not None else (a.critical_wind_speed_m_s, a.critical_wind_speed_m_s)
     calibrates = a.yaw_deg is None or a.rivulet_angle_deg is None
@@ -153,8 +153,9 @@ def band_study(spec, uc_range: tuple[float, float] | None = None, design_wind_m_
                 except SpecError as exc:
                     # the calibration's own message (it names the fix), less the file's path
                     reason = str(exc).removeprefix(f"{exc.path}: ")
+                    calibrating = exc.field in ("aero.yaw_deg", "aero.rivulet_angle_deg")
                     cases.append({"inputs": _inputs(aero, "fitted"), "label": case_label(_inputs(aero, "fitted")),
-                                  "status": "no calibration", "reason": reason})
+                                  "status": "no calibration" if calibrating else "failed", "reason": reason})
                     continue
                 if not calibrates:
                     cases.append(_case(d, _inputs(aero, "given"), design_wind_m_s, U_max_m_s))
@@ -195,7 +196,7 @@ def band_study(spec, uc_range: tuple[float, float] | None = None, design_wind_m_
 def band_text(band: dict) -> list[str]:
     """The readable lines of a `band_study`."""
     lines = [f"Band over what is not known ({', '.join(band['varied'])}): {len(band['cases'])} cases, "
-             f"{band['failed']} without an admissible calibration"]
+             f"{band['failed']} without a result (no admissible calibration, or refused: the reason is listed)"]
     for n in band["notes"]:
         lines.append(f"  note: {n}")
     for key, name, fmt in (("onset_U_m_s", "onset", lambda x: f"{x:.4g} m/s"),
