@@ -296,3 +296,19 @@ def test_a_long_path_gives_way_to_the_message(path_length):
     assert text == full if len(full) <= MAX_MESSAGE else text.startswith("...")
     cut = str(SpecError(path, "aero.yaw_deg", "m" * 300))
     assert len(cut) == MAX_MESSAGE and cut.endswith("...")
+
+
+@pytest.mark.parametrize("design", [30.0, 40.0, 45.0])
+def test_least_damping_closed_form_on_the_decoupled_sample(design):
+    """The sample's yaw makes the linearised eq. (21) block-triangular (xi12 = 0, docs/model.md U1):
+    the in-plane pair crosses where 2 xi omega1 + zeta11 U* = 0, linear in xi, and the out-of-plane
+    mode stays stable beyond 1.3 U_c. So the least damping to U_design is xi_s U_design / U_c
+    (0.4 % x U / 36 m/s), here to 1e-8 (the calibration's and the bisection's tolerances)."""
+    from autocable.model.derive import derive
+    from autocable.studies.onset import design_damping
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        d = derive(Path(__file__).parent.parent / "models" / "luongo_zulli_2012.toml")
+    ds = design_damping(d, design)
+    assert ds["least_damping_ratio"] == pytest.approx(d.ode.xi_s * design / 36.0, rel=1e-8)
+    assert ds["worst_wind_m_s"] == pytest.approx(design, rel=1e-9)
