@@ -117,8 +117,8 @@ def gallop_text(study: dict) -> list[str]:
                             "galloping cycle)" if hp.get("stable_cycles") == 0 else ""))
             if hp["hysteresis_m_s"] and hp.get("stable_cycles") == 0:
                 lo, hi = hp["hysteresis_m_s"]
-                lines.append(f"    unstable cycles          {lo:.5g} to {hi:.5g} m/s: a large enough gust leaves the rest "
-                             "state, towards a motion this branch does not hold")
+                lines.append(f"    unstable cycles          {lo:.5g} to {hi:.5g} m/s: a large enough gust leaves the "
+                             "rest state, towards a motion this branch does not hold")
             elif hp["hysteresis_m_s"]:
                 lo, hi = hp["hysteresis_m_s"]
                 lines.append(f"    hysteresis loop          {lo:.5g} to {hi:.5g} m/s: the rest state and a large "
@@ -149,6 +149,11 @@ def gallop_text(study: dict) -> list[str]:
                     lines.append(f"    {validity_line(dc)}")
             else:
                 lines.append(f"  design wind {design:g} m/s: {case.get('design_note', 'no stable cycle found')}")
+                run = case.get("design_integration")
+                if run and run["bounded"]:
+                    lines.append(f"    direct integration there (from {run['from']}, to t* = {run['t_end']:.5g}): "
+                                 f"bounded, peak [{run['peak_m'][0]:.3g}, {run['peak_m'][1]:.3g}] m, "
+                                 + ("periodic" if run["periodic"] else "steady" if run["steady"] else "not steady"))
                 jc = case.get("judged_cycle")
                 if jc and "phi_swept_deg" in jc:
                     from autocable.model.validity import validity_line
@@ -181,7 +186,7 @@ def missing_line(case: dict) -> str:
         return "missing ingredient: " + "; ".join(f"{m['ingredient']} ({m['reason']})" for m in miss)
     if case.get("design_verdict") == "inside":
         return "missing ingredient: none (a bounded cycle inside the valid range)"
-    if case.get("design_verdict") == "not known":
+    if case.get("design_verdict") in ("not known", "unbounded"):
         return "missing ingredient: none identified (the cycle judged lies inside the model's range)" \
             if case.get("judged_cycle") else ""
     return ""

@@ -49,7 +49,7 @@ import numpy as np
 
 from autocable.errors import ComputationError
 from autocable.methods.integration.gallop import CycleContinuation, hopf_start, stability_changes
-from autocable.model.onset import U_MAX_DEFAULT, onset_at, stability, with_damping
+from autocable.model.onset import U_MAX_DEFAULT, LinearPencil, onset_at, stability, with_damping
 from autocable.model.premises import MAX_AMPLITUDE
 from autocable.model.units import PEAK_STATION, units_of
 from autocable.spec import SpecError
@@ -82,6 +82,9 @@ TWIST_BOUND_DEG = 20.0
 #: "More modes": another mode of the cable lies within this fraction of the cycle's frequency, or the
 #: cycle's frequency lies this far from both of the pair's (it has left the pair's neighbourhood).
 MODES_FRACTION = 0.10
+#: Where the branches hold no stable cycle at the design wind, eq. (21) is integrated there for at
+#: most this long (t*, about 950 periods of the pair) to say whether the motion stays bounded.
+DESIGN_INTEGRATION_TIME = 6000.0
 #: The sensitivity of the amplitude to the curves: each end of their valid range moved out and in by
 #: this many degrees (`curves.with_band`), ...
 SENSITIVITY_BAND_DEG = 5.0
@@ -249,10 +252,28 @@ def _judged(derivation, point, units, what: str) -> dict:
     """The validity of ``point`` (a `CyclePoint`) and the missing ingredients it shows, for a design
     wind the branch has no stable cycle at: ``what`` says which cycle stands in."""
     v = _validity(derivation, point.orbit, point.U) if point.orbit is not None else {}
-    return {"judged_cycle": dict({"what": what, "U_m_s": units.wind_m_s(point.U), "stable": bool(point.stable),
-                                  "peak_m": [units.peak_m(point.a1), units.peak_m(point.a2)],
-                                  "frequency_Hz": units.frequency_hz(point.frequency)}, **v),
+    cycle = {"what": what, "U_m_s": units.wind_m_s(point.U), "stable": bool(point.stable),
+             "peak_m": [units.peak_m(point.a1), units.peak_m(point.a2)],
+             "frequency_Hz": units.frequency_hz(point.frequency)}
+    return {"_point": point, "judged_cycle": dict(cycle, **v),
             "missing_ingredient": missing_ingredients(derivation, v, point.frequency)}
+
+
+def _integrate_at(ode, U_des: float, start, units) -> dict:
+    """Direct integration of eq. (21) at the design wind where the branches hold no stable cycle
+    there: from ``start`` (q1, q2, q1', q2'), or from rest with q2 = 1e-6 when None (the rest state
+    is unstable there), for at most `DESIGN_INTEGRATION_TIME`. Says whether the motion stays
+    bounded (|q_k| <= 0.1, `ode21.DIVERGED`)."""
+    from autocable.methods.integration.ode21 import Ode21Integrator
+    t0 = time.perf_counter()
+    q0 = None if start is None else (start[0], start[2], start[1], start[3])
+    kw = {} if q0 is None else {"q0": q0}
+    r = Ode21Integrator(ode, engine="compiled").simulate(U_des, 0.0, 0.0, max_time=DESIGN_INTEGRATION_TIME, **kw)
+    bounded = bool(math.isfinite(r.a1) and math.isfinite(r.a2))
+    return {"from": "rest (q2 = 1e-6)" if start is None else "1.2 times the judged cycle's state",
+            "bounded": bounded, "steady": bool(r.steady), "periodic": bool(r.periodic),
+            "peak_m": [units.peak_m(r.a1), units.peak_m(r.a2)] if bounded else None, "t_end": r.t_end,
+            "message": r.message, "seconds": time.perf_counter() - t0}
 
 
 def _design(cont, branches, U_des: float, units, derivation) -> dict:
@@ -289,6 +310,17 @@ def _design(cont, branches, U_des: float, units, derivation) -> dict:
                 judged = _judged(derivation, max(below, key=lambda p: p.U), units,
                                  "the stable cycle nearest below the design wind (the motion at the design wind "
                                  "is not a cycle of the branch: autocable simulate)")
+        if verdict == "not known":
+            # what the cable does there, from rest where the rest state is unstable, else from the judged cycle
+            rest_unstable = float(LinearPencil(cont.ode).abscissa(U_des)[0]) > 0.0
+            jc = judged.get("_point")
+            start = None if rest_unstable or jc is None else 1.2 * np.asarray(jc.state0, float)
+            run = _integrate_at(cont.ode, U_des, start, units)
+            judged["design_integration"] = run
+            if not run["bounded"]:
+                verdict = "unbounded"
+                note += "; direct integration at the design wind diverges (|q_k| > 0.1, from " + run["from"] + ")"
+        judged.pop("_point", None)
         return dict({"amplitude_at_design_wind_m": None, "frequency_at_design_wind_Hz": None,
                      "beyond_valid_range": None, "design_note": note, "design_verdict": verdict}, **judged)
     p, interp = max(found, key=lambda c: max(c[0].a1, c[0].a2))
