@@ -105,6 +105,23 @@ def test_a_scheduler_without_workers_ends_in_a_bounded_time_naming_scheduler(sch
                                                    (out / "fig03").iterdir())
 
 
+def test_a_sweep_on_a_scheduler_without_workers_ends_too(scheduler, tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(REPO), AUTOCABLE_NO_WORKER_TIMEOUT=str(LIMIT_S),
+               AUTOCABLE_CACHE=str(tmp_path / "cache"))
+    out = tmp_path / "sweep"
+    t0 = time.perf_counter()
+    done = subprocess.run([sys.executable, "-m", "autocable.cli", "sweep", str(REPO / "runs" / "sweep_fig05a.toml"),
+                           "--scheduler", str(scheduler), "--out", str(out), "--quiet"], capture_output=True,
+                          text=True, env=env, timeout=300)
+    wall = time.perf_counter() - t0
+    assert done.returncode == 3, done.stderr
+    lines = [ln for ln in done.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "--scheduler" in lines[0] and "no live worker" in lines[0], done.stderr
+    assert LIMIT_S <= wall < LIMIT_S + 45, wall
+    assert not (out / "sweep.json").exists()          # not a finished sweep; a rerun resumes
+    print(f"sweep on a scheduler without workers: exit 3 after {wall:.1f} s")
+
+
 def test_the_executor_itself_raises_no_live_worker(scheduler):
     from autocable.executor import Executor, NoLiveWorker
     t0 = time.perf_counter()

@@ -520,8 +520,15 @@ def run_figures_in(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | N
                 if keep and name in keys:
                     from autocable.paper.reuse import scene_inputs, store
                     # stored only if no input changed while the scene ran (an edited model, say)
-                    if scene_inputs(path, model_arg, engine, plot) == keys[name]:
+                    now = scene_inputs(path, model_arg, engine, plot)
+                    if now == keys[name]:
                         store(keys[name], folder, wall, ran=done.code)    # the code the worker ran
+                    else:
+                        from autocable._store import report_not_stored
+                        changed = sorted(k for k in keys[name] if (now or {}).get(k) != keys[name][k])
+                        what = {"code": "autocable's code", "files": "a file it reads"}
+                        report_not_stored(f"the results of scene {name}", " and ".join(
+                            what.get(k, k) for k in changed) + " changed while it was computed")
             outcomes[name] = SceneOutcome(name, str(path), status, wall, error, files)
             n = len(outcomes)
             left = time_left(n - n_reused, total - n_reused, time.perf_counter() - t_compute)
