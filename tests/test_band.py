@@ -312,3 +312,9 @@ def test_least_damping_closed_form_on_the_decoupled_sample(design):
     ds = design_damping(d, design)
     assert ds["least_damping_ratio"] == pytest.approx(d.ode.xi_s * design / 36.0, rel=1e-8)
     assert ds["worst_wind_m_s"] == pytest.approx(design, rel=1e-9)
+
+
+def test_band_refuses_an_empty_damping_option(capsys):
+    """``--band --damping=`` (empty) is a --damping given, refused with --band, not taken for none."""
+    code, out, err = _cli(capsys, "onset", STAY_145, "--band", "--damping=")
+    assert code == 2 and "--damping" in err and "--band" in err

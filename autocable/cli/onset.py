@@ -343,7 +343,7 @@ def _band(args, folder) -> int:
     """``onset --band``: `autocable.studies.band.band_study` on the model file, its JSON, text and plot."""
     from autocable.spec import load_model
     from autocable.studies.band import band_study, band_text
-    for option, given in (("--damping", args.damping), ("--set", args.set), ("--refit", args.refit),
+    for option, given in (("--damping", args.damping is not None), ("--set", args.set), ("--refit", args.refit),
                           ("--pair", getattr(args, "pair", None) is not None),
                           ("--modes-below", getattr(args, "modes_below", None) is not None),
                           ("--load", getattr(args, "load", None) is not None)):
