@@ -219,7 +219,7 @@ def worst_growth(ode, U_top: float, n: int = 401) -> tuple[float, float]:
     it is): every local maximum of a coarse grid's abscissa refined by bounded Brent on the bracket of
     its two neighbours, the ends included. The grid only brackets: the value is the refined maximum,
     not a sample, so a peak whose unstable window is narrower than the grid's step is found (two
-    peaks within one step of the grid are not told apart: the coarser one is missed)."""
+    peaks within one step of the grid are not told apart: one of them may be missed)."""
     from scipy.optimize import minimize_scalar
 
     from autocable.model.onset import LinearPencil
