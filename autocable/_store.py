@@ -363,20 +363,27 @@ def _code_root() -> Path:
     return _PACKAGE
 
 
-def _code_files(root: Path, deps: tuple[str, ...]) -> list[Path]:
-    files: set[Path] = set()
+def _code_files(root: Path, deps: tuple[str, ...]) -> list[tuple[str, str]]:
+    """(path relative to ``root`` with "/", absolute path) of every file of ``deps`` (compiled
+    caches left out), in the order of `pathlib.Path`'s sort (by path components). Plain strings:
+    a fingerprint of the package is then a few hundred stats, not thousands of Path objects."""
+    base = str(root)
+    found: dict[str, str] = {}
     for dep in deps:
-        where = root / dep if dep else root
-        if where.is_file():
-            files.add(where)
-        elif where.is_dir():
+        where = os.path.join(base, dep) if dep else base
+        if os.path.isfile(where):
+            found[dep] = where
+        elif os.path.isdir(where):
             for folder, dirs, names in os.walk(where):
                 dirs[:] = [d for d in dirs if d != "__pycache__"]
-                files.update(Path(folder, n) for n in names if not n.endswith((".pyc", ".pyo")))
-    return sorted(files)
+                rel_folder = os.path.relpath(folder, base).replace(os.sep, "/")
+                for n in names:
+                    if not n.endswith((".pyc", ".pyo")):
+                        found[n if rel_folder == "." else f"{rel_folder}/{n}"] = os.path.join(folder, n)
+    return sorted(found.items(), key=lambda item: item[0].split("/"))
 
 
-def _stat_key(path: Path) -> tuple | None:
+def _stat_key(path: str) -> tuple | None:
     try:
         st = os.stat(path)
     except OSError:
@@ -385,7 +392,7 @@ def _stat_key(path: Path) -> tuple | None:
 
 
 def _snapshot(root: Path) -> dict[str, tuple | None]:
-    return {str(p): _stat_key(p) for p in _code_files(root, ("",))}
+    return {full: _stat_key(full) for _, full in _code_files(root, ("",))}
 
 
 #: The stat of every package file when this process first imported autocable: the code it runs
@@ -399,14 +406,14 @@ _SHA_OF: dict[str, tuple] = {}
 _MANIFESTS: dict[str, dict[str, str]] = {}
 
 
-def _file_digest(path: Path) -> str | None:
+def _file_digest(path: str) -> str | None:
     key = _stat_key(path)
-    memo = _SHA_OF.get(str(path))
+    memo = _SHA_OF.get(path)
     if key is not None and memo is not None and memo[0] == key:
         return memo[1]
     sha = file_sha256(path)
     if key is not None and sha is not None:
-        _SHA_OF[str(path)] = (key, sha)
+        _SHA_OF[path] = (key, sha)
     return sha
 
 
@@ -417,10 +424,9 @@ def code_fingerprint(kind: str) -> str:
     root = _code_root()
     digest = hashlib.sha256()
     manifest = {}
-    for path in _code_files(root, CODE_DEPS[kind]):
-        rel = path.relative_to(root).as_posix()
+    for rel, path in _code_files(root, CODE_DEPS[kind]):
         if root != _PACKAGE:
-            _LOADED.setdefault(str(path), _stat_key(path))   # a copy (a test's): loaded when first seen
+            _LOADED.setdefault(path, _stat_key(path))   # a copy (a test's): loaded when first seen
         sha = _file_digest(path) or "unreadable"
         manifest[rel] = sha
         digest.update(rel.encode() + b"\0" + sha.encode() + b"\0")
@@ -433,22 +439,22 @@ def code_fingerprint(kind: str) -> str:
 
 def _changed_since_loaded(kind: str) -> str:
     """The first file of ``kind``'s code whose stat differs from when this process loaded
-    autocable ("" when none): this process may run other code than the files now hold."""
+    autocable, or that is new or gone since ("" when none): this process may run other code than
+    the files now hold."""
     root = _code_root()
-    for path in _code_files(root, CODE_DEPS[kind]):
+    current = _code_files(root, CODE_DEPS[kind])
+    for rel, path in current:
         # a file the process had not seen at its start (a copy a test points at): seen now
-        loaded = _LOADED.setdefault(str(path), _stat_key(path)) if root != _PACKAGE else _LOADED.get(str(path))
+        loaded = _LOADED.setdefault(path, _stat_key(path)) if root != _PACKAGE else _LOADED.get(path)
         if loaded is None or loaded != _stat_key(path):
-            return path.relative_to(root).as_posix()
-    if root == _PACKAGE and any(_stat_key(Path(p)) is None for p in _LOADED
-                                if _within(Path(p), root, CODE_DEPS[kind])):
-        return "a removed file"
+            return rel
+    if root == _PACKAGE:
+        bases = [os.path.join(str(root), d) if d else str(root) for d in CODE_DEPS[kind]]
+        seen = {path for _, path in current}
+        for name in _LOADED:
+            if name not in seen and any(name == b or name.startswith(b + os.sep) for b in bases):
+                return Path(name).relative_to(root).as_posix() + " (removed)"
     return ""
-
-
-def _within(path: Path, root: Path, deps: tuple[str, ...]) -> bool:
-    rel = path.relative_to(root).as_posix() if path.is_relative_to(root) else None
-    return rel is not None and any(not d or rel == d or rel.startswith(d.rstrip("/") + "/") for d in deps)
 
 
 def code_refusal(kind: str, keyed: str) -> str:
