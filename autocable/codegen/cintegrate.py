@@ -60,7 +60,7 @@ __all__ = ["INTEGRATOR_VERSION", "STATUS", "CIntegrator", "CRun", "Repeated", "c
            "integrator_source", "sample_grid"]
 
 #: Bump when the emitted C changes meaning: it is part of the content hash.
-INTEGRATOR_VERSION = "6"
+INTEGRATOR_VERSION = "7"
 
 #: How a run ended (the status code of the C loop).
 STATUS = {0: "done", 1: "step_budget", 2: "step_too_small", 3: "bound", 4: "not_finite"}
@@ -141,6 +141,18 @@ class _IntegratorPrinter(_Printer):
         return super()._print_Pow(expr)
 
 
+#: A loop of square roots, two at a time where SSE2 has them: the divider (one division and one root
+#: per node) bounds the exact load, and it takes a pair of roots in about the time of one (measured
+#: on the sample's forced right-hand side: 230 -> 205 ns per evaluation; pairing the atan2's
+#: divisions the same way gained nothing measurable and is not done).
+_PAIRED = """#if defined(__SSE2__)
+    for (k = 0; k + 1 < {n}; k += 2) _mm_storeu_pd({dst} + k, {op});
+    for (; k < {n}; k++) {dst}[k] = {one};
+#else
+    for (k = 0; k < {n}; k++) {dst}[k] = {one};
+#endif"""
+
+
 def _batch_c(n_atan2: int, n_sqrt: int) -> str:
     """C of ``ac_atan2_n`` and ``ac_sqrt_n``: the angles and speeds of one right-hand side, each in
     one loop (`_batched_block`)."""
@@ -156,7 +168,7 @@ static void ac_atan2_n(const double *ys, const double *xs, double *out) {{
         out += f"""
 static void ac_sqrt_n(const double *xs, double *out) {{
     int k;
-    for (k = 0; k < {n_sqrt}; k++) out[k] = ac_sqrt(xs[k]);
+{_PAIRED.format(n=n_sqrt, op="_mm_sqrt_pd(_mm_loadu_pd(xs + k))", dst="out", one="ac_sqrt(xs[k])")}
 }}
 """
     return out
