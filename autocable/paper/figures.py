@@ -328,8 +328,10 @@ def figures_folder(out: Path):
     write (`_ours`) is refused; the half-written temporaries of a killed run are removed (the lock
     proves their writer dead). Yields ``out``."""
     import fcntl
+    import re
 
-    from autocable.run_folder import _TEMP
+    # the temporary file of `autocable._store.atomic_write_bytes` killed half-way: .<name>.<8>.tmp
+    temp = re.compile(r"^\.(?P<name>.+)\.[a-z0-9_]{8}\.tmp$")
     try:
         out.mkdir(parents=True, exist_ok=True)
         fd = os.open(out / FIGURES_LOCK, os.O_RDWR | os.O_CREAT, 0o644)
@@ -347,7 +349,7 @@ def figures_folder(out: Path):
         os.pwrite(fd, str(os.getpid()).encode(), 0)
         foreign, temporaries = [], []
         for entry in sorted(out.iterdir()):
-            m = _TEMP.match(entry.name)
+            m = temp.match(entry.name)
             if m and entry.is_file() and (m["name"] in (SUMMARY_JSON, "report.md")
                                           or m["name"].endswith((".png", ".pdf"))):
                 temporaries.append(entry)        # a killed run's: we hold the lock, its writer is dead
