@@ -153,9 +153,13 @@ def gallop_text(study: dict) -> list[str]:
                 if run and run["bounded"]:
                     lines.append(f"    direct integration there (from {run['from']}, to t* = {run['t_end']:.5g}): "
                                  f"bounded, peak [{run['peak_m'][0]:.3g}, {run['peak_m'][1]:.3g}] m, "
-                                 + ("periodic" if run["periodic"] else "steady" if run["steady"] else "not steady"))
+                                 + ("periodic" if run["periodic"] else "steady" if run["steady"] else "not steady")
+                                 + (f", {run['frequency_Hz']:.5g} Hz" if run.get("frequency_Hz") else ""))
+                    if run.get("validity"):
+                        from autocable.model.validity import validity_line
+                        lines.append(f"      {validity_line(run['validity'])}")
                 jc = case.get("judged_cycle")
-                if jc and "phi_swept_deg" in jc:
+                if jc and "phi_swept_deg" in jc and case.get("judged_on") != "direct integration":
                     from autocable.model.validity import validity_line
                     lines.append(f"    {jc['what']} ({jc['U_m_s']:.5g} m/s, peak [{jc['peak_m'][0]:.3g}, "
                                  f"{jc['peak_m'][1]:.3g}] m): {validity_line(jc)}")
@@ -185,7 +189,7 @@ def missing_line(case: dict) -> str:
     if miss:
         return "missing ingredient: " + "; ".join(f"{m['ingredient']} ({m['reason']})" for m in miss)
     if case.get("design_verdict") == "inside":
-        return "missing ingredient: none (a bounded cycle inside the valid range)"
+        return "missing ingredient: none (a bounded motion inside the valid range)"
     if case.get("design_verdict") in ("not known", "unbounded"):
         return "missing ingredient: none identified (the cycle judged lies inside the model's range)" \
             if case.get("judged_cycle") else ""

@@ -85,6 +85,8 @@ MODES_FRACTION = 0.10
 #: Where the branches hold no stable cycle at the design wind, eq. (21) is integrated there for at
 #: most this long (t*, about 950 periods of the pair) to say whether the motion stays bounded.
 DESIGN_INTEGRATION_TIME = 6000.0
+#: The samples of that integration's last quarter its validity is measured on, at most.
+VALIDITY_SAMPLES = 4000
 #: The sensitivity of the amplitude to the curves: each end of their valid range moved out and in by
 #: this many degrees (`curves.with_band`), ...
 SENSITIVITY_BAND_DEG = 5.0
@@ -255,25 +257,36 @@ def _judged(derivation, point, units, what: str) -> dict:
     cycle = {"what": what, "U_m_s": units.wind_m_s(point.U), "stable": bool(point.stable),
              "peak_m": [units.peak_m(point.a1), units.peak_m(point.a2)],
              "frequency_Hz": units.frequency_hz(point.frequency)}
-    return {"_point": point, "judged_cycle": dict(cycle, **v),
+    return {"_point": point, "judged_cycle": dict(cycle, **v), "judged_on": "judged cycle",
             "missing_ingredient": missing_ingredients(derivation, v, point.frequency)}
 
 
-def _integrate_at(ode, U_des: float, start, units) -> dict:
+def _integrate_at(derivation, ode, U_des: float, start, units) -> dict:
     """Direct integration of eq. (21) at the design wind where the branches hold no stable cycle
     there: from ``start`` (q1, q2, q1', q2'), or from rest with q2 = 1e-6 when None (the rest state
     is unstable there), for at most `DESIGN_INTEGRATION_TIME`. Says whether the motion stays
-    bounded (|q_k| <= 0.1, `ode21.DIVERGED`)."""
+    bounded (|q_k| <= 0.1, `ode21.DIVERGED`) and, if it does, the validity of its last quarter
+    (at most `VALIDITY_SAMPLES` samples of it) and its frequency where it is periodic."""
     from autocable.methods.integration.ode21 import Ode21Integrator
     t0 = time.perf_counter()
     q0 = None if start is None else (start[0], start[2], start[1], start[3])
     kw = {} if q0 is None else {"q0": q0}
-    r = Ode21Integrator(ode, engine="compiled").simulate(U_des, 0.0, 0.0, max_time=DESIGN_INTEGRATION_TIME, **kw)
+    r = Ode21Integrator(ode, engine="compiled").simulate(U_des, 0.0, 0.0, max_time=DESIGN_INTEGRATION_TIME,
+                                                        keep_history=True, **kw)
     bounded = bool(math.isfinite(r.a1) and math.isfinite(r.a2))
-    return {"from": "rest (q2 = 1e-6)" if start is None else "1.2 times the judged cycle's state",
-            "bounded": bounded, "steady": bool(r.steady), "periodic": bool(r.periodic),
-            "peak_m": [units.peak_m(r.a1), units.peak_m(r.a2)] if bounded else None, "t_end": r.t_end,
-            "message": r.message, "seconds": time.perf_counter() - t0}
+    out = {"from": "rest (q2 = 1e-6)" if start is None else "the judged cycle's state times up to 1.2",
+           "bounded": bounded, "steady": bool(r.steady), "periodic": bool(r.periodic),
+           "peak_m": [units.peak_m(r.a1), units.peak_m(r.a2)] if bounded else None, "t_end": r.t_end,
+           "frequency_star": 2 * math.pi / r.period if r.periodic and r.period > 0 else None,
+           "message": r.message, "seconds": None}
+    if bounded and r.history:
+        t, *q = r.history
+        keep = np.nonzero(t >= 0.75 * t[-1])[0]
+        keep = keep[::max(1, len(keep) // VALIDITY_SAMPLES)]
+        out["validity"] = _validity(derivation, np.column_stack([x[keep] for x in q]), U_des)
+    out["frequency_Hz"] = None if out["frequency_star"] is None else units.frequency_hz(out["frequency_star"])
+    out["seconds"] = time.perf_counter() - t0
+    return out
 
 
 def _design(cont, branches, U_des: float, units, derivation) -> dict:
@@ -314,12 +327,22 @@ def _design(cont, branches, U_des: float, units, derivation) -> dict:
             # what the cable does there, from rest where the rest state is unstable, else from the judged cycle
             rest_unstable = float(LinearPencil(cont.ode).abscissa(U_des)[0]) > 0.0
             jc = judged.get("_point")
-            start = None if rest_unstable or jc is None else 1.2 * np.asarray(jc.state0, float)
-            run = _integrate_at(cont.ode, U_des, start, units)
+            start = None
+            if not rest_unstable and jc is not None:
+                y = np.asarray(jc.state0, float)
+                start = min(LARGE_START, 0.999 * MAX_AMPLITUDE / max(float(np.abs(y).max()), 1e-300)) * y
+            run = _integrate_at(derivation, cont.ode, U_des, start, units)
             judged["design_integration"] = run
             if not run["bounded"]:
                 verdict = "unbounded"
                 note += "; direct integration at the design wind diverges (|q_k| > 0.1, from " + run["from"] + ")"
+            elif run.get("validity") and run["peak_m"][0] + run["peak_m"][1] > 0:
+                # the motion the integration settles on is the design wind's: judged instead of a stand-in
+                v = run["validity"]
+                judged["missing_ingredient"] = missing_ingredients(derivation, v, run["frequency_star"])
+                judged["judged_on"] = "direct integration"
+                verdict = "beyond" if (v.get("beyond_valid_range") or judged["missing_ingredient"]) else "inside"
+                note += "; direct integration at the design wind stays bounded (design_integration), judged on it"
         judged.pop("_point", None)
         return dict({"amplitude_at_design_wind_m": None, "frequency_at_design_wind_Hz": None,
                      "beyond_valid_range": None, "design_note": note, "design_verdict": verdict}, **judged)
@@ -330,7 +353,8 @@ def _design(cont, branches, U_des: float, units, derivation) -> dict:
                             "max_multiplier_modulus": p.max_modulus,
                             "interpolated_peak_m": [units.peak_m(interp["a1"]), units.peak_m(interp["a2"])],
                             "stable_cycles_found": len(found)},
-           "beyond_valid_range": None, "design_verdict": "not known", "missing_ingredient": []}
+           "beyond_valid_range": None, "design_verdict": "not known", "missing_ingredient": [],
+           "judged_on": "design cycle"}
     if p.orbit is not None:
         v = _validity(derivation, p.orbit, p.U)
         out["design_cycle"].update(v)
