@@ -52,17 +52,18 @@ LOADS = ("cubic", "exact")
 
 #: Gauss-Legendre nodes over the span, and the accuracy they are chosen for: the generalized forces
 #: within QUADRATURE_RTOL of a 128-node quadrature, relative to the largest force, at the largest
-#: motions the validity checks accept (phi swept by +-15 deg about the static angle, the default
-#: valid range of the paper's fits: `autocable.model.curves.DEFAULT_HALF_WIDTH_DEG`) with the relative
-#: wind at least half the wind at every section (a cable moving with the wind is outside the
-#: quasi-steady model). Measured (300 such states, five draws; tests/test_exact_load.py): on the
-#: sample 24 nodes give 6e-15 (16: 2e-14); on the 190 m stay, whose Irvine in-plane mode and
-#: restrained twist make the integrand vary more along the span, 24 nodes give at most 8e-11, 20
-#: nodes up to 5.1e-10, 16 up to 4.5e-9: 24 is the least count that holds the tolerance on every
-#: draw (the Dongting and Meiko-Nishi stays: 1.2e-10 and 4e-11 at 24). A cable moving at the
-#: wind's own speed near mid-span (|V| -> 0 there: the sqrt and atan2 of the load are singular just
-#: off the real axis) converges slowly: 3e-8 at 24 nodes, 1e-6 at 12. `exact_load_of(..., nodes=n)`
-#: takes more.
+#: motions the validity checks accept (`edge_states`: phi swept by +-15 deg about the static angle,
+#: the default valid range of the paper's fits, `autocable.model.curves.DEFAULT_HALF_WIDTH_DEG`) with
+#: the relative wind at least half the wind at every section (a cable moving with the wind is outside
+#: the quasi-steady model). Measured (`quadrature_error`, five draws of 300 such states): 24 nodes
+#: give at most 1.0e-10 on the 190 m stay, 5.6e-11 on the Dongting stay, 1.6e-11 on the Meiko-Nishi
+#: stay, 8e-15 on the sample; 20 nodes up to 4.8e-10 (the tolerance without a margin), 16 up to
+#: 3.5e-9, 12 up to 2.9e-8 (stays). The stays' Irvine in-plane mode and restrained twist make the
+#: integrand vary more along the span than the sample's (14 nodes hold it there). The worst state of
+#: a draw is heavy-tailed (one count gives 4e-10 on one draw and 9e-9 on another), so one count with
+#: a margin for all models, not a per-model choice from one draw. A cable moving at the wind's own
+#: speed near mid-span (|V| -> 0 there: the sqrt and atan2 of the load are singular just off the real
+#: axis) converges slowly: 3e-8 at 24 nodes, 1e-6 at 12. `exact_load_of(..., nodes=n)` takes more.
 QUADRATURE_RTOL = 5e-10
 DEFAULT_NODES = 24
 
@@ -109,11 +110,12 @@ def exact_load_of(shapes: dict, m_star: float, mass1_integral: float, mass2_inte
                   nu: float, alpha: float, beta: float, theta0: float, convention: str, axes: str,
                   curves, nodes: int = DEFAULT_NODES) -> ExactLoad:
     """The `ExactLoad` of a model from its mode shapes (`autocable.model.shapes.Shape` by name:
-    phi1, phi2, theta2, vhat), scales and wind angles."""
+    phi1, phi2, theta2, vhat), scales and wind angles, on ``nodes`` Gauss-Legendre nodes."""
     if convention not in ANGLE_SENSES:
         raise ValueError(f"angle convention must be one of {tuple(ANGLE_SENSES)}, got {convention!r}")
     if axes not in AXES:
         raise ValueError(f"axes must be one of {AXES}, got {axes!r}")
+
     x, w = np.polynomial.legendre.leggauss(int(nodes))
     s, w = 0.5 * (x + 1.0), 0.5 * w
 
@@ -125,6 +127,48 @@ def exact_load_of(shapes: dict, m_star: float, mass1_integral: float, mass2_inte
                      K=float(K), nu=float(nu), mass1=float(m_star * mass1_integral),
                      mass2=float(m_star * mass2_integral), alpha=float(alpha), beta=float(beta),
                      theta0=float(theta0), convention=convention, axes=axes, curves=curves.to_dict())
+
+
+def edge_states(ex: ExactLoad, count: int = 300, seed: int = 0, sweep_deg: float = 15.0,
+                min_speed: float = 0.5):
+    """States at the edge of what the validity checks accept, for the accuracy of the quadrature:
+    ``count`` random directions of (q2, q1', q2', eta f') (eta f' = 0 in half of them) at U* = 0.6,
+    1.2 or 2, each scaled (bisection) until phi sweeps +-``sweep_deg`` about the static angle
+    somewhere along the span, those kept whose relative wind is at least ``min_speed`` U at every
+    node of ``ex``. Returns (X, U): X an (n, 4) array of (q2, q1', q2', eta f'), U the n winds."""
+    rng = np.random.default_rng(seed)
+    D = rng.normal(size=(count, 4))
+    D[rng.uniform(size=count) < 0.5, 3] = 0.0
+    U = rng.choice([0.6, 1.2, 2.0], size=count)
+    target = math.radians(sweep_deg)
+
+    def swept(a):
+        phi, _ = section_angles(ex, a * D[:, 0], a * D[:, 1], a * D[:, 2], U, a * D[:, 3])
+        return np.max(np.abs(phi - ex.static_angle), axis=-1)
+
+    lo, hi = np.zeros(count), np.full(count, 1e-3)
+    for _ in range(40):
+        short = swept(hi) < target
+        if not short.any():
+            break
+        hi = np.where(short, 2.0 * hi, hi)
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        below = swept(mid) < target
+        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+    X = hi[:, None] * D
+    _, V2, V3 = _kinematics(ex, X[:, 0], X[:, 1], X[:, 2], U, X[:, 3])
+    keep = np.min(np.hypot(V2, V3), axis=-1) >= min_speed * U
+    return X[keep], U[keep]
+
+
+def quadrature_error(ex: ExactLoad, reference: ExactLoad, X, U) -> float:
+    """The largest difference of the forces of ``ex`` from those of ``reference`` at the states
+    (X, U) of `edge_states`, relative to the largest force at each state."""
+    args = (X[:, 0], X[:, 1], X[:, 2], U, X[:, 3])
+    ref = np.array(forces(reference, *args))
+    scale = np.maximum(np.max(np.abs(ref), axis=0), 1e-300)
+    return float(np.max(np.abs(np.array(forces(ex, *args)) - ref) / scale))
 
 
 def _mirrored(values) -> tuple:
