@@ -202,14 +202,18 @@ def check_scheduler(address: str, timeout: float | None = None) -> None:
 # ------------------------------------------------------------------------------------------------
 def _foreign(ran: dict, expected: dict) -> str:
     """Why a worker running ``ran`` (`autocable._store.running_code`) may not run the tasks of a
-    command running ``expected`` ("" when it may)."""
+    command running ``expected`` ("" when it may), with the fix; short, the worker's path last
+    (a `SpecError` is cut at 240 characters)."""
+    where = f"(its autocable: {ran.get('path')})"
     if ran.get("version") != expected.get("version"):
-        return f"runs autocable {ran.get('version')} (at {ran.get('path')}), the command {expected.get('version')}"
+        return (f"runs autocable {ran.get('version')}, this command {expected.get('version')}; install this "
+                f"command's autocable on the workers {where}")
     if not ran.get("code"):
-        return f"runs autocable whose file {ran.get('changed')} changed after it started (at {ran.get('path')})"
+        return (f"runs autocable whose {ran.get('changed')} changed after the worker started; restart the "
+                f"workers {where}")
     if ran.get("code") != expected.get("code"):
-        return (f"runs other autocable code than the command's (at {ran.get('path')}: package sha256 "
-                f"{str(ran.get('code'))[:12]}, the command's {str(expected.get('code'))[:12]})")
+        return (f"runs other autocable files (sha256 {str(ran.get('code'))[:12]}, this command's "
+                f"{str(expected.get('code'))[:12]}); install this command's autocable on the workers {where}")
     return ""
 
 
@@ -231,8 +235,7 @@ def _journaled(journal: str | None, label: str, expected: dict | None, fn: Calla
     if expected is not None:
         why = _foreign(running_code(), expected)
         if why:
-            raise RuntimeError(f"the worker {_worker_name()} {why}; install the command's autocable on the "
-                               "workers (docs/cluster.md)")
+            raise RuntimeError(f"the worker {_worker_name()} {why}")
     if journal:
         try:
             fd = os.open(journal, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
@@ -376,16 +379,15 @@ class Executor:
                                                         f"run ({_one_line(exc)}); check the scheduler") from None
         for worker, ran in sorted(seen.items()):
             if isinstance(ran, BaseException):
-                why = f"cannot run autocable's code ({_one_line(ran)})"
+                why = (f"cannot run autocable's code ({_one_line(ran)[:80]}); install autocable in the workers' "
+                       "environment")
             elif not isinstance(ran, dict):
-                why = "answered with something else than its autocable"
+                why = "answered with something else than its autocable; install autocable on the workers"
             else:
                 why = _foreign(ran, self._expected)
             if why:
                 self.close()
-                raise SpecError("arguments", "--scheduler", f"the worker {worker} of {address} {why}; install the "
-                                                            "command's autocable in the workers' environment "
-                                                            "(docs/cluster.md) or stop that worker")
+                raise SpecError("arguments", "--scheduler", f"the worker {worker} {why}")
 
     def __exit__(self, *exc) -> None:
         self.close()

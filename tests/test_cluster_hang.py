@@ -217,6 +217,7 @@ def test_a_worker_that_cannot_import_autocable_is_refused_by_name(scheduler, tmp
     assert done.returncode == 2, done.stderr
     lines = [ln for ln in done.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and "--scheduler" in lines[0] and "cannot run autocable's code" in lines[0], done.stderr
+    assert lines[0].endswith("install autocable in the workers' environment")
     assert "tcp://127.0.0.1:" in lines[0]                     # the worker, by its address
     assert not (out / "fig03").exists()                       # refused before any work
 
@@ -236,7 +237,9 @@ def test_a_worker_running_another_copy_of_autocable_is_refused_by_name(scheduler
     assert done.returncode == 2, done.stderr
     lines = [ln for ln in done.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and "--scheduler" in lines[0], done.stderr
-    assert "runs other autocable code than the command's" in lines[0] and str(copy) in lines[0]
+    assert "runs other autocable files" in lines[0] and "install this command's autocable on the workers" in lines[0]
+    # the worker's path comes last: a long one is cut at the message's 240 characters, the fix is not
+    assert "(its autocable: " + str(copy)[:20] in lines[0] and len(lines[0]) <= 260
 
 
 # ------------------------------------------------------------------------------------------------
