@@ -85,6 +85,9 @@ MODES_FRACTION = 0.10
 #: Where the branches hold no stable cycle at the design wind, eq. (21) is integrated there for at
 #: most this long (t*, about 950 periods of the pair) to say whether the motion stays bounded.
 DESIGN_INTEGRATION_TIME = 6000.0
+#: Modal amplitudes below this count as (near) the rest state in that integration: 0.2 mm on a
+#: 190 m stay, far below any galloping cycle; a motion still growing from rest that slowly is not judged.
+REST_AMPLITUDE = 1e-6
 #: The samples of that integration's last quarter its validity is measured on, at most.
 VALIDITY_SAMPLES = 4000
 #: The sensitivity of the amplitude to the curves: each end of their valid range moved out and in by
@@ -278,6 +281,8 @@ def _integrate_at(derivation, ode, U_des: float, start, units) -> dict:
            "bounded": bounded, "steady": bool(r.steady), "periodic": bool(r.periodic),
            "peak_m": [units.peak_m(r.a1), units.peak_m(r.a2)] if bounded else None, "t_end": r.t_end,
            "frequency_star": 2 * math.pi / r.period if r.periodic and r.period > 0 else None,
+           # back at the rest state (a stable rest state below the onset): nothing to judge
+           "at_rest": bool(bounded and max(r.a1, r.a2) < REST_AMPLITUDE),
            "message": r.message, "seconds": None}
     if bounded and r.history:
         t, *q = r.history
@@ -336,7 +341,7 @@ def _design(cont, branches, U_des: float, units, derivation) -> dict:
             if not run["bounded"]:
                 verdict = "unbounded"
                 note += "; direct integration at the design wind diverges (|q_k| > 0.1, from " + run["from"] + ")"
-            elif run.get("validity") and run["peak_m"][0] + run["peak_m"][1] > 0:
+            elif run.get("validity") and not run["at_rest"]:
                 # the motion the integration settles on is the design wind's: judged instead of a stand-in
                 v = run["validity"]
                 judged["missing_ingredient"] = missing_ingredients(derivation, v, run["frequency_star"])
