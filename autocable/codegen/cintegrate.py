@@ -60,7 +60,7 @@ __all__ = ["INTEGRATOR_VERSION", "STATUS", "CIntegrator", "CRun", "Repeated", "c
            "integrator_source", "sample_grid"]
 
 #: Bump when the emitted C changes meaning: it is part of the content hash.
-INTEGRATOR_VERSION = "7"
+INTEGRATOR_VERSION = "8"
 
 #: How a run ended (the status code of the C loop).
 STATUS = {0: "done", 1: "step_budget", 2: "step_too_small", 3: "bound", 4: "not_finite"}
@@ -141,6 +141,49 @@ class _IntegratorPrinter(_Printer):
         return super()._print_Pow(expr)
 
 
+#: `ac_atan2` four at a time where the processor has AVX2 and FMA (x86-64, GCC or clang: chosen at
+#: run time, so the library still runs on any x86-64): the same octant reduction and polynomial on
+#: vectors of four angles, the octant tests as lane masks. Measured: 1.75 ns an angle against 4.5 ns
+#: for the scalar loop (the division and the polynomial's latency are shared by four lanes).
+_ATAN2_AVX2_C = """
+#if defined(__x86_64__) && defined(__GNUC__)
+#define AC_ATAN2_AVX2 1
+typedef double ac_v4 __attribute__((vector_size(32)));
+typedef long long ac_m4 __attribute__((vector_size(32)));
+#define AC_SEL(m, a, b) ((ac_v4)(((m) & (ac_m4)(a)) | (~(m) & (ac_m4)(b))))
+__attribute__((target("avx2,fma")))
+static void ac_atan2_avx2(const double *ys, const double *xs, double *out, int n) {
+    const long long s = (long long)0x8000000000000000ULL;
+    const ac_m4 sign = {s, s, s, s};
+    const ac_v4 one = {1.0, 1.0, 1.0, 1.0}, zero = {0.0, 0.0, 0.0, 0.0};
+    int k;
+    for (k = 0; k + 3 < n; k += 4) {
+        ac_v4 y, x, r;
+        memcpy(&y, ys + k, sizeof(y));
+        memcpy(&x, xs + k, sizeof(x));
+        const ac_v4 ax = (ac_v4)((ac_m4)x & ~sign), ay = (ac_v4)((ac_m4)y & ~sign);
+        const ac_m4 swap = ay > ax;
+        const ac_v4 num = AC_SEL(swap, ax, ay), den = AC_SEL(swap, ay, ax);
+        const ac_m4 big = num > 0.41421356237309504880 * den;
+        const ac_v4 tn = AC_SEL(big, num - den, num), td = AC_SEL(big, num + den, den);
+        const ac_v4 t = tn / AC_SEL(td > zero, td, one), z = t * t, z2 = z * z, z4 = z2 * z2;
+        const ac_v4 g = ((-0.3333333333333325 + z * 0.19999999999898407) + z2 * (-0.1428571426609662
+                          + z * 0.11111109636534361)) + z4 * ((-0.09090852557176049 + z * 0.0769105515839315)
+                          + z2 * (-0.06649613695291669 + z * 0.05736332165907643)
+                          + z4 * (-0.04483334622272886 + z * 0.02275052699336167));
+        r = t + t * z * g;
+        r = r + (ac_v4)(big & (ac_m4)(one * 0.78539816339744830962));
+        r = AC_SEL(swap, 1.57079632679489661923 - r, r);
+        r = AC_SEL((ac_m4)x < 0, 3.14159265358979323846 - r, r);
+        r = (ac_v4)((ac_m4)r | ((ac_m4)y & sign));
+        memcpy(out + k, &r, sizeof(r));
+    }
+    for (; k < n; k++) out[k] = ac_atan2(ys[k], xs[k]);
+}
+#endif
+"""
+
+
 #: A loop of square roots, two at a time where SSE2 has them: the divider (one division and one root
 #: per node) bounds the exact load, and it takes a pair of roots in about the time of one (measured
 #: on the sample's forced right-hand side: 230 -> 205 ns per evaluation; pairing the atan2's
@@ -158,16 +201,38 @@ def _batch_c(n_atan2: int, n_sqrt: int) -> str:
     one loop (`_batched_block`)."""
     out = ""
     if n_atan2:
-        out += f"""
+        out += _ATAN2_AVX2_C + f"""
 static void ac_atan2_n(const double *ys, const double *xs, double *out) {{
     int k;
+#ifdef AC_ATAN2_AVX2
+    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {{
+        ac_atan2_avx2(ys, xs, out, {n_atan2});
+        return;
+    }}
+#endif
     for (k = 0; k < {n_atan2}; k++) out[k] = ac_atan2(ys[k], xs[k]);
 }}
 """
     if n_sqrt:
         out += f"""
+#ifdef AC_ATAN2_AVX2
+#include <immintrin.h>
+__attribute__((target("avx")))
+static void ac_sqrt_avx(const double *xs, double *out, int n) {{
+    int k;
+    for (k = 0; k + 3 < n; k += 4) _mm256_storeu_pd(out + k, _mm256_sqrt_pd(_mm256_loadu_pd(xs + k)));
+    for (; k < n; k++) out[k] = ac_sqrt(xs[k]);
+}}
+#endif
+
 static void ac_sqrt_n(const double *xs, double *out) {{
     int k;
+#ifdef AC_ATAN2_AVX2
+    if (__builtin_cpu_supports("avx")) {{
+        ac_sqrt_avx(xs, out, {n_sqrt});
+        return;
+    }}
+#endif
 {_PAIRED.format(n=n_sqrt, op="_mm_sqrt_pd(_mm_loadu_pd(xs + k))", dst="out", one="ac_sqrt(xs[k])")}
 }}
 """
@@ -603,7 +668,7 @@ def _key(variables, parameters, time_symbol, template: Template, cc, code: str |
     # The structure only (the template's key): neither the coefficients nor the caller's name;
     # and the generator's files (``code``): an edit there without a version bump still rebuilds.
     A, B, C, E3, E5, D = _coefficients()
-    return cache.content_hash({"version": INTEGRATOR_VERSION, "helpers": _SQRT_C + _ATAN2_C,
+    return cache.content_hash({"version": INTEGRATOR_VERSION, "helpers": _SQRT_C + _ATAN2_C + _ATAN2_AVX2_C,
                                "variables": list(variables),
                                "code": code or cache.code_fingerprint("kernel"),
                                "parameters": list(parameters), "time": time_symbol,
