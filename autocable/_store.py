@@ -52,6 +52,7 @@ __all__ = [
     "running_code",
     "report_not_stored",
     "store_checked_json_for_code",
+    "loaded_code_changed",
 ]
 
 #: Environment variable that overrides the cache folder.
@@ -455,6 +456,13 @@ def _changed_since_loaded(kind: str) -> str:
             if name not in seen and any(name == b or name.startswith(b + os.sep) for b in bases):
                 return Path(name).relative_to(root).as_posix() + " (removed)"
     return ""
+
+
+def loaded_code_changed(kind: str) -> str:
+    """The first file of ``kind``'s code (`CODE_DEPS`) changed, added or removed since this process
+    loaded autocable, relative to the package ("" when none): a build keyed earlier in the
+    process, then made by the code it loaded, must not be kept when this is not empty."""
+    return _changed_since_loaded(kind)
 
 
 def code_refusal(kind: str, keyed: str) -> str:

@@ -250,3 +250,18 @@ def test_the_serial_executor_returns_the_code_each_task_ran(code_copy):
         (done,) = list(ex.completed())
     assert done.value == 2 and done.code == _store.running_code()
     assert done.code["code"] == _store.code_fingerprint("package") and done.code["version"]
+
+
+def test_a_pydstool_library_built_after_its_generator_changed_gets_no_manifest(code_copy, capsys):
+    """PyDSTool's build (a C library, its wrapper and pickled generator) is recorded in its manifest
+    only when autocable/codegen did not change since the process loaded it."""
+    from autocable.codegen import pydstool
+    x = sp.Symbol("x")
+    vf = pydstool.VectorField("keyed_pyds", ("x",), [-x**3 - x], {})
+    pydstool.model_name(vf)                            # named (keyed) with the loaded code
+    _edit(code_copy / "codegen" / "compat.py")
+    gen = pydstool.make_ode_generator(vf, "Dopri").pydstool
+    assert list(gen.funcspec.vars) == ["x"]            # built and used by this process
+    manifests = list((Path(_store.cache_root()) / "pydstool").rglob("*.json"))
+    assert not [m for m in manifests if "specs" not in m.parts]      # no build manifest
+    assert "not stored: autocable/codegen/compat.py changed after this process loaded it" in capsys.readouterr().err

@@ -597,6 +597,7 @@ def make_ode_generator(vf: VectorField, kind: str = "Dopri", *,
     so_file, py_file, manifest_file = _library_files(folder / package, modname)
     pickled = folder / package / f"{modname}.generator.pickle"
     rebuilt: list[str] = []     # said after the session, which silences fd 2
+    not_kept: list[str] = []    # (the same)
     with _build_lock(folder, modname), pydstool_session(what, folder) as chatter:
         manifest = cache.read_json(manifest_file)
         library = {"library": so_file, "wrapper": py_file}
@@ -661,7 +662,13 @@ def make_ode_generator(vf: VectorField, kind: str = "Dopri", *,
                       "sha256": {role: cache.file_sha256(path) for role, path in files.items()},
                       "spec": {"varspecs": args["varspecs"], "fnspecs": _jsonable_fnspecs(args["fnspecs"]),
                                "pars": sorted(args["pars"])}}
-            if reusable:
+            # The model name (the key) holds the fingerprint of autocable/codegen taken when this
+            # process first named the model: a library built after that code changed on disk may
+            # not be the code the name says. Used now, not recorded (the next process rebuilds).
+            changed = cache.loaded_code_changed("kernel")
+            if changed:
+                not_kept.append(f"autocable/{changed} changed after this process loaded it")
+            elif reusable:
                 # Only the pickle was missing: recording it is a speed-up, so a read-only cache
                 # (where the pickle could not be written either) goes on without it.
                 with contextlib.suppress(cache.CacheError):
@@ -674,6 +681,8 @@ def make_ode_generator(vf: VectorField, kind: str = "Dopri", *,
         gen.set(ics=args["ics"], pars=args["pars"], tdata=args["tdata"], algparams=settings)
     if rebuilt:
         cache.report_rebuilt(rebuilt[0])
+    if not_kept:
+        cache.report_not_stored(f"PyDSTool library {modname}", not_kept[0])
     memoize_name_map(gen)           # after pickling: the pickle keeps PyDSTool's own map
     _LIVE[modname] = gen
     return handle(gen, reusable)
@@ -871,6 +880,7 @@ def _load_auto(cont: Any, name: str, what: str) -> None:
     modname = f"auto_{name}_vf"
     so_file, py_file, manifest_file = _library_files(folder, modname)
     rebuilt: list[str] = []     # said after the session, which silences fd 2
+    not_kept: list[str] = []    # (the same)
     with _build_lock(folder, modname), pydstool_session(what, folder) as chatter:
         manifest = cache.read_json(manifest_file)
         files = {"library": so_file, "wrapper": py_file}
