@@ -584,3 +584,16 @@ def test_every_consumer_of_the_cubic_reads_a_tables_cubic(stay):
     integ = ClosedFormIntegrator(modes.shapes)
     xs = [decoupled_angles(s.aero, st, modes, integ, K, nu, spec.cable.damping_ratio) for s in (spec, tab)]
     assert xs[1] == pytest.approx(xs[0], rel=1e-9, abs=1e-9)
+
+
+def test_a_static_angle_outside_the_stated_range_is_warned(stay):
+    """With the angles typed in (no calibration to reject the root), a valid range that misses the
+    static angle is one warning of the derivation naming the field; a range holding it is none."""
+    from autocable.model.derive import derive
+    spec, d = stay
+    phi0 = d.static_angle_deg
+    for lo, hi, warned in ((phi0 + 1.0, phi0 + 20.0, True), (phi0 - 15.0, phi0 + 15.0, False)):
+        aero = dataclasses.replace(spec.aero, outside="dry-cylinder", valid_phi_deg=(lo, hi))
+        b = derive(dataclasses.replace(spec, aero=aero))
+        hits = [w for w in b.warnings if "outside the curves' valid range" in w and "aero.valid_phi_deg" in w]
+        assert len(hits) == (1 if warned else 0), b.warnings

@@ -18,7 +18,7 @@ from autocable._store import (cache_dir, code_fingerprint, content_hash, load_ch
                               store_checked_json_for_code)
 from autocable.model.aero import expand_load_jet
 from autocable.model.calibration import CalibrationError, calibrate
-from autocable.model.curves import curves_from_spec, static_angle
+from autocable.model.curves import curves_from_spec, eq21_fits
 from autocable.model.equations import TwoModeODE
 from autocable.model.exact_load import exact_load_of
 from autocable.model.galerkin import aero_scales, project
@@ -165,10 +165,7 @@ def _compute(spec: ModelSpec, integrator: str) -> dict:
     # candidate, a user's cable) paid once.
     # Curves other than eq. (13)'s cubics (a table, a fit bounded by the dry cylinder) enter eq. (21)
     # through their cubic at the static angle: value and three derivatives (docs/aero-curves.md).
-    lift, drag = spec.aero.lift, spec.aero.drag
-    curves = curves_from_spec(spec.aero)
-    if curves.kind != "cubic":
-        lift, drag = curves.equivalent_cubic(static_angle(st.alpha, beta, theta0, spec.aero.angle_convention))
+    lift, drag = eq21_fits(spec.aero, st.alpha, beta, theta0)
     aero = expand_load_jet(lift, drag, st.alpha, beta, theta0, spec.aero.angle_convention, spec.aero.load_axes)
     timings["aero_expansion_s"] = time.perf_counter() - t0
 
@@ -193,6 +190,21 @@ def with_exact_load(ode: TwoModeODE, spec: ModelSpec, st: CableStatics, data: di
                           data["aero_scale"], data["velocity_ratio"], st.alpha, data["beta"], data["theta0"],
                           spec.aero.angle_convention, spec.aero.load_axes, curves_from_spec(spec.aero))
     return replace(ode, exact_load=exact, provenance=dict(ode.provenance, load="exact"))
+
+
+def _curve_warnings(spec: ModelSpec, phi0: float) -> tuple:
+    """A static angle outside the range the curves state (``aero.valid_phi_deg``, a table's ends):
+    eq. (21) is then the cubic of curves where they were not measured (the calibration rejects such
+    a root; an angle typed in is not checked there)."""
+    curves = curves_from_spec(spec.aero)
+    if curves.valid_phi is None:
+        return ()
+    lo, hi = curves.valid_phi
+    if lo <= phi0 <= hi:
+        return ()
+    return (f"the static angle phi0 = {math.degrees(phi0):.4g} deg lies outside the curves' valid range "
+            f"[{math.degrees(lo):.4g}, {math.degrees(hi):.4g}] deg (aero.valid_phi_deg or the table's ends): "
+            "eq. (21) and its onset rest on the curves where they do not hold; move the range or the angles",)
 
 
 def derive(spec: ModelSpec | str | os.PathLike, integrator: str = "closed-form", use_cache: bool = True) -> Derivation:
@@ -225,4 +237,5 @@ def derive(spec: ModelSpec | str | os.PathLike, integrator: str = "closed-form",
                       velocity_ratio=data["velocity_ratio"], twist=tuple(data["twist"]),
                       calibration_roots=tuple(tuple(r) for r in data.get("calibration_roots", [])),
                       twist_D=float(data.get("twist_D", 0.0)),
-                      warnings=tuple(regime_warnings(st)), timings=timings, from_cache=from_cache)
+                      warnings=tuple(regime_warnings(st)) + _curve_warnings(spec, data["static_angle"]),
+                      timings=timings, from_cache=from_cache)

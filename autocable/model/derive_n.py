@@ -9,6 +9,7 @@ from __future__ import annotations
 from autocable._store import (cache_dir, code_fingerprint, content_hash, load_checked_json,
                               store_checked_json_for_code)
 from autocable.model.aero import expand_load_jet
+from autocable.model.curves import eq21_fits
 from autocable.model.derive import DERIVATION_VERSION, Derivation, derive
 from autocable.model.galerkin_n import ExactZeroIntegrator, project_n
 from autocable.model.modes_n import mode_set
@@ -44,8 +45,8 @@ def derive_nmode(source: Derivation | ModelSpec, n_in: int, n_out: int,
         return NModeODE.from_dict(data)
     st = d.statics
     ms = mode_set(st, n_in, n_out, spec.cable.twist_ends)
-    aero = expand_load_jet(spec.aero.lift, spec.aero.drag, st.alpha, d.beta, d.theta0, spec.aero.angle_convention,
-                           spec.aero.load_axes)
+    lift, drag = eq21_fits(spec.aero, st.alpha, d.beta, d.theta0)     # a table or a blend: its cubic at phi0
+    aero = expand_load_jet(lift, drag, st.alpha, d.beta, d.theta0, spec.aero.angle_convention, spec.aero.load_axes)
     ode = project_n(st, ms, aero, d.aero_scale, d.velocity_ratio, spec.cable.damping_ratio,
                     ExactZeroIntegrator(ms.shapes) if integrator == "closed-form"
                     else QuadratureIntegrator(ms.shapes, nodes=128),
