@@ -896,9 +896,15 @@ def _load_auto(cont: Any, name: str, what: str) -> None:
         if cont._autoMod is None or not so_file.exists():
             raise PyDSToolError(f"{what} failed: no AUTO library was produced", what=what,
                                 chatter=chatter.tail())
-        _write_manifest(manifest_file, {"format": MANIFEST_FORMAT, "model": name, "kind": "AUTO",
-                                        "environment": _environment(),
-                                        "sha256": {role: cache.file_sha256(path)
-                                                   for role, path in files.items()}})
+        changed = cache.loaded_code_changed("kernel")    # as for the generator's library
+        if changed:
+            not_kept.append(f"autocable/{changed} changed after this process loaded it")
+        else:
+            _write_manifest(manifest_file, {"format": MANIFEST_FORMAT, "model": name, "kind": "AUTO",
+                                            "environment": _environment(),
+                                            "sha256": {role: cache.file_sha256(path)
+                                                       for role, path in files.items()}})
     if rebuilt:
         cache.report_rebuilt(rebuilt[0])
+    if not_kept:
+        cache.report_not_stored(f"PyCont AUTO library {modname}", not_kept[0])
