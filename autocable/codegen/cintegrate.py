@@ -11,6 +11,11 @@ one C file per right-hand side with
 * f(t, y; p) from ``sympy.cse`` and the C printer of `autocable.codegen.ckernel` (integer powers as
   products, 17-digit constants), the factors of each term that depend on the parameters alone
   summed into coefficients computed once per run (`_hoist`);
+* for a right-hand side with atan2 and square roots of the state (the exact quasi-steady load of
+  `autocable.model.exact_load`, one of each per quadrature node): an atan2 of its own (`_ATAN2_C`,
+  four lanes with AVX2 where the processor has it) and an errno-free sqrt, each computed for all
+  nodes in one loop once their arguments are known (`_batched_block`): the exact right-hand side
+  runs 2.5 times faster than with glibc's atan2 and sqrt inline (`autocable bench exact-load`);
 * Hairer & Wanner's DOP853 (explicit Runge-Kutta 8(5,3), "Solving ODEs I", Sect. II.10): the
   coefficients are scipy's table of it (`scipy.integrate._ivp.dop853_coefficients`, printed into
   the C source with 17 digits), the error estimate is Hairer's mixed 5th/3rd-order norm
@@ -113,10 +118,8 @@ static inline double ac_atan2(double y, double x) {
 
 
 #: The exact load's |V| (eq. 11), one per node and stage. C's sqrt may set errno, so the compiler
-#: guards every one with a call of libm's for negative arguments, and every value live across that
-#: call site is kept on the stack: measured, a third of the autonomous exact right-hand side
-#: (`autocable bench exact-load`). SSE2's instruction has no such path (|V|^2 >= 0 here anyway); on
-#: other machines C's sqrt.
+#: guards every one with a call of libm's for negative arguments; SSE2's instruction has no such path
+#: (|V|^2 >= 0 here anyway) and comes two at a time (`_PAIRED`). On other machines C's sqrt.
 _SQRT_C = """
 #if defined(__SSE2__)
 #include <emmintrin.h>
