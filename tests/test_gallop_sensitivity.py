@@ -221,3 +221,27 @@ def test_blended_stay_on_the_exact_rung_follows_its_band():
         vals = [a[i]] + [c["amplitude_at_design_wind_m"][i] for c in sens["cases"]]
         assert sens["amplitude_at_design_wind_m"]["range"][i] == [min(vals), max(vals)]
     assert all(math.isfinite(c["phi_swept_deg"]) for c in sens["cases"])
+
+
+def test_plot_draws_the_sensitivity(monkeypatch):
+    """The plot's error bar at the design wind spans each peak's range about the nominal value, and
+    the lowest galloping speed's range is shaded (on both panels); undefined sensitivity draws none."""
+    from matplotlib.container import ErrorbarContainer
+
+    from autocable.plotting import gallop as P
+    figs = []
+    monkeypatch.setattr(P, "save_figure", lambda fig, stem: figs.append(fig) or [])
+    sens = {"defined": True, "band_deg": 5.0, "blend_factors": [0.5, 2.0],
+            "amplitude_at_design_wind_m": {"nominal": [2.0, 0.4], "range": [[1.5, 2.6], [0.35, 0.5]]},
+            "lowest_galloping_U_m_s": {"nominal": 8.5, "range": [7.7, 9.2]}}
+    study = {"scanned_U_m_s": [0.2, 50.0], "design_wind_m_s": 25.0, "cases": [], "sensitivity": sens}
+    P.plot_gallop(study, "unused")
+    for ax, (lo, hi) in zip(figs[-1].axes, ([1.5, 2.6], [0.35, 0.5])):
+        bars = [c for c in ax.containers if isinstance(c, ErrorbarContainer)]
+        assert len(bars) == 1
+        seg = bars[0].lines[2][0].get_segments()[0]
+        assert seg[0][0] == seg[1][0] == 25.0 and sorted([seg[0][1], seg[1][1]]) == pytest.approx([lo, hi])
+        spans = [p for p in ax.patches if p.get_x() == pytest.approx(7.7)]
+        assert len(spans) == 1 and spans[0].get_width() == pytest.approx(1.5)
+    P.plot_gallop(dict(study, sensitivity={"defined": False, "reason": "x"}), "unused")
+    assert not any(ax.containers or ax.patches for ax in figs[-1].axes)
