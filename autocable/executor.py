@@ -200,6 +200,16 @@ def check_scheduler(address: str, timeout: float | None = None) -> None:
 # ------------------------------------------------------------------------------------------------
 # the journal of task starts
 # ------------------------------------------------------------------------------------------------
+@dataclass
+class _Ran:
+    """What a task on Dask returns: the function's ``value`` and the ``code`` its worker ran
+    (`autocable._store.running_code`). A task given another task's future as an argument (a
+    followed sweep's segments) gets the ``value`` (`_journaled` unwraps it)."""
+
+    value: Any
+    code: dict
+
+
 def _foreign(ran: dict, expected: dict) -> str:
     """Why a worker running ``ran`` (`autocable._store.running_code`) may not run the tasks of a
     command running ``expected`` ("" when it may), with the fix; short, the worker's path last
@@ -228,10 +238,12 @@ def _worker_name() -> str:
 def _journaled(journal: str | None, label: str, expected: dict | None, fn: Callable, *args):
     """Run ``fn(*args)`` on a worker after appending ``label`` to the journal (one short line, one
     ``write`` on a file opened for appending: lines of concurrent workers do not interleave), and
-    return (its value, the autocable the worker runs: `autocable._store.running_code`). With
+    return `_Ran` (its value and the autocable the worker runs: `autocable._store.running_code`);
+    an argument that is another task's `_Ran` is given to ``fn`` as its value. With
     ``expected`` (the command's), a worker running another autocable refuses the task, by name,
     before it writes anything."""
     from autocable._store import running_code
+    args = tuple(a.value if isinstance(a, _Ran) else a for a in args)    # a dependency's result
     if expected is not None:
         why = _foreign(running_code(), expected)
         if why:
@@ -245,8 +257,7 @@ def _journaled(journal: str | None, label: str, expected: dict | None, fn: Calla
                 os.close(fd)
         except OSError:
             pass    # a worker without the shared folder: the journal only counts, the task still runs
-    value = fn(*args)
-    return value, running_code()      # taken after the task: a file edited meanwhile is seen
+    return _Ran(fn(*args), running_code())    # the code taken after the task: an edit meanwhile is seen
 
 
 def attempts(journal: str | Path) -> Counter:
@@ -460,8 +471,8 @@ class Executor:
                 else:
                     label, fn, args = self._queue.pop(0)
                 try:
-                    value, code = _journaled(self.journal, label, None, fn, *args)
-                    done = Done(label, value, code=code)
+                    ran = _journaled(self.journal, label, None, fn, *args)
+                    done = Done(label, ran.value, code=ran.code)
                 except Exception as exc:  # noqa: BLE001 - the caller decides what a failed task means
                     done = Done(label, None, _one_line(exc))
                 self._pending -= 1
@@ -478,8 +489,8 @@ class Executor:
                     break
                 label = getattr(fut, "_autocable_label", str(fut.key))
                 try:
-                    value, code = fut.result()
-                    done = Done(label, value, code=code)
+                    ran = fut.result()
+                    done = Done(label, ran.value, code=ran.code)
                 except Exception as exc:  # noqa: BLE001 - KilledWorker, or the task's own error
                     done = Done(label, None, _one_line(exc))
                 fut.release()

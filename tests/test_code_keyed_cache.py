@@ -265,3 +265,19 @@ def test_a_pydstool_library_built_after_its_generator_changed_gets_no_manifest(c
     manifests = list((Path(_store.cache_root()) / "pydstool").rglob("*.json"))
     assert not [m for m in manifests if "specs" not in m.parts]      # no build manifest
     assert "not stored: autocable/codegen/compat.py changed after this process loaded it" in capsys.readouterr().err
+
+
+def test_dask_tasks_return_their_workers_code_and_a_chained_task_gets_the_value(code_copy):
+    """A task's result carries the code its worker ran; a task that takes another's future (a
+    followed sweep's segments) still receives the plain value. One LocalCluster worker: ~5 s."""
+    import operator
+
+    from autocable.executor import Executor
+    with Executor(workers=1) as ex:
+        first = ex.submit("a", operator.add, 1, 2)
+        ex.submit("b", operator.mul, first, 10)
+        done = {d.label: d for d in ex.completed()}
+    assert done["a"].value == 3 and done["b"].value == 30, done
+    for d in done.values():
+        # (None with the file named when someone edits the package while the worker runs)
+        assert d.ok and d.code["version"] and (len(d.code["code"]) == 64 if d.code["code"] else d.code["changed"])
