@@ -65,7 +65,7 @@ __all__ = ["INTEGRATOR_VERSION", "STATUS", "CIntegrator", "CRun", "Repeated", "c
            "integrator_source", "sample_grid"]
 
 #: Bump when the emitted C changes meaning: it is part of the content hash.
-INTEGRATOR_VERSION = "8"
+INTEGRATOR_VERSION = "9"
 
 #: How a run ended (the status code of the C loop).
 STATUS = {0: "done", 1: "step_budget", 2: "step_too_small", 3: "bound", 4: "not_finite"}
@@ -183,6 +183,16 @@ static void ac_atan2_avx2(const double *ys, const double *xs, double *out, int n
     }
     for (; k < n; k++) out[k] = ac_atan2(ys[k], xs[k]);
 }
+#endif
+"""
+
+
+#: The exact right-hand side's f compiled twice, for AVX2 and FMA and for any x86-64, the processor's
+#: chosen when the library is loaded (GCC's target_clones, an ifunc: glibc): the nodes' arithmetic in
+#: three-operand instructions. Measured on the sample's forced exact right-hand side: 142 -> 135 ns
+#: (the cubic one, not cloned, would gain 46 -> 45 ns).
+_F_CLONES = """#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__GLIBC__)
+__attribute__((target_clones("avx2,fma", "default")))
 #endif
 """
 
@@ -378,7 +388,7 @@ static void coef_eval(const double *p, double *c) {{
 {chr(10).join(body_c)}
 }}
 
-static void f_eval(double t, const double *y, const double *p, const double *c, double *out) {{
+{_F_CLONES if n_atan2 else ""}static void f_eval(double t, const double *y, const double *p, const double *c, double *out) {{
     (void)t; (void)y; (void)p; (void)c;
 {chr(10).join(body)}
 }}
@@ -671,7 +681,7 @@ def _key(variables, parameters, time_symbol, template: Template, cc, code: str |
     # The structure only (the template's key): neither the coefficients nor the caller's name;
     # and the generator's files (``code``): an edit there without a version bump still rebuilds.
     A, B, C, E3, E5, D = _coefficients()
-    return cache.content_hash({"version": INTEGRATOR_VERSION, "helpers": _SQRT_C + _ATAN2_C + _ATAN2_AVX2_C,
+    return cache.content_hash({"version": INTEGRATOR_VERSION, "helpers": _SQRT_C + _ATAN2_C + _ATAN2_AVX2_C + _F_CLONES,
                                "variables": list(variables),
                                "code": code or cache.code_fingerprint("kernel"),
                                "parameters": list(parameters), "time": time_symbol,
