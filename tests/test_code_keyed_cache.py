@@ -4,8 +4,8 @@ is stored only when that code did not change while it was computed (issue 39, it
 
 The package is never edited in place: each test copies it into a temporary folder, points the
 fingerprint at the copy (`_store._code_root`) and edits the copy. A fresh ``_LOADED`` stands for a
-new process that loaded the edited code. Run time: about 10-20 s (one multiscale derivation, two
-small C builds)."""
+new process that loaded the edited code. Run time: about 35-45 s on two shared cores (one
+multiscale derivation, two small C builds, one PyDSTool build, one LocalCluster worker)."""
 from __future__ import annotations
 
 import shutil
