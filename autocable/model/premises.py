@@ -14,7 +14,7 @@ import warnings
 from typing import Mapping
 
 from autocable.model.statics import cable_statics
-from autocable.spec import ModelSpec, SpecError, show
+from autocable.spec import MAX_MESSAGE, ModelSpec, SpecError, show
 
 __all__ = ["PremiseWarning", "MAX_AMPLITUDE", "PARAMETER_RANGES", "CABLE_LIMITS", "check_parameters", "check_model"]
 
@@ -129,9 +129,9 @@ def check_model(spec: ModelSpec) -> dict[str, float]:
                   "cable.mass_per_length_kg_m, cable.gravity_m_s2, cable.length_m, cable.horizontal_tension_N, "
                   "cable.chord_slope_deg",
                   "a nearly taut cable"),
-        "lambda2": ("Irvine's lambda^2 = delta^2/tau", "cable.mass_per_length_kg_m, cable.gravity_m_s2, "
+        "lambda2": ("Irvine's lambda^2", "cable.mass_per_length_kg_m, cable.gravity_m_s2, "
                     "cable.length_m, cable.horizontal_tension_N, cable.axial_stiffness_N, cable.chord_slope_deg",
-                    "the 1:1 resonance (omega1 < 2 omega2)"),
+                    "the 1:1 resonance (omega1 < 2 omega2; lambda^2 = delta^2/tau)"),
         "detuning": ("internal detuning |omega2 - omega1|", "the cable's sag and stiffness",
                      "a near 1:1 resonance"),
         "chi": ("torsion ratio chi = GJ/EI", "cable.torsional_stiffness_Nm2, cable.bending_stiffness_Nm2",
@@ -140,8 +140,14 @@ def check_model(spec: ModelSpec) -> dict[str, float]:
 
     def error(key, value, lo, hi):
         what, fields, needs = names[key]
-        raise SpecError(where, what, f"{value:.3g} is outside [{lo:g}, {hi:.4g}], where eq. (21) "
-                                     f"describes {needs}; check {fields}")
+        # the keys of [cable] without their table's name each time: field and message fit in one
+        # SpecError line (240 characters) with every field named, lambda^2's six included
+        if fields.startswith("cable."):
+            fields = "[cable] " + ", ".join(f.removeprefix("cable.") for f in fields.split(", "))
+        # why eq. (21) needs the bound, when the line has room for it beside the file and every field
+        full = f"{value:.3g} is outside [{lo:g}, {hi:.4g}], where eq. (21) describes {needs}; check {fields}"
+        short = f"{value:.3g} not in [{lo:g}, {hi:.4g}]; check {fields}"
+        raise SpecError(where, what, full if len(f"{where}: {what}: {full}") <= MAX_MESSAGE else short)
 
     def warn(key, value, limit):
         what, fields, needs = names[key]
