@@ -272,6 +272,13 @@ def _onset(args, folder) -> int:
             print(f"  global (no galloping cycle below the design wind, a sub-critical onset's fold included; "
                   f"autocable gallop): least damping ratio {100 * ds['least_damping_global']:.4g} % "
                   f"(Sc = {ds['scruton_global']:.4g}): {'enough' if ds['enough_global'] else 'not enough'}")
+            cyc = ds.get("least_damping_global_setting_cycle")
+            if cyc and cyc.get("beyond_valid_range"):
+                print(f"    beyond the model's range: the cycle that sets it ({cyc['U_m_s']:.4g} m/s, peak "
+                      f"{cyc['peak_in_plane_m']:.3g} m in-plane) sweeps phi by +-{cyc['phi_swept_deg']:.3g} deg, "
+                      f"twist up to {cyc['twist_max_deg']:.3g} deg ({'; '.join(cyc.get('reasons', []))}): not a bound "
+                      "within validity; `autocable gallop --load exact` with curves bounded beyond their range "
+                      "(aero.outside) says how large the stay gallops")
         else:
             print(f"  global least damping: not found ({ds.get('least_damping_global_note')})")
     if "damping" in report and grid is not None:
@@ -459,7 +466,9 @@ def _global_damping(d, design_wind_m_s: float, U_max_m_s: float) -> dict:
         return {"least_damping_global": None, "least_damping_global_note": str(exc)}
     return {"least_damping_global": g["least_damping_ratio_global"], "scruton_global": g["scruton_global"],
             "enough_global": g["enough"], "least_damping_global_tolerance": g["relative_tolerance"],
-            "least_damping_global_reading": g["reading"]}
+            "least_damping_global_reading": g["reading"],
+            "least_damping_global_beyond_valid_range": g.get("beyond_valid_range"),
+            "least_damping_global_setting_cycle": g.get("setting_cycle")}
 
 
 def _outcome(word: str) -> str:

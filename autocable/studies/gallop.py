@@ -661,14 +661,14 @@ def _validity_available() -> bool:
 
 
 # -- the global least damping -------------------------------------------------------------------------
-def _gallops_below(ode, U_des: float, U_max: float) -> tuple[bool, str, float]:
+def _gallops_below(ode, U_des: float, U_max: float) -> tuple[bool, str, float, object]:
     """(whether a cycle connected to a Hopf point exists at some U* < U_des, how it was decided,
-    the lowest U* seen)."""
+    the lowest U* seen, the first cycle found below U_des (a branch point with its orbit) or None)."""
     hopfs, st = _hopf_points(ode, U_max)
     if st.onsets and st.onsets[0].U_star <= U_des:
-        return True, "the rest state is unstable below the design wind", st.onsets[0].U_star
+        return True, "the rest state is unstable below the design wind", st.onsets[0].U_star, None
     if not st.stable_at_start:
-        return True, "the rest state is unstable without wind", 0.0
+        return True, "the rest state is unstable without wind", 0.0, None
     cont = CycleContinuation(ode)
     lowest, how = math.inf, "no Hopf point in the scan"
     for o in hopfs:
@@ -679,8 +679,21 @@ def _gallops_below(ode, U_des: float, U_max: float) -> tuple[bool, str, float]:
         lowest = min(lowest, br.lowest_U)
         how = f"the lowest cycle is at U* = {lowest:.8g} ({br.end})"
         if lowest < U_des:
-            return True, how, lowest
-    return False, how, lowest
+            below = [p for p in br.points if p.U < U_des and p.orbit is not None]
+            return True, how, lowest, (below[0] if below else None)
+    return False, how, lowest, None
+
+
+def _setting_cycle(derivation, point, units) -> dict | None:
+    """Where the global least damping holds: the cycle that still gallops below the design wind at
+    the largest damping found to gallop (the bisection's lower end), with its validity
+    (`autocable.model.validity.motion_validity`: phi swept, twist, beyond the curves' or the cubic
+    load's range). A bound set by a cycle beyond the model's range is no bound within validity."""
+    if point is None:
+        return None
+    v = _validity(derivation, point.orbit, point.U)
+    return {"U_m_s": units.wind_m_s(point.U), "peak_in_plane_m": units.peak_m(point.a1),
+            "peak_out_of_plane_m": units.peak_m(point.a2), "stable": bool(point.stable), **v}
 
 
 def least_damping_global(derivation, design_wind_m_s: float, U_max_m_s: float | None = None,
@@ -704,10 +717,14 @@ def least_damping_global(derivation, design_wind_m_s: float, U_max_m_s: float | 
     linear = design_damping(d, design_wind_m_s, U_max)["least_damping_ratio"]
     steps = []
 
+    setting = {}
+
     def gallops(xi):
-        below, how, low = _gallops_below(with_damping(d.ode, xi), U_des, U_max)
+        below, how, low, point = _gallops_below(with_damping(d.ode, xi), U_des, U_max)
         steps.append({"damping_ratio": xi, "gallops_below_design_wind": below, "lowest_U_m_s": units.wind_m_s(low),
                       "how": how})
+        if below and xi >= setting.get("damping_ratio", -1.0):
+            setting.update(damping_ratio=xi, point=point)
         return below
 
     lo = max(linear, 1e-6)
@@ -724,7 +741,13 @@ def least_damping_global(derivation, design_wind_m_s: float, U_max_m_s: float | 
             mid = 0.5 * (lo + hi)
             lo, hi = (mid, hi) if gallops(mid) else (lo, mid)
         xi = hi
+    cycle = _setting_cycle(d, setting.get("point"), units)
+    if cycle is not None:
+        cycle["damping_ratio"] = setting["damping_ratio"]
     return {"design_wind_m_s": design_wind_m_s, "least_damping_ratio_global": xi, "scruton_global": units.scruton(xi),
+            "setting_cycle": cycle,
+            "beyond_valid_range": None if not cycle or "beyond_valid_range" not in cycle
+            else bool(cycle["beyond_valid_range"]),
             "least_damping_ratio_linear": linear, "relative_tolerance": rtol,
             "current_damping_ratio": d.ode.xi_s, "enough": d.ode.xi_s >= xi, "steps": steps,
             "seconds": time.perf_counter() - t0,
