@@ -109,6 +109,7 @@ def test_boxes_short_of_the_goal_share():
 # ------------------------------------------------------------------------------------------------
 # the stage, end to end on two candidates and one wind scene
 # ------------------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_bound_stage_stops_resumes_and_agrees_with_the_report(tmp_path):
     """Two candidates (the sample's readings at two yaws), the wind scene fig03 only, goal 46 of 48:
     the bound is 46 less the fig03 and no-wind statements the report's code decides other than yes
@@ -365,6 +366,7 @@ def test_fig11_ame_statement_is_decided_without_the_ode21_series(tmp_path):
     assert "ode21" not in {r.get("source") for r in load_scene_data(tmp_path / "bare" / "fig11").series}
 
 
+@pytest.mark.slow
 def test_a_deferred_overlay_runs_only_when_its_boxes_can_change_the_outcome(tmp_path):
     """Fig. 8 on the sample's candidate, goal boxes of fig08 alone. A goal the branches' statements
     cannot settle: the scene runs without its overlay, then again with it (two runs), and the boxes

@@ -93,6 +93,7 @@ def test_model_name_never_makes_a_path(name, tmp_path, monkeypatch, sample_spec)
 
 
 @pytest.mark.parametrize("name", ["../../escaped", "x/../../../y\nz"])
+@pytest.mark.slow
 def test_model_file_with_hostile_name_writes_only_in_the_cache(name, cache, warm, tmp_path):
     """The same through the command line and a model file: `derive` and a `simulate` either refuse
     the name (exit 2) or run, and every file created lies in the cache folder; a run gives the
@@ -125,6 +126,7 @@ def _only(folder: Path, pattern: str) -> Path:
 
 
 @pytest.mark.parametrize("damage", ["emptied", "garbled"])
+@pytest.mark.slow
 def test_damaged_pydstool_wrapper_is_rebuilt(damage, cache, warm):
     """An emptied or garbled ``*_vf.py`` wrapper of the PyDSTool build gave a1 = Infinity,
     "diverged", exit 0 in every later run: now the build fails its check and is made again."""
@@ -138,6 +140,7 @@ def test_damaged_pydstool_wrapper_is_rebuilt(damage, cache, warm):
 
 
 @pytest.mark.parametrize("damage", ["library", "pickle"])
+@pytest.mark.slow
 def test_corrupt_library_or_truncated_pickle_is_rebuilt(damage, cache, warm):
     """Two bytes changed inside the compiled library, or the pickled generator cut short: the
     sha256 in the build manifest no longer matches, the artefact is rebuilt, a1 is the clean one."""
@@ -197,6 +200,7 @@ _C_SCRIPT = textwrap.dedent("""
 
 
 @pytest.mark.parametrize("damage", ["garbled", "truncated", "lock is a folder"])
+@pytest.mark.slow
 def test_c_kernel_and_integrator_checked_and_locks_recover(damage, tmp_path):
     """The C integrator (`cintegrate`) and kernel (`ckernel`): a garbled or truncated ``kernel.so``
     is rebuilt (one line each), a build lock replaced by a folder no longer blocks the build; the
@@ -233,6 +237,7 @@ def test_c_kernel_and_integrator_checked_and_locks_recover(damage, tmp_path):
         assert (lib.parent / "build.lock").is_file()
 
 
+@pytest.mark.slow
 def test_pydstool_lock_replaced_by_a_folder_recovers(cache, warm):
     """A PyDSTool build lock replaced by a folder failed every run; now it is moved aside (the
     wrapper is deleted too, so the run must build under that lock)."""
@@ -294,6 +299,7 @@ def _snapshot(root: Path) -> dict:
     return {str(p): (p.stat().st_mtime_ns, p.stat().st_size) for p in root.rglob("*") if not p.is_symlink()}
 
 
+@pytest.mark.slow
 def test_read_only_warm_cache_is_used_and_a_needed_write_is_a_cache_error(cache, warm, tmp_path):
     """A shared, pre-built cache without write permission: a warm `simulate` runs from it and
     changes nothing (no folder, lock or timing file is made); a model it does not hold must be

@@ -122,6 +122,7 @@ def test_no_wind_difference_over_the_space_is_round_off(spec):
     assert study.no_wind_difference(spec, space) < 1e-12
 
 
+@pytest.mark.slow
 def test_twisted_axes_linear_term_is_the_mean_load():
     """On the twisted axes b2' = cos(theta) b2 + sin(theta) b3, so d b2'/d theta at rest is
     d b2 / d theta + b3(0) and d b3'/d theta = d b3 / d theta - b2(0): the mean load of eq. (11)
@@ -140,6 +141,7 @@ def test_twisted_axes_linear_term_is_the_mean_load():
 
 @pytest.mark.parametrize("conv", ["eq12", "mirrored", "reversed"])
 @pytest.mark.parametrize("axes", ["reference", "twisted"])
+@pytest.mark.slow
 def test_jet_expansion_equals_sympy(conv, axes):
     """The truncated-Taylor expansion of eq. (14) (what `derive` and the screen use) against
     sympy's differentiation, every angle sense, both axes."""
@@ -242,6 +244,7 @@ def test_bad_space_is_one_line(tmp_path):
         assert "\n" not in msg and str(path) in msg and field in msg
 
 
+@pytest.mark.slow
 def test_rerun_recomputes_nothing_on_disk(tmp_path):
     """Resumable: a rerun reads every finished point; an interrupted one (a point's file missing)
     recomputes that point only. Counted."""
@@ -273,6 +276,7 @@ def test_rerun_recomputes_nothing_on_disk(tmp_path):
     assert after == ["no"] * len(before)
 
 
+@pytest.mark.slow
 def test_screen_and_full_evaluation_agree_on_shared_targets(spec, tmp_path):
     """The targets both stages decide (U_c through the onset, omega1, rho): the screen from eq. (21)
     (fast_ode, eigenvalues) and the full evaluation from the Fig. 3 scene's output folder
@@ -430,6 +434,7 @@ def test_full_evaluation_tables_and_statement_map(tmp_path):
     assert png.is_file() and png.stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_full_evaluation_resumes_scene_by_scene(tmp_path):
     """A full evaluation stopped part-way (its verdicts not written, one scene's folder lost) reuses
     every scene whose folder holds a complete run of the same scene file and computes only the lost
@@ -472,6 +477,7 @@ def test_full_evaluation_resumes_scene_by_scene(tmp_path):
     assert {k: v["shown"] for k, v in third["verdicts"].items()} == {k: v["shown"] for k, v in again["verdicts"].items()}
 
 
+@pytest.mark.slow
 def test_derive_equals_the_sympy_route_on_every_term_of_eq21():
     """`derive` expands the load with the jet; projecting sympy's expansion instead gives the same
     coefficient on every term of eq. (21) (1e-11 relative to the largest of its equation)."""

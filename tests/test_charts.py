@@ -176,6 +176,7 @@ def one_parameter(system, eta, at):
     return continue_equilibria(problem, ContinuationSettings(), np.zeros(4), name="I", engine="compiled")
 
 
+@pytest.mark.slow
 def test_curves_pass_through_the_special_points_of_another_continuation(chart_u0, ame_systems):
     res, _ = chart_u0
     calm = ame_systems[0]

@@ -19,6 +19,10 @@ from conftest import REPO, SAMPLE
 
 from autocable.bench.calibration import space_text
 
+# Each test starts a Dask scheduler and workers and runs figures or a calibration on them (a minute
+# or more): the whole file is in the slow tier.
+pytestmark = pytest.mark.slow
+
 TARGETS = REPO / "models" / "luongo_zulli_2012.targets.toml"
 SCENES = "fig03,fig06"
 SPACE = space_text([-6.569711, 0.0])     # the sample's mirrored reading at these yaws, screen only

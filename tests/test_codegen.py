@@ -280,6 +280,7 @@ def _decay(rate: float) -> VectorField:
     return VectorField("decay", ("x",), [-rate * k * x], {"k": 1.0})
 
 
+@pytest.mark.slow
 def test_changed_equations_get_a_fresh_build_and_identical_ones_reuse_it(tmp_path, monkeypatch):
     """Same base name, different equations: different module, different numbers, no stale reuse.
 

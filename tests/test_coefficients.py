@@ -50,6 +50,7 @@ def _evaluate(rhs, names, point):
     return np.array(sp.lambdify([sp.Symbol(n) for n in names], list(rhs), modules="mpmath")(*point), float)
 
 
+@pytest.mark.slow
 def test_the_template_restores_the_rhs_and_is_the_same_for_every_coefficient(ame):
     from autocable.methods.continuation import ame_system
     system = ame_system(ame, "2dof", wind=True)
@@ -76,6 +77,7 @@ def _fresh(monkeypatch, tmp_path):
     cintegrate._integrator_for.cache_clear()
 
 
+@pytest.mark.slow
 def test_two_ames_of_one_structure_share_one_kernel_and_keep_their_coefficients(ame, monkeypatch, tmp_path):
     from autocable.methods.continuation import ame_system
     _fresh(monkeypatch, tmp_path)
@@ -102,6 +104,7 @@ def test_two_ames_of_one_structure_share_one_kernel_and_keep_their_coefficients(
     assert len(list((tmp_path / "ckernel").iterdir())) == 2
 
 
+@pytest.mark.slow
 def test_two_ames_of_one_structure_share_one_integrator(ame, monkeypatch, tmp_path):
     from autocable.methods.continuation import ame_system
     _fresh(monkeypatch, tmp_path)
@@ -153,6 +156,7 @@ def _one_build(engine: str, cache) -> int:
     ("compiled", lambda kappa: f"duffing_{kappa}"),    # the kernel is keyed by structure, not by name
     ("pycont", lambda kappa: "duffing_pycont"),        # PyDSTool names its build: one name, one build
 ])
+@pytest.mark.slow
 def test_each_duffing_finds_its_own_folds_with_one_build(monkeypatch, tmp_path, engine, name):
     """Two Duffing slow flows of one structure with different coefficients: one build (the C
     kernel; PyCont's EP-C generator with the numbers as PyDSTool parameters), and each finds its

@@ -198,6 +198,7 @@ print("end", flush=True)
 
 
 @pytest.mark.parametrize("how", ["session", "bare"])
+@pytest.mark.slow
 def test_compiler_opt_caches_are_written_at_the_end_of_a_build_and_not_at_exit(how):
     """numpy.distutils' CCompilerOpt writes its cache from an atexit hook; on a full disk the hook's
     traceback came after autocable's own message. The session writes it when the build ends (an
@@ -215,6 +216,7 @@ def test_compiler_opt_caches_are_written_at_the_end_of_a_build_and_not_at_exit(h
         assert "Exception ignored in atexit callback" in proc.stderr and "No space left" in proc.stderr
 
 
+@pytest.mark.slow
 def test_a_full_disk_with_a_cold_cache_prints_one_line_and_no_traceback(tmp_path):
     """A cold cache on a 1.2 MB file system (a tmpfs; skipped where mounting is not permitted):
     exit 3 with autocable's one line naming the place, and no traceback from numpy.distutils'

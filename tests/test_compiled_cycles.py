@@ -297,6 +297,7 @@ def both_cycle_engines(request):
     return request.param, eq, pyc, comp
 
 
+@pytest.mark.slow
 def test_compiled_cycles_equal_pycont_lc_c(both_cycle_engines):
     scene, eq, pyc, comp = both_cycle_engines
     a, b = pyc.branch, comp.branch

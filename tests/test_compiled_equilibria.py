@@ -75,6 +75,7 @@ def engines_with_special_points(request):
     return request.param, problem, settings, pyc, comp
 
 
+@pytest.mark.slow
 def test_same_special_points_as_pycont(engines_with_special_points):
     """Every special point of the PyCont engine is found by the compiled engine and vice versa,
     at the same parameter (1e-8, the test-function tolerance) and a1 (1e-8 relative)."""

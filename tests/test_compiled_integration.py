@@ -230,6 +230,7 @@ def test_envelope_keeps_what_it_had_when_the_integrator_fails_at_a_bounded_state
 
 
 # -- Fig. 11: the AME time series ---------------------------------------------------------------------
+@pytest.mark.slow
 def test_fig11_ame_series_statistics(eq21):
     """Fig. 11: the AME (24) at eta = 1.4e-3, sigma = -0.042, U = 1.3 from rest (q2 = 1e-6) over
     60000 time units, 6 samples per forcing period, integrated twice at rtol = 1e-10: by autocable's

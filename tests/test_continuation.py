@@ -82,6 +82,7 @@ def hopf_run():
     return system, eq, cycles
 
 
+@pytest.mark.slow
 def test_hopf_point_and_first_lyapunov_coefficient(hopf_run):
     system, eq, _ = hopf_run
     b = eq.branch

@@ -504,6 +504,7 @@ def _compiled_checks(d, rng, n=6):
     return I
 
 
+@pytest.mark.slow
 def test_compiled_exact_rung_with_a_table_integrates(stay):
     """A periodic table (30 deg steps: a cold C build of a few seconds) on the exact rung: the
     compiled right-hand side is the numpy load's, its Jacobian the finite differences', and the
@@ -522,6 +523,7 @@ def test_compiled_exact_rung_with_a_table_integrates(stay):
     _compiled_checks(d, np.random.default_rng(5))
 
 
+@pytest.mark.slow
 def test_compiled_exact_rung_with_the_blend_integrates():
     """The shipped blended stay on the exact rung: the same checks; its eq. (21) is the cubic stay's."""
     from autocable.model.derive import derive

@@ -43,6 +43,7 @@ def test_jacobians_equal_sympys_expression_by_expression(system):
     print(f"{system.name}: sympy {t_ref:.2f} s, derivatives {t_fast:.2f} s")
 
 
+@pytest.mark.slow
 def test_lyapunov_tensors_equal_sympys(system):
     xs = [sp.Symbol(v) for v in system.variables]
     rhs = [sp.sympify(e) for e in system.rhs]
@@ -55,6 +56,7 @@ def test_lyapunov_tensors_equal_sympys(system):
     assert d3 == d3_ref
 
 
+@pytest.mark.slow
 def test_numeric_functions_print_the_same_text(system):
     """What lambda_cache stores: lambdify's text from the fast derivatives is sympy's, character
     for character (so cached functions of earlier versions stay valid and no number moves)."""

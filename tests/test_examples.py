@@ -27,6 +27,7 @@ def _out_of_plane_singularity(system, point) -> float:
     return s[-1] / s[0]
 
 
+@pytest.mark.slow
 def test_readme_api_example_reproduces_fig06(tmp_path, monkeypatch):
     """The README's block, run as written (from the repository folder, the plot into tmp_path):
     branch I of Fig. 6 has its two pitchforks, each a true singularity of the out-of-plane block
@@ -52,6 +53,7 @@ def test_readme_api_example_reproduces_fig06(tmp_path, monkeypatch):
     assert I.branch["a1"][0] == pytest.approx(r.a1, rel=1e-6) and I.branch["sigma"][0] == pytest.approx(-0.05)
 
 
+@pytest.mark.slow
 def test_fig06_example_gives_the_same_pitchforks_on_both_engines(tmp_path):
     """examples/fig06.py with PyCont and with the compiled kernel: the same special points of I and
     of the bi-modal branches, to the continuation tolerance (both are refined by autocable's test
@@ -69,6 +71,7 @@ def test_fig06_example_gives_the_same_pitchforks_on_both_engines(tmp_path):
         assert np.allclose([v for _, v in pa], [v for _, v in pb], atol=1e-7)
 
 
+@pytest.mark.slow
 def test_own_cable_example(tmp_path):
     """examples/own_cable.py: a spec written from scratch. omega1 is Irvine's symmetric root of the
     cable's own lambda^2 = delta^2 / tau (tan(b/2) = b/2 - 4 (b/2)^3 / lambda^2, omega1 = b / pi),
@@ -89,6 +92,7 @@ def test_own_cable_example(tmp_path):
     assert abs(rame.a1 - r21.a1) / r21.a1 < STUDY_MAX_ERROR[8.2e-5]
 
 
+@pytest.mark.slow
 def test_ame_vs_ode21_example(tmp_path):
     """examples/ame_vs_ode21.py at Fig. 5b's setting: up and down sweeps agree (a mono-modal
     response with no hysteresis there, Sect. 5) and the AME stay within the study's bound at

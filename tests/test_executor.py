@@ -148,6 +148,7 @@ def _same_table(a: Path, b: Path, rtol: float = 1e-10) -> None:
 QUICK_SCENES = ("fig03", "fig05a", "fig05b", "fig11")
 
 
+@pytest.mark.slow
 def test_figures_on_the_executor_equal_the_serial_path(tmp_path):
     """The same scenes on 2 LocalCluster workers and serially in this process: the same branches,
     special points and overlays (to 1e-10 relative: the same code on the same inputs; BLAS threads
@@ -172,6 +173,7 @@ def _children(pid: int) -> list[int]:
         return []
 
 
+@pytest.mark.slow
 def test_a_killed_worker_during_figures_loses_only_its_scene(tmp_path):
     """SIGKILL of the worker whose scene child has run for 0.5 s: every scene still ends "ok", the
     journal counts exactly one scene started twice, and figures.json names it."""
@@ -207,6 +209,7 @@ def test_a_killed_worker_during_figures_loses_only_its_scene(tmp_path):
         assert load_scene_data(tmp_path / "out" / n).ok
 
 
+@pytest.mark.slow
 def test_figures_json_records_where_the_scenes_ran_and_no_recount_without_a_loss(tmp_path):
     """With its own executor, `run_figures` writes where the scenes ran and the scenes computed
     again into figures.json: none when no worker was lost (the killed-worker test above counts one)."""
@@ -236,6 +239,7 @@ def serial_screen(tmp_path_factory):
     return d, out
 
 
+@pytest.mark.slow
 def test_a_killed_worker_during_a_calibration_screen_loses_only_its_point(serial_screen):
     """SIGKILL of the worker 1 s into its screen point: every point is computed, the journal counts
     exactly one point started twice, calibration.json says so, and the candidates and their

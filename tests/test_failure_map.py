@@ -31,6 +31,7 @@ def quick_map(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_quick_map_writes_report_and_figures(quick_map):
     md = (quick_map / "failure_map.md").read_text()
     for k in (1, 2):
@@ -157,6 +158,7 @@ def _numbers_in_the_text(monkeypatch):
     monkeypatch.setattr(System, "scaled_field", lambda self, coefficients_as_parameters=False: self._scaled_field)
 
 
+@pytest.mark.slow
 def test_pycont_row_passes_the_pitchfork_pycont_cannot_locate(tools, monkeypatch):
     """The map's PyCont row at U = 0, eta = 8e-4 (`continuation_row`, forward from sigma = -0.05 with
     max_step 5e-2) stopped at sigma = 5.06e-4 with "PyCont failed: IndexError: list index out of

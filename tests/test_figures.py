@@ -72,6 +72,7 @@ def _csv(path):
         return list(csv.DictReader(fh))
 
 
+@pytest.mark.slow
 def test_runner_runs_the_good_scenes_and_reports_the_broken_one(figures):
     status, out, _ = figures
     assert status == 3                                 # one scene failed (docs/robustness.md: exit 3)
@@ -196,6 +197,7 @@ def test_report_lists_the_distance_to_digitised_points(figures):
     assert "| I | 7 | 1.25e-05 | 6.5e-06 |" in text
 
 
+@pytest.mark.slow
 def test_the_runner_starts_the_expensive_scenes_first(figures, tmp_path, monkeypatch):
     """Longest first keeps the set's wall time near total / cores: by the wall times recorded in
     the cache when known, else by a weight; the summary keeps name order."""

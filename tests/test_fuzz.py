@@ -106,6 +106,7 @@ def test_arguments(harness):
     assert not failures, _report(failures)
 
 
+@pytest.mark.slow
 def test_a_bad_compare_csv_fails_the_run_naming_it(harness):
     """A real coarse run of Fig. 5a on the compiled engine with a [compare] csv that is not
     numbers: the run exits non-zero naming the csv (after the continuation today)."""

@@ -81,6 +81,7 @@ def test_no_wind_means_no_aerodynamic_term(closed):
     assert not np.allclose(a0, a_small)
 
 
+@pytest.mark.slow
 def test_cubic_expansion_matches_exact_load_to_fourth_order(closed):
     """Eq. (14): the expanded load differs from eqs. (9)-(13) by O(|x|^4), with U symbolic."""
     spec = closed.spec
@@ -160,6 +161,7 @@ def test_sample_yaw_is_the_decoupled_one(closed):
     assert abs(c.get("xi12", 0.0)) < 1e-8
 
 
+@pytest.mark.slow
 def test_literal_eq12_convention_gives_subcritical_galloping(closed):
     """Why the sample spec reads the coefficient curves the other way ("mirrored"): with eq. (12) as
     printed, every member of the U_c family (zeta11 = -2 xi_s omega1) at beta = -90, -60, ..., 90 deg

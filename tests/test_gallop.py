@@ -205,6 +205,7 @@ def _cli(capsys, *args):
     return code, out, err
 
 
+@pytest.mark.slow
 def test_gallop_command_json_matches_the_study(capsys, tmp_path, derivation):
     """--json carries the keys of the brief and the numbers of the study; --out writes the files
     and refuses a folder with files autocable did not write."""

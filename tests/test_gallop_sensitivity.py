@@ -82,6 +82,7 @@ def test_more_modes_against_the_pair_and_the_next_modes(derivation, monkeypatch)
 
 
 # -- the cables ---------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_sample_at_30_m_s_names_the_twist_and_the_curves(capsys):
     """The sample gallops at 30 m/s on a 0.7 m cycle whose twist (natural ends) and phi leave every
     bound; its paper fits state no range, so the sensitivity is undefined, in one line."""
@@ -140,6 +141,7 @@ def test_design_wind_integration_equals_the_independent_exact_load_cycle():
     assert _names(miss) == ["the twist", "the curves"]
 
 
+@pytest.mark.slow
 def test_blended_stay_on_the_cubic_rung_the_band_moves_only_the_verdict():
     """On eq. (21) the curves enter only through their expansion at phi0, which every band of the
     sensitivity holds: each case's lowest galloping speed and Hopf point are the nominal ones
@@ -192,6 +194,7 @@ def test_gallop_command_sensitivity_switch(capsys):
     assert "--sensitivity" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_blended_stay_on_the_exact_rung_follows_its_band():
     """Heavy (four continuations of the exact rung to 26 m/s). With the exact load the band and the
     blend decide the cycle: the fits drive galloping only over their range, so a wider band lets the

@@ -4,6 +4,8 @@ import json
 import subprocess
 import sys
 
+import pytest
+
 from conftest import REPO
 
 
@@ -11,6 +13,7 @@ def _run(*argv, cwd=REPO):
     return subprocess.run([sys.executable, *argv], cwd=cwd, capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.slow
 def test_the_harness_runs_from_the_top_folder():
     """A tiny fuzz run: the counts asked for are the counts run, no problem, exit 0."""
     res = _run("-m", "tools.hardening", "fuzz", "--specs", "3", "--scenes", "2", "--args", "2",

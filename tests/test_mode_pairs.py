@@ -299,6 +299,7 @@ def test_crowded_pairs_are_named_not_refused(stay):
 
 
 # -- the commands -------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_onset_modes_below_3_hz_on_the_190m_stay(capsys, stay):
     """One row per pair below 3 Hz (five: the string's f_k = k 0.588 Hz), frequencies increasing, the
     first row the onset of `autocable onset` itself, the columns left to the galloping study null."""

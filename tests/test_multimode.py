@@ -204,6 +204,7 @@ def test_method_info():
     assert {"solves", "accuracy", "cost_drivers"} <= set(METHOD_INFO)
 
 
+@pytest.mark.slow
 def test_two_modes_suffice_at_fig5a_not_quite_at_fig6(d, integ22, n33):
     """The robust entries of docs/modes_suffice.md. Fig. 5a (eta = 8.2e-5): adding modes moves a1
     by < 0.5 % (measured 0.01 %). Fig. 6 (eta = 1.4e-3, sigma = 0): the parametrically excited

@@ -229,6 +229,7 @@ def two_dof_family(eps: float) -> TwoModeODE:
     return TwoModeODE(terms=tuple(Term(*t) for t in spec), omega1=w1, omega2=w2, xi_s=0.0)
 
 
+@pytest.mark.slow
 def test_two_dof_internal_resonance_against_direct_integration():
     """Both modes excited (1:1 internal and external resonance, U = 1): the AME equilibrium (r_k + i s_k)
     matches the first harmonics of the periodic orbit of eq. (21) with a relative error ~ eps^2."""

@@ -102,6 +102,7 @@ def test_lyapunov_of_the_rayleigh_oscillator():
     assert hp.amplitude_slopes(0.5)[0] == pytest.approx(4 / k, rel=1e-12)
 
 
+@pytest.mark.slow
 def test_lyapunov_is_invariant_under_a_quadratic_change_of_coordinates():
     """The Hopf normal form x' = -w y + s x r^2, y' = w x + s y r^2 (Re c1 = 2 s with |q| = 1, so
     l1 = 2 s / w), rewritten in coordinates x = y + Q(y) with Q quadratic: the new field has quadratic

@@ -122,6 +122,7 @@ def test_onset_command_json_and_errors(capsys):
     assert code == 0 and onset["onsets"][0]["U_star"] == pytest.approx(o["U_star"], rel=1e-14)
 
 
+@pytest.mark.slow
 def test_onset_command_refit_and_damping_files(tmp_path, capsys):
     import csv
     spec = tmp_path / "c.toml"

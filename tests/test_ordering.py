@@ -168,6 +168,7 @@ def test_the_scene_key_and_the_cli_flag(tmp_path, capsys):
     assert out["ame"]["ordering"]["zeta62"] == 2 and out["ame"]["ordering"]["zeta8"] == 3
 
 
+@pytest.mark.slow
 def test_bench_ordering_tables_are_its_measurements(tmp_path, legacy_sample):
     """`autocable bench ordering` on a two-value case on Fig. 4c's island (eq. (21) swept in U over
     0.9, 1.0 at sigma = 0.01, eta* = 4.1e-4): the natural 2-dof AME within 0.5 % at every compared

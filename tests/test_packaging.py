@@ -95,6 +95,8 @@ def test_an_installed_wheel_runs_from_an_empty_folder(wheel, tmp_path):
     empty = tmp_path / "empty"
     empty.mkdir()
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    # the dependencies' programs (swig, which PyDSTool's builds call) live beside this interpreter
+    env["PATH"] = os.pathsep.join([str(bin_), str(Path(sys.executable).parent), env.get("PATH", "")])
     where = subprocess.run([str(bin_ / "python"), "-c", "import autocable._paths as p; print(p.DATA)"],
                            cwd=empty, env=env, capture_output=True, text=True, check=True).stdout.strip()
     data = Path(where)

@@ -8,6 +8,10 @@ from autocable.studies.gallop import gallop_study
 from autocable.studies.pairs_galloping import galloping_lines, pairs_with_galloping
 from conftest import REPO
 
+# Its one test runs the galloping study on a mode pair (cycles continued in U, about 25 s under load):
+# the whole file is in the slow tier.
+pytestmark = pytest.mark.slow
+
 
 def test_every_pair_row_gets_its_galloping_columns():
     """Each row's lowest galloping speed and amplitude are those of the galloping study run on that

@@ -130,6 +130,7 @@ def test_polynomial_extremes_exact_on_the_collocation_polynomial():
     assert lo == pytest.approx(min(x[0], x[-1]), abs=1e-12)
 
 
+@pytest.mark.slow
 def test_linear_branch_closed_form_and_collocation_order():
     """Linear forced oscillator (appended oscillator + LC-C): a1(sigma) against the closed form
     |m| eta Omega^2 / |w^2 - Omega^2 + 2i xi w Omega| at every orbit, errors falling with ntst at the
@@ -170,6 +171,7 @@ def fig5a(sample):
     return b, integ
 
 
+@pytest.mark.slow
 def test_fig5a_branch_against_integration_and_ame(sample, fig5a):
     """Fig. 5a (U = 0, eta = 8.2e-5, sigma in [-0.05, 0.05]): one stable mono-modal branch across
     the range; at 5 of its orbits the steady amplitude of direct integration from rest agrees to
@@ -207,6 +209,7 @@ def fig6_branch_I(sample, fig5a):
                                start_sigma=-0.05, ntst=20, step=0.02, integrator=fig5a[1])
 
 
+@pytest.mark.slow
 def test_fig6_planar_branch_loses_stability_at_two_pitchforks(sample, variational, fig5a, fig6_branch_I):
     """Fig. 6 (U = 0, eta = 1.4e-3), branch I from far below resonance: planar (a2 = 0) across the
     range, no fold, PD or NS; a real multiplier crosses +1 at two pitchforks of cycles (BPC,
@@ -265,6 +268,7 @@ def test_fig6_bimodal_orbit_continues_and_matches_integration(sample, fig5a):
     assert r.a1 == pytest.approx(b.a1[i], rel=1e-6) and r.a2 == pytest.approx(b.a2[i], rel=1e-6)
 
 
+@pytest.mark.slow
 def test_an_off_centre_start_is_continued_both_ways(sample, fig5a):
     """From the initial cycle at sigma = -0.04 PyCont's backward() takes the same sense as forward()
     (both towards sigma = -0.05: seen before the fix, when the branch covered only [-0.05, -0.04]

@@ -195,6 +195,7 @@ def test_simulation_figure_has_history_phase_plane_and_section():
     assert "envelope (max, min per forcing period)" in _legend(fig)
 
 
+@pytest.mark.slow
 def test_the_folds_of_figure_7s_frequency_response_are_labelled(legacy_sample):
     """Fig. 7's setting (U* = 0.7, eta* = 4.1e-4) computed: branch I folds twice (at an LP the
     continued sigma turns back: its value is an extreme of sigma along the branch, within the

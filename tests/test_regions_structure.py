@@ -115,6 +115,7 @@ def test_fig06_chart_classes_unchanged_on_the_symmetric_sample(fig06, sigma):
     # Fig. 6 itself: eq. (21)'s bi-modal orbit (a1, a2) = (3.3e-3, 4.1e-3) is farther from the AME's
     # (1.4e-3, 7.6e-3) than the study's NEAR (the AME's known error at this eta*): undecided
     ("sample", 0.0, 1.4e-3, -0.02, (-1, 1))])
+@pytest.mark.slow
 def test_sweep_points_carry_the_structural_flag(stay190, derivation, which, U, eta, sigma, flags):
     """A sweep's period-1 point records ``bimodal`` by structure (the AME equilibrium it lies on,
     `a2_slaved`; -1 where the AME has none near it) for eq. (21) by shooting and for the AME; the

@@ -101,6 +101,7 @@ def test_ode21_integration_error_is_order_one_in_rtol(tools):
     assert errors[-1] > 1e-3 * rtols[-1]          # resolved, not at the linear limit's floor
 
 
+@pytest.mark.slow
 def test_continuation_error_is_order_two_in_the_step(tools):
     """ame-1dof declares points exact (Newton) and an O(h^2) read-out between them (linear
     interpolation of a smooth curve, h the pseudo-arclength step). Against the closed-form linear
@@ -145,6 +146,7 @@ def test_ame_error_against_eq21_is_order_two_in_eta(tools):
     assert 1.7 < order < 2.3, (errors, order)
 
 
+@pytest.mark.slow
 def test_quick_bench_writes_records_and_chart(tmp_path, tools):
     """`autocable bench --out DIR --quick` (Fig. 5a): every record scored against the eq. (21)
     reference. Measured: ode21-sweep ~2e-6 (the reference differs in rtol only), ame-2dof ~1.7e-3 at

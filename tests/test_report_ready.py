@@ -59,6 +59,7 @@ def test_the_stay_is_the_issues(stay):
 
 
 # -- nothing truncated silently ----------------------------------------------------------------------
+@pytest.mark.slow
 def test_the_issues_frequency_response_covers_its_range(stay_response):
     """ac.frequency_response(e, U=8/7, eta=0.005/145, sigma=(-0.03, 0.03)) once stopped its forward
     end at sigma = 0.0031 without a word; now both ends of I are at the range's ends (the fixture

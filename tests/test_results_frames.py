@@ -123,6 +123,7 @@ def test_every_run_kind_makes_dataframes_and_reads_back(tmp_path):
     assert "TruncatedBranchWarning" not in proc.stderr
 
 
+@pytest.mark.slow
 def test_fig03_results_make_dataframes(tmp_path):
     _run("fig03.toml", tmp_path / "f03")
     res = read_results(tmp_path / "f03")
@@ -135,6 +136,7 @@ def test_fig03_results_make_dataframes(tmp_path):
         assert list(one["a1"]) == pytest.approx(list(b.table["a1"]), rel=0, abs=0)
 
 
+@pytest.mark.slow
 def test_a_time_scene_reads_back_with_no_branches(tmp_path):
     _run("fig11.toml", tmp_path / "f11")
     res = read_results(tmp_path / "f11")
@@ -142,6 +144,7 @@ def test_a_time_scene_reads_back_with_no_branches(tmp_path):
     assert len(res.to_dataframe()) == 0
 
 
+@pytest.mark.slow
 def test_a_missing_branches_csv_is_named(tmp_path):
     _run("fig03.toml", tmp_path / "f03")
     (tmp_path / "f03" / "branches.csv").unlink()

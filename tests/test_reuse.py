@@ -60,6 +60,7 @@ def _rows_without_clocks(path: Path) -> list[dict]:
         return [{k: v for k, v in r.items() if "wall" not in k} for r in csv.DictReader(fh)]
 
 
+@pytest.mark.slow
 def test_a_second_run_reuses_the_stored_scene_and_a_recomputation_gives_the_same_numbers(runs, tmp_path):
     first = _figures(runs, tmp_path / "a")
     assert first["figr1"]["status"] == "ok" and first["figr1"]["reused"] == ""
@@ -178,6 +179,7 @@ def test_a_newer_entry_of_a_scene_replaces_the_older_one(runs, tmp_path):
     assert len(list((tmp_path / "cache" / "scenes").iterdir())) == 2
 
 
+@pytest.mark.slow
 def test_a_scene_whose_inputs_changed_while_it_ran_is_not_stored(runs, tmp_path, monkeypatch):
     """The key is taken before the scene runs; if a file it reads changed meanwhile (a model edited
     during a long run), the results may be of either version: they are published, not stored."""
@@ -211,6 +213,7 @@ def test_an_entry_without_its_run_json_is_not_used(runs, tmp_path, capfd):
 
 @pytest.mark.parametrize("damage", ["garbage entry.json", "a name leaving the entry", "scenes is a file",
                                     "slot is a file"])
+@pytest.mark.slow
 def test_a_damaged_store_never_fails_a_run_nor_gives_foreign_files(runs, tmp_path, damage):
     """Whatever is found in the store's place, the scene is computed (exit 0, the numbers of a
     clean run) and nothing outside an entry is ever copied."""

@@ -66,6 +66,7 @@ def _dead_pid() -> int:
         pid += 1
 
 
+@pytest.mark.slow
 def test_a_run_that_fails_after_the_continuation_reads_incomplete(tmp_path):
     """A [compare] csv without the x, y columns fails after the branches are computed and written:
     the folder keeps what was computed but run.json says "failed" with the reason, and every reader
@@ -179,6 +180,7 @@ def test_a_hidden_file_that_is_no_temporary_file_of_autocable_is_not_removed(tmp
     assert (out / ".holiday.jpg.abcdefgh.tmp").read_text() == "mine"
 
 
+@pytest.mark.slow
 def test_a_run_killed_at_random_moments_never_reads_complete(tmp_path):
     """`python -m tools.hardening kill` with 4 trials (SIGKILL and SIGINT alternating, over the measured
     run time): no folder reads as complete unless its files are complete and consistent, no

@@ -435,6 +435,7 @@ def test_time_scene_schema_errors(tmp_path):
         assert err.value.field == field and "\n" not in str(err.value), (body, err.value.field)
 
 
+@pytest.mark.slow
 def test_a_time_scene_keeps_an_ame_that_blows_up(tmp_path):
     """The natural-ordering AME of the legacy-sense sample (conftest.legacy_path) at U* = 1.3,
     eta* = 4.1e-4 leaves every bound (its step size collapses near t = 1070): the scene is complete,
@@ -479,6 +480,7 @@ def test_modulation_period_of_a_sampled_signal():
     assert modulation_period(t[:2000], a[:2000]) is None          # 100 time units: two crossings
 
 
+@pytest.mark.slow
 def test_ame_auto_picks_the_one_dof_reduction_for_fig05a(tmp_path):
     """`ame = "auto"`: the scene runs `autocable advise`'s probes first; Fig. 5a's settings
     are mono-modal (a2 = 0), so the 1-dof AME is chosen, run and recorded with its reasons. A

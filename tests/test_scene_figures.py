@@ -105,6 +105,7 @@ def test_every_figure_scene_is_covered():
 
 
 @pytest.mark.parametrize("name", sorted(SPECIAL))
+@pytest.mark.slow
 def test_special_points_and_peaks_at_coarse_resolution(scene_results, name):
     res, out = scene_results(name)
     assert (out / f"{name}.png").stat().st_size > 0 and (out / "branches.csv").stat().st_size > 0

@@ -33,6 +33,7 @@ CASES = [("natural", {"sigma": 0.01, "eta": 1.6e-4}, "U", (0.85, 0.95, 1.05)),
 
 
 @pytest.mark.parametrize("order, fixed, name, values", CASES)
+@pytest.mark.slow
 def test_monomials_equal_the_lambdified_field_and_jacobian(systems, order, fixed, name, values):
     system = systems[order]
     m = Monomials.of(system)
@@ -47,6 +48,7 @@ def test_monomials_equal_the_lambdified_field_and_jacobian(systems, order, fixed
 
 
 @pytest.mark.parametrize("order, fixed, name, values", CASES)
+@pytest.mark.slow
 def test_monomial_derivative_tensors_equal_sympys(systems, order, fixed, name, values):
     """`System.hessian` / `third` (from the monomials since they are exact for a polynomial field)
     against sympy's second and third derivatives of the same AME, lambdified: equal to 1e-12 of

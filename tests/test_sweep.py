@@ -98,6 +98,7 @@ def test_default_start_matches_ode21():
     assert DEFAULT_Q0 == ODE21_Q0
 
 
+@pytest.mark.slow
 def test_dask_sweep_with_two_workers_equals_serial(serial, tmp_path):
     """The same sweep on a LocalCluster of 2 worker processes: the same numbers, bit for bit (each
     point is computed independently from the same start by the same compiled code)."""
@@ -108,6 +109,7 @@ def test_dask_sweep_with_two_workers_equals_serial(serial, tmp_path):
     same_numbers(load(out), load(tmp_path / "dask"))
 
 
+@pytest.mark.slow
 def test_killed_worker_sweep_completes_and_rerun_computes_nothing(serial, tmp_path):
     """A worker process killed (SIGKILL) while the sweep runs: Dask's nanny restarts it and the
     lost tasks run again, the sweep completes with the serial numbers; a rerun resumes every point
@@ -127,6 +129,7 @@ def test_killed_worker_sweep_completes_and_rerun_computes_nothing(serial, tmp_pa
     assert again["resumed"] == 12 and again["computed"] == 0
 
 
+@pytest.mark.slow
 def test_interrupted_sweep_resumes_without_recomputing(serial, tmp_path):
     """`autocable sweep` killed mid-way (SIGKILL, serial mode so that the kill lands between
     points): the rerun counts the finished point files as resumed, computes only the others, and
@@ -296,6 +299,7 @@ def followed(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_follow_sweeps_up_and_down_like_the_brute_force_sweeps(followed):
     """With follow, ode21 reproduces `sweeps.sweep` bit for bit (the same carried starts) and
     shooting, started by Newton from the neighbour's orbit, the same responses to 1e-6; up and
@@ -314,6 +318,7 @@ def test_follow_sweeps_up_and_down_like_the_brute_force_sweeps(followed):
     assert up[-1] > 1e-2 and down[-1] < 1e-3
 
 
+@pytest.mark.slow
 def test_follow_resumes_from_the_finished_neighbour(followed):
     """Point files removed from the middle of a followed line (an interrupted sweep): the rerun
     computes only those, starting from the finished neighbour's stored state, on a 2-worker

@@ -83,6 +83,7 @@ def test_interrupted_follow_line_keeps_its_finished_points(tmp_path, monkeypatch
         assert np.array_equal(a[k], b[k]), k
 
 
+@pytest.mark.slow
 def test_follow_line_on_dask_is_one_task_per_point(tmp_path):
     """On Dask a followed line is a chain of one-point tasks (each point's file is written as its
     task returns), and the chain gives the serial line's numbers bit for bit."""
@@ -172,6 +173,7 @@ def test_a_folder_a_live_sweep_holds_is_refused_and_freed_when_it_ends(tmp_path)
     assert run_sweep(spec, out, workers=0)["computed"] == 3
 
 
+@pytest.mark.slow
 def test_dask_scratch_space_is_inside_the_cache(tmp_path, monkeypatch):
     """A LocalCluster sweep writes its Dask scratch space under $AUTOCABLE_CACHE/dask-scratch and
     nothing into the system temporary folder (TMPDIR pointed at an empty folder here)."""

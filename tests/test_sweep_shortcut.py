@@ -43,6 +43,7 @@ def _both(name: str):
 
 
 @pytest.mark.parametrize("name", ["fig07", "fig09", "fig04c"])
+@pytest.mark.slow
 def test_shortcut_gives_the_full_integrations_answer(name):
     full, fast, shortcut = _both(name)
     assert len(full) == len(fast)
@@ -129,6 +130,7 @@ def test_settle_prediction_sees_a_slow_mode_with_a_small_share():
 
 # -- the recurrence stop: a modulated motion ends as "not steady" before max_time ---------------------
 @pytest.mark.parametrize("name", ["fig08", "fig10", "fig04b", "fig09"])
+@pytest.mark.slow
 def test_recurrence_stop_gives_the_full_integrations_class(name):
     """`RecurrenceStop` against integrating every point to max_time (both with the period-1
     shortcut), on the overlays with the most modulated responses: Figs. 8 and 10 (U* = 1.3 over

@@ -12,6 +12,7 @@ from conftest import SAMPLE
 MODEL = SAMPLE
 
 
+@pytest.mark.slow
 def test_sweeps_show_the_hysteresis_of_fig7_settings_in_both_methods(derivation):
     """U = 0.7, eta = 4.1e-4 (Fig. 7): the continuation finds folds at sigma ~ 0.0024 and 0.019, so
     at sigma = 0.01 two stable responses coexist. Sweeping up keeps the large one, sweeping down the
