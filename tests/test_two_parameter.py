@@ -116,6 +116,7 @@ def duffing_folds():
     return system, eq, continue_folds(eq, "LP1", "f", (0.0, 0.3))
 
 
+@pytest.mark.slow
 def test_fold_curve_is_the_duffing_discriminant_and_reaches_the_cusp(duffing_folds):
     system, eq, folds = duffing_folds
     b = folds.branch
@@ -172,6 +173,7 @@ def test_curve_start_errors():
 
 
 # --------------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_brusselator_hopf_curve_is_b_equals_one_plus_a_squared():
     x, y, a, b = sp.symbols("x y a b")
     system = System("brusselator", ("x", "y"), (a - (b + 1) * x + x * x * y, b * x - x * x * y),
@@ -205,6 +207,7 @@ def bogdanov_takens():
                   {"b1": -1.0, "b2": -1.0}, (("a1", ("x", "y")),))
 
 
+@pytest.mark.slow
 def test_hopf_curve_ends_at_the_bogdanov_takens_point(bogdanov_takens):
     system = bogdanov_takens
     problem = EquilibriumProblem(system, "b2", {"b1": -1.0, "b2": -2.0}, (-2.0, 1.0))
@@ -237,6 +240,7 @@ def test_fold_curve_passes_the_bogdanov_takens_point(bogdanov_takens):
     assert_folds_checked(F, system)
 
 
+@pytest.mark.slow
 def test_generalized_hopf_point_of_the_bautin_normal_form():
     x, y, b1, b2 = sp.symbols("x y b1 b2")
     r2 = x * x + y * y
@@ -261,6 +265,7 @@ def folds_scene(tmp_path_factory):
     return run_scene(load_scene(FOLDS_SCENE), out), out
 
 
+@pytest.mark.slow
 def test_fold_curve_scene_runs_end_to_end(folds_scene):
     res, out = folds_scene
     for name in ("branches.csv", "special_points.csv", "run.json", "folds_sigma_eta.png",
