@@ -284,3 +284,22 @@ def test_figures_refuses_foreign_files_and_clears_only_its_dead_temporaries(tmp_
         with figures_folder(out):
             pass
     assert (out / "notes.txt").read_text() == "mine" and (out / ".notes.txt.ab12cd34.tmp").exists()
+
+
+def test_a_scene_folder_that_lost_its_run_json_is_still_ours(tmp_path):
+    """An interrupted run's scene folder without run.json (and its copied figures) is taken back
+    by a run of that scene or after a figures.json listing it; a folder of another name is not."""
+    from autocable.paper.figures import figures_folder
+    from autocable.spec import SpecError
+    out = tmp_path / "out"
+    (out / "fig05a").mkdir(parents=True)
+    (out / "fig05a" / "branches.csv").write_text("x")
+    (out / "fig05a.png").write_text("x")
+    with figures_folder(out, ["fig05a"]):
+        pass
+    with pytest.raises(SpecError, match=r"did not write \(fig05a, fig05a\.png\)"):
+        with figures_folder(out, ["fig03"]):
+            pass
+    (out / "figures.json").write_text(json.dumps({"scenes": [{"name": "fig05a"}]}))
+    with figures_folder(out, ["fig03"]):
+        pass

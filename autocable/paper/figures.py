@@ -294,11 +294,12 @@ def _reuse_stored(pending: list[Path], out: Path, model_arg: str | None, engine:
 FIGURES_LOCK = ".autocable-figures.lock"
 
 
-def _ours(out: Path, entry: Path) -> bool:
+def _ours(out: Path, entry: Path, names: frozenset = frozenset()) -> bool:
     """Whether ``entry`` of a figures ``--out`` is something `autocable figures` writes there: a
-    scene folder (its run.json, or an error.txt, names it), a figure copied up from one
-    (``<scene>.png``/``.pdf``, ``<scene>_plane.*``, of a scene folder there), figures.json,
-    report.md beside a figures.json, the journal and the lock."""
+    scene folder (named as a scene of ``names``, or its run.json or an error.txt says so), a
+    figure copied up from one (``<scene>.png``/``.pdf``, ``<scene>_plane.*``), figures.json,
+    report.md beside a figures.json, the journal and the lock. A scene's own folder is checked
+    for foreign files by its run (`autocable.run_folder.output_folder`)."""
     import re
 
     from autocable._store import read_json
@@ -311,22 +312,24 @@ def _ours(out: Path, entry: Path) -> bool:
         return (out / SUMMARY_JSON).is_file()
     if entry.is_dir() and not entry.is_symlink():
         meta = read_json(entry / RUN_JSON)
-        return ((isinstance(meta, dict) and meta.get("name") == n) or (entry / ERROR_TXT).is_file()
+        return (n in names or (isinstance(meta, dict) and meta.get("name") == n) or (entry / ERROR_TXT).is_file()
                 or not any(entry.iterdir()))
     m = re.fullmatch(r"(?P<scene>.+?)(_plane)?\.(png|pdf)", n)
     if m and entry.is_file():
         meta = read_json(out / m["scene"] / RUN_JSON)
-        return isinstance(meta, dict) and meta.get("name") == m["scene"]
+        return m["scene"] in names or (isinstance(meta, dict) and meta.get("name") == m["scene"])
     return False
 
 
 @contextlib.contextmanager
-def figures_folder(out: Path):
-    """Hold ``out`` for one `autocable figures` run: a folder another live run holds is refused
-    (one line naming ``--out`` and that run's process: two runs would share the journal of task
-    starts and remove each other's temporaries); one holding files `autocable figures` did not
-    write (`_ours`) is refused; the half-written temporaries of a killed run are removed (the lock
-    proves their writer dead). Yields ``out``."""
+def figures_folder(out: Path, scenes: Sequence[str] = ()):
+    """Hold ``out`` for one `autocable figures` run of the scenes named ``scenes``: a folder
+    another live run holds is refused (one line naming ``--out`` and that run's process: two runs
+    would share the journal of task starts and remove each other's temporaries); one holding
+    files `autocable figures` did not write (`_ours`: besides its fixed files, what an earlier run
+    listed in figures.json or a scene of this run names) is refused; the half-written temporaries
+    of a killed run are removed (the lock proves their writer dead). Yields ``out``."""
+    from autocable._store import read_json
     import fcntl
     import re
 
@@ -347,13 +350,17 @@ def figures_folder(out: Path):
                                                   f"{out}; wait for it or give another folder") from None
         os.ftruncate(fd, 0)
         os.pwrite(fd, str(os.getpid()).encode(), 0)
+        listed = read_json(out / SUMMARY_JSON)
+        earlier = [s.get("name") for s in listed.get("scenes", []) if isinstance(s, dict)] \
+            if isinstance(listed, dict) and isinstance(listed.get("scenes"), list) else []
+        names = frozenset(str(n) for n in [*scenes, *earlier] if isinstance(n, str) and n)
         foreign, temporaries = [], []
         for entry in sorted(out.iterdir()):
             m = temp.match(entry.name)
             if m and entry.is_file() and (m["name"] in (SUMMARY_JSON, "report.md")
                                           or m["name"].endswith((".png", ".pdf"))):
                 temporaries.append(entry)        # a killed run's: we hold the lock, its writer is dead
-            elif not _ours(out, entry):
+            elif not _ours(out, entry, names):
                 foreign.append(entry.name)
         if foreign:
             shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
@@ -368,7 +375,7 @@ def figures_folder(out: Path):
 
 def run_figures(scenes: Sequence[Path], out_dir: str | Path, **kwargs) -> list[SceneOutcome]:
     """`run_figures_in` under the folder's lock (`figures_folder`): one writer per output folder."""
-    with figures_folder(Path(out_dir)):
+    with figures_folder(Path(out_dir), [Path(p).stem for p in scenes]):
         return run_figures_in(scenes, out_dir, **kwargs)
 
 
@@ -689,7 +696,7 @@ def cmd_figures(args) -> int:
         on_done = None
     t0 = time.perf_counter()
     try:
-        with figures_folder(out):        # one writer: the scenes, figures.json and report.md
+        with figures_folder(out, [p.stem for p in scenes]):     # one writer: scenes, figures.json, report.md
             outcomes = run_figures_in(scenes, out, workers=args.workers, scheduler=args.scheduler,
                                       timeout=args.timeout, say=say,
                                       engine=getattr(args, "engine", None), model=model, on_done=on_done,
