@@ -233,3 +233,14 @@ def test_a_zero_dimensional_array_is_refused_by_name(derivation):
         frequency_response(derivation, eta=8.2e-5, sigma=np.array(1e-4), switch=False)
     with pytest.raises(ArgumentError, match="q0"):
         ShootingSolver(derivation.ode).steady(0.0, 8.2e-5, 0.0, np.array(0.1))
+
+
+def test_strict_json_takes_numpy_booleans():
+    """Found by the generated onset runs: ``onset --damping A:B --out DIR --design-wind 20 --json``
+    ended in "TypeError: Object of type bool_ is not JSON serializable" (the amplitude rows' numpy
+    booleans); strict JSON now writes them as true/false."""
+    import json
+
+    from autocable.cli.checks import dumps
+    assert json.loads(dumps({"stable": np.bool_(True), "rows": [np.bool_(False), np.float32(0.5)]})) == \
+        {"stable": True, "rows": [False, 0.5]}

@@ -165,6 +165,8 @@ def strict(x):
         return [strict(v) for v in x]
     try:                                 # numpy scalars
         import numpy as np
+        if isinstance(x, np.bool_):      # a numpy comparison's result: true/false, not an error
+            return bool(x)
         if isinstance(x, np.floating):
             return strict(float(x))
         if isinstance(x, np.integer):
