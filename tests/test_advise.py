@@ -81,6 +81,7 @@ def test_advise_names_the_load_and_curve_rungs_a_motion_needs():
     assert "valid range" in reasons[1] and "+-80 deg" in reasons[1]
 
 
+@pytest.mark.slow
 def test_advise_measures_the_probes_validity():
     """Fig. 7's probes (U* = 0.7, small responses): measured, inside the curves' range, no load rung."""
     from autocable.studies.advise import choose_ame

@@ -109,6 +109,7 @@ def _single_model(tmp_path, inputs, name):
 
 
 @pytest.mark.parametrize("key", ["least_damping", "onset_U_m_s"])
+@pytest.mark.slow
 def test_band_ends_equal_single_onset_runs(band145, tmp_path, capsys, key):
     """Each end of the band is what `autocable onset FILE [--design-wind 25] --json` gives for a model
     file holding that end's inputs (1e-9 relative)."""

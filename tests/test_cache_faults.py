@@ -158,6 +158,7 @@ def test_corrupt_library_or_truncated_pickle_is_rebuilt(damage, cache, warm):
     assert ("pickled generator" if damage == "pickle" else "PyDSTool library") in done.stderr
 
 
+@pytest.mark.slow
 def test_edited_derivation_is_derived_again(cache, warm):
     """A cached derivation edited in place (omega1 x 1.01) was used as is (a1 off by 41 %): its
     payload no longer matches its sha256, so eq. (21) is derived again and a1 is the clean one."""

@@ -213,6 +213,7 @@ def test_curves_pass_through_the_special_points_of_another_continuation(chart_u0
     assert abs(BP["sigma"][start] - I.special("BP1").value) < 1e-9
 
 
+@pytest.mark.slow
 def test_bp_curve_points_checked_independently(chart_u0, ame_systems):
     res, _ = chart_u0
     calm = ame_systems[0]

@@ -213,6 +213,7 @@ def hopf_system():
     return vf, cont
 
 
+@pytest.mark.slow
 def test_pycont_finds_hopf_point_and_first_lyapunov_coefficient(hopf_system):
     vf, cont = hopf_system
     hopf = cont["EQ1"].getSpecialPoint("H1")

@@ -326,6 +326,7 @@ def test_compiled_cycles_equal_pycont_lc_c(both_cycle_engines):
     assert [s.label for s in a.special_points] == [s.label for s in b.special_points]
 
 
+@pytest.mark.slow
 def test_collocation_monodromy_is_the_variational_one(both_cycle_engines):
     scene, eq, _, comp = both_cycle_engines
     b = comp.branch

@@ -254,6 +254,7 @@ def test_fig6_planar_branch_loses_stability_at_two_pitchforks(sample, variationa
             assert r.a2 > 1e-3
 
 
+@pytest.mark.slow
 def test_fig6_bimodal_orbit_continues_and_matches_integration(sample, fig5a):
     """At sigma = 0 integration from rest reaches a stable bi-modal period-1 orbit (a2 > 0); its
     branch is continued, and an orbit a few steps away agrees with integration there to 1e-6."""
