@@ -21,7 +21,7 @@ from autocable._store import atomic_write_json, read_json
 from autocable.results import BRANCHES_CSV, RUN_JSON, SPECIAL_CSV, STATUS_COMPLETE, status_of
 from autocable.spec import SpecError
 
-__all__ = ["STAGING_PREFIX", "is_leftover", "output_folder", "pid_alive"]
+__all__ = ["STAGING_PREFIX", "is_leftover", "output_folder", "pid_alive", "reclaim"]
 
 #: The staging folder of the process ``<pid>`` inside an output folder.
 STAGING_PREFIX = ".autocable-staging-"
@@ -70,6 +70,25 @@ def _owned_files(meta, name: str) -> set[str]:
         # damper.png or branches.csv) is the user's, refused, not replaced
         return set()
     return _run_names(meta, name)
+
+
+def reclaim(out_dir: str | Path, name: str) -> bool:
+    """Take back ``out_dir`` as a folder of runs of ``name`` after its run.json was lost, for a
+    caller whose own record says the folder is its (`autocable.paper.figures`: a scene folder of
+    this figures run or of its earlier figures.json). Without run.json nothing there is owned
+    (`_owned_files`: a user's damper.png is not replaced), so the folder of a stopped figures run
+    that lost one scene's run.json was refused as foreign and the scene never ran again. run.json
+    is written "failed" (not a result), listing only the files there named as a run of ``name``
+    writes them: those are replaced by the next run, any other file still refuses the folder.
+    Returns whether run.json was written (not when it exists or ``out_dir`` is no folder)."""
+    out = Path(out_dir)
+    if not out.is_dir() or out.is_symlink() or os.path.lexists(out / RUN_JSON):
+        return False
+    files = sorted(n for n in _run_names(None, name) if (out / n).is_file() and not (out / n).is_symlink())
+    atomic_write_json(out / RUN_JSON, {"format": "autocable.run/1", "name": name, "status": "failed",
+                                       "reason": "run.json was lost; taken back by a run that listed this folder",
+                                       "files": files})
+    return True
 
 
 def _run_names(meta, name: str) -> set[str]:

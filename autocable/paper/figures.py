@@ -427,6 +427,11 @@ def run_figures_in(scenes: Sequence[Path], out_dir: str | Path, *, jobs: int | N
     out = Path(out_dir)
     stopped: list = []
     out.mkdir(parents=True, exist_ok=True)
+    from autocable.run_folder import reclaim
+    for path in scenes:
+        # a folder of this run's scene that lost its run.json (a stopped run) is ours, as for
+        # figures_folder: without this its run refuses the files an earlier run of it wrote
+        reclaim(out / Path(path).stem, Path(path).stem)
     tell = say or (lambda msg: None)
     if workers is None:
         workers = jobs
