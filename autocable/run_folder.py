@@ -33,6 +33,13 @@ _RUN_FILES = (BRANCHES_CSV, SPECIAL_CSV, "overlay.csv", "overlay_ame.csv", "comp
 _TEMP = re.compile(r"^\.(?P<name>.+)\.[a-z0-9_]{8}\.(tmp|png|pdf)$")
 
 
+def temporary_of(name: str) -> str | None:
+    """The name of the file whose atomic write left the temporary ``name`` (``.<name>.<8>.tmp``),
+    or None when ``name`` is no such temporary."""
+    m = _TEMP.match(name)
+    return m["name"] if m else None
+
+
 def is_leftover(name: str) -> bool:
     """Whether a name in an output folder is what a killed run leaves: its staging folder or the
     temporary file of an atomic write (the next run into the folder removes both)."""

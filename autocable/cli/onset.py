@@ -129,7 +129,7 @@ def onset_folder(out: Path):
 
     from autocable._store import read_json
     from autocable.results import RUN_JSON
-    from autocable.run_folder import _TEMP, is_leftover, output_folder
+    from autocable.run_folder import is_leftover, output_folder, temporary_of
     try:
         out.mkdir(parents=True, exist_ok=True)
         fd = os.open(out, os.O_RDONLY | os.O_DIRECTORY)
@@ -147,8 +147,7 @@ def onset_folder(out: Path):
         foreign, temporaries = [], []
         for entry in sorted(out.iterdir()):
             n = entry.name
-            m = _TEMP.match(n)
-            if m and m["name"] in ONSET_FILES + (RUN_JSON,) and entry.is_file():
+            if temporary_of(n) in ONSET_FILES + (RUN_JSON,) and entry.is_file():
                 temporaries.append(entry)       # a killed onset's half-written file: its writer is dead
             elif is_leftover(n) or (ours and (n == RUN_JSON or n in listed)):
                 continue                        # output_folder's: a live run's staging folder is refused there
