@@ -225,6 +225,7 @@ def test_initial_state_mapping():
     assert np.array_equal(initial_amplitudes(DEFAULT_Q0, Omega), [0.0, -0.0, 1e-6, -0.0])
 
 
+@pytest.mark.slow
 def test_forced_response_matches_eq21_fig5a(ame_int, ode_int, pair):
     """U = 0, eta = 8.2e-5: at 21 sigma in [-0.05, 0.05] the AME from the same start reaches a stable
     period-1 state on the branch eq. (21) is on, with a1 within 2 % (measured: max ~1.1e-3, at

@@ -51,6 +51,7 @@ def test_the_145m_stay_is_the_issues_cable():
     assert units_of(spec, cable_statics(spec.cable)).frequency_hz(1.0) == pytest.approx(0.7668, rel=1e-4)
 
 
+@pytest.mark.slow
 def test_band_covers_every_combination_and_lists_the_failures(band145):
     """2 readings x 2 yaw signs x 5 onset speeds = 20 calibrations, each a case (more with a second
     admissible root); a failed one keeps its one-line reason, which names the fix (the yaw's sign)."""

@@ -300,6 +300,7 @@ def test_study_bound_is_part_of_the_rule_and_prior_records_of_another_rule_are_c
     assert "1 of the read records were decided under another rule" in text and "none of them could then" in text
 
 
+@pytest.mark.slow
 def test_fig03_statements_other_than_boxes_are_decided_without_the_overlay(tmp_path):
     """The bound drops Fig. 3's eq. (21) overlay (`run_bound`, ``skip_overlay``): fig03's statements
     other than fig03.boxes must be decided the same from the scene without its overlay as with it
@@ -339,6 +340,7 @@ def test_switch_off_sets_a_key_of_one_table_only(tmp_path):
     assert _switch_off(path, "time", "ode21") and read_toml(path)[0]["time"] == {"ode21": False, "U": 1.3}
 
 
+@pytest.mark.slow
 def test_fig11_ame_statement_is_decided_without_the_ode21_series(tmp_path):
     """The bound drops Fig. 11's eq. (21) series (`run_bound`, ``skip_ode21``): it decides only
     fig11.envelope21 and fig11.same_motion, autocable's own checks that never lower a bound; the

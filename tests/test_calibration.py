@@ -80,6 +80,7 @@ def test_restrained_twist_closed_form(spec):
     assert abs(mid / res.shapes["theta2"].evaluate(np.array([0.5]))[0]) > 2500
 
 
+@pytest.mark.slow
 def test_restrained_twist_coefficient_by_quadrature(spec):
     """k21 (the twist-carried stiffness of q2 in the in-plane eq. 21) with restrained twist, against
     an independent adaptive quadrature of its definition -K b2_theta int(phi1 theta2) / (m* int phi1^2)."""

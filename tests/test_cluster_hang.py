@@ -89,6 +89,7 @@ def _figures(sfile: Path, out: Path, tmp_path: Path) -> tuple[subprocess.Complet
     return done, time.perf_counter() - t0
 
 
+@pytest.mark.slow
 def test_a_scheduler_without_workers_ends_in_a_bounded_time_naming_scheduler(scheduler, tmp_path):
     out = tmp_path / "out"
     done, wall = _figures(scheduler, out, tmp_path)
@@ -107,6 +108,7 @@ def test_a_scheduler_without_workers_ends_in_a_bounded_time_naming_scheduler(sch
                                                    (out / "fig03").iterdir())
 
 
+@pytest.mark.slow
 def test_a_sweep_on_a_scheduler_without_workers_ends_too(scheduler, tmp_path):
     env = dict(os.environ, PYTHONPATH=str(REPO), AUTOCABLE_NO_WORKER_TIMEOUT=str(LIMIT_S),
                AUTOCABLE_CACHE=str(tmp_path / "cache"))
@@ -155,6 +157,7 @@ def _drain_bounded(ex, seconds: float = 30.0):
     return box[0]
 
 
+@pytest.mark.slow
 def test_a_cluster_whose_last_worker_dies_ends_too(scheduler, tmp_path):
     """The worker passes the first-contact check, starts the task and is killed: the task waits
     for a worker that never comes, and the run ends after the limit instead."""
@@ -206,6 +209,7 @@ def test_bad_time_limits_are_refused_by_name(monkeypatch):
         no_worker_seconds(float("nan"))
 
 
+@pytest.mark.slow
 def test_a_worker_that_cannot_import_autocable_is_refused_by_name(scheduler, tmp_path):
     env = dict(os.environ, PYTHONPATH=str(tmp_path))         # and autocable blocked in the worker
     proc, log = _worker(scheduler, tmp_path, env, code="import sys\nsys.modules['autocable'] = None")
@@ -222,6 +226,7 @@ def test_a_worker_that_cannot_import_autocable_is_refused_by_name(scheduler, tmp
     assert not (out / "fig03").exists()                       # refused before any work
 
 
+@pytest.mark.slow
 def test_a_worker_running_another_copy_of_autocable_is_refused_by_name(scheduler, tmp_path):
     copy = tmp_path / "elsewhere"
     shutil.copytree(REPO / "autocable", copy / "autocable", ignore=shutil.ignore_patterns("__pycache__"))

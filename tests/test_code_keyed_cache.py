@@ -252,6 +252,7 @@ def test_the_serial_executor_returns_the_code_each_task_ran(code_copy):
     assert done.code["code"] == _store.code_fingerprint("package") and done.code["version"]
 
 
+@pytest.mark.slow
 def test_a_pydstool_library_built_after_its_generator_changed_gets_no_manifest(code_copy, capsys):
     """PyDSTool's build (a C library, its wrapper and pickled generator) is recorded in its manifest
     only when autocable/codegen did not change since the process loaded it."""

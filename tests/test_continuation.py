@@ -100,6 +100,7 @@ def test_hopf_point_and_first_lyapunov_coefficient(hopf_run):
     assert b["mu"][0] == pytest.approx(-0.2) and b["mu"][-1] == pytest.approx(0.3)
 
 
+@pytest.mark.slow
 def test_cycles_from_the_hopf_point_have_the_normal_form_amplitude(hopf_run):
     _, _, cycles = hopf_run
     c = cycles.branch

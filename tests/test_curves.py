@@ -536,6 +536,7 @@ def test_compiled_exact_rung_with_the_blend_integrates():
     assert [t.coefficient for t in derive(spec).ode.terms] == [t.coefficient for t in plain.ode.terms]
 
 
+@pytest.mark.slow
 def test_every_consumer_of_the_cubic_reads_a_tables_cubic(stay):
     """A table sampled from the fits is the fits (not-a-knot spline through a cubic): the N-mode
     equations (2 + 2 modes), a scene's cubic-load error columns and the decoupling calibration of the

@@ -186,6 +186,7 @@ def test_compiled_right_hand_side_equals_the_numpy_reference():
         assert np.max(np.abs(got[2:] - want)) <= 1e-12 * np.max(np.abs(want))
 
 
+@pytest.mark.slow
 def test_compiled_right_hand_side_in_every_octant_of_the_relative_wind():
     """The compiled exact rung prints its own atan2 (`autocable.codegen.cintegrate`: octant
     reduction and a polynomial, not libm's): at cable velocities of up to three times the wind, where

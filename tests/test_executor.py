@@ -285,6 +285,7 @@ def _started(seconds: float) -> float:
 
 
 @pytest.mark.parametrize("workers", [0, 2])
+@pytest.mark.slow
 def test_strict_priority_gives_the_next_free_worker_the_highest_task(workers):
     """Dask assigns a task to a worker when it is submitted, so a task queued later with a higher
     priority (a figure scene freed when its group's first scene is done) waited behind earlier,

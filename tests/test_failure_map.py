@@ -47,6 +47,7 @@ def test_quick_map_writes_report_and_figures(quick_map):
     assert re.search(r"^\| 0\.7 \| 0 \| not_run \|", md, flags=re.M)
 
 
+@pytest.mark.slow
 def test_linear_limit_error_below_1e6(quick_map):
     md = (quick_map / "failure_map.md").read_text()
     rows = [line.split("|") for line in md.splitlines() if re.match(r"\| 1e-06 \| [+-]0\.0", line)]

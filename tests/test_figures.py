@@ -93,6 +93,7 @@ def test_runner_runs_the_good_scenes_and_reports_the_broken_one(figures):
     assert "**1 scene(s) failed**" in report
 
 
+@pytest.mark.slow
 def test_report_numbers_are_the_output_numbers(figures):
     _, out, _ = figures
     report = (out / "report.md").read_text()

@@ -89,6 +89,7 @@ def test_monomial_derivative_tensors_equal_sympys(systems, order, fixed, name, v
 
 
 @pytest.mark.parametrize("order, fixed, name, values", CASES)
+@pytest.mark.slow
 def test_the_search_finds_the_same_equilibria_either_way(systems, order, fixed, name, values):
     system = systems[order]
     m = Monomials.of(system)

@@ -80,6 +80,7 @@ def test_the_190m_stay_gallops_on_a_bounded_cycle_with_the_recommended_curves_an
     assert [m["ingredient"] for m in data["missing_ingredient"]] == ["the curves"]
 
 
+@pytest.mark.slow
 def test_a_global_least_damping_set_by_a_cycle_beyond_the_model_says_so():
     """stay_190m on eq. (21)'s cubic load: the global least damping is set by a cycle below the
     design wind at the largest damping that still gallops; that cycle's validity is reported, and on

@@ -151,6 +151,7 @@ def test_fold_curve_is_the_duffing_discriminant_and_reaches_the_cusp(duffing_fol
           f"({abs(cp.value - SIGMA_CUSP):.1e}, {abs(cp.extra['value2'] - F_CUSP):.1e})")
 
 
+@pytest.mark.slow
 def test_fold_curve_checks_hold_at_every_point(duffing_folds):
     system, _, folds = duffing_folds
     assert_folds_checked(folds.branch, system)
@@ -225,6 +226,7 @@ def test_hopf_curve_ends_at_the_bogdanov_takens_point(bogdanov_takens):
     assert_hopf_checked(B, system, skip=(len(B) - 1,))
 
 
+@pytest.mark.slow
 def test_fold_curve_passes_the_bogdanov_takens_point(bogdanov_takens):
     system = bogdanov_takens
     problem = EquilibriumProblem(system, "b1", {"b1": -1.0, "b2": -0.5}, (-1.0, 0.5))
