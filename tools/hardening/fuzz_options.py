@@ -162,11 +162,12 @@ def onset_args_case(rng: random.Random, heavy: bool = True) -> Case:
         return onset_args_case(rng, heavy)
     expect = INVALID if invalid else ODD
     # a refusal may name another option it met first, or (--set) the cable field the change made impossible
-    names = tuple(invalid + either) + (("cable.",) if "--set" in opts else ())
+    # (the premises' refusals write the keys as "check [cable] length_m, ...")
+    names = tuple(invalid + either) + (("cable.", "[cable]") if "--set" in opts else ())
     if "--max-wind" in opts and "--design-wind" in opts:
         names += ("--max-wind", "--design-wind")
     if not invalid:
-        names = tuple(o[0] for o in picked) + ("cable.",)
+        names = tuple(o[0] for o in picked) + ("cable.", "[cable]")
     label = "onset " + " ".join(a for a in argv[3:])
     return Case("onset_args", label, expect, names, files, tuple(argv), timeout=120.0 if is_heavy else 30.0,
                 out_files=out_files, post=_onset_post(oracles, out_files, names if invalid else ()))
