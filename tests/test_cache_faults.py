@@ -173,6 +173,7 @@ def test_edited_derivation_is_derived_again(cache, warm):
         pytest.approx(doc["payload"]["ode"]["omega1"] / 1.01, rel=1e-15, abs=0)
 
 
+@pytest.mark.slow
 def test_edited_amplitude_equations_are_derived_again(cache, warm):
     """The same for the cached AME (22)-(24): its frequencies x 1.01 are detected, the AME derived
     again, and `simulate --method ame` gives the clean a1."""

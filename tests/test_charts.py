@@ -231,6 +231,7 @@ def test_bp_curve_points_checked_independently(chart_u0, ame_systems):
     assert np.all(B["check_residual"] <= 1e-8)
 
 
+@pytest.mark.slow
 def test_chart_scene_end_to_end(chart_u0):
     res, out = chart_u0
     for name in ("chart_sigma_eta_U0_chart.png", "chart_sigma_eta_U0_chart.pdf", "regions.csv",

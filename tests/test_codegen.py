@@ -229,6 +229,7 @@ def test_pycont_finds_hopf_point_and_first_lyapunov_coefficient(hopf_system):
     assert data.l1 == pytest.approx(W * kuznetsov, rel=1e-4)
 
 
+@pytest.mark.slow
 def test_pycont_cycles_from_hopf_follow_the_normal_form(hopf_system, tmp_path, monkeypatch):
     """LC-C from H1: period 2 pi / w, amplitude sqrt((mu - mu0)/(-a_GH)); CWD stays empty."""
     vf, cont = hopf_system

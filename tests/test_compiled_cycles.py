@@ -341,6 +341,7 @@ def test_collocation_monodromy_is_the_variational_one(both_cycle_engines):
         assert np.max(np.abs(want - got)) < 1e-7, (scene, want, got)
 
 
+@pytest.mark.slow
 def test_batched_chart_equals_the_pointwise_chart(both_cycle_engines):
     from autocable.codegen.ckernel import compiled_kernel
     _, eq, _, _ = both_cycle_engines

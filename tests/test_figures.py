@@ -115,6 +115,7 @@ def test_report_numbers_are_the_output_numbers(figures):
     assert float(m.group(2)) == pytest.approx(a1max, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_interpolation_and_overlay_comparison_on_a_written_overlay(figures):
     """A hand-made overlay at a branch point's own sigma: the AME value must be the branch's
     (interpolation exact at a node), the error formula |a1_AME - a1_21| / a1_21, the bound the study's."""
