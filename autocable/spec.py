@@ -30,27 +30,27 @@ CALIBRATE = "calibrate"
 #: The longest message a `SpecError` carries: a value quoted in full (``drag = [1e300, ...]``, a
 #: long string) must not turn a one-line error into kilobytes.
 MAX_MESSAGE = 240
+#: The longest file path a `SpecError` shows whole (a longer one keeps its last part).
+MAX_PATH = 160
 
 
 class SpecError(ValueError):
     """A bad model or scene file. ``str(err)`` is one line: ``file: field: what is expected``
-    (line breaks are folded into spaces and the message is cut at `MAX_MESSAGE` characters)."""
+    (line breaks are folded into spaces). Neither part's cut depends on the other: the file's path
+    is kept whole up to `MAX_PATH` characters (beyond, its last part, which names the file); the
+    field and the message after it are cut only beyond `MAX_MESSAGE` characters, which a message of
+    the package's own fits whole, its fix included (a quoted value is bounded by `show`)."""
 
     def __init__(self, path, field: str, message: str):
         self.path = str(path)
         self.field = field
-        text = f"{self.path}: {field}: {message}" if field else f"{self.path}: {message}"
-        text = " ".join(text.split())
-        if len(text) > MAX_MESSAGE and field:
-            # a long path gives way first: the field and the message (its hint, the fix) are what
-            # the user acts on, and a cut that depends on where the file lies hid the fix
-            rest = " ".join(f"{field}: {message}".split())
-            room = MAX_MESSAGE - len(rest) - 5
-            if room >= 0 and len(self.path) > room:
-                text = f"...{self.path[-room:] if room else ''}: {rest}"
-        if len(text) > MAX_MESSAGE:
-            text = text[:MAX_MESSAGE - 3] + "..."
-        super().__init__(text)
+        rest = " ".join((f"{field}: {message}" if field else message).split())
+        if len(rest) > MAX_MESSAGE:
+            rest = rest[:MAX_MESSAGE - 3] + "..."
+        shown = " ".join(self.path.split())
+        if len(shown) > MAX_PATH:
+            shown = "..." + shown[-(MAX_PATH - 3):]
+        super().__init__(f"{shown}: {rest}")
 
 
 def show(value, limit: int = 60) -> str:

@@ -286,18 +286,20 @@ def test_band_with_both_angles_given_and_with_the_yaw_calibrated():
 
 @pytest.mark.parametrize("path_length", [10, 100, 300, 3000])
 def test_a_long_path_gives_way_to_the_message(path_length):
-    """SpecError keeps a one-line message within its 240 characters by shortening the path first:
-    a field and message that fit are never cut (the path's tail kept as room allows); only a message
-    too long by itself is cut at its end."""
-    from autocable.spec import MAX_MESSAGE, SpecError
+    """SpecError keeps the field and the message whole up to its 240 characters whatever the path
+    (the cut that hid the calibration's fix depended on where the file lay); the path is shown whole
+    up to MAX_PATH characters, beyond that by its last part; only a message too long by itself is
+    cut at its end."""
+    from autocable.spec import MAX_MESSAGE, MAX_PATH, SpecError
     path = "/" + "p" * (path_length - 6) + ".toml"
-    message = "the fix: " + "m" * 205 + " END"          # 232 characters with the field: 3 left for a path
+    message = "the fix: " + "m" * 205 + " END"          # 232 characters with the field
     text = str(SpecError(path, "aero.yaw_deg", message))
-    full = f"{path}: aero.yaw_deg: {message}"
-    assert len(text) <= MAX_MESSAGE and text.endswith("aero.yaw_deg: " + message)
-    assert text == full if len(full) <= MAX_MESSAGE else text.startswith("...")
-    cut = str(SpecError(path, "aero.yaw_deg", "m" * 300))
-    assert len(cut) == MAX_MESSAGE and cut.endswith("...")
+    assert text.endswith(": aero.yaw_deg: " + message)
+    shown = text[:-len(": aero.yaw_deg: " + message)]
+    assert shown == path if len(path) <= MAX_PATH else (shown.startswith("...") and path.endswith(shown[3:])
+                                                         and len(shown) == MAX_PATH)
+    cut = str(SpecError("/m.toml", "aero.yaw_deg", "m" * 300))
+    assert len(cut) == len("/m.toml: ") + MAX_MESSAGE and cut.endswith("...")
 
 
 @pytest.mark.parametrize("design", [30.0, 40.0, 45.0])

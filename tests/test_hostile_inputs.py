@@ -17,7 +17,7 @@ import pytest
 
 from autocable.cli import main
 from autocable.model.premises import CABLE_LIMITS, PremiseWarning, check_model
-from autocable.spec import SpecError, load_model, parse_model
+from autocable.spec import MAX_MESSAGE, MAX_PATH, SpecError, load_model, parse_model
 from conftest import REPO, SAMPLE
 
 FIG05A = REPO / "runs" / "fig05a.toml"
@@ -37,7 +37,9 @@ def _refused(capsys, argv, *needles):
     """Run the CLI: exit 2, one short line on stderr containing every needle."""
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
-    assert "\n" not in err and len(err) < MAX_LINE + 40, err
+    # one line: the prefix, the path (whole up to MAX_PATH) and the field with its message (whole up
+    # to MAX_MESSAGE: a fix at its end is never cut by a long path)
+    assert "\n" not in err and len(err) < len("autocable: error: ") + MAX_PATH + 2 + MAX_MESSAGE + 1, err
     for n in needles:
         assert n in err, (n, err)
     return err

@@ -147,7 +147,7 @@ def check_model(spec: ModelSpec) -> dict[str, float]:
         # why eq. (21) needs the bound, when the line has room for it beside the file and every field
         full = f"{value:.3g} is outside [{lo:g}, {hi:.4g}], where eq. (21) describes {needs}; check {fields}"
         short = f"{value:.3g} not in [{lo:g}, {hi:.4g}]; check {fields}"
-        raise SpecError(where, what, full if len(f"{where}: {what}: {full}") <= MAX_MESSAGE else short)
+        raise SpecError(where, what, full if len(f"{what}: {full}") <= MAX_MESSAGE else short)
 
     def warn(key, value, limit):
         what, fields, needs = names[key]
