@@ -1,4 +1,4 @@
-"""A run on a Dask cluster never hangs and never uses another autocable (issue 39, item 3): a real
+"""A run on a Dask cluster never hangs and never uses another autocable: a real
 `dask scheduler` process with no worker, then with a worker that cannot import autocable, then one
 that runs another copy of it, and one killed while it runs a task. The no-worker time limit is set
 to 2-3 s here (``AUTOCABLE_NO_WORKER_TIMEOUT``; default 60 s). Run time: about 50 s on two shared

@@ -1,6 +1,6 @@
 """Every cached artefact is keyed by the code that computes it (the sha256 of its source files,
 `autocable._store.code_fingerprint`), not by a version label someone must remember to bump, and
-is stored only when that code did not change while it was computed (issue 39, items 1 and 2).
+is stored only when that code did not change while it was computed.
 
 The package is never edited in place: each test copies it into a temporary folder, points the
 fingerprint at the copy (`_store._code_root`) and edits the copy. A fresh ``_LOADED`` stands for a

@@ -1,4 +1,4 @@
-"""The small defects a hostile user found (issue 39, "Smaller"), each turned into a test that fails
+"""The small defects a hostile user found, each turned into a test that fails
 without its fix: onset's damping grid with a non-finite point count, a cable field set twice, a
 vanishing diameter, refusals quoting a number as typed, a slowly decaying run reported as decaying
 to rest, and the spec fuzz's refusals naming the field that was changed (not only a derived one).

@@ -1,4 +1,4 @@
-"""Results a report can use as they come (issue 38, items 3-4): short reprs, a Hopf point's
+"""Results a report can use as they come: short reprs, a Hopf point's
 criticality in labels, tables and the run summary, plots against the deck frequency in Hz, distinct
 branch names, and no branch cut at its point budget without saying so.
 

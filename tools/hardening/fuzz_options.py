@@ -1,4 +1,4 @@
-"""Generated hostile inputs on the surfaces added after the first fuzz rounds (issue 39, item 7):
+"""Generated hostile inputs on the surfaces added after the first fuzz rounds:
 `autocable onset` and `autocable damper` options, model specs given to them (the ``[damper]`` table
 too), and the keywords of the Python API (`frequency_response`, `ShootingSolver.steady`,
 `plot_branches`) with numbers of every type, None, bools, strings, tuples of the wrong length and
@@ -142,7 +142,7 @@ def onset_args_case(rng: random.Random, heavy: bool = True) -> Case:
             is_heavy = True
         if oracle and valid:
             oracles.append(oracle)
-    # rules between options (docs/onset.md): what one option asks of another
+    # rules between options (docs/guide/cli.md, docs/band.md): what one option asks of another
     if "--refit" in opts and "--set" not in opts:
         invalid.append("--refit")
     if "--uc" in opts and "--band" not in opts:
