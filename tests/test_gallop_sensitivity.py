@@ -248,3 +248,20 @@ def test_plot_draws_the_sensitivity(monkeypatch):
         assert len(spans) == 1 and spans[0].get_width() == pytest.approx(1.5)
     P.plot_gallop(dict(study, sensitivity={"defined": False, "reason": "x"}), "unused")
     assert not any(ax.containers or ax.patches for ax in figs[-1].axes)
+
+
+def test_plot_marks_the_cycles_beyond_the_models_range(monkeypatch):
+    """Each cycle flagged beyond_valid_range gets a cross at its (U, peak) on its panel, and only
+    those: the marker the validity of every result asks for on the plot."""
+    from autocable.plotting import gallop as P
+    figs = []
+    monkeypatch.setattr(P, "save_figure", lambda fig, stem: figs.append(fig) or [])
+    rows = [{"U_m_s": 10.0 + i, "peak_in_plane_m": 0.1 * i, "peak_out_of_plane_m": 0.05 * i, "stable": i > 1,
+             "kind": "cycle", "beyond_valid_range": i >= 3} for i in range(6)]
+    case = {"damping_ratio": 0.001, "scruton": 2.0, "hopf_points": [{"hopf_U_m_s": 10.0, "rows": rows}]}
+    P.plot_gallop({"scanned_U_m_s": [0.2, 50.0], "design_wind_m_s": 25.0, "cases": [case]}, "unused")
+    for ax, key in zip(figs[-1].axes, ("peak_in_plane_m", "peak_out_of_plane_m")):
+        crosses = [ln for ln in ax.lines if ln.get_marker() == "x" and len(ln.get_xdata())]
+        assert len(crosses) == 1
+        assert list(crosses[0].get_xdata()) == [13.0, 14.0, 15.0]
+        assert list(crosses[0].get_ydata()) == pytest.approx([rows[i][key] for i in (3, 4, 5)])

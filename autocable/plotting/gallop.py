@@ -77,6 +77,10 @@ def plot_gallop(study: dict, stem: str | Path, title: str = "") -> list[Path]:
                         ax.plot([r["U_m_s"] for r in run], [r[key] for r in run], "-" if stable else "--",
                                 color=color, lw=1.4 if stable else 1.0, label=label if first and stable else None)
                         first = first and not stable
+                    beyond = [r for r in rows if r.get("beyond_valid_range")]
+                    if beyond:          # where the curves, the twist law or the cubic load no longer hold
+                        ax.plot([r["U_m_s"] for r in beyond], [r[key] for r in beyond], "x", color="0.45",
+                                ms=3.5, mew=0.8, zorder=3)
                     folds = [r for r in rows if r.get("kind") == "LPC"]
                     if folds:
                         ax.plot([r["U_m_s"] for r in folds], [r[key] for r in folds], "o", color=color, mfc="white",
@@ -94,6 +98,8 @@ def plot_gallop(study: dict, stem: str | Path, title: str = "") -> list[Path]:
             ax.plot([], [], "o", color="0.3", mfc="white", ms=5, label="fold of cycles (LPC)")
             ax.plot([], [], "^", color="0.3", ms=6, label="Hopf point of the rest state")
             ax.plot([], [], "--", color="0.3", lw=1.0, label="unstable cycle")
+            ax.plot([], [], "x", color="0.45", ms=3.5, mew=0.8,
+                    label="beyond the model's range (phi, twist or cubic load: validity)")
             ax.set_xlabel("wind speed U [m/s]")
             ax.set_ylabel(f"{name} peak displacement at mid-span [m]")
             if _finite(U_top):
