@@ -502,6 +502,9 @@ def model_fields() -> dict[str, tuple[str, bool]]:
     for section, rules in (("cable", _CABLE_RULES), ("aero", _AERO_RULES)):
         for key, (_, _, expected) in rules.items():
             out[f"{section}.{key}"] = (expected, key not in _OPTIONAL)
+    out["damper"] = ("a table (optional): a viscous damper near the lower anchorage", False)
+    for key, expected in _DAMPER_RULES.items():
+        out[f"damper.{key}"] = (expected, False)
     return out
 
 

@@ -58,6 +58,12 @@ MODEL = {
     "aero.load": "The rung of the load: \"cubic\" (its cubic expansion, eq. 14: the paper's eq. 21; default) or "
                  "\"exact\" (eqs. 11-13 without expansion at every section, projected by quadrature; "
                  "docs/exact-load.md). `--load` of simulate, onset and gallop overrides it.",
+    "damper": "A viscous damper near the lower anchorage (docs/dampers.md): its modal damping is added to "
+              "cable.damping_ratio in onset, the frequency responses and the amplitude studies.",
+    "damper.position_m": "x_d, the damper's distance from the lower anchorage along the chord [m].",
+    "damper.constant_N_s_m": "c, the damper's viscous constant [N s/m].",
+    "damper.support_stiffness_N_m": "k_s, the stiffness of the damper's support, in series with it [N/m]; "
+                                    "left out: a rigid support.",
 }
 
 #: Scene files (``runs/*.toml``): one paper figure each.
