@@ -29,3 +29,9 @@ def test_every_pair_row_gets_its_galloping_columns():
     assert "pending_columns" not in report
     text = "\n".join(galloping_lines(report))
     assert f"{row['lowest_galloping_U_m_s']:.4g}" in text
+    # the design-wind cycle's validity travels with the row: the study's own numbers
+    cycle = direct["cases"][0]["design_cycle"]
+    assert row["phi_swept_deg"] == pytest.approx(cycle["phi_swept_deg"], rel=1e-9)
+    assert row["twist_max_deg"] == pytest.approx(cycle["twist_max_deg"], rel=1e-9)
+    assert row["missing_ingredient"] == [m["ingredient"] for m in direct["missing_ingredient"]]
+    assert f"phi +-{row['phi_swept_deg']:.3g} deg" in text

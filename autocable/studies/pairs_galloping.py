@@ -35,8 +35,14 @@ def pairs_with_galloping(d, below_hz: float, design_wind_m_s: float | None, U_ma
             row["lowest_galloping_U_m_s"] = g.get("lowest_galloping_U_m_s")
             row["amplitude_at_design_wind_m"] = g.get("amplitude_at_design_wind_m")
             row["beyond_valid_range"] = g.get("beyond_valid_range")
-            row["least_damping_global"] = least_damping_global(dk, design_wind_m_s, U_max_m_s)[
-                "least_damping_ratio_global"]
+            cycle = ((g.get("cases") or [{}])[0].get("design_cycle")) or {}
+            row["phi_swept_deg"] = cycle.get("phi_swept_deg")
+            row["twist_max_deg"] = cycle.get("twist_max_deg")
+            row["design_verdict"] = g.get("design_verdict")
+            row["missing_ingredient"] = [m["ingredient"] for m in g.get("missing_ingredient") or []]
+            lg = least_damping_global(dk, design_wind_m_s, U_max_m_s)
+            row["least_damping_global"] = lg["least_damping_ratio_global"]
+            row["least_damping_global_beyond_valid_range"] = lg.get("beyond_valid_range")
         except (SpecError, ComputationError) as exc:
             row["galloping_note"] = str(exc)
     report.pop("pending_columns", None)
@@ -48,7 +54,13 @@ def pairs_with_galloping(d, below_hz: float, design_wind_m_s: float | None, U_ma
         "lowest_galloping_U_m_s": "the lowest wind speed on the pair's galloping branch (a cycle fold below a "
                                   "sub-critical onset)",
         "beyond_valid_range": "the design-wind cycle leaves the aerodynamic curves' valid range or the cubic "
-                              "load's (autocable.model.validity)"})
+                              "load's (autocable.model.validity)",
+        "phi_swept_deg": "max |phi - phi0| along the design-wind cycle [deg] (null: no stable cycle there)",
+        "twist_max_deg": "the largest twist along the design-wind cycle [deg]",
+        "missing_ingredient": "what the model lacks for the design-wind motion (autocable gallop): the twist, "
+                              "the curves, the load or more modes",
+        "least_damping_global_beyond_valid_range": "the cycle that sets the global least damping leaves the "
+                                                   "model's range (the bound does not hold within validity)"})
     return report
 
 
@@ -65,6 +77,12 @@ def galloping_lines(report: dict) -> list[str]:
         xi = r.get("least_damping_global")
         amp_text = f"{amp[0]:.3g} / {amp[1]:.3g}" if amp else "-"
         valid = {True: "BEYOND the model's range", False: "inside", None: "-"}[r.get("beyond_valid_range")]
+        if r.get("phi_swept_deg") is not None:
+            valid += f" (phi +-{r['phi_swept_deg']:.3g} deg, twist {r.get('twist_max_deg') or 0.0:.2g} deg)"
+        if r.get("missing_ingredient"):
+            valid += "; missing: " + ", ".join(r["missing_ingredient"])
+        if r.get("least_damping_global_beyond_valid_range"):
+            valid += "; global xi set beyond the range"
         line = (f"  {r['k']:2d}  {low:14.4g}" if low is not None else f"  {r['k']:2d}  {'-':>14}")
         line += f"  {amp_text:>34}  {(f'{100 * xi:.4g} %' if xi is not None else '-'):>16}  {valid}"
         if r.get("galloping_note") and low is None:
