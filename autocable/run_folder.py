@@ -33,6 +33,34 @@ _RUN_FILES = (BRANCHES_CSV, SPECIAL_CSV, "overlay.csv", "overlay_ame.csv", "comp
 _TEMP = re.compile(r"^\.(?P<name>.+)\.[a-z0-9_]{8}\.(tmp|png|pdf)$")
 
 
+@contextmanager
+def folder_lock(out: Path, lock_name: str, command: str) -> Iterator[None]:
+    """Hold the lock ``lock_name`` of the output folder ``out`` (made if needed) for one run of
+    ``autocable command``: an advisory ``flock`` the kernel releases however the process ends, the
+    file holding the holder's pid to name it. A folder another live run holds is refused (one line
+    naming ``--out`` and that process): two writers would mix their files and remove each other's
+    temporaries. While it is held, a temporary in ``out`` is a dead writer's."""
+    import fcntl
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        fd = os.open(out / lock_name, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as exc:
+        raise SpecError("arguments", "--out", f"cannot use {out}: {exc.strerror or exc}; give a folder that "
+                                              "can be written") from None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 32, 0).decode("ascii", "replace").strip() or "?"
+            raise SpecError("arguments", "--out", f"another autocable {command} (process {holder}) is writing into "
+                                                  f"{out}; wait for it or give another folder") from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, str(os.getpid()).encode(), 0)
+        yield
+    finally:
+        os.close(fd)
+
+
 def temporary_of(name: str) -> str | None:
     """The name of the file whose atomic write left the temporary ``name`` (``.<name>.<8>.tmp``),
     or None when ``name`` is no such temporary."""

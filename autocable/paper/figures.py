@@ -330,35 +330,18 @@ def figures_folder(out: Path, scenes: Sequence[str] = ()):
     listed in figures.json or a scene of this run names) is refused; the half-written temporaries
     of a killed run are removed (the lock proves their writer dead). Yields ``out``."""
     from autocable._store import read_json
-    import fcntl
-    import re
+    from autocable.run_folder import folder_lock, temporary_of
 
-    # the temporary file of `autocable._store.atomic_write_bytes` killed half-way: .<name>.<8>.tmp
-    temp = re.compile(r"^\.(?P<name>.+)\.[a-z0-9_]{8}\.tmp$")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        fd = os.open(out / FIGURES_LOCK, os.O_RDWR | os.O_CREAT, 0o644)
-    except OSError as exc:
-        raise SpecError("arguments", "--out", f"cannot use {out}: {exc.strerror or exc}; give a folder that "
-                                              "can be written") from None
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = os.pread(fd, 32, 0).decode("ascii", "replace").strip() or "?"
-            raise SpecError("arguments", "--out", f"another autocable figures (process {holder}) is writing into "
-                                                  f"{out}; wait for it or give another folder") from None
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, str(os.getpid()).encode(), 0)
+    with folder_lock(out, FIGURES_LOCK, "figures"):
         listed = read_json(out / SUMMARY_JSON)
         earlier = [s.get("name") for s in listed.get("scenes", []) if isinstance(s, dict)] \
             if isinstance(listed, dict) and isinstance(listed.get("scenes"), list) else []
         names = frozenset(str(n) for n in [*scenes, *earlier] if isinstance(n, str) and n)
         foreign, temporaries = [], []
         for entry in sorted(out.iterdir()):
-            m = temp.match(entry.name)
-            if m and entry.is_file() and (m["name"] in (SUMMARY_JSON, "report.md")
-                                          or m["name"].endswith((".png", ".pdf"))):
+            target = temporary_of(entry.name)
+            if target and entry.is_file() and (target in (SUMMARY_JSON, "report.md")
+                                               or target.endswith((".png", ".pdf"))):
                 temporaries.append(entry)        # a killed run's: we hold the lock, its writer is dead
             elif not _ours(out, entry, names):
                 foreign.append(entry.name)
@@ -369,8 +352,6 @@ def figures_folder(out: Path, scenes: Sequence[str] = ()):
         for entry in temporaries:
             entry.unlink(missing_ok=True)
         yield out
-    finally:
-        os.close(fd)
 
 
 def run_figures(scenes: Sequence[Path], out_dir: str | Path, **kwargs) -> list[SceneOutcome]:

@@ -34,7 +34,6 @@ dim ``multiplier``), provenance in the attributes. ``DIR/sweep.json`` holds the 
 """
 from __future__ import annotations
 
-import contextlib
 import functools
 import json
 import math
@@ -441,32 +440,11 @@ def estimate(points: int, workers: int, folder: Path) -> dict:
 LOCK_NAME = ".autocable-sweep.lock"
 
 
-@contextlib.contextmanager
 def folder_lock(out: Path):
-    """Hold the sweep lock of ``out`` (made if needed); a folder another live sweep holds is
-    refused (`SpecError` naming ``--out`` and that process): two sweeps into one folder would
-    each remove the other's sweep.nc and mix their summaries."""
-    import fcntl
-
-    from autocable.spec import SpecError
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        fd = os.open(out / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
-    except OSError as exc:
-        raise SpecError("arguments", "--out", f"cannot use {out}: {exc.strerror or exc}; give a folder "
-                                              "that can be written") from None
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = os.pread(fd, 32, 0).decode("ascii", "replace").strip() or "another process"
-            raise SpecError("arguments", "--out", f"another autocable sweep (process {holder}) is writing into "
-                                                  f"{out}; wait for it or give another folder") from None
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, str(os.getpid()).encode(), 0)
-        yield
-    finally:
-        os.close(fd)
+    """Hold the sweep lock of ``out`` (`autocable.run_folder.folder_lock`): two sweeps into one
+    folder would each remove the other's sweep.nc and mix their summaries."""
+    from autocable.run_folder import folder_lock as lock
+    return lock(out, LOCK_NAME, "sweep")
 
 
 def run_sweep(spec: SweepSpec, out_dir, **kwargs) -> dict:
