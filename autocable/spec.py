@@ -61,9 +61,11 @@ def show(value, limit: int = 60) -> str:
 
 
 def number_text(x: float) -> str:
-    """The shorter of ``repr(x)`` and the shortest exponent form that reads back as ``x`` (``1e9``,
-    ``2.5e-7``): the command line and TOML hand over floats, not the text typed, and ``repr`` spells
-    1e9 as ``1000000000.0``; a message quoting that is not the value the user wrote."""
+    """``repr(x)``, or the shortest exponent form that reads back as ``x`` where that is clearly
+    shorter (by 3 characters or more: ``1e9``, not ``1000000000.0``; ``500.0`` stays, not ``5e2``;
+    an exponent ``repr`` is written the short way, ``2.5e-7``): the command line and TOML hand over
+    floats, not the text typed, and a message quoting ``1000000000.0`` is not the value the user
+    wrote."""
     text = repr(x)
     if not math.isfinite(x):
         return text
@@ -72,7 +74,7 @@ def number_text(x: float) -> str:
         if float(short) == x:
             mantissa, exponent = short.split("e")
             short = f"{mantissa}e{int(exponent)}"
-            return short if len(short) < len(text) else text
+            return short if ("e" in text and len(short) <= len(text)) or len(short) + 3 <= len(text) else text
     return text                          # pragma: no cover - 17 digits always read back
 
 

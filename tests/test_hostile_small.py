@@ -70,7 +70,8 @@ def test_refusals_quote_a_number_as_typed(tmp_path, capsys):
 
 def test_number_text_reads_back_and_is_never_longer_than_repr():
     """Closed property on 4000 seeded floats over 600 decades: float(text) == x, and the text is the
-    shorter of repr and the shortest exponent form (so 1e9 -> '1e9', 0.5000001 stays)."""
+    shortest exponent form where that is 3 characters shorter than repr (1e9 -> '1e9') and repr
+    otherwise (0.5000001 and 500.0 stay: '5e2' is not what anyone typed)."""
     rng = random.Random(39)
     for _ in range(4000):
         x = rng.choice((-1, 1)) * rng.random() * 10.0 ** rng.randint(-300, 300)
@@ -79,7 +80,8 @@ def test_number_text_reads_back_and_is_never_longer_than_repr():
         text = number_text(x)
         assert float(text) == x and len(text) <= len(repr(x)), (x, text)
     for x, want in ((1e9, "1e9"), (0.5000001, "0.5000001"), (1e-200, "1e-200"), (-2.5e-7, "-2.5e-7"),
-                    (123456.0, "123456.0"), (0.1, "0.1"), (3.0, "3.0")):
+                    (123456.0, "123456.0"), (0.1, "0.1"), (3.0, "3.0"), (500.0, "500.0"), (-1.0, "-1.0"),
+                    (1e5, "1e5")):
         assert number_text(x) == want and show(x) == want
     assert show(1000000000) == "1000000000"                  # an integer as written
     assert show(float("nan")) == "nan"

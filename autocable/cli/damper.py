@@ -10,6 +10,7 @@ from pathlib import Path
 
 from autocable.cli.checks import check_number, check_out, dumps, refuse, strict
 from autocable.errors import ComputationError
+from autocable.spec import show
 
 #: Modes at most (each is a few milliseconds; more is a typing error in --max-frequency).
 MODES_LIMIT = 100
@@ -45,15 +46,16 @@ def _choice(args, spec):
     if position is None:
         raise refuse("--position", f"{args.model} has no [damper] table: give --position M (the damper's distance "
                                    "from the lower anchorage in m) or add [damper] position_m to the model")
-    if constant is None and args.design_wind is None:
-        raise refuse("--constant", f"{args.model} has no [damper] constant_N_s_m: give --constant C (N s/m), or "
-                                   "--design-wind U for the least constant that suffices")
+    # each value given is checked before a missing one is asked for: the first refusal names what is wrong
     half = spec.cable.length_m / 2
     if not (math.isfinite(position) and 0 < position < half):
         raise refuse("--position", f"expected a distance from the lower anchorage above 0 and below half the "
-                                   f"length ({half:g} m), got {position!r}")
+                                   f"length ({half:g} m), got {show(position)}")
     if constant is not None and not (math.isfinite(constant) and constant > 0):
-        raise refuse("--constant", f"expected a positive damper constant in N s/m, got {constant!r}")
+        raise refuse("--constant", f"expected a positive damper constant in N s/m, got {show(constant)}")
+    if constant is None and args.design_wind is None:
+        raise refuse("--constant", f"{args.model} has no [damper] constant_N_s_m: give --constant C (N s/m), or "
+                                   "--design-wind U for the least constant that suffices")
     source = {"position": "--position" if args.position is not None else "[damper]",
               "constant": None if constant is None else ("--constant" if args.constant is not None else "[damper]")}
     return position, constant, table.support_stiffness_N_m if table else None, source
