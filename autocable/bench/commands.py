@@ -10,6 +10,7 @@ tolerances, on the same equations, in one run (best of ``repeats`` after a warm-
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -20,6 +21,22 @@ import numpy as np
 
 from autocable._paths import MODELS_DIR
 from autocable.plotting.style import styled
+
+
+@contextlib.contextmanager
+def _empty_cache():
+    """A cold start: the cache folder (``$AUTOCABLE_CACHE``) is an empty temporary one while the
+    block runs, the caller's setting restored after it however the block ends."""
+    old = os.environ.get("AUTOCABLE_CACHE")
+    with tempfile.TemporaryDirectory() as tmp:
+        os.environ["AUTOCABLE_CACHE"] = tmp
+        try:
+            yield tmp
+        finally:
+            if old is None:
+                os.environ.pop("AUTOCABLE_CACHE", None)
+            else:
+                os.environ["AUTOCABLE_CACHE"] = old
 
 
 def _best(fn, repeats: int) -> float:
@@ -39,20 +56,12 @@ def bench_derive(model_path: str, repeats: int = 3, log=None) -> dict:
 
     say = log or (lambda s: None)
     spec = load_model(model_path)
-    old = os.environ.get("AUTOCABLE_CACHE")
-    with tempfile.TemporaryDirectory() as tmp:
-        os.environ["AUTOCABLE_CACHE"] = tmp
-        try:
-            say("derivation, cold (empty cache) ...")
-            t0 = time.perf_counter()
-            d = derive(spec)
-            cold = time.perf_counter() - t0
-            cached = min(_timed(lambda: derive(spec)) for _ in range(repeats))
-        finally:
-            if old is None:
-                os.environ.pop("AUTOCABLE_CACHE", None)
-            else:
-                os.environ["AUTOCABLE_CACHE"] = old
+    with _empty_cache():
+        say("derivation, cold (empty cache) ...")
+        t0 = time.perf_counter()
+        d = derive(spec)
+        cold = time.perf_counter() - t0
+        cached = min(_timed(lambda: derive(spec)) for _ in range(repeats))
     say(f"  cold {cold:.2f} s, cached {cached * 1e3:.1f} ms")
 
     pars = {"U": 0.7, "eta": 4.1e-4, "Omega": d.ode.omega1 + 0.01, "wind": 1.0, "Uinv": 1 / 0.7}
@@ -193,18 +202,10 @@ def bench_pairs(model_path: str, repeats: int = 3, log=None, below_hz: float = 3
         return pairs_below(derive(model_path), below_hz, design_wind_m_s)
 
     say = log or (lambda s: None)
-    old = os.environ.get("AUTOCABLE_CACHE")
-    with tempfile.TemporaryDirectory() as tmp:
-        os.environ["AUTOCABLE_CACHE"] = tmp
-        try:
-            t0 = time.perf_counter()
-            report = table()
-            cold = time.perf_counter() - t0
-        finally:
-            if old is None:
-                os.environ.pop("AUTOCABLE_CACHE", None)
-            else:
-                os.environ["AUTOCABLE_CACHE"] = old
+    with _empty_cache():
+        t0 = time.perf_counter()
+        report = table()
+        cold = time.perf_counter() - t0
     warm = _best(table, repeats)
     say(f"{len(report['pairs'])} pairs below {below_hz:g} Hz: cold {cold:.3g} s, warm {warm:.3g} s "
         f"(target {PAIRS_TARGET_S:g} s)")
@@ -224,28 +225,20 @@ def bench_gallop(model_path: str, repeats: int = 3, log=None) -> dict:
     from autocable.studies.gallop import gallop_study
 
     say = log or (lambda s: None)
-    old = os.environ.get("AUTOCABLE_CACHE")
-    with tempfile.TemporaryDirectory() as tmp:
-        os.environ["AUTOCABLE_CACHE"] = tmp
-        try:
-            say("derivation and gallop study, cold (empty cache) ...")
-            t0 = time.perf_counter()
-            d = derive(model_path)
-            derive_cold = time.perf_counter() - t0
-            U_design = 1.5 * d.spec.aero.critical_wind_speed_m_s
-            t0 = time.perf_counter()
-            study = gallop_study(d, U_design)
-            cold = time.perf_counter() - t0
-            say(f"  derivation {derive_cold:.2f} s, gallop {cold:.2f} s")
-            warm = _best(lambda: gallop_study(d, U_design), repeats)
-            t0 = time.perf_counter()
-            gallop_study(d, U_design, checks=False)
-            no_check = time.perf_counter() - t0
-        finally:
-            if old is None:
-                os.environ.pop("AUTOCABLE_CACHE", None)
-            else:
-                os.environ["AUTOCABLE_CACHE"] = old
+    with _empty_cache():
+        say("derivation and gallop study, cold (empty cache) ...")
+        t0 = time.perf_counter()
+        d = derive(model_path)
+        derive_cold = time.perf_counter() - t0
+        U_design = 1.5 * d.spec.aero.critical_wind_speed_m_s
+        t0 = time.perf_counter()
+        study = gallop_study(d, U_design)
+        cold = time.perf_counter() - t0
+        say(f"  derivation {derive_cold:.2f} s, gallop {cold:.2f} s")
+        warm = _best(lambda: gallop_study(d, U_design), repeats)
+        t0 = time.perf_counter()
+        gallop_study(d, U_design, checks=False)
+        no_check = time.perf_counter() - t0
     branches = [h for c in study["cases"] for h in c["hopf_points"]]
     result = {"model": model_path, "mode_pair": d.mode_pair, "design_wind_m_s": U_design,
               "derive_cold_s": derive_cold, "gallop_cold_s": cold, "gallop_warm_s": warm,
@@ -275,21 +268,13 @@ def _ame_timings(d, repeats: int) -> dict:
     """AME derivation cold (empty cache folder) and cached (JSON read), as `bench_derive` does."""
     from autocable.model.ame_cache import derive_ame
 
-    old = os.environ.get("AUTOCABLE_CACHE")
-    with tempfile.TemporaryDirectory() as tmp:
-        os.environ["AUTOCABLE_CACHE"] = tmp
-        try:
-            t0 = time.perf_counter()
-            cold = derive_ame(d)
-            cold_s = time.perf_counter() - t0
-            cached_s = min(_timed(lambda: derive_ame(d)) for _ in range(max(1, repeats)))
-            again = derive_ame(d)
-            hit = again.from_cache and again.ame == cold.ame
-        finally:
-            if old is None:
-                os.environ.pop("AUTOCABLE_CACHE", None)
-            else:
-                os.environ["AUTOCABLE_CACHE"] = old
+    with _empty_cache():
+        t0 = time.perf_counter()
+        cold = derive_ame(d)
+        cold_s = time.perf_counter() - t0
+        cached_s = min(_timed(lambda: derive_ame(d)) for _ in range(max(1, repeats)))
+        again = derive_ame(d)
+        hit = again.from_cache and again.ame == cold.ame
     t0 = time.perf_counter()
     back = type(cold.ame).from_dict(json.loads(json.dumps(cold.ame.to_dict())))
     back.cartesian_rhs()
