@@ -103,12 +103,16 @@ def calibrate(aero_spec, st, modes, integrator, K: float, nu: float, xi_s: float
         return (f"its static angle phi0 = {math.degrees(phi0):.2f} deg is outside the curves' valid range "
                 f"[{math.degrees(lo):.2f}, {math.degrees(hi):.2f}] deg")
 
+    aero_at: dict = {}
+
     def matrix(angle_deg, U):
-        beta = math.radians(angle_deg) if solve_yaw else math.radians(aero_spec.yaw_deg)
-        th0 = math.radians(aero_spec.rivulet_angle_deg) if solve_yaw else math.radians(angle_deg)
-        lin = linear(beta, th0)
-        al = linear_aero_matrix(integrator, K, nu, st.m_star, lin)
-        return _linear_matrix(modes.omega1, modes.omega2, xi_s, al, U)
+        # the aerodynamic matrix depends on the angle only: kept per angle, since a diagnosis of a
+        # failed calibration (`_no_root_reason`) scans every angle at many winds
+        if angle_deg not in aero_at:
+            beta = math.radians(angle_deg) if solve_yaw else math.radians(aero_spec.yaw_deg)
+            th0 = math.radians(aero_spec.rivulet_angle_deg) if solve_yaw else math.radians(angle_deg)
+            aero_at[angle_deg] = linear_aero_matrix(integrator, K, nu, st.m_star, linear(beta, th0))
+        return _linear_matrix(modes.omega1, modes.omega2, xi_s, aero_at[angle_deg], U)
 
     def g(angle_deg):
         return _growth(matrix(angle_deg, 1.0))[0]
@@ -134,6 +138,14 @@ def calibrate(aero_spec, st, modes, integrator, K: float, nu: float, xi_s: float
         else:
             fix = (f"try aero.yaw_deg = {-aero_spec.yaw_deg:g} (its sign against the chord slope's) or the other "
                    "angle_convention")
+        # What the user typed that no angle can meet, named with its value as given (a tiny damping
+        # ratio or onset speed fails here, and the angle is not what to change then); kept within
+        # a SpecError's MAX_MESSAGE, the fix included
+        short_fix = fix.split(" (its sign")[0].replace(" or the other angle_convention", "")
+        blamed = _diagnosis(roots, rejected, [float(a) for a in grid], values, matrix, xi_s,
+                            aero_spec.critical_wind_speed_m_s, short_fix)
+        if blamed:
+            raise CalibrationError(*blamed)
         raise CalibrationError(
             f"aero.{field}", f"no angle gives an in-plane onset at U_c (out-of-plane stable to 1.3 U_c): {fix} "
             f"(roots {[round(r, 2) for r in roots[:3]]}{f' and {len(roots) - 3} more' if len(roots) > 3 else ''})")
@@ -142,6 +154,62 @@ def calibrate(aero_spec, st, modes, integrator, K: float, nu: float, xi_s: float
     th0 = math.radians(aero_spec.rivulet_angle_deg) if solve_yaw else math.radians(best)
     return Calibration(beta=beta, theta0=th0, solved_for=field, roots_deg=tuple(roots),
                        rejected=tuple(rejected))
+
+
+def _diagnosis(roots, rejected, grid, values, matrix, xi_s: float, uc: float, fix: str):
+    """(field, message) of a failed calibration that a typed value explains, or None. With no root
+    at all every angle's in-plane growth at U_c has one sign: the onset speeds the angles do reach
+    (the lowest, or the highest) say how far U_c (``aero.critical_wind_speed_m_s``) is from what
+    the curves give with this damping. With every root unstable already far below U_c, the
+    structural damping (``cable.damping_ratio``) is too small to hold another mode below U_c
+    (the sample cable fits with 0.1 % and fails from 0.01 % down). ``fix``: the angle's fix."""
+    from autocable.spec import number_text
+    uc, xi_s = float(uc), float(xi_s)
+    if not roots and values and all(np.isfinite(values)):
+        stable = max(values) < 0          # every angle still stable at U_c: the onsets lie above it
+        U_end = _reachable_onset(grid, matrix, above=stable)
+        end = number_text(float(f"{U_end * uc:.4g}")) if U_end is not None else None
+        if stable:
+            return ("aero.critical_wind_speed_m_s",
+                    f"{number_text(uc)} m/s is below every angle's onset with cable.damping_ratio = "
+                    f"{number_text(xi_s)} ({f'the lowest: {end} m/s' if end else 'none up to 1000 U_c'}): give a "
+                    f"larger U_c or a smaller damping_ratio, or {fix}")
+        return ("aero.critical_wind_speed_m_s",
+                f"{number_text(uc)} m/s is above every angle's onset with cable.damping_ratio = {number_text(xi_s)} "
+                f"({f'the highest: {end} m/s' if end else 'unstable without wind'}): give a smaller U_c or a larger "
+                f"damping_ratio, or {fix}")
+    below = [float(r.split("U* = ")[1]) for _, r in rejected if r.startswith("unstable already at U* = ")]
+    if roots and len(below) == len(rejected) == len(roots) and max(below) < 0.5:
+        return ("cable.damping_ratio",
+                f"{number_text(xi_s)} is too little: every angle with the onset at U_c is unstable already at "
+                f"U* = {', '.join(f'{u:.2g}' for u in below[:3])} (another mode gallops first): give a larger "
+                f"damping_ratio, or {fix}")
+    return None
+
+
+def _reachable_onset(grid, matrix, above: bool) -> float | None:
+    """The least U* (``above``: every angle stable at U* = 1) at which some angle of ``grid`` loses
+    stability, or the largest U* (every angle unstable at 1) at which the last one does, by
+    bisection on U* of the largest (smallest) growth rate over the angles; None where none lies in
+    (0, 1000]."""
+    pick = max if above else min       # the first angle to lose stability, or the last
+
+    def h(U):
+        return pick(_growth(matrix(a, U))[0] for a in grid)
+    if above:
+        lo, hi = 1.0, 2.0
+        while h(hi) < 0:
+            if hi >= 1000:
+                return None
+            lo, hi = hi, min(2 * hi, 1000.0)
+    else:
+        lo, hi = 0.0, 1.0
+        if h(0.0) >= 0:
+            return None
+    for _ in range(30):        # 1e-9 of the bracket: the 4 digits quoted
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if h(mid) < 0 else (lo, mid)
+    return hi if above else lo
 
 
 def _reject_reason(matrix_at) -> str:

@@ -96,7 +96,12 @@ def vary(d, changes: dict, refit: bool = False):
         messages.append(f"aero.{d.calibrated} held at its fitted {value:.4f} deg (fitted on the spec as "
                         f"written to put the onset at U_c = {d.spec.aero.critical_wind_speed_m_s:g} m/s); "
                         "--refit fits it again")
-    new = derive(spec)
+    try:
+        new = derive(spec)
+    except SpecError as exc:
+        if not (refit and d.calibrated and exc.field in _CALIBRATION_FIELDS):
+            raise
+        raise _refit_refusal(d, changes, exc) from None
     if refit:
         if not d.calibrated:
             messages.append("--refit: nothing to refit, both wind angles are given")
@@ -109,6 +114,33 @@ def vary(d, changes: dict, refit: bool = False):
                             + ("the onset is then an input, not a result" if new.mode_pair == 1
                                else "this pair's onset is a prediction with that angle"))
     return new, messages
+
+
+#: The fields a failed calibration blames (`autocable.model.calibration.calibrate`).
+_CALIBRATION_FIELDS = ("aero.rivulet_angle_deg", "aero.yaw_deg", "aero.critical_wind_speed_m_s", "cable.damping_ratio")
+
+
+def _refit_refusal(d, changes: dict, exc: SpecError) -> SpecError:
+    """``onset --set ... --refit`` whose changed cable admits no fitted angle: the refusal names
+    the ``--set`` items as given (the model file as written calibrates: its values are not the
+    ones to blame) and the fixes (drop --refit, change less), with the calibration's reason where
+    it fits whole within `autocable.spec.MAX_MESSAGE` (a one-line message is never cut)."""
+    from autocable.spec import MAX_MESSAGE, number_text
+    items = " ".join(f"cable.{k}={number_text(float(v))}" for k, v in changes.items())
+    fitted = math.degrees(d.theta0 if d.calibrated == "rivulet_angle_deg" else d.beta)
+    reason = str(exc).split(f"{exc.field}: ", 1)[-1]
+    evidence, _, own_fix = reason.partition(": give ")     # the calibration's finding, and its fixes
+    name = exc.field.split(".", 1)[-1]
+    fix = f"drop --refit to hold aero.{d.calibrated} at {fitted:.4g} deg, or change less"
+    if name in changes and own_fix:     # the value changed is the one to blame: in the calibration's words
+        evidence = evidence.removeprefix(number_text(float(changes[name])) + " ")
+        text = (f"{items} (--refit) {evidence}: give {own_fix.split(', or try')[0]}, or drop --refit (keeps "
+                f"aero.{d.calibrated} = {fitted:.4g})")
+    else:
+        text = f"{items} with --refit: {exc.field}: {evidence}; {fix}"
+    if len(f"--set: {text}") > MAX_MESSAGE:
+        text = f"{items} with --refit leaves no admissible wind angle: {fix}"
+    return SpecError("arguments", "--set", text)
 
 
 def with_damper(d):
@@ -471,8 +503,14 @@ def pair_row(dk, info, units, design_wind_m_s: float | None, U_max: float) -> di
     out-of-plane displacement, and with a design wind the least damping ratio keeping the pair's
     trivial state stable up to it (`design_damping`). A model's ``[damper]`` is in the pair's modal
     damping (`with_damper`: what it adds to the pair's in-plane mode)."""
+    from autocable.errors import ComputationError
     from autocable.model.mode_pairs import describe_mode, pair_modes, twist_peak_per_unit
-    dk, damper = with_damper(dk)
+    try:
+        dk, damper = with_damper(dk)
+    except ComputationError as exc:
+        # the damper's added damping in this pair's mode has no value (e.g. k x_d/L near 1/2): the
+        # pair's onset with the damper is not known, so the row says why instead of an onset
+        return _pair_row_without_damper(dk, info, units, str(exc))
     result = stability(dk.ode, U_max)
     o = result.first
     l = dk.spec.cable.length_m
@@ -512,6 +550,39 @@ def pair_row(dk, info, units, design_wind_m_s: float | None, U_max: float) -> di
     return row
 
 
+def _pair_row_without_damper(dk, info, units, reason: str) -> dict:
+    """The row of pair k when the model's ``[damper]`` cannot be evaluated in its mode: what does
+    not depend on the damping (frequencies, crowding, twist), every onset and damping column null
+    and ``damper_note`` saying why, naming the damper's fields to change."""
+    from autocable.model.mode_pairs import describe_mode, pair_modes, twist_peak_per_unit
+    twist = twist_peak_per_unit(pair_modes(dk.statics, info.k, dk.spec.cable.twist_ends))
+    x = dk.spec.damper.position_m
+    r = x / dk.spec.cable.length_m
+    if "could not be followed" in reason:       # `autocable.model.damper`: the root turned overdamped
+        why = (f"k x_d/L = {info.k * r:.3g}: the taut-string root could not be followed from the undamped string; "
+               "the damper formulas hold for k x_d/L well below 1/2")
+    else:
+        why = reason.removeprefix("damper: ")
+    note = (f"not computed: the [damper]'s added damping in mode {info.k} could not be found ({why}): move the "
+            f"damper nearer the anchorage (damper.position_m = {x:g} m) or give a lower --modes-below")
+    return {
+        "k": info.k, "in_plane_mode": info.describe_in_plane(),
+        "in_plane_symmetry": info.in_plane.symmetry, "in_plane_index": info.in_plane.k,
+        "frequency_Hz": {"in_plane": units.frequency_hz(info.omega1), "out_of_plane": units.frequency_hz(info.omega2)},
+        "omega": {"in_plane": info.omega1, "out_of_plane": info.omega2},
+        "onset_U_m_s": None, "onset_U_star": None, "onset_frequency_Hz": None,
+        "mechanism": note, "mechanism_short": "not computed (damper)", "in_plane_share": None,
+        "criticality": None, "lyapunov": None, "stable_without_wind": None,
+        "crowded_with": [{"mode": describe_mode(p, s, i), "frequency_Hz": units.frequency_hz(om),
+                          "gap_percent": 100 * g} for p, s, i, om, g in info.crowded_with],
+        "bending_frequency_shift": info.bending_shift,
+        "twist_rad_per_m": twist / dk.spec.cable.length_m,
+        "least_damping_linear": None, "least_damping_linear_scruton": None,
+        "damper_added_damping": None, "damper_note": note, "computed": False,
+        **{c: None for c in PENDING_COLUMNS},
+    }
+
+
 def pairs_below(d, below_hz: float, design_wind_m_s: float | None = None, U_max: float = U_MAX_DEFAULT) -> dict:
     """`autocable onset --modes-below F`: one row (`pair_row`) per mode pair k = 1, 2, ... while the
     lower of the pair's two frequencies is below ``below_hz`` [Hz]. Each pair is eq. (21) on its own
@@ -549,12 +620,17 @@ def pairs_below(d, below_hz: float, design_wind_m_s: float | None = None, U_max:
         "damping_ratio": d.ode.xi_s, "scruton": units.scruton(d.ode.xi_s),
         "design_wind_m_s": design_wind_m_s, "scanned_U_m_s": [0.0, units.wind_m_s(U_max)],
         "pairs": rows,
+        # a pair whose damper damping has no value is listed, not computed: said here too
+        "warnings": [f"mode pair {r['k']}: {r['damper_note']}" for r in rows if r.get("damper_note")],
         "pending_columns": {c: "null: filled by the galloping study (autocable.studies.gallop), not by this table"
                             for c in PENDING_COLUMNS},
         "conventions": {
             "k": "mode pair: the k-th in-plane mode (by frequency) and the out-of-plane mode sin(k pi s)",
             "frequency_Hz": "the pair's natural frequencies, omega_k omega / (2 pi), omega = (pi/l) sqrt(T/m)",
-            "onset_U_m_s": "the first loss of stability of the pair's trivial state (null: stable over scanned_U_m_s)",
+            "onset_U_m_s": "the first loss of stability of the pair's trivial state (null: stable over scanned_U_m_s, "
+                           "or not computed where the row has a damper_note)",
+            "damper_note": "only in a row whose [damper] added damping could not be found (computed: false): why, "
+                           "and the damper field to change; that row's onset and damping columns are null",
             "lyapunov": "first Lyapunov coefficient at the onset (|q| = 1); > 0 sub-critical, < 0 super-critical",
             "least_damping_linear": "with --design-wind: the least damping ratio keeping the pair's trivial state "
                                     "stable up to the design wind (linear, eq. 21 on that pair alone)",
@@ -590,5 +666,6 @@ def pairs_text(report: dict) -> list[str]:
         if r["crowded_with"]:
             line += "  crowded: " + ", ".join(f"{c['mode']} ({c['gap_percent']:.2g} %)" for c in r["crowded_with"])
         lines.append(line.rstrip())
+    lines += [f"  pair {r['k']}: {r['damper_note']}" for r in report["pairs"] if r.get("damper_note")]
     lines.append("  (least_damping_global and amplitude_at_design_wind_m: not computed here, null in --json)")
     return lines

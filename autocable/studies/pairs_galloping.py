@@ -10,7 +10,7 @@ from __future__ import annotations
 from autocable.errors import ComputationError
 from autocable.spec import SpecError
 from autocable.studies.gallop import gallop_study, least_damping_global
-from autocable.studies.onset import pair_spec, pairs_below
+from autocable.studies.onset import pair_spec, pairs_below, with_damper
 
 
 def pairs_with_galloping(d, below_hz: float, design_wind_m_s: float | None, U_max: float, log=None) -> dict:
@@ -30,7 +30,12 @@ def pairs_with_galloping(d, below_hz: float, design_wind_m_s: float | None, U_ma
         dk = d if row["k"] == d.mode_pair else derive(pair_spec(d.spec, row["k"]))
         if log:
             log(f"pair {row['k']}: galloping branch and global least damping")
+        if row.get("damper_note"):      # the pair's damping with the damper is not known: nothing to continue
+            row["galloping_note"] = row["damper_note"]
+            continue
         try:
+            # the model's [damper] in the pair's modal damping, as in its linear columns (`with_damper`)
+            dk, _ = with_damper(dk)
             g = gallop_study(dk, design_wind_m_s, U_max_m_s=U_max_m_s, checks=False)
             row["lowest_galloping_U_m_s"] = g.get("lowest_galloping_U_m_s")
             row["amplitude_at_design_wind_m"] = g.get("amplitude_at_design_wind_m")
