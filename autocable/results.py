@@ -31,6 +31,9 @@ Files in an output folder (written atomically, read back by `read_results`):
 * Both tables end, when the run's provenance carries the cable's scales (``si_scales``, ``omega1``),
   with the same points in SI (`autocable.model.units.SI_COLUMNS`): ``U_m_s, eta_m, Omega_Hz,
   peak_in_plane_m, peak_out_of_plane_m`` (peak displacements a_k l at mid-span).
+* The DataFrames (`Branch.to_dataframe`, `RunResults.to_dataframe`: ``branches.csv``'s columns)
+  end with three columns of their own, from the special points: ``special`` (the label at a
+  special point's row), ``l1`` and ``criticality`` (at a Hopf point's row).
 * ``run.json``: provenance, per-branch metadata (ends, diagnostics) and every special point with
   its ``extra`` data; ``status`` (``"complete"`` only for a run that finished) and ``files`` (the
   other files of the run, the manifest). It is written last.
@@ -84,6 +87,7 @@ __all__ = [
     "TruncatedBranchWarning",
     "hopf_criticality",
     "truncation_notes",
+    "FRAME_SPECIAL_COLUMNS",
 ]
 
 #: Branch kinds.
@@ -413,7 +417,9 @@ class Branch:
     def to_dataframe(self):
         """This branch as a pandas DataFrame with the columns and values of its rows in
         ``branches.csv`` (`branches_dataframe`; a branch alone has no run's SI scales:
-        `RunResults.to_dataframe` adds those columns). ``frame.attrs["truncated"]``: its ends at the
+        `RunResults.to_dataframe` adds those columns), then ``special``, ``l1`` and
+        ``criticality`` (a special point's label at its row; a Hopf point's first Lyapunov
+        coefficient and "supercritical"/"subcritical"). ``frame.attrs["truncated"]``: its ends at the
         point budget (`truncation_notes`), empty when it is whole."""
         return branches_dataframe([self])
 
@@ -467,7 +473,8 @@ class RunResults:
 
     def to_dataframe(self):
         """Every branch as one pandas DataFrame: the columns and values of ``branches.csv``
-        (`branches_dataframe`), with its SI columns when the provenance has the scales;
+        (`branches_dataframe`), with its SI columns when the provenance has the scales, then
+        ``special``, ``l1``, ``criticality`` (the Hopf criticality at a Hopf point's row);
         ``frame.attrs["truncated"]`` names every branch end at the point budget (`truncation_notes`)."""
         return branches_dataframe(self.branches, _si(self.provenance))
 
@@ -596,7 +603,10 @@ def branches_csv(branches: Sequence[Branch], si=None) -> str:
 def branches_dataframe(branches: Sequence[Branch], si=None):
     """``branches.csv`` as a pandas DataFrame: the same columns in the same order, one row per
     point; numbers as float64 (an empty cell is NaN), ``stable`` as bool, ``point`` as int, the
-    names as strings (``parameter2`` is "" off two-parameter curves); ``si`` as for `branches_csv`."""
+    names as strings (``parameter2`` is "" off two-parameter curves); ``si`` as for `branches_csv`.
+    Then the `FRAME_SPECIAL_COLUMNS` (the frame's only, from the special points): ``special`` (the
+    label of a special point at that row, e.g. "H1"), and at a Hopf row ``l1`` (first Lyapunov
+    coefficient) and ``criticality`` ("supercritical" / "subcritical"; "" and NaN elsewhere)."""
     import pandas as pd
 
     header, rows = _branch_rows(branches, si)
@@ -627,8 +637,39 @@ def branches_dataframe(branches: Sequence[Branch], si=None):
             frame[col] = frame[col].astype("int64")
         else:
             frame[col] = pd.to_numeric(frame[col], errors="coerce").astype("float64")
+    for col, values in _special_columns(branches).items():
+        frame[col] = values
     frame.attrs["truncated"] = truncation_notes(branches)
     return frame
+
+
+#: The columns `branches_dataframe` adds after those of ``branches.csv`` (a DataFrame's only: the
+#: CSV keeps its documented columns; the values come from the special points, which run.json
+#: holds, so a run read back gives the same frame).
+FRAME_SPECIAL_COLUMNS = ("special", "l1", "criticality")
+
+
+def _special_columns(branches: Sequence[Branch]) -> dict:
+    """`FRAME_SPECIAL_COLUMNS` of every row of ``branches`` (in the order of `_branch_rows`):
+    ``special`` the labels of the special points whose ``index`` is that row (the point before a
+    located point, as `SpecialPoint.index` says; several joined by a space), "" elsewhere; at a Hopf
+    point's row ``l1`` its first Lyapunov coefficient and ``criticality`` "supercritical" or
+    "subcritical" (`SpecialPoint.criticality`, Kuznetsov's sign), NaN and "" elsewhere."""
+    special, l1, crit = [], [], []
+    for b in branches:
+        labels = [[] for _ in range(len(b))]
+        lyap = [math.nan] * len(b)
+        word = [""] * len(b)
+        for sp in b.special_points:
+            if not 0 <= sp.index < len(b):
+                continue
+            labels[sp.index].append(sp.label)
+            if sp.criticality:
+                lyap[sp.index], word[sp.index] = float(sp.extra["l1"]), sp.criticality
+        special += [" ".join(x) for x in labels]
+        l1 += lyap
+        crit += word
+    return {"special": special, "l1": np.array(l1, dtype="float64"), "criticality": crit}
 
 
 def truncation_notes(branches: Sequence[Branch]) -> list[str]:

@@ -7,6 +7,7 @@ import pandas as pd
 import pytest
 
 import autocable as ac
+from autocable.results import FRAME_SPECIAL_COLUMNS
 from conftest import SAMPLE
 
 _TEXT = ("branch", "kind", "parameter", "parameter2")
@@ -35,7 +36,8 @@ def test_to_dataframe_equals_branches_csv(response, tmp_path):
     ac.write_results(response, tmp_path)
     csv = _csv_frame(tmp_path / "branches.csv")
     frame = response.to_dataframe()
-    assert list(frame.columns) == list(csv.columns)
+    # then the frame's own columns from the special points (tests/test_frame_hopf.py)
+    assert list(frame.columns) == list(csv.columns) + list(FRAME_SPECIAL_COLUMNS)
     assert len(frame) == len(csv) == sum(len(b) for b in response.branches)
     for col in csv.columns:
         if col in _TEXT:
@@ -53,7 +55,9 @@ def test_to_dataframe_equals_branches_csv(response, tmp_path):
     ac.write_results(with_si, tmp_path / "si")
     csv_si = _csv_frame(tmp_path / "si" / "branches.csv")
     frame_si = with_si.to_dataframe()
-    assert list(frame_si.columns) == list(csv_si.columns) and list(frame_si.columns[-len(SI_COLUMNS):]) == list(SI_COLUMNS)
+    n_own = len(FRAME_SPECIAL_COLUMNS)
+    assert list(frame_si.columns[:-n_own]) == list(csv_si.columns)
+    assert list(frame_si.columns[-len(SI_COLUMNS) - n_own:-n_own]) == list(SI_COLUMNS)
     for col in SI_COLUMNS:
         np.testing.assert_array_equal(frame_si[col].to_numpy(), csv_si[col].to_numpy(), err_msg=col)
     assert frame_si["peak_in_plane_m"].to_numpy() == pytest.approx(d.spec.cable.length_m * frame_si["a1"].to_numpy(),
@@ -68,6 +72,8 @@ def test_to_dataframe_equals_branches_csv(response, tmp_path):
     rows = csv[csv["branch"] == response.branches[1].name].reset_index(drop=True)
     assert len(one) == len(rows)
     for col in one.columns:            # a branch alone has only its own columns (its eigenvalues, ...)
+        if col in FRAME_SPECIAL_COLUMNS:
+            continue
         if col in _TEXT:
             assert one[col].tolist() == rows[col].tolist()
         else:
