@@ -67,7 +67,8 @@ from autocable.methods.integration.autonomous import newton_cycle, split_multipl
 from autocable.methods.integration.cycles import MAX_CROSSINGS_PER_PERIOD, orbit_amplitudes, own_cycles
 from autocable.methods.integration.ode21 import (DEFAULT_Q0, DIVERGED, Ode21Integrator, grew, half_range,
                                                  is_autonomous, _stopped)
-from autocable.model.premises import check_call, check_number, check_state
+from autocable.model.premises import (NOT_GIVEN, SI_PARAMETERS, STAR_NAMES, ArgumentError, check_call, check_number,
+                                      check_state, choose_parameter, parameter_from_si)
 from autocable.model.symbolic import PARAMETERS, STATE, T, first_order_rhs, parameter_values
 
 #: The response classes, in the order of their integer codes (`RESPONSE_CODES`).
@@ -194,10 +195,16 @@ class _Stage:
 
 class ShootingSolver:
     """Shooting for eq. (21) of one `TwoModeODE`: the compiled integrators are built once (cached
-    across processes by content hash) and reused for every point."""
+    across processes by content hash) and reused for every point. Built from a `Derivation`
+    (``ac.derive(...)``) instead of its ``ode``, it keeps the cable, and `steady` takes SI values
+    too (``wind_m_s``, ``deck_amplitude_m``, ``deck_frequency_Hz``, as `frequency_response`)."""
 
     def __init__(self, ode, *, rtol: float = 1e-11, transient_rtol: float = 1e-10,
                  transient_atol: float = 1e-13):
+        from autocable.model.derive import Derivation
+        # a Derivation carries the cable's scales (eqs. 17-18) for SI values; eq. (21) is its ode
+        self.cable = ode if isinstance(ode, Derivation) else None
+        ode = ode.ode if isinstance(ode, Derivation) else ode
         self.ode = ode
         self.rtol = float(rtol)
         self.integrator = Ode21Integrator(ode, engine="compiled", rtol=transient_rtol, atol=transient_atol)
@@ -207,6 +214,30 @@ class ShootingSolver:
         # buffers are written by every call, so each thread has its own (a Dask worker on an
         # existing scheduler may run several tasks on one solver at once).
         self._local = threading.local()
+
+    def _star_values(self, U, eta, sigma, wind_m_s, deck_amplitude_m, deck_frequency_Hz) -> tuple:
+        """(U*, eta*, sigma) of `steady`'s arguments: each quantity given once, nondimensional as
+        given (checked by `check_call` after), SI converted on the solver's cable by
+        `parameter_from_si` (refused by its keyword without a cable or outside the premises)."""
+        f = "ShootingSolver.steady"
+        out = []
+        for name, star, si in (("U", U, wind_m_s), ("eta", eta, deck_amplitude_m), ("sigma", sigma, deck_frequency_Hz)):
+            kind = choose_parameter(f, name, star, si)
+            keyword = SI_PARAMETERS[name][0]
+            if kind is None:
+                star_name = f" ({STAR_NAMES[name]})" if STAR_NAMES[name] != name else ""
+                raise ArgumentError(f, name, f"missing: give {name}{star_name} or {keyword} (in {SI_PARAMETERS[name][1]})")
+            if kind[0] == "star":
+                out.append(kind[1])
+                continue
+            if self.cable is None:
+                raise ArgumentError(f, keyword, "SI values need the cable (its length, U_c and omega): build the "
+                                                "solver from the Derivation, ShootingSolver(ac.derive(...)), not its "
+                                                ".ode")
+            from autocable.model.units import units_of
+            units = units_of(self.cable.spec, self.cable.statics)
+            out.append(parameter_from_si(f, name, kind[1], units, self.ode.omega1))
+        return tuple(out)
 
     # -- the compiled variational system -------------------------------------------------------
     def _variational(self):
@@ -522,13 +553,19 @@ class ShootingSolver:
         return bool(min(_norm(v - y_star) for v in cyc.section[-n:]) < 0.75 * d0)
 
     # -- the steady response -------------------------------------------------------------------
-    def steady(self, U: float, eta: float, sigma: float, q0=DEFAULT_Q0, *, guess=None,
-               stages=TRANSIENT_STAGES, max_time: float = 60000.0, rest_floor: float | None = None
-               ) -> SteadyResponse:
+    def steady(self, U: float = NOT_GIVEN, eta: float = NOT_GIVEN, sigma: float = NOT_GIVEN, q0=DEFAULT_Q0, *,
+               guess=None, stages=TRANSIENT_STAGES, max_time: float = 60000.0, rest_floor: float | None = None,
+               wind_m_s=NOT_GIVEN, deck_amplitude_m=NOT_GIVEN, deck_frequency_Hz=NOT_GIVEN) -> SteadyResponse:
         """The steady response of eq. (21) at (U*, eta*, sigma) reached from ``q0`` = (q1, q1',
         q2, q2') (the command-line order of `Ode21Integrator.simulate`), by shooting after short
         transients; ``guess`` = (q1, q2, q1', q2') at phase 0 (e.g. a neighbouring point's
-        ``state0``) is tried first, before any transient."""
+        ``state0``) is tried first, before any transient.
+
+        In SI instead, on a solver built from a `Derivation` (eqs. 17-18, as `frequency_response`
+        converts; one kind per quantity): ``wind_m_s`` for U (U* = U/U_c), ``deck_amplitude_m``
+        for eta (eta* = eta/l), ``deck_frequency_Hz`` for sigma (sigma = 2 pi f/omega - omega1).
+        The response's ``U``, ``eta``, ``sigma`` are the nondimensional values."""
+        U, eta, sigma = self._star_values(U, eta, sigma, wind_m_s, deck_amplitude_m, deck_frequency_Hz)
         check_call("ShootingSolver.steady", U=U, eta=eta, sigma=sigma, q0=q0, max_time=max_time,
                    omega1=self.ode.omega1)
         if guess is not None:
