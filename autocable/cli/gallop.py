@@ -97,6 +97,13 @@ def _m_s(x) -> str:
     return "-" if x is None or not math.isfinite(x) else f"{x:.5g} m/s"
 
 
+def _from(lo, hp: dict) -> str:
+    """The hysteresis loop's lower end: a number, or where it is not known the branch's bound."""
+    if lo is not None:
+        return f"{lo:.5g}"
+    return f"{hp.get('lowest_U_reached_m_s', math.nan):.5g} or lower"
+
+
 def gallop_text(study: dict) -> list[str]:
     """The readable report: one block per damping ratio and Hopf point."""
     lines = [f"Galloping cycles of eq. (21) at eta = 0 (no support motion), {study['model']}; wind from "
@@ -110,19 +117,23 @@ def gallop_text(study: dict) -> list[str]:
         for hp in case["hopf_points"]:
             lines.append(f"  Hopf point at {hp['hopf_U_m_s']:.6g} m/s, {hp['hopf_frequency_Hz']:.5g} Hz: "
                          f"{hp['criticality']} ({hp['mechanism']})")
-            lines.append(f"    lowest galloping speed   {_m_s(hp['lowest_galloping_U_m_s'])}"
-                         + (" (a fold of cycles)" if any(abs(f["U_m_s"] - hp["lowest_galloping_U_m_s"]) < 1e-9
-                                                        for f in hp["folds"]) else "")
+            low = hp["lowest_galloping_U_m_s"]
+            lines.append("    lowest galloping speed   "
+                         + (_m_s(low) if low is not None else f"not known: {hp.get('lowest_galloping_U_bound')}")
+                         + (" (a fold of cycles)" if low is not None and any(abs(f["U_m_s"] - low) < 1e-9
+                                                                             for f in hp["folds"]) else "")
                          + (" (every cycle of the branch unstable: the edge of the rest state's basin, no stable "
                             "galloping cycle)" if hp.get("stable_cycles") == 0 else ""))
+            if hp.get("lowest_galloping_note"):
+                lines.append(f"      ({hp['lowest_galloping_note']})")
             if hp["hysteresis_m_s"] and hp.get("stable_cycles") == 0:
                 lo, hi = hp["hysteresis_m_s"]
-                lines.append(f"    unstable cycles          {lo:.5g} to {hi:.5g} m/s: a large enough gust leaves the "
-                             "rest state, towards a motion this branch does not hold")
+                lines.append(f"    unstable cycles          {_from(lo, hp)} to {hi:.5g} m/s: a large enough gust "
+                             "leaves the rest state, towards a motion this branch does not hold")
             elif hp["hysteresis_m_s"]:
                 lo, hi = hp["hysteresis_m_s"]
-                lines.append(f"    hysteresis loop          {lo:.5g} to {hi:.5g} m/s: the rest state and a large "
-                             "galloping cycle coexist (a large enough gust starts galloping)")
+                lines.append(f"    hysteresis loop          {_from(lo, hp)} to {hi:.5g} m/s: the rest state and a "
+                             "large galloping cycle coexist (a large enough gust starts galloping)")
                 if hp.get("hysteresis_note"):
                     lines.append(f"      note: {hp['hysteresis_note']}")
             for f in hp["folds"]:
@@ -216,7 +227,10 @@ def sensitivity_lines(study: dict) -> list[str]:
     lines = [f"sensitivity to the curves (valid {lo:.1f} to {hi:.1f} deg narrowed and widened by {s['band_deg']:g} deg "
              f"at each end, blend {s['nominal_blend_deg']:g} deg x" + ", x".join(f"{f:g}" for f in s["blend_factors"])
              + f"; damping {100 * s['damping_ratio']:.3g} %): nominal (range)"]
-    lines.append(f"  lowest galloping speed   {_span_text(low['nominal'], low['range'], '.4g', 'm/s')}")
+    low_text = _span_text(low['nominal'], low['range'], '.4g', 'm/s')
+    if low["nominal"] is None and study.get("lowest_galloping_U_bound"):
+        low_text = f"not known ({study['lowest_galloping_U_bound']})" + low_text.removeprefix("none")
+    lines.append(f"  lowest galloping speed   {low_text}")
     if study.get("design_wind_m_s") is not None:
         nom = amp["nominal"] or [None, None]
         rng = amp["range"] or [None, None]
@@ -229,7 +243,9 @@ def sensitivity_lines(study: dict) -> list[str]:
             continue
         a = c.get("amplitude_at_design_wind_m")
         where = f"[{a[0]:.3g}, {a[1]:.3g}] m" if a else (c.get("design_verdict") or "-")
-        lines.append(f"  {c['case']:24s} lowest {_m_s(c.get('lowest_galloping_U_m_s'))}, design wind {where}"
+        low_c = c.get("lowest_galloping_U_m_s")
+        low_text = _m_s(low_c) if low_c is not None else (c.get("lowest_galloping_U_bound") or "-")
+        lines.append(f"  {c['case']:24s} lowest {low_text}, design wind {where}"
                      + (f", missing: {', '.join(c['missing_ingredient'])}" if c.get("missing_ingredient") else ""))
     if s.get("reading"):
         lines.append(f"  ({s['reading']})")

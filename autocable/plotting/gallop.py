@@ -66,6 +66,7 @@ def plot_gallop(study: dict, stem: str | Path, title: str = "") -> list[Path]:
         fig = new_figure((11, 4.4))
         axes = fig.subplots(1, 2)
         keys = (("peak_in_plane_m", "in-plane"), ("peak_out_of_plane_m", "out-of-plane"))
+        open_end = False
         for k, case in enumerate(study.get("cases", [])):
             color = f"C{k}"
             label = f"damping {100 * case['damping_ratio']:.3g} % (Sc = {case['scruton']:.3g})"
@@ -85,6 +86,12 @@ def plot_gallop(study: dict, stem: str | Path, title: str = "") -> list[Path]:
                     if folds:
                         ax.plot([r["U_m_s"] for r in folds], [r[key] for r in folds], "o", color=color, mfc="white",
                                 ms=5, zorder=4)
+                    if hp.get("lowest_galloping_U_bound") and rows:
+                        # the branch is still descending where it ends: its lowest speed is not known,
+                        # galloping exists there and may exist lower still (studies.gallop.lowest_bound)
+                        ax.plot([rows[-1]["U_m_s"]], [rows[-1][key]], "<", color=color, ms=7, zorder=4,
+                                clip_on=False)
+                        open_end = True
                     if not _finite(U_top) or hp["hopf_U_m_s"] <= U_top:
                         # unclipped (half of it lies below the axis), so only inside the range drawn
                         ax.plot([hp["hopf_U_m_s"]], [0.0], "^", color=color, ms=6, zorder=4, clip_on=False)
@@ -100,6 +107,9 @@ def plot_gallop(study: dict, stem: str | Path, title: str = "") -> list[Path]:
             ax.plot([], [], "--", color="0.3", lw=1.0, label="unstable cycle")
             ax.plot([], [], "x", color="0.45", ms=3.5, mew=0.8,
                     label="beyond the model's range (phi, twist or cubic load: validity)")
+            if open_end:
+                ax.plot([], [], "<", color="0.3", ms=7, label="branch ends still descending: lowest galloping "
+                                                            "speed at most there")
             ax.set_xlabel("wind speed U [m/s]")
             ax.set_ylabel(f"{name} peak displacement at mid-span [m]")
             if _finite(U_top):

@@ -14,7 +14,11 @@ of cycles continued in U (`autocable.methods.integration.gallop`), stable and un
 folds and Floquet multipliers. From it:
 
 * ``lowest_galloping_U_m_s``: the lowest wind speed of any cycle of the branches (for a sub-critical
-  onset the fold; for a super-critical one the onset itself);
+  onset the fold; for a super-critical one the onset itself); null where a branch is still
+  descending in U where it ends (it reaches the scan's lower bound `U_MIN`, or stops before a
+  fold), with ``lowest_galloping_U_bound`` ("at most 0.2 m/s"), its number
+  ``lowest_galloping_U_at_most_m_s`` and ``lowest_galloping_note`` saying why: the scan's bound is
+  not a galloping speed;
 * ``hysteresis_m_s``: [fold, Hopf] of a sub-critical onset: between them the rest state and a large
   stable cycle coexist;
 * ``amplitude_at_design_wind_m``: the peak displacements at mid-span [in-plane, out-of-plane] of the
@@ -24,7 +28,8 @@ folds and Floquet multipliers. From it:
   (`Ode21Integrator.simulate`, compiled engine) from the continued cycle's state and from a larger
   start, which must land on the same cycle (relative amplitude differences reported);
 * `least_damping_global`: the least damping ratio for which no cycle of the branches exists up to
-  the design wind (bisection on the damping ratio, one continuation per step);
+  the design wind (regula falsi on the damping ratio, one continuation per step, every step on
+  one compiled system, `DampedSystem`; the bisection kept as the independent route);
 * ``design_verdict`` and ``missing_ingredient``: whether the design-wind cycle is bounded and inside
   the model's range, and if not which ingredient the model lacks there (`missing_ingredients`: the
   twist, the curves, the load, more modes), judged on that cycle or, without one, on the cycle that
@@ -73,7 +78,7 @@ LARGE_START = 1.2
 HOPF_SCAN_FACTOR = 4.0
 #: Points of that scan (`autocable.model.onset.crossings`).
 HOPF_SCAN_POINTS = 4001
-#: Relative tolerance of `least_damping_global`'s bisection on the damping ratio.
+#: Relative tolerance of `least_damping_global` on the damping ratio (its bracket's width over its upper end).
 GLOBAL_DAMPING_RTOL = 1e-3
 #: The largest twist [deg] the slaved twist law is trusted with (a stated bound): the twist enters the
 #: angle phi of eq. (12) one for one, so this much twist alone takes phi across most of a fit's range
@@ -95,6 +100,124 @@ VALIDITY_SAMPLES = 4000
 SENSITIVITY_BAND_DEG = 5.0
 #: ... and the blend's width multiplied by these factors.
 SENSITIVITY_BLEND_FACTORS = (0.5, 2.0)
+
+
+class DampedSystem:
+    """The compiled (y, Phi, s) system of `CycleContinuation` for one eq. (21) with the damping ratio
+    xi as a run-time parameter, shared by every damping ratio of that equation.
+
+    Why. The damping enters eq. (21) only through the terms 2 xi omega_k q_k' (Sect. 3;
+    `autocable.model.onset.with_damping`), and `CycleContinuation` compiles its system with xi as a
+    number: the symbolic preparation (the Jacobian and parameter derivative, the variational
+    equations, the coefficient template of `autocable.codegen.coefficients`) is redone for every
+    damping ratio. On the exact rung it costs seconds per ratio (measured on the 190 m blended
+    stay's pairs 1 and 2, under load: about 6.6 s of the 8.6 s of each step of
+    `least_damping_global`'s bisection, whose continuation took the rest). Here it is done once:
+    xi is a symbol of the compiled right-hand side, and each damping ratio binds its value
+    (`at`). The system is the same
+    expression as `CycleContinuation.system`'s with 2 xi omega_k q_k' written with xi symbolic;
+    its numbers differ by round-off (tests/test_gallop_speed.py compares the two)."""
+
+    def __init__(self, ode):
+        self.ode = ode
+        self._ci = None
+        self.build_seconds = 0.0
+        self._undamped = _undamped_hash(ode)
+
+    @property
+    def built(self) -> bool:
+        return self._ci is not None
+
+    def serves(self, ode) -> bool:
+        """Whether ``ode`` is this system's equation up to its damping ratio."""
+        return _undamped_hash(ode) == self._undamped
+
+    def compiled(self):
+        """The compiled integrator of (y, Phi, s), parameters (U, xi)."""
+        if self._ci is None:
+            import sympy as sp
+
+            from autocable.codegen.cintegrate import compiled_integrator
+            from autocable.model import derivatives
+            from autocable.model.symbolic import ETA, OMEGA, STATE, U, UINV, WIND, first_order_rhs
+            t0 = time.perf_counter()
+            xi = sp.Symbol(DAMPING_SYMBOL)
+            ode = self.ode
+            omegas = (ode.omega1, ode.omega2)
+            damped = [t for t in ode.terms if t.origin == "damping"]
+            # the damping terms as `with_damping` writes them (2 xi omega_k times a velocity), xi a symbol
+            extra = [sp.Integer(0)] * 4
+            for t in damped:
+                m = 2 * xi * sp.Float(omegas[t.equation - 1], 17)
+                for x, p in zip(STATE, t.powers):
+                    m *= x ** p
+                extra[1 + t.equation] -= m
+            fixed = {ETA: sp.Integer(0), OMEGA: sp.Integer(1), WIND: sp.Integer(1), UINV: 1 / U}
+            # with_damping(ode, 0): the damping terms' coefficients 0, so they vanish from the expression
+            base = first_order_rhs(with_damping(ode, 0.0))
+            rhs = [sp.sympify(e).xreplace(fixed) + x for e, x in zip(base, extra)]
+            memo: dict = {}
+            jac = [[derivatives.diff(e, v, memo) for v in STATE] for e in rhs]
+            dU = [derivatives.diff(e, U, {}) for e in rhs]
+            phi = [[sp.Symbol(f"phi{i}{j}") for j in range(4)] for i in range(4)]
+            sens = [sp.Symbol(f"s{i}") for i in range(4)]
+            dphi = [sum((jac[i][k] * phi[k][j] for k in range(4)), sp.Integer(0)) for i in range(4) for j in range(4)]
+            ds = [sum((jac[i][k] * sens[k] for k in range(4)), sp.Integer(0)) + dU[i] for i in range(4)]
+            names = tuple(s.name for s in STATE) + tuple(f"phi{i}{j}" for i in range(4) for j in range(4)) \
+                + tuple(f"s{i}" for i in range(4))
+            self._ci = compiled_integrator(f"gallop_damped_{self._undamped}", names, (U.name, DAMPING_SYMBOL),
+                                           tuple(rhs) + tuple(dphi) + tuple(ds), None)
+            self.build_seconds = time.perf_counter() - t0
+        return self._ci
+
+    def at(self, xi: float) -> "_AtDamping":
+        """The compiled system with the damping ratio ``xi`` bound: the interface `CycleContinuation`
+        calls (``rhs(t, z, [U])``, ``run(z0, grid, [U], ...)``)."""
+        return _AtDamping(self.compiled(), float(xi))
+
+
+#: The damping ratio's name in `DampedSystem`'s compiled code (no symbol of eq. (21) is named so).
+DAMPING_SYMBOL = "xi_damping"
+
+
+def _undamped_hash(ode) -> str:
+    return with_damping(ode, 0.0).content_hash()
+
+
+class _AtDamping:
+    """`DampedSystem`'s compiled integrator with xi appended to the parameters it is called with."""
+
+    def __init__(self, ci, xi: float):
+        self.ci, self.xi = ci, xi
+
+    def rhs(self, t, y, p):
+        return self.ci.rhs(t, y, [*p, self.xi])
+
+    def run(self, y0, grid, p, **kw):
+        return self.ci.run(y0, grid, [*p, self.xi], **kw)
+
+
+class _SharedContinuation(CycleContinuation):
+    """`CycleContinuation` of ``ode`` on a `DampedSystem` (built once for every damping ratio)."""
+
+    def __init__(self, ode, shared: DampedSystem):
+        super().__init__(ode)
+        self._shared = shared
+        self._bound = None
+
+    def system(self):
+        if self._bound is None:
+            built = self._shared.built
+            self._bound = self._shared.at(self.ode.xi_s)
+            self.build_seconds = 0.0 if built else self._shared.build_seconds
+        return self._bound
+
+
+def _continuation(ode, shared: DampedSystem | None) -> CycleContinuation:
+    """The continuation of ``ode``'s cycles, on ``shared``'s compiled system where it serves ``ode``."""
+    if shared is not None and shared.serves(ode):
+        return _SharedContinuation(ode, shared)
+    return CycleContinuation(ode)
 
 
 def _validity(derivation, states, U_star: float) -> dict:
@@ -129,10 +252,37 @@ def _row(p, units, derivation) -> dict:
     return row
 
 
+def open_below(branch) -> bool:
+    """Whether ``branch`` is still descending in U where it ends: its lowest cycle is its last one
+    (not its Hopf point, not a fold), so that galloping exists there and may exist lower still."""
+    pts = branch.points
+    return len(pts) > 1 and pts[-1].kind != "H" and pts[-1].U <= min(p.U for p in pts)
+
+
+def lowest_bound(branch, units) -> dict:
+    """For a branch that ends still descending (`open_below`): the lowest galloping speed is not
+    known, only that galloping exists at the branch's last cycle, so the speed is at most there.
+    ``lowest_galloping_U_bound`` says so in words ("at most 0.2 m/s"), ``lowest_galloping_U_at_most_m_s``
+    in numbers, ``lowest_galloping_note`` why (the scan's lower bound reached, or the branch's end)."""
+    last = branch.points[-1].U
+    where = units.wind_m_s(last)
+    if branch.end_code == "U_min":
+        why = (f"the branch reaches the scan's lower bound {where:.3g} m/s (U* = {last:g}) without a fold: "
+               "galloping exists down to at least there")
+    else:
+        why = (f"the branch ended at {where:.5g} m/s before a fold ({branch.end}): galloping exists there and "
+               "may exist lower still")
+    return {"lowest_galloping_U_at_most_m_s": where, "lowest_galloping_U_bound": f"at most {where:.3g} m/s",
+            "lowest_galloping_note": why}
+
+
 def _branch_summary(branch, onset, units, derivation) -> dict:
-    """A branch from one Hopf point: its rows, folds, stability changes, lowest speed, hysteresis."""
+    """A branch from one Hopf point: its rows, folds, stability changes, lowest speed, hysteresis.
+    The lowest galloping speed is a number only where the branch turns (a fold, or the Hopf point
+    itself); a branch still descending where it ends gives null and a bound (`lowest_bound`)."""
     rows = [_row(p, units, derivation) for p in branch.points]
     lowest = branch.lowest_U
+    is_open = open_below(branch)
     folds = [{"U_star": f.U, "U_m_s": units.wind_m_s(f.U), "U_change_star": f.U_change,
               "refinements": f.refinements, "multiplier_nearest_one": _complex_pairs([f.multiplier_nearest_one])[0],
               "peak_in_plane_m": units.peak_m(f.point.a1), "peak_out_of_plane_m": units.peak_m(f.point.a2),
@@ -143,16 +293,22 @@ def _branch_summary(branch, onset, units, derivation) -> dict:
     out = {"hopf_U_m_s": units.wind_m_s(onset.U_star), "hopf_U_star": onset.U_star,
            "hopf_frequency_Hz": units.frequency_hz(onset.frequency), "criticality": onset.criticality,
            "lyapunov": onset.lyapunov, "mechanism": onset.mechanism,
-           "lowest_galloping_U_m_s": units.wind_m_s(lowest), "lowest_galloping_U_star": lowest,
+           "lowest_galloping_U_m_s": None if is_open else units.wind_m_s(lowest),
+           "lowest_galloping_U_star": None if is_open else lowest,
+           "lowest_U_reached_m_s": units.wind_m_s(lowest), "lowest_U_reached_star": lowest,
+           "lowest_galloping_U_at_most_m_s": None, "lowest_galloping_U_bound": None,
            "folds": folds, "stability_changes": changes, "end": branch.end, "end_code": branch.end_code,
            "points": len(branch.points), "stable_cycles": sum(1 for r in rows if r["stable"]),
            "corrected_steps": branch.steps, "seconds": branch.seconds,
            "rows": rows, "hysteresis_m_s": None}
+    if is_open:
+        out.update(lowest_bound(branch, units))
     if onset.criticality == "subcritical":
-        out["hysteresis_m_s"] = [units.wind_m_s(lowest), units.wind_m_s(onset.U_star)]
-        if not folds or min(f["U_star"] for f in folds) > lowest:
-            out["hysteresis_note"] = (f"the branch ended ({branch.end}) before a fold: the loop's lower end is "
-                                      "the last cycle computed, galloping may exist lower still")
+        # an open branch's loop has no known lower end: null there, as the lowest speed
+        out["hysteresis_m_s"] = [None if is_open else units.wind_m_s(lowest), units.wind_m_s(onset.U_star)]
+        if is_open:
+            out["hysteresis_note"] = (f"the branch ended ({branch.end}) before a fold: the loop's lower end is not "
+                                      f"known; it is {out['lowest_galloping_U_bound']}")
     return out
 
 
@@ -420,11 +576,13 @@ def _check(ode, branches, units, picks: int = CHECK_POINTS) -> list:
     return out
 
 
-def _case(derivation, ode, xi: float, U_max: float, units, U_des: float | None, log) -> tuple[dict, list, object]:
-    """Every branch of one damping ratio, the summary, and the continuation object (reused by the check)."""
+def _case(derivation, ode, xi: float, U_max: float, units, U_des: float | None, log,
+          shared: DampedSystem | None = None) -> tuple[dict, list, object]:
+    """Every branch of one damping ratio, the summary, and the continuation object (reused by the check);
+    on ``shared``'s compiled system where it serves ``ode`` (`DampedSystem`)."""
     t0 = time.perf_counter()
     hopfs, st = _hopf_points(ode, U_max)
-    cont = CycleContinuation(ode)
+    cont = _continuation(ode, shared)
     summaries, branches, above = [], [], []
     for o in hopfs:
         if log:
@@ -441,12 +599,22 @@ def _case(derivation, ode, xi: float, U_max: float, units, U_des: float | None, 
             "hopf_points_beyond_range": above, "hopf_scan_U_m_s": units.wind_m_s(HOPF_SCAN_FACTOR * U_max),
             "stable_without_wind": st.stable_at_start, "seconds": None}
     if summaries:
-        low = min(summaries, key=lambda s: s["lowest_galloping_U_star"])
+        low = min(summaries, key=lambda s: s["lowest_U_reached_star"])
         case["lowest_galloping_U_m_s"] = low["lowest_galloping_U_m_s"]
         case["lowest_galloping_U_star"] = low["lowest_galloping_U_star"]
         case["hysteresis_m_s"] = low["hysteresis_m_s"]
+        case.update(lowest_galloping_U_at_most_m_s=None, lowest_galloping_U_bound=None)
+        opened = [s for s in summaries if s["lowest_galloping_U_bound"] is not None]
+        if opened:
+            # a branch still descending where it ended may gallop below every other branch's fold:
+            # the lowest speed over the branches is not known, only bounded by the lowest reached
+            case.update(lowest_galloping_U_m_s=None, lowest_galloping_U_star=None,
+                        lowest_galloping_U_at_most_m_s=low["lowest_U_reached_m_s"],
+                        lowest_galloping_U_bound=f"at most {low['lowest_U_reached_m_s']:.3g} m/s",
+                        lowest_galloping_note="; ".join(s["lowest_galloping_note"] for s in opened))
     else:
         case.update(lowest_galloping_U_m_s=None, lowest_galloping_U_star=None, hysteresis_m_s=None,
+                    lowest_galloping_U_at_most_m_s=None, lowest_galloping_U_bound=None,
                     note=f"no branch of cycles from a Hopf point of the rest state (looked for up to "
                          f"{units.wind_m_s(HOPF_SCAN_FACTOR * U_max):.4g} m/s) reaches below "
                          f"{units.wind_m_s(U_max):.4g} m/s")
@@ -555,7 +723,8 @@ def sensitivity(derivation, xi: float, U_max: float, U_des: float | None, units,
         dv = _curves_variant(d, c)
         ode = dv.ode if xi == dv.ode.xi_s else with_damping(dv.ode, xi)
         case = _case(dv, ode, xi, U_max, units, U_des, None)[0]
-        row.update({k: case.get(k) for k in ("lowest_galloping_U_m_s", "amplitude_at_design_wind_m",
+        row.update({k: case.get(k) for k in ("lowest_galloping_U_m_s", "lowest_galloping_U_bound",
+                                              "amplitude_at_design_wind_m",
                                               "frequency_at_design_wind_Hz", "beyond_valid_range", "design_verdict",
                                               "design_note")})
         row["missing_ingredient"] = [m["ingredient"] for m in case.get("missing_ingredient", [])]
@@ -590,7 +759,7 @@ def sensitivity(derivation, xi: float, U_max: float, U_des: float | None, units,
 
 def gallop_study(derivation, design_wind_m_s: float | None = None, dampings=None, U_max_m_s: float | None = None,
                  checks: bool = True, log=None, with_sensitivity: bool | None = False,
-                 band_deg: float = SENSITIVITY_BAND_DEG) -> dict:
+                 band_deg: float = SENSITIVITY_BAND_DEG, shared: DampedSystem | None = None) -> dict:
     """The galloping branches of eq. (21) at eta = 0 (module docstring) as a plain dict.
 
     ``dampings``: damping ratios (default: the cable's own); the first is the primary one, whose
@@ -601,7 +770,9 @@ def gallop_study(derivation, design_wind_m_s: float | None = None, dampings=None
     most 5 U_c). ``with_sensitivity``: True or None (`autocable gallop`'s default) compute it where
     the curves have a band and a blend to vary (four more continuations), False (the default here,
     so that studies built on this one do not pay for it) does not; where the curves have none the
-    dict says why in one line either way."""
+    dict says why in one line either way. ``shared``: the compiled system of ``derivation``'s
+    eq. (21) for any damping ratio (`DampedSystem`; built here when None), to hand on to
+    `least_damping_global` on the same equation."""
     d = derivation
     units = units_of(d.spec, d.statics)
     U_max, U_des = _check_range(units, design_wind_m_s, U_max_m_s)
@@ -610,10 +781,11 @@ def gallop_study(derivation, design_wind_m_s: float | None = None, dampings=None
         if not (math.isfinite(x) and 0 < x < 1):
             raise SpecError("arguments", "--damping", f"expected damping ratios 0 < xi < 1 (0.004 is 0.4 %), got {x!r}")
     t0 = time.perf_counter()
+    shared = DampedSystem(d.ode) if shared is None else shared
     cases, primary_branches, primary_ode = [], None, None
     for k, xi in enumerate(xis):
         ode = d.ode if xi == d.ode.xi_s else with_damping(d.ode, xi)
-        case, branches, _ = _case(d, ode, xi, U_max, units, U_des, log)
+        case, branches, _ = _case(d, ode, xi, U_max, units, U_des, log, shared)
         cases.append(case)
         if k == 0:
             primary_branches, primary_ode = branches, ode
@@ -632,6 +804,10 @@ def gallop_study(derivation, design_wind_m_s: float | None = None, dampings=None
         "length_m": d.spec.cable.length_m, "critical_wind_speed_m_s": units.critical_wind_speed_m_s,
         "load": "exact" if d.ode.exact_load is not None else "cubic",
         "lowest_galloping_U_m_s": first["lowest_galloping_U_m_s"], "hysteresis_m_s": first["hysteresis_m_s"],
+        # where the lowest speed is not known (a branch still descending where it ends): a bound
+        "lowest_galloping_U_bound": first.get("lowest_galloping_U_bound"),
+        "lowest_galloping_U_at_most_m_s": first.get("lowest_galloping_U_at_most_m_s"),
+        "lowest_galloping_note": first.get("lowest_galloping_note"),
         "amplitude_at_design_wind_m": first.get("amplitude_at_design_wind_m"),
         "frequency_at_design_wind_Hz": first.get("frequency_at_design_wind_Hz"),
         "beyond_valid_range": first.get("beyond_valid_range"),
@@ -661,32 +837,74 @@ def _validity_available() -> bool:
 
 
 # -- the global least damping -------------------------------------------------------------------------
-def _gallops_below(ode, U_des: float, U_max: float) -> tuple[bool, str, float, object]:
+def _gallops_below(ode, U_des: float, U_max: float, shared: DampedSystem | None = None,
+                   full: bool = False) -> tuple[bool, str, float, object]:
     """(whether a cycle connected to a Hopf point exists at some U* < U_des, how it was decided,
-    the lowest U* seen, the first cycle found below U_des (a branch point with its orbit) or None)."""
+    the lowest U* seen, the first cycle found below U_des (a branch point with its orbit) or None).
+    ``full``: every branch followed to its end, so that the lowest U* seen is the branches' lowest
+    (their fold below a sub-critical onset) also where it lies below U_des; otherwise the answer
+    comes from the first branch that passes below U_des, as soon as it does."""
     hopfs, st = _hopf_points(ode, U_max)
     if st.onsets and st.onsets[0].U_star <= U_des:
         return True, "the rest state is unstable below the design wind", st.onsets[0].U_star, None
     if not st.stable_at_start:
         return True, "the rest state is unstable without wind", 0.0, None
-    cont = CycleContinuation(ode)
-    lowest, how = math.inf, "no Hopf point in the scan"
+    cont = _continuation(ode, shared)
+    lowest, how, first = math.inf, "no Hopf point in the scan", None
     for o in hopfs:
-        br = cont.branch(hopf_start(o), U_min=U_MIN, U_max=max(U_max, HOPF_SCAN_FACTOR * U_max), stop_below=U_des)
+        br = cont.branch(hopf_start(o), U_min=U_MIN, U_max=max(U_max, HOPF_SCAN_FACTOR * U_max),
+                         stop_below=None if full else U_des)
         if br.end_code == "failed":
             raise ComputationError(f"the continuation of cycles from the Hopf point at U* = {o.U_star:.8g} failed "
                                    f"({br.end}): the global least damping cannot be decided")
         lowest = min(lowest, br.lowest_U)
         how = f"the lowest cycle is at U* = {lowest:.8g} ({br.end})"
-        if lowest < U_des:
+        if br.lowest_U < U_des and first is None:
             below = [p for p in br.points if p.U < U_des and p.orbit is not None]
-            return True, how, lowest, (below[0] if below else None)
-    return False, how, lowest, None
+            first = below[0] if below else None
+        if lowest < U_des and not full:
+            return True, how, lowest, first
+    return lowest < U_des, how, lowest, first
+
+
+def _illinois(gallops, values: dict, lo: float, hi: float, rtol: float, max_steps: int = 30) -> tuple[float, float]:
+    """Narrow the bracket [lo, hi] of `least_damping_global` (``gallops(lo)`` true, ``gallops(hi)``
+    false) by the Illinois variant of regula falsi on g(xi) = ``values[xi]`` (the branches' lowest
+    U* minus the design wind, filled by ``gallops``), until hi - lo <= rtol hi. Each new point is
+    kept at least 0.45 rtol hi inside the bracket, and once the estimate has converged the next is
+    put that far across it, so that the bracket closes from both sides (plain regula falsi keeps
+    one end); where g is not finite (no branch at all) or flat, the bracket is halved instead.
+    The bisection that follows in the caller finishes whatever is left after ``max_steps``."""
+    g_lo, g_hi = values[lo], values[hi]
+    side = 0
+    for _ in range(max_steps):
+        width = hi - lo
+        if width <= rtol * hi:
+            break
+        eps = 0.45 * rtol * hi
+        if math.isfinite(g_lo) and math.isfinite(g_hi) and g_hi > g_lo:
+            x = hi - g_hi * width / (g_hi - g_lo)
+            # the same end moved twice: step across the estimate towards the other end, by eps
+            x += eps if side < 0 else -eps if side > 0 else 0.0
+        else:
+            x = 0.5 * (lo + hi)
+        x = min(max(x, lo + eps), hi - eps)
+        if gallops(x):
+            lo, g_lo = x, values[x]
+            if side < 0:
+                g_hi *= 0.5          # Illinois: the stale end's value halved
+            side = -1
+        else:
+            hi, g_hi = x, values[x]
+            if side > 0:
+                g_lo *= 0.5
+            side = 1
+    return lo, hi
 
 
 def _setting_cycle(derivation, point, units) -> dict | None:
     """Where the global least damping holds: the cycle that still gallops below the design wind at
-    the largest damping found to gallop (the bisection's lower end), with its validity
+    the largest damping found to gallop (the bracket's lower end), with its validity
     (`autocable.model.validity.motion_validity`: phi swept, twist, beyond the curves' or the cubic
     load's range). A bound set by a cycle beyond the model's range is no bound within validity."""
     if point is None:
@@ -697,14 +915,28 @@ def _setting_cycle(derivation, point, units) -> dict | None:
 
 
 def least_damping_global(derivation, design_wind_m_s: float, U_max_m_s: float | None = None,
-                         rtol: float = GLOBAL_DAMPING_RTOL) -> dict:
+                         rtol: float = GLOBAL_DAMPING_RTOL, shared: DampedSystem | None = None,
+                         method: str = "illinois") -> dict:
     """The least damping ratio for which no galloping cycle (of a branch from a Hopf point of the
-    rest state up to U_max) exists at any wind speed up to ``design_wind_m_s``: bisection on the
-    damping ratio to ``rtol`` (relative), from the linear least damping
-    (`autocable.studies.onset.design_damping`: the rest state stable up to the design wind, which a
-    sub-critical onset's fold undercuts) upwards; each step one continuation, stopped as soon as
-    it passes below the design wind. Assumes the lowest galloping speed rises with the damping
-    (checked at the bracket's ends only)."""
+    rest state up to U_max) exists at any wind speed up to ``design_wind_m_s``, to ``rtol``
+    (relative), from the linear least damping (`autocable.studies.onset.design_damping`: the rest
+    state stable up to the design wind, which a sub-critical onset's fold undercuts) upwards. The
+    bracket [lo, hi] (lo gallops below the design wind, hi does not) is found by doubling from the
+    linear least damping, then narrowed until hi - lo <= rtol hi; hi is returned. Two ways of
+    narrowing it (``method``):
+
+    * "illinois" (the default): the Illinois variant of regula falsi on the continuous function
+      g(xi) = (the branches' lowest U*) - U_design, each branch followed to its end
+      (`_gallops_below` with ``full``) so that g is known on both sides: about half the
+      continuations of the bisection on the shipped stays (each a little longer);
+    * "bisection": halving the bracket, each step one continuation stopped as soon as it passes
+      below the design wind (it needs only the sign of g): the independent route
+      (tests/test_gallop_speed.py compares the two).
+
+    Assumes the lowest galloping speed rises with the damping (checked at the bracket's ends
+    only). Every step runs on one compiled system with the damping
+    ratio a run-time parameter (``shared``, a `DampedSystem` of ``derivation``'s eq. (21), built
+    here when None)."""
     from autocable.studies.onset import design_damping
     d = derivation
     units = units_of(d.spec, d.statics)
@@ -713,18 +945,25 @@ def least_damping_global(derivation, design_wind_m_s: float, U_max_m_s: float | 
         raise SpecError("arguments", "--design-wind", "the global least damping needs a design wind speed")
     if not (isinstance(rtol, (int, float)) and 1e-9 <= rtol < 0.5):
         raise SpecError("arguments", "rtol", f"expected a relative tolerance in [1e-9, 0.5), got {rtol!r}")
+    if method not in ("illinois", "bisection"):
+        raise SpecError("arguments", "method", f"expected \"illinois\" or \"bisection\", got {method!r}")
+    full = method == "illinois"
     t0 = time.perf_counter()
     linear = design_damping(d, design_wind_m_s, U_max)["least_damping_ratio"]
     steps = []
+    shared = DampedSystem(d.ode) if shared is None else shared
 
     setting = {}
 
+    values = {}
+
     def gallops(xi):
-        below, how, low, point = _gallops_below(with_damping(d.ode, xi), U_des, U_max)
+        below, how, low, point = _gallops_below(with_damping(d.ode, xi), U_des, U_max, shared, full)
         steps.append({"damping_ratio": xi, "gallops_below_design_wind": below, "lowest_U_m_s": units.wind_m_s(low),
                       "how": how})
         if below and xi >= setting.get("damping_ratio", -1.0):
             setting.update(damping_ratio=xi, point=point)
+        values[xi] = low - U_des
         return below
 
     lo = max(linear, 1e-6)
@@ -737,6 +976,8 @@ def least_damping_global(derivation, design_wind_m_s: float, U_max_m_s: float | 
             if hi >= 1.0:
                 raise SpecError("arguments", "--design-wind", f"no damping ratio below 100 % keeps every galloping "
                                                               f"cycle above {design_wind_m_s:g} m/s")
+        if full:
+            lo, hi = _illinois(gallops, values, lo, hi, rtol)
         while hi - lo > rtol * hi:
             mid = 0.5 * (lo + hi)
             lo, hi = (mid, hi) if gallops(mid) else (lo, mid)
@@ -748,10 +989,11 @@ def least_damping_global(derivation, design_wind_m_s: float, U_max_m_s: float | 
             "setting_cycle": cycle,
             "beyond_valid_range": None if not cycle or "beyond_valid_range" not in cycle
             else bool(cycle["beyond_valid_range"]),
-            "least_damping_ratio_linear": linear, "relative_tolerance": rtol,
+            "least_damping_ratio_linear": linear, "relative_tolerance": rtol, "method": method,
             "current_damping_ratio": d.ode.xi_s, "enough": d.ode.xi_s >= xi, "steps": steps,
             "seconds": time.perf_counter() - t0,
             "reading": "the least damping ratio for which every cycle of the branches from the rest state's Hopf "
                        f"points (looked for up to {units.wind_m_s(HOPF_SCAN_FACTOR * U_max):.4g} m/s) lies above the "
-                       f"design wind (bisection, relative tolerance {rtol:g}; an isolated branch of cycles, or one "
+                       f"design wind ({'regula falsi (Illinois)' if full else 'bisection'} on the damping ratio, "
+                       f"relative tolerance {rtol:g}; an isolated branch of cycles, or one "
                        "born beyond the scan, would not be seen)"}

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from autocable.errors import ComputationError
 from autocable.spec import SpecError
-from autocable.studies.gallop import gallop_study, least_damping_global
+from autocable.studies.gallop import DampedSystem, gallop_study, least_damping_global
 from autocable.studies.onset import pair_spec, pairs_below, with_damper
 
 
@@ -24,7 +24,8 @@ def pairs_with_galloping(d, below_hz: float, design_wind_m_s: float | None, U_ma
         return report
     U_max_m_s = units_of(d.spec, d.statics).wind_m_s(U_max)
     for row in report["pairs"]:
-        row.update(lowest_galloping_U_m_s=None, beyond_valid_range=None)
+        row.update(lowest_galloping_U_m_s=None, lowest_galloping_U_bound=None, lowest_galloping_U_at_most_m_s=None,
+                   beyond_valid_range=None)
         # a pair stable over the scanned winds may still have a Hopf point above them whose
         # sub-critical branch folds back below the design wind: the continuation looks for it
         dk = d if row["k"] == d.mode_pair else derive(pair_spec(d.spec, row["k"]))
@@ -36,8 +37,15 @@ def pairs_with_galloping(d, below_hz: float, design_wind_m_s: float | None, U_ma
         try:
             # the model's [damper] in the pair's modal damping, as in its linear columns (`with_damper`)
             dk, _ = with_damper(dk)
-            g = gallop_study(dk, design_wind_m_s, U_max_m_s=U_max_m_s, checks=False)
+            # one compiled system for the pair's every damping ratio: the study's and least_damping_global's
+            shared = DampedSystem(dk.ode)
+            g = gallop_study(dk, design_wind_m_s, U_max_m_s=U_max_m_s, checks=False, shared=shared)
             row["lowest_galloping_U_m_s"] = g.get("lowest_galloping_U_m_s")
+            # null above where a branch is still descending when it ends: the bound and why
+            row["lowest_galloping_U_bound"] = g.get("lowest_galloping_U_bound")
+            row["lowest_galloping_U_at_most_m_s"] = g.get("lowest_galloping_U_at_most_m_s")
+            if g.get("lowest_galloping_note"):
+                row["lowest_galloping_note"] = g["lowest_galloping_note"]
             row["amplitude_at_design_wind_m"] = g.get("amplitude_at_design_wind_m")
             row["beyond_valid_range"] = g.get("beyond_valid_range")
             cycle = ((g.get("cases") or [{}])[0].get("design_cycle")) or {}
@@ -45,7 +53,7 @@ def pairs_with_galloping(d, below_hz: float, design_wind_m_s: float | None, U_ma
             row["twist_max_deg"] = cycle.get("twist_max_deg")
             row["design_verdict"] = g.get("design_verdict")
             row["missing_ingredient"] = [m["ingredient"] for m in g.get("missing_ingredient") or []]
-            lg = least_damping_global(dk, design_wind_m_s, U_max_m_s)
+            lg = least_damping_global(dk, design_wind_m_s, U_max_m_s, shared=shared)
             row["least_damping_global"] = lg["least_damping_ratio_global"]
             row["least_damping_global_beyond_valid_range"] = lg.get("beyond_valid_range")
         except (SpecError, ComputationError) as exc:
@@ -57,7 +65,9 @@ def pairs_with_galloping(d, below_hz: float, design_wind_m_s: float | None, U_ma
         "amplitude_at_design_wind_m": "[in-plane, out-of-plane] peak mid-span of the largest stable galloping cycle "
                                       "at the design wind (null: none there)",
         "lowest_galloping_U_m_s": "the lowest wind speed on the pair's galloping branch (a cycle fold below a "
-                                  "sub-critical onset)",
+                                  "sub-critical onset); null where a branch is still descending when it ends (the "
+                                  "scan's lower bound reached without a fold), lowest_galloping_U_bound then says "
+                                  "\"at most X m/s\" and lowest_galloping_note why",
         "beyond_valid_range": "the design-wind cycle leaves the aerodynamic curves' valid range or the cubic "
                               "load's (autocable.model.validity)",
         "phi_swept_deg": "max |phi - phi0| along the design-wind cycle [deg] (null: no stable cycle there)",
@@ -88,9 +98,17 @@ def galloping_lines(report: dict) -> list[str]:
             valid += "; missing: " + ", ".join(r["missing_ingredient"])
         if r.get("least_damping_global_beyond_valid_range"):
             valid += "; global xi set beyond the range"
-        line = (f"  {r['k']:2d}  {low:14.4g}" if low is not None else f"  {r['k']:2d}  {'-':>14}")
+        at_most = r.get("lowest_galloping_U_at_most_m_s")
+        if low is not None:
+            line = f"  {r['k']:2d}  {low:14.4g}"
+        elif at_most is not None:        # not known: a bound (the branch did not turn)
+            line = f"  {r['k']:2d}  {'<= ' + format(at_most, '.3g'):>14}"
+        else:
+            line = f"  {r['k']:2d}  {'-':>14}"
         line += f"  {amp_text:>34}  {(f'{100 * xi:.4g} %' if xi is not None else '-'):>16}  {valid}"
         if r.get("galloping_note") and low is None:
             line += f"  ({r['galloping_note']})"
         lines.append(line)
+        if r.get("lowest_galloping_note"):
+            lines.append(f"      lowest U of pair {r['k']}: {r['lowest_galloping_note']}")
     return lines
