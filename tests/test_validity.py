@@ -42,15 +42,16 @@ def _theta2(d, s):
 @pytest.mark.parametrize("twist_ends", ["natural", "restrained"])
 def test_a_pure_twist_sweeps_phi_by_the_twist(twist_ends):
     """q2 alone (no velocity): phi - phi0 = -theta along the span (eq. 12, the model's sense), so the
-    swept angle is the largest twist, and that is max |theta2(s)| q2 from the closed-form twist law
-    (to the quadrature nodes' resolution near the maximum: 1 %)."""
+    swept angle is the largest twist at the quadrature nodes (phi is measured there), within 1 % of
+    the twist's peak over the span; ``twist_max_deg`` is that peak, max |theta2(s)| q2 from the
+    closed-form twist law (tests/test_validity_twist.py)."""
     d = _derivation(twist_ends=twist_ends, valid_deg=(-180, 180))
     q2 = 1e-4
     v = motion_validity(d, [[0.0, q2, 0.0, 0.0], [0.0, -q2, 0.0, 0.0]], 1.0)
     s = np.linspace(0.0, 1.0, 2001)
     closed = math.degrees(np.max(np.abs(_theta2(d, s))) * q2)
-    assert v["twist_max_deg"] == pytest.approx(closed, rel=1e-2)
-    assert v["phi_swept_deg"] == pytest.approx(v["twist_max_deg"], rel=1e-12)
+    assert v["twist_max_deg"] == pytest.approx(closed, rel=1e-6)        # the grid holds s = 1/2, where both peak
+    assert v["twist_max_deg"] * (1 - 1e-2) <= v["phi_swept_deg"] <= v["twist_max_deg"] * (1 + 1e-12)
 
 
 def test_rest_is_inside_and_sweeps_nothing():
