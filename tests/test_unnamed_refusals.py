@@ -132,3 +132,18 @@ def test_modes_below_gives_the_pairs_it_can_and_names_the_one_it_cannot(capsys, 
     assert main(["onset", str(damped), "--modes-below", "5"]) == 0
     text = capsys.readouterr().out
     assert "not computed (damper)" in text and "pair 3: not computed" in text
+
+
+def test_band_with_an_onset_speed_no_angle_reaches_names_u_c_in_each_case(capsys):
+    """``onset --band --uc 5`` on the sample (5 m/s is below every angle's onset with 0.4 % in both
+    readings and yaw signs): each case is a failed calibration ("no calibration", as a wrong yaw
+    sign's is) whose reason names aero.critical_wind_speed_m_s = 5.0 m/s, the lowest onset and the
+    fix; before, the reason named the rivulet angle only."""
+    assert main(["onset", str(SAMPLE), "--band", "--uc", "5", "--json"]) == 0
+    band = json.loads(capsys.readouterr().out)["band"]
+    assert band["failed"] == len(band["cases"]) == 4
+    for c in band["cases"]:
+        assert c["status"] == "no calibration"
+        assert c["reason"].startswith("aero.critical_wind_speed_m_s: 5.0 m/s is below every angle's onset"), c
+        lowest = float(c["reason"].split("(the lowest: ")[1].split(" m/s")[0])
+        assert lowest > 5.0 and "give a larger U_c" in c["reason"]

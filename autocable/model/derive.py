@@ -150,7 +150,11 @@ def _compute(spec: ModelSpec, integrator: str) -> dict:
         try:
             cal = calibrate(spec.aero, st, first, I_first, K, nu, spec.cable.damping_ratio)
         except CalibrationError as exc:    # an input no angle can satisfy: the user's to change
-            raise SpecError(spec.path or "<spec>", exc.field, exc.message) from None
+            err = SpecError(spec.path or "<spec>", exc.field, exc.message)
+            # the field may be U_c or the damping ratio the calibration blames: callers that tell a
+            # failed calibration from another refusal (onset --band) ask this, not the field
+            err.calibration = True
+            raise err from None
         beta, theta0, calibrated = cal.beta, cal.theta0, cal.solved_for
         why = dict(cal.rejected)
         roots = [[r, why.get(r, "")] for r in cal.roots_deg]

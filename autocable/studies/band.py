@@ -153,7 +153,8 @@ def band_study(spec, uc_range: tuple[float, float] | None = None, design_wind_m_
                 except SpecError as exc:
                     # the calibration's own message (it names the fix), less the file's path
                     reason = str(exc).removeprefix(f"{exc.path}: ")
-                    calibrating = exc.field in ("aero.yaw_deg", "aero.rivulet_angle_deg")
+                    calibrating = getattr(exc, "calibration", False) or exc.field in ("aero.yaw_deg",
+                                                                                     "aero.rivulet_angle_deg")
                     cases.append({"inputs": _inputs(aero, "fitted"), "label": case_label(_inputs(aero, "fitted")),
                                   "status": "no calibration" if calibrating else "failed", "reason": reason})
                     continue
