@@ -1,4 +1,4 @@
-"""The Hopf criticality in the branches' DataFrames (issue 38, deliverable 3): `Branch.to_dataframe`
+"""The Hopf criticality in the branches' DataFrames: `Branch.to_dataframe`
 and `RunResults.to_dataframe` end with ``special`` (a special point's label at its row), ``l1`` and
 ``criticality`` (at a Hopf point's row), branches.csv keeping its documented columns; a run read back
 from disk gives the same frame as the live result.

@@ -269,7 +269,7 @@ def test_a_calibration_no_angle_satisfies_names_the_file_and_field(capsys, tmp_p
     damping cannot cancel it at U_c): an input the user must change, so exit 2 naming the file and
     field (it went through the catch-all as a CalibrationError before). (The horizontal chord this
     test used has no such angle with the legacy "reversed" sense only.) The message names the typed
-    values that no angle can meet, U_c and the damping ratio, and the fixes (issue 39)."""
+    values that no angle can meet, U_c and the damping ratio, and the fixes."""
     path = _spec(tmp_path, "damping_ratio = 0.004 ", "damping_ratio = 0.3 ")
     err = _refused(capsys, ["derive", str(path), "--json"], str(path), "aero.critical_wind_speed_m_s: 36.0 m/s",
                    "cable.damping_ratio = 0.3", "or a smaller damping_ratio")

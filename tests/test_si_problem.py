@@ -1,4 +1,4 @@
-"""SI inputs on the step-by-step API (issue 38, deliverable 3): `EquilibriumProblem.from_si` and
+"""SI inputs on the step-by-step API: `EquilibriumProblem.from_si` and
 `ShootingSolver(derivation).steady(wind_m_s=..., deck_amplitude_m=..., deck_frequency_Hz=...)`,
 consistent with `frequency_response`'s keywords (eqs. 17-18: U* = U/U_c, eta* = eta/l,
 sigma = 2 pi f/omega - omega1).
@@ -17,7 +17,7 @@ import autocable as ac
 from autocable.model.premises import ArgumentError
 from conftest import SAMPLE
 
-#: The 145 m stay of issue 38 used 8 m/s, 20 mm and a frequency near the first one; here the sample
+#: A bridge engineer's 145 m stay case used 8 m/s, 20 mm and a frequency near the first one; here the sample
 #: cable (l = 121.9 m, U_c = 36 m/s, f1 = 1.122 Hz).
 WIND, DECK = 8.0, 0.02
 #: How a refusal about the arguments together names them.

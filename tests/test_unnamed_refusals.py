@@ -1,4 +1,4 @@
-"""The two refusals the generated `onset` runs found unnamed (issue 39), each pinned by a test that
+"""The two refusals the generated `onset` runs found unnamed, each pinned by a test that
 fails without its fix:
 
 * a calibration that fails because of a tiny damping ratio or a tiny onset speed U_c named the
