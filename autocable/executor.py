@@ -47,8 +47,8 @@ from typing import Any, Callable, Iterator
 from autocable.errors import ComputationError
 
 __all__ = ["Executor", "Done", "run_forked", "attempts", "check_scheduler", "check_workers", "scheduler_address",
-           "SCHEDULER_TIMEOUT", "NO_WORKER_TIMEOUT", "NO_WORKER_ENV", "NoLiveWorker", "no_worker_seconds",
-           "time_left"]
+           "SCHEDULER_TIMEOUT", "NO_WORKER_TIMEOUT", "NO_WORKER_ENV", "NoLiveWorker", "SchedulerLost",
+           "no_worker_seconds", "time_left"]
 
 #: Seconds to reach a Dask scheduler and hear it answer (`check_scheduler`): a refused port, a
 #: service that is not Dask or a peer that never answers is named at once, not after minutes.
@@ -65,6 +65,18 @@ NO_WORKER_ENV = "AUTOCABLE_NO_WORKER_TIMEOUT"
 class NoLiveWorker(ComputationError):
     """A run on Dask had tasks to do and no live worker for `no_worker_seconds` seconds
     (exit status 3); ``str(err)`` is one line naming ``--scheduler`` (or ``--workers``)."""
+
+
+class SchedulerLost(NoLiveWorker):
+    """The connection to a ``--scheduler`` was lost with tasks unfinished (the scheduler stopped,
+    or the network between them failed): Dask cancels every task of the client at once, so the
+    run stops then, as with no live worker (exit status 3, one line naming ``--scheduler``)."""
+
+#: Dask's own loggers, which print tracebacks on stderr when a scheduler goes away (the client's
+#: reconnection attempts): quiet while a command is connected to a ``--scheduler``; what happened
+#: is said by `SchedulerLost` in one line.
+_DASK_LOGGERS = ("distributed", "distributed.client", "distributed.comm", "distributed.core",
+                 "distributed.utils", "distributed.batched")
 
 
 def no_worker_seconds(value: float | None = None) -> float:
@@ -311,6 +323,7 @@ class Executor:
         self.journal = str(Path(journal).resolve()) if journal else None
         self.cluster_kwargs = dict(cluster_kwargs or {})
         self.client = self._cluster = self._ac = None
+        self._log_levels: dict = {}
         self._queue: list = []          # the serial path's tasks, in order
         self._held: list = []           # strict priority: a heap of the tasks not yet handed out
         self._seq = itertools.count()
@@ -324,10 +337,20 @@ class Executor:
 
     @property
     def n_workers(self) -> int:
-        """Workers at hand now (1 on the serial path)."""
+        """Workers at hand now, at least 1 (1 on the serial path): what sizes the tasks. A count to
+        tell a user is `live_workers`, which can be 0."""
         if self.client is None:
             return 1
         return max(len(self.client.scheduler_info().get("workers", {})), 1)
+
+    @property
+    def live_workers(self) -> int:
+        """Workers the cluster has now: 0 on a scheduler no worker has joined or whose workers all
+        died (the tasks then wait `no_worker_timeout` seconds for one, then `NoLiveWorker`); 1 on
+        the serial path."""
+        if self.client is None:
+            return 1
+        return self._live_workers()
 
     def __enter__(self) -> "Executor":
         t0 = time.perf_counter()
@@ -351,8 +374,16 @@ class Executor:
             scratch = str(cache_dir("dask-scratch"))
             with dask.config.set({"temporary-directory": scratch}):
                 if self.scheduler:
+                    from autocable.spec import SpecError
                     address = scheduler_address(self.scheduler)
-                    self.client = Client(address, timeout=SCHEDULER_TIMEOUT)
+                    self._quiet_dask()
+                    try:
+                        self.client = Client(address, timeout=SCHEDULER_TIMEOUT)
+                    except Exception as exc:  # noqa: BLE001 - it answered check_scheduler, then went away
+                        self.close()
+                        raise SpecError("arguments", "--scheduler", f"{address} stopped answering while this "
+                                                                    f"command connected ({_one_line(exc)[:100]}); "
+                                                                    "check that the scheduler runs") from None
                     self.where = {"mode": "scheduler", "address": address}
                     self._check_workers_code(address)
                 else:
@@ -368,8 +399,14 @@ class Executor:
                     self.where = {"mode": "LocalCluster", "workers": n}
             if self.warm is not None:
                 # every worker at hand now; one that joins later does it in its first task
-                self.client.run(self.warm)
-            self.where["workers_seen"] = self.n_workers
+                try:
+                    self.client.run(self.warm)
+                except Exception as exc:  # noqa: BLE001 - on a scheduler: it went away meanwhile
+                    if not self.scheduler or self._connected():
+                        raise
+                    self.close()
+                    raise self._lost(self._pending) from None
+            self.where["workers_seen"] = self.live_workers
         self.where["startup_seconds"] = time.perf_counter() - t0
         return self
 
@@ -410,6 +447,25 @@ class Executor:
         if self._cluster is not None:
             self._cluster.close()
             self._cluster = None
+        for name, level in self._log_levels.items():
+            logging.getLogger(name).setLevel(level)
+        self._log_levels = {}
+
+    def _quiet_dask(self) -> None:
+        """Dask's loggers quiet until `close` (`_DASK_LOGGERS`)."""
+        for name in _DASK_LOGGERS:
+            log = logging.getLogger(name)
+            self._log_levels.setdefault(name, log.level)
+            log.setLevel(logging.CRITICAL + 1)
+
+    def _connected(self) -> bool:
+        return self.client is not None and getattr(self.client, "status", "running") == "running"
+
+    def _lost(self, waiting: int) -> "SchedulerLost":
+        address = self.where.get("address", self.scheduler)
+        return SchedulerLost(f"--scheduler {address}: the connection to the scheduler was lost with {waiting} "
+                             f"task(s) unfinished (it stopped, or the network failed); start it and its workers "
+                             f"again and rerun (finished results are kept)")
 
     def submit(self, label: str, fn: Callable, *args, priority: int = 0):
         """Queue ``fn(*args)`` (a module-level function: it travels to the workers by reference,
@@ -492,6 +548,8 @@ class Executor:
                     ran = fut.result()
                     done = Done(label, ran.value, code=ran.code)
                 except Exception as exc:  # noqa: BLE001 - KilledWorker, or the task's own error
+                    if self.scheduler and (not self._connected() or "scheduler-connection-lost" in str(exc)):
+                        raise self._lost(self._pending) from None      # every task was cancelled with it
                     done = Done(label, None, _one_line(exc))
                 fut.release()
                 self._pending -= 1
@@ -523,6 +581,8 @@ class Executor:
             now = time.monotonic()
             if now >= next_look:
                 next_look = now + 0.5
+                if self.scheduler and not self._connected():
+                    raise self._lost(ac.count() + len(self._held))
                 if self._live_workers() > 0:
                     alone_since = None
                 elif alone_since is None:

@@ -1071,6 +1071,15 @@ def calibrate(model_path, targets_path, out_dir, *, space: SearchSpace | None = 
     return stats
 
 
+def _workers_said(executor) -> str:
+    """The workers a scheduler has now, as the start line says it: none is not "1 workers" (the
+    tasks then wait for one, and the run stops after the executor's no-worker time limit)."""
+    n = executor.live_workers
+    if n == 0:
+        return f"no worker yet (the run stops if none joins within {executor.no_worker_timeout:g} s)"
+    return f"{n} worker{'s' if n != 1 else ''}"
+
+
 def _stages(model_path, targets_path, targets, goal, out, space, runs, executor, say, t_all, bound,
             bound_minutes, bound_margin, prior_bound) -> dict:
     """The screen, the full evaluation and the bound on ``executor`` (`calibrate`)."""
@@ -1090,7 +1099,7 @@ def _stages(model_path, targets_path, targets, goal, out, space, runs, executor,
     reused = len(results)
     where = executor.where
     say(f"calibrate: {len(tasks) + reused} points ({reused} already on disk), "
-        + (f"on the scheduler {where.get('address')}, {executor.n_workers} workers" if where.get("mode") == "scheduler"
+        + (f"on the scheduler {where.get('address')}, {_workers_said(executor)}" if where.get("mode") == "scheduler"
            else f"{where.get('workers')} worker processes" if where.get("mode") == "LocalCluster"
            else "in this process"))
     t0 = time.perf_counter()

@@ -39,9 +39,14 @@ def _parser() -> argparse.ArgumentParser:
     o = sub.add_parser("options", help="onset and damper options and specs, the API's keywords "
                                        "(tools/hardening/fuzz_options.py): --cases of each kind, classified")
     o.add_argument("--cases", type=int, default=1000, help="cases of each kind (default 1000)")
-    o.add_argument("--kinds", default="", help="comma-separated kinds (default all: onset_args, onset_specs, "
-                                               "damper_args, damper_specs, api_keywords)")
+    o.add_argument("--kinds", default="", help="comma-separated kinds (default: onset_args, onset_specs, "
+                                               "damper_args, damper_specs, api_keywords; also cache_edits and "
+                                               "scheduler_failures, real processes: tools/hardening/fuzz_cache.py, "
+                                               "fuzz_scheduler.py)")
     o.add_argument("--light", action="store_true", help="leave out the valid cases that compute for seconds")
+    o.add_argument("--budget-minutes", type=float, default=None,
+                   help="cache_edits, scheduler_failures: start no case after so many minutes of each kind "
+                        "(the JSON's cases says how many ran; default: no limit)")
     o.add_argument("--seed", type=int, default=0, help="seed of the cases (default 0)")
     for s, repeats in ((k, 20), (ks, 4)):
         s.add_argument("--repeats", type=int, default=repeats, help=f"trials (default {repeats})")
@@ -63,15 +68,37 @@ def _fuzz(args, log) -> tuple[dict, bool]:
     return result, bool(result["problem_count"])
 
 
+#: The kinds of real processes (a private package copy edited during a run; Dask clusters whose
+#: workers fail): their own runners, the same table shape, and "failed" (exit 3, said) is expected.
+PROCESS_KINDS = ("cache_edits", "scheduler_failures")
+
+
 def _options(args, log) -> tuple[dict, bool]:
     from tools.hardening.fuzz_options import KINDS, run_options
     check_number("--cases", args.cases, 0, 10**6, integer=True)
+    if args.budget_minutes is not None:
+        check_number("--budget-minutes", args.budget_minutes, 0, 10**5)
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()] or list(KINDS)
     for k in kinds:
-        if k not in KINDS:
-            raise SpecError("arguments", "--kinds", f"unknown kind {k!r}; give some of {', '.join(KINDS)}")
-    result = run_options(args.cases, args.seed, kinds, heavy=not args.light, log=log)
+        if k not in KINDS and k not in PROCESS_KINDS:
+            raise SpecError("arguments", "--kinds", f"unknown kind {k!r}; give some of "
+                                                    f"{', '.join(list(KINDS) + list(PROCESS_KINDS))}")
+    in_process = [k for k in kinds if k in KINDS]
+    result = run_options(args.cases, args.seed, in_process, heavy=not args.light, log=log) if in_process else \
+        {"seed": args.seed, "cases_per_kind": args.cases, "table": {}, "seconds": {}, "examples": {}}
     bad = any(n for row in result["table"].values() for c, n in row.items() if c not in ("ok", "refused_named"))
+    budget = None if args.budget_minutes is None else 60.0 * args.budget_minutes
+    for k in (k for k in kinds if k in PROCESS_KINDS):
+        if k == "cache_edits":
+            from tools.hardening.fuzz_cache import run_cache_edits as runner
+        else:
+            from tools.hardening.fuzz_scheduler import run_scheduler_failures as runner
+        r = runner(args.cases, args.seed, log=log, budget_s=budget)
+        result["table"][k] = r["table"][k]
+        result["seconds"][k] = r["seconds"][k]
+        result["examples"][k] = r.pop("examples")
+        result[k] = {key: v for key, v in r.items() if key not in ("table", "seed")}
+        bad = bad or any(n for c, n in r["table"][k].items() if c not in ("ok", "refused_named", "failed"))
     return result, bad
 
 

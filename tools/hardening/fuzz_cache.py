@@ -280,7 +280,7 @@ WINDOW = {"derive": 1.2, "figures": 6.0}
 RUN_LIMIT = {"derive": 60.0, "figures": 240.0}
 
 
-def cache_case(rng: random.Random, figures_share: float = 0.15) -> CacheCase:
+def cache_case(rng: random.Random, figures_share: float = 0.1) -> CacheCase:
     command = "figures" if rng.random() < figures_share else "derive"
     names = sorted(EDITS)
     edit = names[rng.randrange(len(names))]
@@ -394,10 +394,14 @@ class CacheHarness:
             self._last_seconds = time.perf_counter() - t0
 
 
-def run_cache_edits(n: int = 1000, seed: int = 0, base=None, log=None, figures_share: float = 0.15) -> dict:
+def run_cache_edits(n: int = 1000, seed: int = 0, base=None, log=None, figures_share: float = 0.1,
+                    budget_s: float | None = None, cases: list | None = None) -> dict:
     """``n`` seeded `cache_case` cases, classified: {"table": {"cache_edits": {class: count}}, ...}
     with the seconds, the references' count and cost, how many edits landed while a run computed
-    (a "not stored" line), and the first problems."""
+    (a "not stored" line), and the first problems. ``budget_s``: no case starts after so many
+    seconds (``cases`` then says how many ran). ``cases``: these `CacheCase` instead of ``n``
+    drawn ones, with only the references they need (the edits' own oracle, `CacheHarness.check_edits`,
+    is then not run)."""
     say = log or (lambda s: None)
     tmp = None
     if base is None:
@@ -407,28 +411,37 @@ def run_cache_edits(n: int = 1000, seed: int = 0, base=None, log=None, figures_s
     t0 = time.perf_counter()
     try:
         h = CacheHarness(Path(base))
-        wrong_edits = h.check_edits()
+        wrong_edits = h.check_edits() if cases is None else []
+        if cases is not None:
+            n = len(cases)
         if wrong_edits:
             raise RuntimeError("the edits' own oracle fails: " + "; ".join(wrong_edits))
         t_refs = time.perf_counter() - t0
         say(f"cache_edits: {len(h.refs)} references in {t_refs:.0f} s")
         t1 = time.perf_counter()
+        done = 0
         for i in range(n):
-            case = cache_case(random.Random(f"{seed}:cache_edits:{i}"), figures_share)
+            if budget_s is not None and time.perf_counter() - t0 > budget_s:
+                break
+            done += 1
+            case = cases[i] if cases is not None else cache_case(random.Random(f"{seed}:cache_edits:{i}"),
+                                                                   figures_share)
             o = h.run_case(case)
             row[o.cls] += 1
             seen += o.edit_seen
             per_command[case.command][0] += 1
             per_command[case.command][1] += h._last_seconds
-            if o.cls != "ok" and len(examples) < 12:
-                examples.append({"class": o.cls, "case": case.label, "problem": o.detail[:400]})
+            if o.cls != "ok":
+                say(f"cache_edits case {i}: {o.cls}: {case.label}: {o.detail[:600]}")
+                if len(examples) < 12:
+                    examples.append({"class": o.cls, "case": case.label, "problem": o.detail[:400]})
             if (i + 1) % 50 == 0:
                 say(f"cache_edits {i + 1}/{n} ({time.perf_counter() - t1:.0f} s) {row}")
         secs = time.perf_counter() - t1
     finally:
         if tmp:
             shutil.rmtree(tmp, ignore_errors=True)
-    return {"seed": seed, "cases": n, "table": {"cache_edits": row},
+    return {"seed": seed, "cases": done, "cases_asked": n, "table": {"cache_edits": row},
             "seconds": {"cache_edits": round(secs, 1), "references": round(t_refs, 1)},
             "seconds_per_case": {c: round(s / k, 2) for c, (k, s) in per_command.items() if k},
             "cases_per_command": {c: k for c, (k, s) in per_command.items()},
