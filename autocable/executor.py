@@ -400,12 +400,15 @@ class Executor:
             if self.warm is not None:
                 # every worker at hand now; one that joins later does it in its first task
                 try:
-                    self.client.run(self.warm)
+                    warmed = self.run_on_workers(self.warm)
                 except Exception as exc:  # noqa: BLE001 - on a scheduler: it went away meanwhile
                     if not self.scheduler or self._connected():
                         raise
                     self.close()
                     raise self._lost(self._pending) from None
+                for value in warmed.values():
+                    if isinstance(value, BaseException):
+                        raise value
             self.where["workers_seen"] = self.live_workers
         self.where["startup_seconds"] = time.perf_counter() - t0
         return self
@@ -420,7 +423,7 @@ class Executor:
         self._expected = {"version": __version__, "code": code_fingerprint("package")}
         from autocable._store import running_code
         try:
-            seen = self.client.run(running_code, on_error="return")
+            seen = self.run_on_workers(running_code)
         except Exception as exc:   # noqa: BLE001 - the scheduler went away meanwhile
             self.close()
             raise SpecError("arguments", "--scheduler", f"cannot ask the workers of {address} which autocable they "
@@ -457,6 +460,20 @@ class Executor:
             log = logging.getLogger(name)
             self._log_levels.setdefault(name, log.level)
             log.setLevel(logging.CRITICAL + 1)
+
+    def run_on_workers(self, fn: Callable) -> dict:
+        """``fn()`` on every worker at hand: {worker address: its value, or the exception it raised}.
+        A worker that cannot be reached (it died meanwhile: a connection error) is left out, as
+        if it had not been there: its tasks go to the others (two workers, one killed while the
+        command starts, must not stop a run the other can finish). A ``--scheduler`` that cannot
+        be reached raises `SchedulerLost`."""
+        try:
+            seen = self.client.run(fn, on_error="return")
+        except OSError:         # the scheduler itself cannot be reached (workers' errors are returned)
+            if self.scheduler:
+                raise self._lost(self._pending) from None
+            raise
+        return {w: v for w, v in seen.items() if not isinstance(v, OSError)}
 
     def _connected(self) -> bool:
         return self.client is not None and getattr(self.client, "status", "running") == "running"

@@ -142,3 +142,40 @@ def test_a_scheduler_gone_before_the_client_connects_is_named(monkeypatch):
                                         r"command connected .*check that the scheduler runs"):
         with executor.Executor(scheduler=f"tcp://127.0.0.1:{port}"):
             pass
+
+
+class _Client:
+    """A Dask client stand-in whose ``run`` answers for two workers, the second one dead (Dask
+    returns its connection error with ``on_error="return"``, raises it with the default)."""
+
+    status = "running"
+
+    def __init__(self, scheduler_gone: bool = False):
+        self.scheduler_gone = scheduler_gone
+
+    def run(self, fn, on_error="raise"):
+        from distributed.comm.core import CommClosedError
+        if self.scheduler_gone:
+            raise CommClosedError("in <TCP (closed) Client->Scheduler>: Stream is closed")
+        dead = CommClosedError("in <TCP (closed) Scheduler Broadcast>: Stream is closed")
+        if on_error == "raise":
+            raise dead
+        return {"tcp://127.0.0.1:1": fn(), "tcp://127.0.0.1:2": dead}
+
+
+def test_a_worker_dead_while_the_command_starts_is_left_out_not_fatal():
+    """Two workers, one killed while `sweep --scheduler` starts: the CPU accounting's
+    ``client.run`` raised the dead worker's CommClosedError through the catch-all (exit 2) although
+    the other worker could finish the sweep."""
+    import time
+
+    from autocable.executor import Executor, SchedulerLost
+    from autocable.studies.sweep import _cpu_times
+    ex = Executor(scheduler="tcp://127.0.0.1:3")
+    ex.client = _Client()
+    cpu = _cpu_times(ex)
+    assert list(cpu) == ["tcp://127.0.0.1:1"] and 0 < cpu["tcp://127.0.0.1:1"] <= time.process_time()
+    ex.client = _Client(scheduler_gone=True)              # the scheduler itself: the run stops, named
+    with pytest.raises(SchedulerLost, match=r"^--scheduler tcp://127.0.0.1:3: the connection to the scheduler"):
+        ex.run_on_workers(time.process_time)
+    ex.client = None

@@ -535,6 +535,11 @@ def run_sweep_unlocked(spec: SweepSpec, out_dir, *, workers: int | None = None, 
     return summary
 
 
+def _cpu_times(ex) -> dict:
+    """Each reachable worker's CPU seconds (a worker that died meanwhile is left out, not an error)."""
+    return {w: v for w, v in ex.run_on_workers(time.process_time).items() if isinstance(v, float)}
+
+
 def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs, on_client):
     import functools
 
@@ -552,7 +557,7 @@ def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs
         size = chunk or (1 if spec.follow else max(1, min(16, math.ceil(len(todo) / (8 * nw)))))
         where["chunk"] = size
         where["startup_seconds"] = time.perf_counter() - t_start
-        cpu0 = client.run(time.process_time)
+        cpu0 = _cpu_times(ex)
         t_tasks, own0 = time.perf_counter(), time.process_time()
         sink.progress.start()
         n = 0
@@ -579,7 +584,7 @@ def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs
         where["compute_points_per_second"] = (sink.computed + len(sink.failed)) / where["compute_seconds"]
         # CPU time the workers got during the task phase (a restarted worker's is partial): on a
         # machine shared with other jobs this, not the worker count, bounds the throughput
-        cpu1 = client.run(time.process_time)
+        cpu1 = _cpu_times(ex)
         where["cpu_seconds"] = sum(v - cpu0.get(k, 0.0) for k, v in cpu1.items())
         # this process: the client, and the scheduler of a LocalCluster (Dask's overhead)
         where["client_cpu_seconds"] = time.process_time() - own0
