@@ -102,8 +102,14 @@ def _options(args, log) -> tuple[dict, bool]:
     return result, bad
 
 
+def _interrupted(signum, frame):
+    raise KeyboardInterrupt     # SIGTERM as Ctrl-C: the runs' clean-up (their processes, folders) runs
+
+
 def run(argv: list[str] | None = None) -> int:
     """The command; the exit status."""
+    import signal
+    signal.signal(signal.SIGTERM, _interrupted)
     args = _parser().parse_args(argv)
     log = None if args.quiet else (lambda s: print(s, file=sys.stderr))
     try:

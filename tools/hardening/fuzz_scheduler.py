@@ -20,7 +20,7 @@ naming ``--scheduler``; a refused worker or address, exit 2 and one line naming 
 a run whose worker survived (or that ended before the failure) exits 0 and its results equal a
 reference computed without Dask (a figure scene's data files to 1e-9 relative, a sweep's a1 and a2);
 a run that did not exit 0 leaves no folder reading as complete with other results than the
-reference; ``calibrate``'s start line counts the live workers (none is not "1 workers"); 10 s after
+reference, and no scene folder saying "running"; ``calibrate``'s start line counts the live workers (none is not "1 workers"); 10 s after
 the case, no process of the command, of its workers or of its scheduler is alive (``orphaned``; the
 workers are stopped by SIGTERM at the end of a case, and killed if still running 3 s later: a worker
 whose scheduler is gone finishes its running scene before it exits).
@@ -449,6 +449,14 @@ class SchedulerHarness:
             if why:
                 return Outcome("wrong_exit0" if code == 0 else "wrong_exit_nonzero",
                                f"exit {code}, a complete folder unlike the reference: {why}", code, wall)
+        if code != 0 and case.command == "figures":
+            run = out / "fig03" / "run.json"
+            try:
+                status = json.loads(run.read_text()).get("status") if run.is_file() else None
+            except ValueError:
+                status = "unreadable"
+            if status == "running":             # the issue's hang left it so: nobody is running it now
+                return Outcome("wrong_exit_nonzero", f"exit {code}, fig03/run.json still says running", code, wall)
         survived = case.failure in ("two_workers_one_killed", "healthy")
         may_finish = case.failure in ("kill_only_worker", "kill_scheduler")
         if case.command == "calibrate":
