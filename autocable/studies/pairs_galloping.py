@@ -109,6 +109,10 @@ def galloping_lines(report: dict) -> list[str]:
         if r.get("galloping_note") and low is None:
             line += f"  ({r['galloping_note']})"
         lines.append(line)
+    notes: dict = {}            # one line per reason (every pair of a stay often has the same)
+    for r in report["pairs"]:
         if r.get("lowest_galloping_note"):
-            lines.append(f"      lowest U of pair {r['k']}: {r['lowest_galloping_note']}")
+            notes.setdefault(r["lowest_galloping_note"], []).append(str(r["k"]))
+    for note, ks in notes.items():
+        lines.append(f"  lowest U of pair{'s' if len(ks) > 1 else ''} {', '.join(ks)}: not known, {note}")
     return lines
