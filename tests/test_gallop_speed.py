@@ -126,3 +126,40 @@ def test_a_fold_still_gives_the_lowest_speed():
     assert study["lowest_galloping_U_bound"] is None and study["lowest_galloping_U_at_most_m_s"] is None
     hp = study["cases"][0]["hopf_points"][0]
     assert any(abs(f["U_m_s"] - low) < 1e-9 for f in hp["folds"])
+
+
+def test_curves_variant_by_weights_equals_its_own_build():
+    """The sensitivity's curves variants on the exact rung (band widened, blend halved) as new
+    run-time weights of the nominal build (`DampedSystem.with_curves`) equal their own symbolic
+    builds: the (y, Phi, s) right-hand side to 1e-13 relative at random states, and the case's
+    lowest galloping speed and design-wind amplitude to 1e-9 / 1e-7 relative (Newton's and the
+    amplitudes' own tolerances). A different equation or rung is refused (None)."""
+    import math
+
+    from autocable.cli.derivation import derivation
+    from autocable.model.curves import curves_from_spec, with_band
+    from autocable.studies.gallop import _case, _curves_variant
+    d = derivation(REPO / "models" / "stay_190m.blended.toml", None, "exact")
+    units = units_of(d.spec, d.statics)
+    shared = DampedSystem(d.ode)
+    curves = curves_from_spec(d.spec.aero)
+    half = math.degrees(curves.valid_phi[1] - curves.valid_phi[0]) / 2
+    rng = np.random.default_rng(3)
+    for h, blend in ((half + 5.0, curves.blend_deg), (half, 0.5 * curves.blend_deg)):
+        dv = _curves_variant(d, with_band(curves, h, blend_deg=blend))
+        fast = shared.with_curves(dv.ode)
+        assert fast is not None
+        own = CycleContinuation(with_damping(dv.ode, 0.003))
+        for _ in range(4):
+            z = rng.normal(size=24) * 10.0 ** rng.uniform(-4.0, 0.0)
+            a, b = own.system().rhs(0.0, z, [1.7]), fast.at(0.003).rhs(0.0, z, [1.7])
+            assert np.max(np.abs(a - b)) <= 1e-13 * np.max(np.abs(a))
+    # the last variant (the blend halved) continued both ways
+    xi, U_des = d.ode.xi_s, units.wind_star(25.0)
+    by_weights = _case(dv, dv.ode, xi, U_MAX_DEFAULT, units, U_des, None, fast)[0]
+    by_build = _case(dv, dv.ode, xi, U_MAX_DEFAULT, units, U_des, None, None)[0]
+    assert by_weights["lowest_galloping_U_m_s"] == pytest.approx(by_build["lowest_galloping_U_m_s"], rel=1e-9)
+    assert by_weights["amplitude_at_design_wind_m"] == pytest.approx(by_build["amplitude_at_design_wind_m"], rel=1e-7)
+    # refused: the cubic rung (no exact load) and another equation
+    assert shared.with_curves(derive(STAY).ode) is None
+    assert shared.with_curves(derivation(REPO / "models" / "meiko_nishi.blended.toml", None, "exact").ode) is None

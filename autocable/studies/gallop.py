@@ -121,6 +121,7 @@ class DampedSystem:
     def __init__(self, ode):
         self.ode = ode
         self._ci = None
+        self._template = None
         self.build_seconds = 0.0
         self._undamped = _undamped_hash(ode)
 
@@ -138,8 +139,9 @@ class DampedSystem:
             import sympy as sp
 
             from autocable.codegen.cintegrate import compiled_integrator
+            from autocable.codegen.coefficients import coefficient_template
             from autocable.model import derivatives
-            from autocable.model.symbolic import ETA, OMEGA, STATE, U, UINV, WIND, first_order_rhs
+            from autocable.model.symbolic import ETA, OMEGA, STATE, U, UINV, WIND, first_order_rhs, plain_symbols
             t0 = time.perf_counter()
             xi = sp.Symbol(DAMPING_SYMBOL)
             ode = self.ode
@@ -165,10 +167,85 @@ class DampedSystem:
             ds = [sum((jac[i][k] * sens[k] for k in range(4)), sp.Integer(0)) + dU[i] for i in range(4)]
             names = tuple(s.name for s in STATE) + tuple(f"phi{i}{j}" for i in range(4) for j in range(4)) \
                 + tuple(f"s{i}" for i in range(4))
+            # plain symbols here, so that the build's coefficient template (cached by its expressions)
+            # is at hand for `with_curves`
+            plain = tuple(plain_symbols(e) for e in tuple(rhs) + tuple(dphi) + tuple(ds))
             self._ci = compiled_integrator(f"gallop_damped_{self._undamped}", names, (U.name, DAMPING_SYMBOL),
-                                           tuple(rhs) + tuple(dphi) + tuple(ds), None)
+                                           plain, None)
+            self._template = coefficient_template(plain)
             self.build_seconds = time.perf_counter() - t0
         return self._ci
+
+    def with_curves(self, ode) -> "DampedSystem | None":
+        """The system of ``ode``, which is this one's equation on the exact rung with other blended
+        curves (`_curves_variant`: the sensitivity's band and blend), by new values of the compiled
+        code's run-time weights instead of a new symbolic build (seconds per case on the exact
+        rung); None where that is not possible, and the caller builds it.
+
+        Why it holds. The curves enter the exact load only as `curves.PiecewisePolynomial` nodes
+        (lift and drag, and their derivatives: the same node with the order raised), whose numbers
+        (edges, origins, coefficients) are Floats and so run-time weights of the build
+        (`autocable.codegen.coefficients`: one weight per distinct value). A variant with the same
+        piece sizes is this build with each weight of a nominal piece value set to the variant's
+        value at the same place. Refused: a different structure (piece sizes, rung, equation), two
+        places of one weight asking for different values; and checked: the difference of the two
+        systems' accelerations at 64 states sweeping phi over every piece must equal the difference
+        of the exact loads (`exact_load.forces`, numpy: an independent evaluation) to 1e-9
+        relative, so that a weight shared with another term of equal value cannot pass unseen."""
+        from dataclasses import replace
+
+        import sympy as sp
+
+        from autocable.model.curves import curves_from_dict
+        from autocable.model.exact_load import forces
+        ex, ex_new = self.ode.exact_load, getattr(ode, "exact_load", None)
+        if ex is None or ex_new is None or replace(ex_new, curves=ex.curves) != ex:
+            return None
+        if _undamped_hash(replace(ode, exact_load=ex)) != self._undamped:
+            return None
+        old, new = curves_from_dict(ex.curves), curves_from_dict(ex_new.curves)
+        if old.kind != "blend" or new.kind != "blend":
+            return None
+        self.compiled()
+        tpl = self._template
+        where = {float(v): i for i, v in enumerate(tpl.weights)}
+        weights = np.array(tpl.weights, dtype=float)
+        asked: dict = {}
+        x = sp.Symbol("x")
+        for a, b in ((old.lift_expr(x), new.lift_expr(x)), (old.drag_expr(x), new.drag_expr(x))):
+            m = int(a.args[2])
+            if a.args[:3 + m] != b.args[:3 + m]:
+                return None                           # other piece sizes: another structure
+            for va, vb in zip(a.args[3 + m:], b.args[3 + m:]):
+                i = where.get(float(va))
+                if i is None:
+                    return None
+                if asked.setdefault(i, float(vb)) != float(vb):
+                    return None                       # one weight, two values
+        for i, v in asked.items():
+            weights[i] = v
+        out = DampedSystem(ode)
+        out._ci = replace(self._ci, weights=weights)
+        out._template = None
+        # the independent check: the accelerations' difference is the exact loads' difference
+        # velocities from small to large (log-uniform over five decades): phi at the nodes then
+        # falls in every piece, the fits, both blends and the dry cylinder beyond
+        rng = np.random.default_rng(0)
+        n = 64
+        U_star = rng.uniform(0.5, 3.0, n)
+        states = rng.normal(size=(n, 4)) * 10.0 ** rng.uniform(-5.0, 0.0, (n, 1))
+        f_old = np.array(forces(ex, states[:, 1], states[:, 2], states[:, 3], U_star))
+        f_new = np.array(forces(ex_new, states[:, 1], states[:, 2], states[:, 3], U_star))
+        z = np.zeros(24)
+        got = np.empty((2, n))
+        for j in range(n):
+            z[:4] = states[j]
+            got[:, j] = (out._ci.rhs(0.0, z, [U_star[j], 0.0])[2:4] - self._ci.rhs(0.0, z, [U_star[j], 0.0])[2:4])
+        want = f_new - f_old
+        scale = max(float(np.max(np.abs(f_old))), 1e-300)
+        if not float(np.max(np.abs(got - want))) <= 1e-9 * scale:
+            return None
+        return out
 
     def at(self, xi: float) -> "_AtDamping":
         """The compiled system with the damping ratio ``xi`` bound: the interface `CycleContinuation`
@@ -681,7 +758,8 @@ def _span(values) -> list | None:
 
 
 def sensitivity(derivation, xi: float, U_max: float, U_des: float | None, units, band_deg: float = SENSITIVITY_BAND_DEG,
-                blend_factors=SENSITIVITY_BLEND_FACTORS, nominal: dict | None = None, log=None) -> dict:
+                blend_factors=SENSITIVITY_BLEND_FACTORS, nominal: dict | None = None, log=None,
+                shared: DampedSystem | None = None) -> dict:
     """The amplitude at the design wind and the lowest galloping speed at damping ``xi`` recomputed
     with the curves' valid range narrowed and widened by ``band_deg`` at each end and the blend's
     width times each of ``blend_factors`` (`curves.with_band`, one continuation each), beside the
@@ -690,7 +768,9 @@ def sensitivity(derivation, xi: float, U_max: float, U_des: float | None, units,
     ``range`` is [lo, hi] over the nominal value and every case that has one (in-plane and
     out-of-plane separately for the amplitude). On the cubic rung eq. (21) takes the curves only
     through their expansion at phi0, which a range holding phi0 leaves unchanged: its amplitudes
-    and speeds are the same in every case, and only the validity verdict moves."""
+    and speeds are the same in every case, and only the validity verdict moves. On the exact rung
+    each case runs on ``shared`` (the nominal equation's `DampedSystem`, built here when None) with
+    the case's curves as new run-time weights (`DampedSystem.with_curves`), not a new build."""
     from autocable.model.curves import curves_from_spec, with_band
     why = sensitivity_undefined(derivation)
     if why:
@@ -705,8 +785,10 @@ def sensitivity(derivation, xi: float, U_max: float, U_des: float | None, units,
     plans = [(f"band narrowed by {band_deg:g} deg", half - band_deg, curves.blend_deg),
              (f"band widened by {band_deg:g} deg", half + band_deg, curves.blend_deg)]
     plans += [(f"blend x{f:g}", half, curves.blend_deg * f) for f in blend_factors]
+    shared = DampedSystem(d.ode) if shared is None else shared
     if nominal is None:
-        nominal = _case(d, d.ode if xi == d.ode.xi_s else with_damping(d.ode, xi), xi, U_max, units, U_des, None)[0]
+        nominal = _case(d, d.ode if xi == d.ode.xi_s else with_damping(d.ode, xi), xi, U_max, units, U_des, None,
+                        shared)[0]
     cases = []
     for name, h, blend in plans:
         if h <= 0:
@@ -722,7 +804,10 @@ def sensitivity(derivation, xi: float, U_max: float, U_des: float | None, units,
                 f"blend {c.blend_deg:g} deg) ...")
         dv = _curves_variant(d, c)
         ode = dv.ode if xi == dv.ode.xi_s else with_damping(dv.ode, xi)
-        case = _case(dv, ode, xi, U_max, units, U_des, None)[0]
+        # the exact rung: the nominal build with the case's curves as weights (None: a build of its own)
+        # (the cubic rung: the same equation, the same system)
+        own = shared if shared.serves(dv.ode) else shared.with_curves(dv.ode)
+        case = _case(dv, ode, xi, U_max, units, U_des, None, own)[0]
         row.update({k: case.get(k) for k in ("lowest_galloping_U_m_s", "lowest_galloping_U_bound",
                                               "amplitude_at_design_wind_m",
                                               "frequency_at_design_wind_Hz", "beyond_valid_range", "design_verdict",
@@ -797,7 +882,7 @@ def gallop_study(derivation, design_wind_m_s: float | None = None, dampings=None
         sens = {"defined": True, "computed": False,
                 "reason": "not computed (asked off: --no-sensitivity, or with_sensitivity=False)"}
     else:
-        sens = sensitivity(d, xis[0], U_max, U_des, units, band_deg, nominal=first, log=log)
+        sens = sensitivity(d, xis[0], U_max, U_des, units, band_deg, nominal=first, log=log, shared=shared)
     return {
         "model": d.spec.name, "primary_damping_ratio": xis[0], "damping_ratios": xis,
         "scanned_U_m_s": [units.wind_m_s(U_MIN), units.wind_m_s(U_max)], "design_wind_m_s": design_wind_m_s,
