@@ -114,9 +114,9 @@ class DampedSystem:
     stay's pairs 1 and 2, under load: about 6.6 s of the 8.6 s of each step of
     `least_damping_global`'s bisection, whose continuation took the rest). Here it is done once:
     xi is a symbol of the compiled right-hand side, and each damping ratio binds its value
-    (`at`). The system is the same
-    expression as `CycleContinuation.system`'s with 2 xi omega_k q_k' written with xi symbolic;
-    its numbers differ by round-off (tests/test_gallop_speed.py compares the two)."""
+    (`at`). The system is the same expression as `CycleContinuation.system`'s with 2 xi omega_k q_k'
+    written with xi symbolic; its numbers differ by round-off (tests/test_gallop_speed.py compares
+    the two)."""
 
     def __init__(self, ode):
         self.ode = ode
