@@ -908,7 +908,10 @@ def gallop_study(derivation, design_wind_m_s: float | None = None, dampings=None
                         "U_m_s": "U* U_c", "frequency_Hz": "2 pi / T times omega / (2 pi), T the cycle's own period",
                         "stable": "every non-trivial Floquet multiplier inside the unit circle",
                         "order": "amplitude pairs are [in-plane, out-of-plane]",
-                        "twist_bound_deg": TWIST_BOUND_DEG, "modes_fraction": MODES_FRACTION},
+                        "twist_bound_deg": TWIST_BOUND_DEG, "modes_fraction": MODES_FRACTION,
+                        "lowest_galloping_U_m_s": "the lowest wind of the branches where it is a turn (a fold, or the "
+                                                  "onset); null with lowest_galloping_U_bound (\"at most X m/s\") "
+                                                  "where a branch is still descending where it ends"},
         "seconds": time.perf_counter() - t0,
     }
 
