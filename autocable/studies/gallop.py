@@ -140,7 +140,7 @@ class DampedSystem:
 
             from autocable.codegen.cintegrate import compiled_integrator
             from autocable.codegen.coefficients import coefficient_template
-            from autocable.model import derivatives
+            from autocable.methods.integration.gallop import variational_system
             from autocable.model.symbolic import ETA, OMEGA, STATE, U, UINV, WIND, first_order_rhs, plain_symbols
             t0 = time.perf_counter()
             xi = sp.Symbol(DAMPING_SYMBOL)
@@ -158,18 +158,10 @@ class DampedSystem:
             # with_damping(ode, 0): the damping terms' coefficients 0, so they vanish from the expression
             base = first_order_rhs(with_damping(ode, 0.0))
             rhs = [sp.sympify(e).xreplace(fixed) + x for e, x in zip(base, extra)]
-            memo: dict = {}
-            jac = [[derivatives.diff(e, v, memo) for v in STATE] for e in rhs]
-            dU = [derivatives.diff(e, U, {}) for e in rhs]
-            phi = [[sp.Symbol(f"phi{i}{j}") for j in range(4)] for i in range(4)]
-            sens = [sp.Symbol(f"s{i}") for i in range(4)]
-            dphi = [sum((jac[i][k] * phi[k][j] for k in range(4)), sp.Integer(0)) for i in range(4) for j in range(4)]
-            ds = [sum((jac[i][k] * sens[k] for k in range(4)), sp.Integer(0)) + dU[i] for i in range(4)]
-            names = tuple(s.name for s in STATE) + tuple(f"phi{i}{j}" for i in range(4) for j in range(4)) \
-                + tuple(f"s{i}" for i in range(4))
+            names, exprs = variational_system(rhs)
             # plain symbols here, so that the build's coefficient template (cached by its expressions)
             # is at hand for `with_curves`
-            plain = tuple(plain_symbols(e) for e in tuple(rhs) + tuple(dphi) + tuple(ds))
+            plain = tuple(plain_symbols(e) for e in exprs)
             self._ci = compiled_integrator(f"gallop_damped_{self._undamped}", names, (U.name, DAMPING_SYMBOL),
                                            plain, None)
             self._template = coefficient_template(plain)

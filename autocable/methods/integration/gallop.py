@@ -70,8 +70,8 @@ from autocable.methods.integration.ode21 import DIVERGED
 from autocable.model.premises import ArgumentError
 from autocable.model.symbolic import ETA, OMEGA, STATE, U, UINV, WIND, first_order_rhs
 
-__all__ = ["CycleContinuation", "CyclePoint", "CycleFold", "CycleBranch", "HopfStart", "hopf_start",
-           "stability_changes", "SAMPLES_PER_CYCLE", "FOLD_U_TOL"]
+__all__ = ["CycleContinuation", "variational_system", "CyclePoint", "CycleFold", "CycleBranch", "HopfStart",
+           "hopf_start", "stability_changes", "SAMPLES_PER_CYCLE", "FOLD_U_TOL"]
 
 #: Samples of one turn for the amplitudes (as `shooting.ShootingSolver.cycle`: extremes to ~1e-11).
 SAMPLES_PER_CYCLE = 256
@@ -187,6 +187,27 @@ class _Flow:
     ys: np.ndarray | None = None
 
 
+def variational_system(rhs) -> tuple[tuple[str, ...], tuple]:
+    """The 24 equations of (y, Phi, s) for the autonomous first-order eq. (21) ``rhs`` (four
+    expressions in `STATE` with the parameter U): the state, the monodromy's variational equations
+    Phi' = J Phi and the U-sensitivity s' = J s + dF/dU; (names, expressions) in that order, as
+    `CycleContinuation.system` compiles them (and `autocable.studies.gallop.DampedSystem` with the
+    damping ratio a symbol too)."""
+    import sympy as sp
+
+    from autocable.model import derivatives
+    memo: dict = {}
+    jac = [[derivatives.diff(e, v, memo) for v in STATE] for e in rhs]
+    dU = [derivatives.diff(e, U, {}) for e in rhs]
+    phi = [[sp.Symbol(f"phi{i}{j}") for j in range(4)] for i in range(4)]
+    sens = [sp.Symbol(f"s{i}") for i in range(4)]
+    dphi = [sum((jac[i][k] * phi[k][j] for k in range(4)), sp.Integer(0)) for i in range(4) for j in range(4)]
+    ds = [sum((jac[i][k] * sens[k] for k in range(4)), sp.Integer(0)) + dU[i] for i in range(4)]
+    names = tuple(s.name for s in STATE) + tuple(f"phi{i}{j}" for i in range(4) for j in range(4)) \
+        + tuple(f"s{i}" for i in range(4))
+    return names, tuple(rhs) + tuple(dphi) + tuple(ds)
+
+
 class CycleContinuation:
     """Continuation of the cycles of the autonomous eq. (21) of one ODE (module docstring).
 
@@ -210,22 +231,12 @@ class CycleContinuation:
             import sympy as sp
 
             from autocable.codegen.cintegrate import compiled_integrator
-            from autocable.model import derivatives
             t0 = time.perf_counter()
             # eta = 0: autonomous; U > 0: the wind switch on and 1/U as itself
             fixed = {ETA: sp.Integer(0), OMEGA: sp.Integer(1), WIND: sp.Integer(1), UINV: 1 / U}
             rhs = [sp.sympify(e).xreplace(fixed) for e in first_order_rhs(self.ode)]
-            memo: dict = {}
-            jac = [[derivatives.diff(e, v, memo) for v in STATE] for e in rhs]
-            dU = [derivatives.diff(e, U, {}) for e in rhs]
-            phi = [[sp.Symbol(f"phi{i}{j}") for j in range(4)] for i in range(4)]
-            sens = [sp.Symbol(f"s{i}") for i in range(4)]
-            dphi = [sum((jac[i][k] * phi[k][j] for k in range(4)), sp.Integer(0)) for i in range(4) for j in range(4)]
-            ds = [sum((jac[i][k] * sens[k] for k in range(4)), sp.Integer(0)) + dU[i] for i in range(4)]
-            names = tuple(s.name for s in STATE) + tuple(f"phi{i}{j}" for i in range(4) for j in range(4)) \
-                + tuple(f"s{i}" for i in range(4))
-            self._sys = compiled_integrator(f"gallop_{self.ode.content_hash()}", names, (U.name,),
-                                            tuple(rhs) + tuple(dphi) + tuple(ds), None)
+            names, exprs = variational_system(rhs)
+            self._sys = compiled_integrator(f"gallop_{self.ode.content_hash()}", names, (U.name,), exprs, None)
             self.build_seconds = time.perf_counter() - t0
         return self._sys
 
