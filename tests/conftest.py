@@ -177,3 +177,23 @@ range = [0.2, 0.9999]
 at = 0.5
 start = {{ state = [0.0] }}
 '''
+
+
+#: The rotation frequency of `hopf_normal_form_branch`.
+HOPF_W = 2.0
+
+
+def hopf_normal_form_branch(a: float):
+    """The Hopf normal form x' = mu x - w y + a x r^2, y' = w x + mu y + a y r^2 (w = `HOPF_W`)
+    continued in mu over [-0.2, 0.3]: one Hopf point at mu = 0 whose first Lyapunov coefficient
+    (Kuznetsov's normalisation, |q| = 1) is l1 = 2 a / w: subcritical for a > 0, supercritical for
+    a < 0 (the closed form tests/test_continuation.py checks l1 against)."""
+    import sympy as sp
+
+    from autocable.methods.continuation import ContinuationSettings, EquilibriumProblem, System, continue_equilibria
+    x, y, mu = sp.symbols("x y mu")
+    r2 = x * x + y * y
+    system = System("hopf_nf", ("x", "y"), (mu * x - HOPF_W * y + a * x * r2, HOPF_W * x + mu * y + a * y * r2),
+                    {"mu": -0.2}, (("a1", ("x", "y")),))
+    problem = EquilibriumProblem(system, "mu", {"mu": -0.2}, (-0.2, 0.3))
+    return continue_equilibria(problem, ContinuationSettings(), name="EQ", engine="compiled").branch

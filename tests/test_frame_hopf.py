@@ -14,25 +14,12 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
-import sympy as sp
 
 import autocable as ac
-from autocable.methods.continuation import ContinuationSettings, EquilibriumProblem, System, continue_equilibria
-from autocable.results import BRANCHES_CSV, FRAME_SPECIAL_COLUMNS, Branch, RunResults, read_results, write_results
-from conftest import SAMPLE
-
-W_H = 2.0
+from autocable.results import BRANCHES_CSV, FRAME_SPECIAL_COLUMNS, RunResults, read_results, write_results
+from conftest import HOPF_W, SAMPLE, hopf_normal_form_branch
 
 
-def _hopf_branch(a: float) -> Branch:
-    """x' = mu x - w y + a x r^2, y' = w x + mu y + a y r^2 continued in mu over [-0.2, 0.3]: one Hopf
-    point at mu = 0 with l1 = 2 a / w."""
-    x, y, mu = sp.symbols("x y mu")
-    r2 = x * x + y * y
-    system = System("hopf_nf", ("x", "y"), (mu * x - W_H * y + a * x * r2, W_H * x + mu * y + a * y * r2),
-                    {"mu": -0.2}, (("a1", ("x", "y")),))
-    problem = EquilibriumProblem(system, "mu", {"mu": -0.2}, (-0.2, 0.3))
-    return continue_equilibria(problem, ContinuationSettings(), name="EQ", engine="compiled").branch
 
 
 def _check_rows(frame: pd.DataFrame, branches) -> int:
@@ -64,12 +51,12 @@ def _check_rows(frame: pd.DataFrame, branches) -> int:
 
 @pytest.mark.parametrize("a, word", [(-1.0, "supercritical"), (0.5, "subcritical")])
 def test_normal_form_hopf_row_has_the_closed_form_l1(a, word):
-    b = _hopf_branch(a)
+    b = hopf_normal_form_branch(a)
     frame = b.to_dataframe()
     rows = frame[frame["special"] != ""]
     assert rows["special"].tolist() == ["H1"]
     row = rows.iloc[0]
-    assert row["l1"] == pytest.approx(2 * a / W_H, rel=1e-10) and row["criticality"] == word
+    assert row["l1"] == pytest.approx(2 * a / HOPF_W, rel=1e-10) and row["criticality"] == word
     # the row is the point before the located Hopf point (mu = 0): mu crosses 0 between it and the next
     i = int(row["point"])
     assert frame["mu"][i] <= 0.0 <= frame["mu"][i + 1] or abs(frame["mu"][i]) < 1e-9

@@ -13,13 +13,12 @@ import warnings
 
 import numpy as np
 import pytest
-import sympy as sp
 
 import autocable as ac
-from autocable.methods.continuation import ContinuationSettings, EquilibriumProblem, System, continue_equilibria
-from autocable.results import (Branch, EndPoint, RunResults, SpecialPoint, TruncatedBranchWarning,
+from autocable.methods.continuation import ContinuationSettings, EquilibriumProblem, continue_equilibria
+from autocable.results import (EndPoint, RunResults, SpecialPoint, TruncatedBranchWarning,
                                hopf_criticality, read_results, write_results)
-from conftest import REPO, SAMPLE
+from conftest import HOPF_W, REPO, SAMPLE, hopf_normal_form_branch
 
 STAY = REPO / "tests" / "data" / "stay_145m.toml"
 #: The issue's call: 8 m/s of wind on U_c = 7 m/s, 5 mm of deck motion on the 145 m stay.
@@ -158,7 +157,7 @@ def test_plots_against_the_deck_frequency_in_hz(stay, stay_response):
 
 def test_si_axes_need_the_cable():
     """Branches that carry no cable (a textbook system) cannot be drawn in Hz: one line naming x."""
-    b = _hopf_branch(-1.0)
+    b = hopf_normal_form_branch(-1.0)
     with pytest.raises(ValueError, match=r"x: 'Omega_Hz' in SI needs the cable's scales"):
         ac.plot_branches([b], x="Omega_Hz")
 
@@ -175,37 +174,23 @@ def test_frequency_response_names_its_branches_as_the_paper_does(sample_response
 
 
 # -- the Hopf criticality ----------------------------------------------------------------------------
-W_H = 2.0
-
-
-def _hopf_branch(a: float) -> Branch:
-    """The Hopf normal form x' = mu x - w y + a x r^2, y' = w x + mu y + a y r^2 continued in mu:
-    Kuznetsov's first Lyapunov coefficient is l1 = 2 a / w at mu = 0 (|q| = 1): subcritical for
-    a > 0, supercritical for a < 0 (the closed form tests/test_continuation.py checks l1 against)."""
-    x, y, mu = sp.symbols("x y mu")
-    r2 = x * x + y * y
-    system = System("hopf_nf", ("x", "y"), (mu * x - W_H * y + a * x * r2, W_H * x + mu * y + a * y * r2),
-                    {"mu": -0.2}, (("a1", ("x", "y")),))
-    problem = EquilibriumProblem(system, "mu", {"mu": -0.2}, (-0.2, 0.3))
-    return continue_equilibria(problem, ContinuationSettings(), name="EQ", engine="compiled").branch
-
 
 @pytest.mark.parametrize("a, word", [(-1.0, "supercritical"), (0.5, "subcritical")])
 def test_hopf_criticality_in_labels_tables_and_summary(a, word):
-    b = _hopf_branch(a)
+    b = hopf_normal_form_branch(a)
     h = b.special("H1")
-    assert h.extra["l1"] == pytest.approx(2 * a / W_H, rel=1e-10)
-    assert h.criticality == word == hopf_criticality(2 * a / W_H)
-    assert h.hopf_text == f"{word}, l1 = {2 * a / W_H:.3g}"
+    assert h.extra["l1"] == pytest.approx(2 * a / HOPF_W, rel=1e-10)
+    assert h.criticality == word == hopf_criticality(2 * a / HOPF_W)
+    assert h.hopf_text == f"{word}, l1 = {2 * a / HOPF_W:.3g}"
     frame = RunResults("nf", (b,), {}).special_points_dataframe()
     row = frame[frame["label"] == "H1"].iloc[0]
-    assert row["criticality"] == word and row["l1"] == pytest.approx(2 * a / W_H, rel=1e-10)
+    assert row["criticality"] == word and row["l1"] == pytest.approx(2 * a / HOPF_W, rel=1e-10)
     fig = ac.plot_branches([b], x="mu")
     texts = [t.get_text() for t in fig.axes[0].texts]
-    assert any(t.startswith("H1 (") and word in t and f"l1 = {2 * a / W_H:.3g}" in t for t in texts), texts
+    assert any(t.startswith("H1 (") and word in t and f"l1 = {2 * a / HOPF_W:.3g}" in t for t in texts), texts
     from autocable.scene.runner import summary_lines
     lines = summary_lines(RunResults("nf", (b,), {}))
-    assert any(ln.strip().startswith("H1") and f"{word}, l1 = {2 * a / W_H:.3g}" in ln for ln in lines), lines
+    assert any(ln.strip().startswith("H1") and f"{word}, l1 = {2 * a / HOPF_W:.3g}" in ln for ln in lines), lines
 
 
 def test_criticality_words():
