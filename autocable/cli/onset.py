@@ -51,7 +51,9 @@ def add_onset_parser(sub) -> None:
                    help="the onset and (with --design-wind) the least damping over what is not known: the onset "
                         "speed U_c (--uc), both frame-indifferent angle readings, the yaw's sign and every "
                         "admissible calibration root, each as a band [lo, hi] with the inputs setting each end "
-                        "(JSON key 'band'; docs/band.md)")
+                        "(JSON key 'band'; docs/band.md); with --design-wind and curves with a valid range and a "
+                        "blend, also the galloping amplitude at the design wind over the band and the curves' "
+                        "band and blend (on the exact load unless --load cubic)")
     o.add_argument("--uc", metavar="A:B", help="with --band: the range of onset speeds U_c in m/s (e.g. 7:13; "
                                                "default the model's U_c)")
     o.set_defaults(func=cmd_onset)
@@ -348,11 +350,10 @@ def _uc_range(text: str | None, spec) -> tuple[float, float]:
 def _band(args, folder) -> int:
     """``onset --band``: `autocable.studies.band.band_study` on the model file, its JSON, text and plot."""
     from autocable.spec import load_model
-    from autocable.studies.band import band_study, band_text
+    from autocable.studies.band import AMPLITUDE_LOAD, amplitude_band, band_study, band_text
     for option, given in (("--damping", args.damping is not None), ("--set", args.set), ("--refit", args.refit),
                           ("--pair", getattr(args, "pair", None) is not None),
-                          ("--modes-below", getattr(args, "modes_below", None) is not None),
-                          ("--load", getattr(args, "load", None) is not None)):
+                          ("--modes-below", getattr(args, "modes_below", None) is not None)):
         if given:
             raise refuse(option, f"studies one cable as written; --band varies what is not known about it: drop "
                                  f"{option} or --band")
@@ -362,6 +363,10 @@ def _band(args, folder) -> int:
     check_number("--design-wind", args.design_wind, 0.0, 500.0, lo_open=True)
     staging = folder()
     band = band_study(spec, uc, args.design_wind, args.max_wind)
+    # the galloping amplitude over the band, with the curves' band and blend (seconds to a minute)
+    log = (lambda s: print(f"autocable onset --band: {s}", file=sys.stderr, flush=True))
+    band.update(amplitude_band(spec, band, args.design_wind, args.max_wind,
+                               getattr(args, "load", None) or AMPLITUDE_LOAD, log))
     report = {"model": spec.name, "band": band, "warnings": list(band["notes"])}
     premise = _band_premises(band, args, uc)
     report["warnings"] += premise

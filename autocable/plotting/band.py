@@ -2,7 +2,10 @@
 speed U_c, angle reading, the yaw's sign, calibration root), its onset speed and, with a design
 wind, its least damping ratio (and the least damper constant with a ``[damper]``) as points, the
 band [lo, hi] shaded and its two ends ringed; a combination without an admissible calibration is a
-row with a cross and no value. Reads the ``band`` object only (onset.json)."""
+row with a cross and no value. Below the panels, the galloping amplitude at the design wind over
+the band and the curves' band and blend (`autocable.studies.band.amplitude_band`), with the
+combination and curves setting each end, or why the curves are not varied. Reads the ``band``
+object only (onset.json)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -59,8 +62,38 @@ def plot_band(band: dict, stem: str | Path, title: str = "") -> list[Path]:
         handles.append(axes[0].plot([], [], "o", ms=8, mfc="none", color="C3", label="end of the band")[0])
         fig.legend(handles=handles, loc="upper center", ncol=3, fontsize=7, frameon=False,
                    bbox_to_anchor=(0.5, 1.0))
+        note = amplitude_note(band)
+        if note:
+            fig.text(0.01, 0.0, note, fontsize=6.5, va="top", ha="left", color="0.2")
         if title:
             fig.suptitle(title, fontsize=9, y=1.04)
         fig.tight_layout(rect=(0, 0, 1, 0.95))
         paths = save_figure(fig, Path(stem))
     return paths
+
+
+def amplitude_note(band: dict) -> str:
+    """The lines under the panels on the galloping amplitude of the band ("" where not asked)."""
+    if "amplitude_at_design_wind_m" not in band:
+        return ""
+    amp = band["amplitude_at_design_wind_m"]
+    if amp is None:
+        return f"galloping amplitude: {band.get('amplitude_note', 'not computed')}"
+    lines = [f"largest stable galloping cycle at {band['design_wind_m_s']:g} m/s ({amp['load']} load), over "
+             f"{len(amp['cases'])} combination(s) x nominal curves, valid range "
+             f"+-{amp['curves_varied']['band_deg']:g} deg, blend x"
+             + ", x".join(f"{f:g}" for f in amp["curves_varied"]["blend_factors"]) + ":"]
+    for key, name in (("in_plane", "in-plane"), ("out_of_plane", "out-of-plane")):
+        if amp[key] is None:
+            lines.append(f"  {name}: no stable cycle")
+            continue
+        ends = []
+        for end in ("lo", "hi"):
+            b = amp["set_by"][key][end]
+            flag = " [beyond valid range]" if b["beyond_valid_range"] else ""
+            ends.append(f"{end} {b['combination']}, {b['curves']}{flag}")
+        lines.append(f"  {name}: {amp[key][0]:.3g} - {amp[key][1]:.3g} m  ({'; '.join(ends)})")
+    if band.get("least_damping_global") is not None:
+        g = band["least_damping_global"]
+        lines.append(f"  global least damping: {100 * g[0]:.3g} - {100 * g[1]:.3g} %")
+    return "\n".join(lines)

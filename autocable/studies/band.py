@@ -19,12 +19,16 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 
 from autocable.model.onset import U_MAX_DEFAULT, stability
 from autocable.model.units import units_of
 from autocable.spec import SpecError
+from autocable.errors import ComputationError
+from autocable.studies.gallop import (SENSITIVITY_BAND_DEG, SENSITIVITY_BLEND_FACTORS, DampedSystem, gallop_study,
+                                      least_damping_global, sensitivity_undefined)
 from autocable.studies.onset import design_damping, with_damper
 
 #: The two frame-indifferent readings of the angle of eq. (12) (the legacy "reversed" is not one).
@@ -216,6 +220,7 @@ def band_text(band: dict) -> list[str]:
         if key == "onset_U_m_s" and band["stable_cases"]:
             lines.append(f"    and {band['stable_cases']} cases stable up to their scanned range (no onset: not "
                          "in the band)")
+    lines.extend(amplitude_text(band))
     lines.append("  case                                         onset [m/s]  least damping   damper [N s/m]")
     for c in band["cases"]:
         if c["status"] != "ok":
@@ -226,4 +231,220 @@ def band_text(band: dict) -> list[str]:
               else f"{c.get('least_damping_note', '-'):>13}")
         dc = f"{c['damper_constant_N_s_m']:14.5g}" if c.get("damper_constant_N_s_m") is not None else ""
         lines.append(f"  {c['label']:<44} {on}  {xi}  {dc}".rstrip())
+    return lines
+
+
+# -- the galloping amplitude at the design wind over the band, with the curves' band and blend -----------
+#: Calibrated combinations whose galloping is continued: the model as given and the two that set the
+#: ends of the linear least damping band (fewer where they coincide). Each costs one compiled exact
+#: load and five continuations (nominal curves and the four variants of `gallop --sensitivity`).
+AMPLITUDE_COMBINATIONS = 3
+#: The rung the amplitude band is computed on unless told: the exact quasi-steady load, on which the
+#: curves' band and blend act (eq. (21) takes the curves only through their cubic expansion at phi0,
+#: which a band holding phi0 leaves unchanged).
+AMPLITUDE_LOAD = "exact"
+
+
+def aero_of_case(spec, inputs: dict):
+    """The ``[aero]`` of the `band_study` case with ``inputs``, written as `band_study` derived it: the
+    reading, U_c and the yaw's sign replaced, a calibrated angle still calibrated for the smallest
+    root, given (the root's value) for another admissible root. Derived, it is the case's equation."""
+    a = spec.aero
+    kw = {"angle_convention": inputs["angle_convention"],
+          "critical_wind_speed_m_s": inputs["critical_wind_speed_m_s"]}
+    if a.yaw_deg is not None:
+        kw["yaw_deg"] = inputs["yaw_deg"]
+    if inputs["root"] == "another admissible root":
+        field = "rivulet_angle_deg" if a.rivulet_angle_deg is None else "yaw_deg"
+        kw[field] = inputs[field]
+    return replace(a, **kw)
+
+
+def _amplitude_combinations(spec, band: dict) -> list[dict]:
+    """The model as given, then the cases setting the low and high ends of the least damping band
+    (those not already listed), at most `AMPLITUDE_COMBINATIONS`."""
+    a = spec.aero
+    given = {"critical_wind_speed_m_s": a.critical_wind_speed_m_s, "angle_convention": a.angle_convention,
+             "yaw_deg": a.yaw_deg, "rivulet_angle_deg": a.rivulet_angle_deg,
+             "root": "fitted (smallest |angle|)" if (a.yaw_deg is None or a.rivulet_angle_deg is None) else "given"}
+    combos = [{"aero": a, "inputs": given, "label": "the model as given", "roles": ["the model as given"]}]
+    by = (band.get("set_by") or {}).get("least_damping") or {}
+    for end, role in (("lo", "sets the least damping's low end"), ("hi", "sets the least damping's high end")):
+        if not by.get(end):
+            continue
+        inputs = {k: by[end][k] for k in ("critical_wind_speed_m_s", "angle_convention", "yaw_deg",
+                                          "rivulet_angle_deg", "root")}
+        aero = aero_of_case(spec, inputs)
+        same = next((c for c in combos if c["aero"] == aero), None)
+        if same is not None:
+            same["roles"].append(role)
+        elif len(combos) < AMPLITUDE_COMBINATIONS:
+            combos.append({"aero": aero, "inputs": inputs, "label": by[end]["label"], "roles": [role]})
+    return combos
+
+
+def _amplitude_case(spec, combo: dict, design_wind_m_s: float, U_max_m_s: float | None, load: str,
+                    notes: list, log, with_global: bool) -> dict:
+    """One combination: `gallop_study` (with the curves' sensitivity) on its equation at ``load``,
+    reduced to one row per curve variant (the nominal curves first)."""
+    out = {"label": combo["label"], "roles": combo["roles"], "inputs": combo["inputs"], "load": load}
+    if log:
+        log(f"galloping at {design_wind_m_s:g} m/s on the {load} load: {combo['label']} "
+            f"({'; '.join(combo['roles'])}), nominal curves and four variants ...")
+    try:
+        d = _derive_quiet(replace(spec, aero=replace(combo["aero"], load=load)), notes)
+    except SpecError as exc:
+        return dict(out, status="failed", reason=str(exc).removeprefix(f"{exc.path}: "))
+    if combo["inputs"]["root"] != "given":
+        # the calibrated angle as fitted (the given one kept as written)
+        field = "yaw_deg" if combo["aero"].yaw_deg is None else "rivulet_angle_deg"
+        out["inputs"] = dict(combo["inputs"], **{field: math.degrees(d.beta if field == "yaw_deg" else d.theta0)})
+    if combo["label"] == "the model as given":
+        out["label"] = f"{case_label(out['inputs'])} (as given)"
+    # the curves' valid range is in absolute phi: where this combination's static angle sits in it
+    # decides how far its cycles keep to the fits (a variant whose range no longer holds it is skipped)
+    out["static_angle_deg"] = math.degrees(d.static_angle)
+    units = units_of(d.spec, d.statics)
+    # the case's own scan (5 U_c, or --max-wind), as the linear band's
+    U_max = units.wind_m_s(U_MAX_DEFAULT) if U_max_m_s is None else min(U_max_m_s, units.wind_m_s(U_MAX_DEFAULT))
+    if design_wind_m_s > U_max:
+        return dict(out, status="failed", reason=f"the design wind {design_wind_m_s:g} m/s lies beyond this case's "
+                                                 f"scanned range ({U_max:.4g} m/s = 5 U_c, or --max-wind)")
+    shared = DampedSystem(d.ode)
+    try:
+        study = gallop_study(d, design_wind_m_s, U_max_m_s=U_max, checks=False, with_sensitivity=True,
+                             log=log, shared=shared)
+    except (SpecError, ComputationError) as exc:
+        return dict(out, status="failed", reason=str(exc))
+    sens = study["sensitivity"]
+    design = study["cases"][0].get("design_cycle") or {}
+    rows = [{"curves": "nominal", "amplitude_at_design_wind_m": study["amplitude_at_design_wind_m"],
+             "beyond_valid_range": study["beyond_valid_range"], "phi_swept_deg": design.get("phi_swept_deg"),
+             "design_verdict": study["design_verdict"],
+             "valid_phi_deg": sens.get("nominal_valid_phi_deg"), "blend_deg": sens.get("nominal_blend_deg")}]
+    for c in sens.get("cases", []):
+        rows.append({"curves": c["case"], "amplitude_at_design_wind_m": c.get("amplitude_at_design_wind_m"),
+                     "beyond_valid_range": c.get("beyond_valid_range"), "phi_swept_deg": c.get("phi_swept_deg"),
+                     "design_verdict": c.get("design_verdict"), "valid_phi_deg": c.get("valid_phi_deg"),
+                     "blend_deg": c.get("blend_deg"), **({"skipped": c["skipped"]} if "skipped" in c else {})})
+    out.update(status="ok", variants=rows, sensitivity_range=sens.get("amplitude_at_design_wind_m", {}).get("range"),
+               design_note=study["cases"][0].get("design_note"), seconds=study["seconds"])
+    if with_global:
+        if log:
+            log(f"{combo['label']}: the global least damping ...")
+        try:
+            g = least_damping_global(d, design_wind_m_s, U_max, shared=shared)
+        except (SpecError, ComputationError) as exc:
+            out.update(least_damping_global=None, least_damping_global_note=str(exc))
+        else:
+            out.update(least_damping_global=g["least_damping_ratio_global"],
+                       least_damping_global_beyond_valid_range=g["beyond_valid_range"],
+                       least_damping_global_seconds=g["seconds"])
+    return out
+
+
+def amplitude_band(spec, band: dict, design_wind_m_s: float | None, U_max_m_s: float | None = None,
+                   load: str = AMPLITUDE_LOAD, log=None, with_global: bool = False) -> dict:
+    """The keys the galloping amplitude adds to a `band_study` result ``band`` (issue: "every amplitude
+    reports its sensitivity to the band and blend"): ``amplitude_at_design_wind_m`` {"in_plane":
+    [lo, hi], "out_of_plane": [lo, hi], "set_by", "cases", "load", "curves_varied"} over the
+    combinations of `_amplitude_combinations` (the model as given and those setting the ends of the
+    least damping band), each with its nominal curves and the four variants of `gallop --sensitivity`
+    (`autocable.studies.gallop.sensitivity`: the valid range of phi narrowed and widened by
+    `SENSITIVITY_BAND_DEG`, the blend's width times each of `SENSITIVITY_BLEND_FACTORS`). The peaks are
+    those of the largest stable galloping cycle at the design wind (`gallop_study`); each end names
+    the combination and the curve variant that set it, with that cycle's validity (``beyond_valid_range``,
+    ``phi_swept_deg``). With ``with_global``, ``least_damping_global`` [lo, hi] over the same
+    combinations (nominal curves; `autocable.studies.gallop.least_damping_global`).
+
+    Where the curves have no band or blend to vary (`sensitivity_undefined`), or without a design
+    wind, ``amplitude_at_design_wind_m`` is None and ``amplitude_note`` says why in one line."""
+    # it reads only the derivation's spec.aero: the model file's curves, no derivation needed to ask
+    why = sensitivity_undefined(SimpleNamespace(spec=spec))
+    if why:
+        return {"amplitude_at_design_wind_m": None, "amplitude_note": "the curves are not varied: " + why}
+    if design_wind_m_s is None:
+        return {"amplitude_at_design_wind_m": None,
+                "amplitude_note": "the galloping amplitude over the band needs a design wind (--design-wind)"}
+    if load not in ("cubic", "exact"):
+        raise SpecError("arguments", "--load", f"expected \"cubic\" or \"exact\", got {load!r}")
+    notes, cases = [], []
+    for combo in _amplitude_combinations(spec, band):
+        cases.append(_amplitude_case(spec, combo, design_wind_m_s, U_max_m_s, load, notes, log, with_global))
+    amp = {"load": load, "curves_varied": {"band_deg": SENSITIVITY_BAND_DEG,
+                                           "blend_factors": list(SENSITIVITY_BLEND_FACTORS)},
+           "in_plane": None, "out_of_plane": None, "set_by": None, "cases": cases}
+    rows = [(c, r) for c in cases if c["status"] == "ok" for r in c["variants"]
+            if r.get("amplitude_at_design_wind_m")]
+    amp["with_a_stable_cycle"] = len(rows)
+    amp["variants"] = sum(len(c.get("variants", [])) for c in cases)
+    if rows:
+        amp["set_by"] = {}
+        for i, key in enumerate(("in_plane", "out_of_plane")):
+            lo = min(rows, key=lambda cr: cr[1]["amplitude_at_design_wind_m"][i])
+            hi = max(rows, key=lambda cr: cr[1]["amplitude_at_design_wind_m"][i])
+            amp[key] = [lo[1]["amplitude_at_design_wind_m"][i], hi[1]["amplitude_at_design_wind_m"][i]]
+            amp["set_by"][key] = {end: {"combination": c["label"], "inputs": c["inputs"], "curves": r["curves"],
+                                        "peak_m": r["amplitude_at_design_wind_m"],
+                                        "beyond_valid_range": r["beyond_valid_range"],
+                                        "phi_swept_deg": r["phi_swept_deg"]}
+                                  for end, (c, r) in (("lo", lo), ("hi", hi))}
+    if load == "cubic":
+        amp["reading"] = ("eq. (21) takes the curves only through their cubic expansion at phi0, which the variants "
+                          "leave unchanged: on the cubic load only the verdict moves (--load exact, the default, "
+                          "shows how the band and the blend move the amplitude)")
+    out = {"amplitude_at_design_wind_m": amp}
+    if notes:
+        out["amplitude_notes"] = notes
+    if with_global:
+        have = [c for c in cases if c.get("least_damping_global") is not None]
+        out["least_damping_global"] = ([min(c["least_damping_global"] for c in have),
+                                        max(c["least_damping_global"] for c in have)] if have else None)
+    return out
+
+
+
+def _peaks(p) -> str:
+    return "no stable cycle" if not p else f"{p[0]:.3g} / {p[1]:.3g} m"
+
+
+def amplitude_text(band: dict) -> list[str]:
+    """The readable lines of `amplitude_band`'s keys in a band (none where it was not asked)."""
+    if "amplitude_at_design_wind_m" not in band:
+        return []
+    amp = band["amplitude_at_design_wind_m"]
+    if amp is None:
+        return [f"  galloping amplitude: {band.get('amplitude_note', 'not computed')}"]
+    cv = amp["curves_varied"]
+    ok = [c for c in amp["cases"] if c["status"] == "ok"]
+    lines = [f"  galloping amplitude at {band['design_wind_m_s']:g} m/s (largest stable cycle, {amp['load']} load; "
+             f"{len(amp['cases'])} combination(s) x the nominal curves, the valid range +-{cv['band_deg']:g} deg and "
+             f"the blend x" + ", x".join(f"{f:g}" for f in cv["blend_factors"]) + f"; {amp['with_a_stable_cycle']} "
+             f"of {amp['variants']} with a stable cycle):"]
+    for key, name in (("in_plane", "in-plane"), ("out_of_plane", "out-of-plane")):
+        if amp[key] is None:
+            lines.append(f"    {name}: no variant has a stable cycle at the design wind")
+            continue
+        ends = []
+        for end in ("lo", "hi"):
+            b = amp["set_by"][key][end]
+            valid = ("beyond the curves' valid range" if b["beyond_valid_range"]
+                     else "inside the valid range" if b["beyond_valid_range"] is False else "validity not known")
+            swept = f"phi swept {b['phi_swept_deg']:.3g} deg, " if b.get("phi_swept_deg") is not None else ""
+            ends.append(f"{end}: {b['combination']}, curves {b['curves']} ({swept}{valid})")
+        lines.append(f"    {name}: [{amp[key][0]:.4g} m, {amp[key][1]:.4g} m]  ({'; '.join(ends)})")
+    if "least_damping_global" in band:
+        g = band["least_damping_global"]
+        lines.append("    global least damping (no galloping cycle up to the design wind, nominal curves): "
+                     + ("not found" if g is None else f"[{100 * g[0]:.4g} %, {100 * g[1]:.4g} %]"))
+    for c in amp["cases"]:
+        if c["status"] != "ok":
+            lines.append(f"    {c['label']}: {c['reason']}")
+            continue
+        parts = [f"{r['curves']} {r['skipped'] if 'skipped' in r else _peaks(r['amplitude_at_design_wind_m'])}"
+                 for r in c["variants"]]
+        lines.append(f"    {c['label']} ({'; '.join(c['roles'])}; phi0 {c['static_angle_deg']:.1f} deg), "
+                     "in-plane / out-of-plane: " + ", ".join(parts))
+    if amp.get("reading"):
+        lines.append(f"    note: {amp['reading']}")
     return lines
