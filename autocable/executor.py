@@ -628,7 +628,8 @@ class Executor:
         """The pids of the worker processes (this process on the serial path)."""
         if self.client is None:
             return [os.getpid()]
-        return sorted(set(self.client.run(os.getpid).values()))
+        # a worker that died since its last task (its run may well be complete) is left out
+        return sorted({v for v in self.run_on_workers(os.getpid).values() if isinstance(v, int)})
 
 
 def _one_line(exc: BaseException) -> str:

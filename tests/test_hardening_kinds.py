@@ -160,7 +160,7 @@ class _Client:
         dead = CommClosedError("in <TCP (closed) Scheduler Broadcast>: Stream is closed")
         if on_error == "raise":
             raise dead
-        return {"tcp://127.0.0.1:1": fn(), "tcp://127.0.0.1:2": dead}
+        return {"tcp://127.0.0.1:1": fn(), "tcp://127.0.0.1:2": dead}      # (this process as worker 1)
 
 
 def test_a_worker_dead_while_the_command_starts_is_left_out_not_fatal():
@@ -175,6 +175,9 @@ def test_a_worker_dead_while_the_command_starts_is_left_out_not_fatal():
     ex.client = _Client()
     cpu = _cpu_times(ex)
     assert list(cpu) == ["tcp://127.0.0.1:1"] and 0 < cpu["tcp://127.0.0.1:1"] <= time.process_time()
+    # the sweep's last step, its workers' pids: a worker killed as the last task ended made a
+    # complete sweep exit 2 (CommClosedError: Address removed.)
+    assert ex.worker_pids() == [os.getpid()]
     ex.client = _Client(scheduler_gone=True)              # the scheduler itself: the run stops, named
     with pytest.raises(SchedulerLost, match=r"^--scheduler tcp://127.0.0.1:3: the connection to the scheduler"):
         ex.run_on_workers(time.process_time)
