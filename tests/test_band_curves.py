@@ -7,8 +7,9 @@ The 190 m stay with its cubic fits held over phi0 +- 15 deg and blended to the d
 equation derived here from the model file, not through the band's loop: the ends equal the minimum
 and maximum over its nominal curves and four curve variants to 1e-9, and the nominal case equals
 gallop's amplitude. A model whose curves have no band or blend (models/stay_190m.toml) gives the
-one-line reason and no amplitude band. Run time: about 25 s on two busy cores (the slow test, two
-calibrated combinations over U_c = 9-10 m/s, about 40 s more).
+one-line reason and no amplitude band. The global least damping over the band (nominal curves) equals
+an independent `least_damping_global`. Run time: about 40 s on two busy cores (the slow test, two
+calibrated combinations over U_c = 9-10 m/s, about 55 s more).
 """
 import json
 import warnings
@@ -24,14 +25,17 @@ DESIGN = 25.0
 TOL = 1e-9
 
 
-def _gallop(spec):
-    """`autocable gallop --load exact` on ``spec`` (its primary damping): the independent route."""
+def _derive_exact(spec):
     from autocable.model.derive import derive
-    from autocable.studies.gallop import gallop_study
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        d = derive(replace(spec, aero=replace(spec.aero, load="exact")))
-    return gallop_study(d, DESIGN, checks=False, with_sensitivity=True)
+        return derive(replace(spec, aero=replace(spec.aero, load="exact")))
+
+
+def _gallop(spec, d=None):
+    """`autocable gallop --load exact` on ``spec`` (its primary damping): the independent route."""
+    from autocable.studies.gallop import gallop_study
+    return gallop_study(_derive_exact(spec) if d is None else d, DESIGN, checks=False, with_sensitivity=True)
 
 
 def _all_amplitudes(study) -> list:
@@ -56,9 +60,14 @@ def cli_band():
 
 
 @pytest.fixture(scope="module")
-def gallop_given():
+def derived_given():
     from autocable.spec import load_model
-    return _gallop(load_model(BLENDED))
+    return _derive_exact(load_model(BLENDED))
+
+
+@pytest.fixture(scope="module")
+def gallop_given(derived_given):
+    return _gallop(None, derived_given)
 
 
 def test_amplitude_ends_are_the_extremes_of_gallop_sensitivity(cli_band, gallop_given):
@@ -107,6 +116,20 @@ def test_each_end_names_its_case_and_validity(cli_band, gallop_given):
             assert isinstance(b["beyond_valid_range"], bool) and b["phi_swept_deg"] > 0
     # progress on stderr while it runs
     assert "autocable onset --band: galloping at 25 m/s on the exact load" in err
+
+
+def test_global_least_damping_is_that_of_the_combination(cli_band, derived_given):
+    """``least_damping_global`` over the one combination (nominal curves, exact load) equals an
+    independent `least_damping_global` on the model file's equation, to 1e-9; it lies above the
+    linear least damping (the onset is sub-critical: cycles exist below it)."""
+    from autocable.studies.gallop import least_damping_global
+    band, _ = cli_band
+    g = least_damping_global(derived_given, DESIGN)["least_damping_ratio_global"]
+    assert band["least_damping_global"] == pytest.approx([g, g], rel=TOL, abs=0)
+    assert g > band["least_damping"][1]
+    by = band["set_by"]["least_damping_global"]["hi"]
+    assert by["combination"] == band["amplitude_at_design_wind_m"]["cases"][0]["label"]
+    assert by["beyond_valid_range"] in (True, False)
 
 
 def test_model_without_a_blend_says_why_in_one_line(capsys):

@@ -350,7 +350,7 @@ def _uc_range(text: str | None, spec) -> tuple[float, float]:
 def _band(args, folder) -> int:
     """``onset --band``: `autocable.studies.band.band_study` on the model file, its JSON, text and plot."""
     from autocable.spec import load_model
-    from autocable.studies.band import AMPLITUDE_LOAD, amplitude_band, band_study, band_text
+    from autocable.studies.band import AMPLITUDE_LOAD, band_study, band_text, with_amplitude
     for option, given in (("--damping", args.damping is not None), ("--set", args.set), ("--refit", args.refit),
                           ("--pair", getattr(args, "pair", None) is not None),
                           ("--modes-below", getattr(args, "modes_below", None) is not None)):
@@ -365,8 +365,7 @@ def _band(args, folder) -> int:
     band = band_study(spec, uc, args.design_wind, args.max_wind)
     # the galloping amplitude over the band, with the curves' band and blend (seconds to a minute)
     log = (lambda s: print(f"autocable onset --band: {s}", file=sys.stderr, flush=True))
-    band.update(amplitude_band(spec, band, args.design_wind, args.max_wind,
-                               getattr(args, "load", None) or AMPLITUDE_LOAD, log))
+    with_amplitude(band, spec, args.design_wind, args.max_wind, getattr(args, "load", None) or AMPLITUDE_LOAD, log)
     report = {"model": spec.name, "band": band, "warnings": list(band["notes"])}
     premise = _band_premises(band, args, uc)
     report["warnings"] += premise

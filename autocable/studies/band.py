@@ -398,9 +398,28 @@ def amplitude_band(spec, band: dict, design_wind_m_s: float | None, U_max_m_s: f
         out["amplitude_notes"] = notes
     if with_global:
         have = [c for c in cases if c.get("least_damping_global") is not None]
-        out["least_damping_global"] = ([min(c["least_damping_global"] for c in have),
-                                        max(c["least_damping_global"] for c in have)] if have else None)
+        out["least_damping_global"] = None
+        if have:
+            ends = {"lo": min(have, key=lambda c: c["least_damping_global"]),
+                    "hi": max(have, key=lambda c: c["least_damping_global"])}
+            out["least_damping_global"] = [ends["lo"]["least_damping_global"], ends["hi"]["least_damping_global"]]
+            out["set_by"] = {"least_damping_global": {
+                end: {"combination": c["label"], "inputs": c["inputs"], "curves": "nominal", "load": load,
+                      "beyond_valid_range": c.get("least_damping_global_beyond_valid_range")}
+                for end, c in ends.items()}}
     return out
+
+
+def with_amplitude(band: dict, spec, design_wind_m_s: float | None, U_max_m_s: float | None = None,
+                   load: str = AMPLITUDE_LOAD, log=None, with_global: bool = True) -> dict:
+    """``band`` (a `band_study` result) with `amplitude_band`'s keys added, its ``set_by`` entry merged
+    into the band's."""
+    extra = amplitude_band(spec, band, design_wind_m_s, U_max_m_s, load, log, with_global)
+    set_by = extra.pop("set_by", None)
+    band.update(extra)
+    if set_by:
+        band.setdefault("set_by", {}).update(set_by)
+    return band
 
 
 
@@ -435,8 +454,15 @@ def amplitude_text(band: dict) -> list[str]:
         lines.append(f"    {name}: [{amp[key][0]:.4g} m, {amp[key][1]:.4g} m]  ({'; '.join(ends)})")
     if "least_damping_global" in band:
         g = band["least_damping_global"]
-        lines.append("    global least damping (no galloping cycle up to the design wind, nominal curves): "
-                     + ("not found" if g is None else f"[{100 * g[0]:.4g} %, {100 * g[1]:.4g} %]"))
+        text = "not found (each combination's least_damping_global_note says why)"
+        if g is not None:
+            by = band["set_by"]["least_damping_global"]
+            flag = {e: " (its setting cycle beyond the curves' valid range)" if by[e]["beyond_valid_range"] else ""
+                    for e in ("lo", "hi")}
+            text = (f"[{100 * g[0]:.4g} %, {100 * g[1]:.4g} %]  (lo: {by['lo']['combination']}{flag['lo']}; "
+                    f"hi: {by['hi']['combination']}{flag['hi']})")
+        lines.append(f"  global least damping to {band['design_wind_m_s']:g} m/s (no galloping cycle up to it; "
+                     f"{amp['load']} load, nominal curves): {text}")
     for c in amp["cases"]:
         if c["status"] != "ok":
             lines.append(f"    {c['label']}: {c['reason']}")
