@@ -427,7 +427,8 @@ def _write_band(report: dict, out: Path, name: str) -> None:
     from autocable.plotting.band import plot_band
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_json(out / "onset.json", strict(report))
-    plot_band(strict(report)["band"], out / "band", title=f"{name}: onset and least damping over what is not known")
+    plot_band(strict(report)["band"], out / "band",
+              title=f"{name}: onset, least damping (and galloping amplitude) over what is not known")
 
 
 def _pairs(args, d, below: float, U_max: float, messages: list) -> int:
