@@ -423,8 +423,12 @@ def with_amplitude(band: dict, spec, design_wind_m_s: float | None, U_max_m_s: f
 
 
 
-def _peaks(p) -> str:
-    return "no stable cycle" if not p else f"{p[0]:.3g} / {p[1]:.3g} m"
+def _peaks(row: dict) -> str:
+    p = row["amplitude_at_design_wind_m"]
+    if p:
+        return f"{p[0]:.3g} / {p[1]:.3g} m"
+    # gallop's verdict says what stands there instead ("unbounded": direct integration diverges)
+    return f"no stable cycle ({row['design_verdict']})" if row.get("design_verdict") else "no stable cycle"
 
 
 def amplitude_text(band: dict) -> list[str]:
@@ -467,7 +471,7 @@ def amplitude_text(band: dict) -> list[str]:
         if c["status"] != "ok":
             lines.append(f"    {c['label']}: {c['reason']}")
             continue
-        parts = [f"{r['curves']} {r['skipped'] if 'skipped' in r else _peaks(r['amplitude_at_design_wind_m'])}"
+        parts = [f"{r['curves']} {r['skipped'] if 'skipped' in r else _peaks(r)}"
                  for r in c["variants"]]
         lines.append(f"    {c['label']} ({'; '.join(c['roles'])}; phi0 {c['static_angle_deg']:.1f} deg), "
                      "in-plane / out-of-plane: " + ", ".join(parts))
