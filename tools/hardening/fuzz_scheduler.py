@@ -259,7 +259,7 @@ class SchedulerHarness:
     def env(self, pythonpath: Path | None = None) -> dict:
         env = {k: v for k, v in os.environ.items() if not k.startswith("AUTOCABLE_")}
         env.update(PYTHONPATH=str(pythonpath or self.repo), AUTOCABLE_CACHE=str(self.cache),
-                   AUTOCABLE_NO_WORKER_TIMEOUT=str(NO_WORKER_S))
+                   AUTOCABLE_NO_WORKER_TIMEOUT=str(NO_WORKER_S), PYTHONFAULTHANDLER="1")
         return env
 
     # -- the command ------------------------------------------------------------------------------
@@ -396,9 +396,20 @@ class SchedulerHarness:
                 stdout, stderr = proc.communicate(timeout=HARD_LIMIT_S)
                 code = proc.returncode
             except subprocess.TimeoutExpired:
+                # what was left, and where the command stood: SIGABRT makes Python's faulthandler
+                # (PYTHONFAULTHANDLER, set in `env`) print every thread's stack on stderr
+                left = [_describe(p, sessions, {"command": proc.pid}) for p in _session(proc.pid)]
+                if proc.poll() is None:
+                    proc.send_signal(signal.SIGABRT)
+                try:
+                    _, stderr = proc.communicate(timeout=5)
+                except subprocess.TimeoutExpired:
+                    _kill_sessions([proc.pid])
+                    _, stderr = proc.communicate()
                 _kill_sessions([proc.pid])
-                proc.communicate()
-                return Outcome("hang", f"still running after {HARD_LIMIT_S:g} s", None, HARD_LIMIT_S)
+                stack = " | ".join(ln.strip() for ln in (stderr or "").splitlines() if 'File "' in ln)[-1500:]
+                return Outcome("hang", f"still running after {HARD_LIMIT_S:g} s; processes: {'; '.join(left)[:600]}; "
+                                       f"stacks: {stack}", None, HARD_LIMIT_S)
             wall = time.perf_counter() - t0
             if case.failure == "no_worker":
                 self.no_worker_walls.append(wall)
@@ -534,9 +545,9 @@ def run_scheduler_failures(n: int = 1000, seed: int = 0, base=None, log=None, bu
             f["cases"] += 1
             f["seconds"] += time.perf_counter() - tc
             if cls not in ("ok", "refused_named", "failed"):
-                say(f"scheduler_failures case {i}: {cls}: {case.label}: exit {o.exit}: {o.detail[:600]}")
+                say(f"scheduler_failures case {i}: {cls}: {case.label}: exit {o.exit}: {o.detail[:2500]}")
                 if len(examples) < 12:
-                    examples.append({"class": cls, "case": case.label, "exit": o.exit, "problem": o.detail[:400]})
+                    examples.append({"class": cls, "case": case.label, "exit": o.exit, "problem": o.detail[:2500]})
             if (i + 1) % 20 == 0:
                 say(f"scheduler_failures {i + 1}/{n} ({time.perf_counter() - t1:.0f} s) {row}")
         secs = time.perf_counter() - t1
