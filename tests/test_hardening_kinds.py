@@ -11,6 +11,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -181,4 +182,32 @@ def test_a_worker_dead_while_the_command_starts_is_left_out_not_fatal():
     ex.client = _Client(scheduler_gone=True)              # the scheduler itself: the run stops, named
     with pytest.raises(SchedulerLost, match=r"^--scheduler tcp://127.0.0.1:3: the connection to the scheduler"):
         ex.run_on_workers(time.process_time)
+    ex.client = None
+
+
+class _LostResult:
+    """A finished future whose result lived on a worker that died: Dask recomputes it and its
+    ``result()`` waits for a worker (here: forever, a TimeoutError each time a timeout is given)."""
+
+    status = "finished"
+
+    def result(self, timeout=None):
+        if timeout is None:
+            raise AssertionError("result() without a timeout would wait forever")
+        time.sleep(min(timeout, 0.05))
+        raise TimeoutError
+
+
+def test_a_result_lost_with_the_last_worker_ends_the_run_not_hangs():
+    """The hang of scheduler_failures (seed 0, case 731): `sweep --scheduler`, its only worker
+    SIGKILLed 1.5 s after the start, still running at 150 s, waiting in ``fut.result()`` in
+    `Executor.completed` (the thread stacks of the hung command)."""
+    from autocable.executor import Executor, NoLiveWorker
+    ex = Executor(scheduler="tcp://127.0.0.1:3", no_worker_timeout=0.3)
+    ex.client, ex._pending = _Client(), 1
+    ex._live_workers = lambda: 0
+    t0 = time.monotonic()
+    with pytest.raises(NoLiveWorker, match=r"^--scheduler tcp://127.0.0.1:3: no live worker for 0.3 s"):
+        ex._result(_LostResult())
+    assert time.monotonic() - t0 < 5.0
     ex.client = None
