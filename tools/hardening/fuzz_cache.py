@@ -50,6 +50,16 @@ from pathlib import Path
 __all__ = ["EDITS", "CLASSES", "Tree", "cache_case", "run_cache_edits"]
 
 #: The columns of the table (`tools.hardening.fuzz_scheduler` shares them).
+def budgeted_cases(n: int, cases, draw, started: float, budget_s: float | None):
+    """(index, case) of ``cases`` (given) or of ``n`` drawn ones (``draw(i)``), none started after
+    ``budget_s`` seconds from ``started`` (`time.perf_counter`): the loop of both generated kinds
+    (this one and `tools.hardening.fuzz_scheduler`)."""
+    for i in range(len(cases) if cases is not None else n):
+        if budget_s is not None and time.perf_counter() - started > budget_s:
+            return
+        yield i, (cases[i] if cases is not None else draw(i))
+
+
 CLASSES = ("ok", "refused_named", "failed", "traceback", "hang", "wrong_exit0", "wrong_exit_nonzero",
            "unnamed_refusal", "stale", "orphaned")
 
@@ -420,12 +430,9 @@ def run_cache_edits(n: int = 1000, seed: int = 0, base=None, log=None, figures_s
         say(f"cache_edits: {len(h.refs)} references in {t_refs:.0f} s")
         t1 = time.perf_counter()
         done = 0
-        for i in range(n):
-            if budget_s is not None and time.perf_counter() - t0 > budget_s:
-                break
+        for i, case in budgeted_cases(n, cases, lambda i: cache_case(random.Random(f"{seed}:cache_edits:{i}"),
+                                                                     figures_share), t0, budget_s):
             done += 1
-            case = cases[i] if cases is not None else cache_case(random.Random(f"{seed}:cache_edits:{i}"),
-                                                                   figures_share)
             o = h.run_case(case)
             row[o.cls] += 1
             seen += o.edit_seen

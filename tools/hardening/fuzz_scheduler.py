@@ -44,7 +44,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from tools.hardening.fuzz_cache import CLASSES, _scene_tables, difference
+from tools.hardening.fuzz_cache import CLASSES, _scene_tables, budgeted_cases, difference
 
 __all__ = ["FAILURES", "scheduler_case", "run_scheduler_failures"]
 
@@ -529,11 +529,11 @@ def run_scheduler_failures(n: int = 1000, seed: int = 0, base=None, log=None, bu
         t_refs = time.perf_counter() - t0
         t1 = time.perf_counter()
         done = 0
-        for i in range(n):
-            if budget_s is not None and time.perf_counter() - t0 > budget_s:
-                break
+
+        def draw(i):
+            return scheduler_case(random.Random(f"{seed}:scheduler_failures:{i}"))
+        for i, case in budgeted_cases(n, cases, draw, t0, budget_s):
             done += 1
-            case = cases[i] if cases is not None else scheduler_case(random.Random(f"{seed}:scheduler_failures:{i}"))
             tc = time.perf_counter()
             o = h.run_case(case)
             cls = "orphaned" if h._orphans and o.cls not in ("hang", "traceback") else o.cls
