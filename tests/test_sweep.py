@@ -334,3 +334,60 @@ def test_follow_resumes_from_the_finished_neighbour(followed):
     summary = run_sweep(spec, copy, workers=2)
     assert summary["resumed"] == 8 and summary["computed"] == 3
     same_numbers(load(dest), load(copy))
+
+
+class _OneTaskKilled:
+    """A stand-in `Executor` in this process: runs the tasks in order, but hands the second back
+    as Dask does a task whose workers kept dying (``KilledWorker``), without running it."""
+
+    def __init__(self, workers, scheduler, **kwargs):
+        self.client, self.where, self.n_workers, self.tasks = None, {"mode": "LocalCluster"}, 1, []
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return None
+
+    def run_on_workers(self, fn):
+        return {"w": fn()}
+
+    def submit(self, label, fn, *args, priority=0):
+        self.tasks.append((label, fn, args))
+
+    def completed(self):
+        from autocable.executor import Done
+        for k, (label, fn, args) in enumerate(self.tasks):
+            if k == 1:
+                yield Done(label, None, f"KilledWorker: attempted to run task {label} on 3 different "
+                                        "workers, but all those workers died")
+            else:
+                yield Done(label, fn(*args))
+
+    def worker_pids(self):
+        return [os.getpid()]
+
+
+def test_a_task_the_workers_cannot_finish_is_a_named_failure_and_the_points_stay(tmp_path, monkeypatch, capsys):
+    """A sweep task that fails as a whole (compute_chunk keeps each point's own failure, so this is
+    the infrastructure: Dask's KilledWorker after repeated worker deaths) stops the sweep with one
+    line, exit 3, naming the workers, the points kept and the rerun; before, a bare RuntimeError
+    reached the catch-all (exit 2, unnamed). The points of the task that finished are kept and a
+    serial rerun resumes them."""
+    import autocable.executor as executor
+    from autocable.errors import ComputationError
+    monkeypatch.setattr(executor, "Executor", _OneTaskKilled)
+    path = write_sweep(tmp_path, 'method = "shooting"\n[grid]\neta = 8.2e-5\nsigma = [-0.01, 0.0, 0.01, 0.02]\n')
+    spec = load_sweep(path)
+    with pytest.raises(ComputationError) as err:
+        run_sweep(spec, tmp_path / "o", workers=2, chunk=1)
+    msg = str(err.value)
+    assert "\n" not in msg and "--workers 2" in msg and "KilledWorker" in msg and "run the same command" in msg
+    assert "1 points computed are kept" in msg
+    assert len(list((tmp_path / "o" / "points").glob("*.json"))) == 1
+    assert main(["sweep", str(path), "--out", str(tmp_path / "cli"), "--workers", "2", "--chunk", "1"]) == 3
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert line.startswith("autocable: failed: sweep: task sweep:2 failed") and "Traceback" not in line
+    monkeypatch.undo()
+    again = run_sweep(spec, tmp_path / "o", workers=0)
+    assert again["resumed"] == 1 and again["computed"] == 3 and again["missing"] == 0

@@ -577,7 +577,15 @@ def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs
             on_client(client)
         for done in ex.completed():
             if not done.ok:
-                raise RuntimeError(done.error)
+                # compute_chunk keeps each point's own failure, so a whole task fails only for the
+                # infrastructure (Dask's KilledWorker after repeated worker deaths) or a bug: the
+                # points already written stay, and a rerun resumes from them
+                from autocable.errors import ComputationError
+                where_ = f"--scheduler {scheduler}" if scheduler else f"--workers {workers}"
+                raise ComputationError(
+                    f"sweep: task {done.label} failed on the workers of {where_} ({done.error}); the "
+                    f"{sink.computed} points computed are kept in {sink.folder}: run the same command "
+                    "again to resume, or with --workers 0 to compute in this process")
             for key, rec in done.value:
                 sink.take(key, rec)
         where["compute_seconds"] = time.perf_counter() - t_tasks
