@@ -185,29 +185,99 @@ def test_a_worker_dead_while_the_command_starts_is_left_out_not_fatal():
     ex.client = None
 
 
-class _LostResult:
-    """A finished future whose result lived on a worker that died: Dask recomputes it and its
-    ``result()`` waits for a worker (here: forever, a TimeoutError each time a timeout is given)."""
+class _Loop:
+    """The client's event loop, as Dask's ``client.loop``: an asyncio loop on its own thread."""
 
-    status = "finished"
+    def __init__(self):
+        import asyncio
+        import threading
+        self.asyncio_loop = asyncio.new_event_loop()
+        threading.Thread(target=self.asyncio_loop.run_forever, daemon=True).start()
+
+    def stop(self):
+        self.asyncio_loop.call_soon_threadsafe(self.asyncio_loop.stop)
+
+
+class _FetchClient(_Client):
+    """`_Client` with Dask's ``gather(..., asynchronous=True)`` (a coroutine run on ``loop``),
+    counting the fetches started and cancelled."""
+
+    def __init__(self):
+        super().__init__()
+        self.loop, self.fetches, self.cancelled = _Loop(), 0, 0
+
+    def gather(self, futures, asynchronous=None):
+        import asyncio
+        assert asynchronous is True
+
+        async def fetch():
+            self.fetches += 1
+            try:
+                return [await futures[0].value()]
+            except asyncio.CancelledError:
+                self.cancelled += 1
+                raise
+        return fetch()
+
+
+class _Future:
+    """A Dask future stand-in: its value comes after ``after`` seconds (None: never, as a result
+    lost with its worker and recomputed by Dask with no worker left), or its task raises ``error``.
+    ``result(timeout=...)`` is refused: each timeout cancels Dask's gather and orphans its inner waits,
+    whose ``AllExit`` printed as a traceback when the client closed."""
+
+    def __init__(self, after=None, value=None, error=None):
+        self.after, self._value, self.error = after, value, error
+
+    async def value(self):
+        import asyncio
+        if self.after is None:
+            await asyncio.Event().wait()
+        await asyncio.sleep(self.after)
+        if self.error is not None:
+            raise self.error
+        return self._value
 
     def result(self, timeout=None):
-        if timeout is None:
-            raise AssertionError("result() without a timeout would wait forever")
-        time.sleep(min(timeout, 0.05))
-        raise TimeoutError
+        raise AssertionError("fut.result() waits forever without a timeout, and cancels Dask's gather "
+                             "at each timeout with one")
+
+
+def _executor(no_worker_timeout: float, live: int):
+    from autocable.executor import Executor
+    ex = Executor(scheduler="tcp://127.0.0.1:3", no_worker_timeout=no_worker_timeout)
+    ex.client, ex._pending = _FetchClient(), 1
+    ex._live_workers = lambda: live
+    return ex
 
 
 def test_a_result_lost_with_the_last_worker_ends_the_run_not_hangs():
     """The hang of scheduler_failures (seed 0, case 731): `sweep --scheduler`, its only worker
     SIGKILLed 1.5 s after the start, still running at 150 s, waiting in ``fut.result()`` in
     `Executor.completed` (the thread stacks of the hung command)."""
-    from autocable.executor import Executor, NoLiveWorker
-    ex = Executor(scheduler="tcp://127.0.0.1:3", no_worker_timeout=0.3)
-    ex.client, ex._pending = _Client(), 1
-    ex._live_workers = lambda: 0
+    from autocable.executor import NoLiveWorker
+    ex = _executor(0.3, live=0)
     t0 = time.monotonic()
     with pytest.raises(NoLiveWorker, match=r"^--scheduler tcp://127.0.0.1:3: no live worker for 0.3 s"):
-        ex._result(_LostResult())
+        ex._result(_Future(after=None))
     assert time.monotonic() - t0 < 5.0
+    ex.client.loop.stop()
+    ex.client = None
+
+
+def test_a_result_is_fetched_once_and_never_cancelled():
+    """A result that takes several of `Executor._result`'s half-second slices (a worker alive all
+    along) is fetched by one gather, never cancelled (the AllExit traceback of 1 in 46 kills came
+    from the gathers ``fut.result(timeout=0.5)`` cancelled); a task's own TimeoutError is its error,
+    raised at once, not taken for a slice that timed out."""
+    ex = _executor(0.3, live=1)
+    t0 = time.monotonic()
+    assert ex._result(_Future(after=1.3, value=42)) == 42
+    assert 1.3 <= time.monotonic() - t0 < 3.0
+    assert ex.client.fetches == 1 and ex.client.cancelled == 0
+    t0 = time.monotonic()
+    with pytest.raises(TimeoutError, match="the task's own"):
+        ex._result(_Future(after=0.1, error=TimeoutError("the task's own")))
+    assert time.monotonic() - t0 < 0.45
+    ex.client.loop.stop()
     ex.client = None
