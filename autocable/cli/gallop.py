@@ -158,6 +158,31 @@ def gallop_text(study: dict) -> list[str]:
                 if "phi_swept_deg" in dc:
                     from autocable.model.validity import validity_line
                     lines.append(f"    {validity_line(dc)}")
+                off = case.get("off_branch_cycle")
+                probes = dc.get("larger_cycle_search") or []
+                if off:
+                    a = off["largest_on_branches_peak_m"]
+                    lines.append(f"    OFF THE BRANCHES: the largest stable cycle of the branches from the Hopf points "
+                                 f"is [{a[0]:.4g}, {a[1]:.4g}] m; this larger one was reached by integration from a "
+                                 f"larger start and solved by Newton; it persists down to "
+                                 + (f"{off['lowest_U_m_s']:.5g} m/s" if off["lowest_U_m_s"] is not None
+                                    else "the lowest speed followed")
+                                 + " (the case's lowest galloping speed takes it into account)")
+                elif probes:
+                    lines.append(f"    no larger stable cycle: integration from {len(probes)} larger starts "
+                                 f"({probes[0]['start_peak_m']:.3g} to {probes[-1]['start_peak_m']:.3g} m in-plane) "
+                                 "ends on " + ", ".join(p["landed"] if p["peak_m"] is None else
+                                                        f"[{p['peak_m'][0]:.3g}, {p['peak_m'][1]:.3g}] m" for p in probes))
+                for o in case.get("other_stable_cycles") or []:
+                    lines.append(f"    another stable cycle     peak [{o['peak_m'][0]:.4g}, {o['peak_m'][1]:.4g}] m, "
+                                 f"{o['frequency_Hz']:.5g} Hz, {'on a branch' if o['on_branch'] else 'off the branches'}"
+                                 + (f", phi swept +-{o['phi_swept_deg']:.3g} deg"
+                                    + (" (BEYOND the valid range)" if o.get("beyond_valid_range") else "")
+                                    if o.get("phi_swept_deg") is not None else ""))
+                env = case.get("envelope_at_design_wind_m")
+                if env and env != amp:
+                    lines.append(f"    envelope of the stable cycles at {design:g} m/s: {env[0]:.4g} m in-plane, "
+                                 f"{env[1]:.4g} m out-of-plane (which one the stay takes depends on how it is started)")
             else:
                 lines.append(f"  design wind {design:g} m/s: {case.get('design_note', 'no stable cycle found')}")
                 run = case.get("design_integration")

@@ -271,8 +271,14 @@ def _onset(args, folder) -> int:
               f"(Sc = {ds['current_scruton']:.4g}): {'enough' if ds['enough'] else 'not enough'}")
         if ds.get("least_damping_global") is not None:
             print(f"  global (no galloping cycle below the design wind, a sub-critical onset's fold included; "
-                  f"autocable gallop): least damping ratio {100 * ds['least_damping_global']:.4g} % "
+                  f"autocable gallop): least damping ratio {'AT LEAST ' if ds.get('least_damping_global_at_least') else ''}"
+                  f"{100 * ds['least_damping_global']:.4g} % "
                   f"(Sc = {ds['scruton_global']:.4g}): {'enough' if ds['enough_global'] else 'not enough'}")
+            iso = ds.get("least_damping_global_isolated_cycle")
+            if iso:
+                print(f"    at that damping a stable cycle off the branches from the Hopf points still gallops at "
+                      f"{iso['U_m_s']:.4g} m/s (peak {iso['peak_m'][0]:.3g} m in-plane, reached from a {iso['start_peak_m']:.3g} m "
+                      "start): more damping is needed, how much is not computed")
             cyc = ds.get("least_damping_global_setting_cycle")
             if cyc and cyc.get("beyond_valid_range"):
                 print(f"    beyond the model's range: the cycle that sets it ({cyc['U_m_s']:.4g} m/s, peak "
@@ -472,7 +478,8 @@ def _global_damping(d, design_wind_m_s: float, U_max_m_s: float) -> dict:
             "enough_global": g["enough"], "least_damping_global_tolerance": g["relative_tolerance"],
             "least_damping_global_reading": g["reading"],
             "least_damping_global_beyond_valid_range": g.get("beyond_valid_range"),
-            "least_damping_global_setting_cycle": g.get("setting_cycle")}
+            "least_damping_global_setting_cycle": g.get("setting_cycle"),
+            "least_damping_global_at_least": g["at_least"], "least_damping_global_isolated_cycle": g["isolated_cycle"]}
 
 
 def _outcome(word: str) -> str:

@@ -339,6 +339,7 @@ def _amplitude_case(spec, combo: dict, design_wind_m_s: float, U_max_m_s: float 
         else:
             out.update(least_damping_global=g["least_damping_ratio_global"],
                        least_damping_global_beyond_valid_range=g["beyond_valid_range"],
+                       least_damping_global_at_least=g["at_least"],
                        least_damping_global_seconds=g["seconds"])
     return out
 

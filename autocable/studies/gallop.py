@@ -90,6 +90,15 @@ MODES_FRACTION = 0.10
 #: Where the branches hold no stable cycle at the design wind, eq. (21) is integrated there for at
 #: most this long (t*, about 950 periods of the pair) to say whether the motion stays bounded.
 DESIGN_INTEGRATION_TIME = 6000.0
+#: The search for a stable cycle at the design wind larger than the branches' largest (`_larger_cycle`):
+#: starts at this many factors of that cycle's state, the first this one, the last the largest start
+#: eq. (21) accepts; a cycle counts as larger when its peak exceeds the other's by this fraction.
+LARGER_START_FACTORS = 3
+LARGER_START_FIRST = 2.0
+LARGER_RTOL = 1e-3
+#: `least_damping_global` looks for a stable cycle off the branches at this fraction of the design
+#: wind, at the damping it found (just below the design wind: there the branches hold none).
+ISOLATED_PROBE = 0.99
 #: Modal amplitudes below this count as (near) the rest state in that integration: 0.2 mm on a
 #: 190 m stay, far below any galloping cycle; a motion still growing from rest that slowly is not judged.
 REST_AMPLITUDE = 1e-6
@@ -525,7 +534,7 @@ def _design(cont, branches, U_des: float, units, derivation) -> dict:
     ingredients the model lacks there (``missing_ingredient``, `missing_ingredients`)."""
     found = []
     for br in branches:
-        found.extend(_stable_cycles_at(cont, br, U_des))
+        found.extend((p, i, br.hopf) for p, i in _stable_cycles_at(cont, br, U_des))
     if not found:
         low = min((br.lowest_U for br in branches), default=math.inf)
         short = [br for br in branches if br.lowest_U <= U_des and max(p.U for p in br.points) < U_des]
@@ -576,15 +585,43 @@ def _design(cont, branches, U_des: float, units, derivation) -> dict:
         judged.pop("_point", None)
         return dict({"amplitude_at_design_wind_m": None, "frequency_at_design_wind_Hz": None,
                      "beyond_valid_range": None, "design_note": note, "design_verdict": verdict}, **judged)
-    p, interp = max(found, key=lambda c: max(c[0].a1, c[0].a2))
+    p, interp, hopf = max(found, key=lambda c: max(c[0].a1, c[0].a2))
+    larger, probes, reached = _larger_cycle(cont, p, hopf, U_des, units)
+    off = None
+    if larger is not None:
+        low, folds = cont.lowest_U_of(larger, hopf, U_MIN)
+        off = {"peak_m": [units.peak_m(larger.a1), units.peak_m(larger.a2)],
+               "largest_on_branches_peak_m": [units.peak_m(p.a1), units.peak_m(p.a2)],
+               "lowest_U_m_s": units.wind_m_s(low) if folds else None, "lowest_U_star": low if folds else None,
+               "note": ("a stable cycle larger than every one on the branches from the Hopf points, reached by "
+                        "direct integration from a larger start (larger_cycle_search) and solved by Newton: its "
+                        "branch does not join theirs within the range followed; it is the design cycle"
+                        + (f"; followed down in the wind it persists to {units.wind_m_s(low):.5g} m/s" if folds
+                           else f"; followed down in the wind it persists to the lowest speed followed "
+                                f"({units.wind_m_s(U_MIN):.3g} m/s)"))}
+        p, interp = larger, {"a1": larger.a1, "a2": larger.a2}
+    others = _other_cycles(p, [c[0] for c in found], reached, units, derivation)
+    for o in others:
+        if not o["on_branch"]:
+            # a cycle off the branches gallops down to its own fold, which may lie below theirs
+            low, folds = cont.lowest_U_of(o.pop("_point"), hopf, U_MIN)
+            o.update(lowest_U_m_s=units.wind_m_s(low) if folds else None, lowest_U_star=low if folds else None)
+        o.pop("_point", None)
     out = {"amplitude_at_design_wind_m": [units.peak_m(p.a1), units.peak_m(p.a2)],
            "frequency_at_design_wind_Hz": units.frequency_hz(p.frequency),
            "design_cycle": {"U_star": p.U, "a1": p.a1, "a2": p.a2, "period_star": p.T, "stable": p.stable,
                             "max_multiplier_modulus": p.max_modulus,
                             "interpolated_peak_m": [units.peak_m(interp["a1"]), units.peak_m(interp["a2"])],
-                            "stable_cycles_found": len(found)},
+                            "stable_cycles_found": len(found), "on_branch": off is None,
+                            "larger_cycle_search": probes},
            "beyond_valid_range": None, "design_verdict": "not known", "missing_ingredient": [],
            "judged_on": "design cycle"}
+    out["other_stable_cycles"] = others
+    out["envelope_at_design_wind_m"] = [max([out["amplitude_at_design_wind_m"][i]] + [o["peak_m"][i] for o in others])
+                                        for i in (0, 1)]
+    if off is not None:
+        out["off_branch_cycle"] = off
+        out["design_note"] = off["note"]
     if p.orbit is not None:
         v = _validity(derivation, p.orbit, p.U)
         out["design_cycle"].update(v)
@@ -593,6 +630,59 @@ def _design(cont, branches, U_des: float, units, derivation) -> dict:
         if v:
             out["design_verdict"] = "beyond" if (v.get("beyond_valid_range") or out["missing_ingredient"]) \
                 else "inside"
+    return out
+
+
+def _larger_cycle(cont, p, hopf, U_des: float, units) -> tuple:
+    """A stable cycle at the design wind U_des larger than ``p``, the largest stable cycle of the
+    branches from the Hopf points, or None; and the probes. The branches miss a branch of cycles
+    closed on itself or joined to theirs beyond the range followed (found on a band case of the
+    190 m stay: the branch holds a 0.49 m cycle at 25 m/s, direct integration from 2 m lands on a
+    stable 4.7 m one). The motion is integrated from ``p``'s state scaled by `LARGER_START_FACTORS`
+    factors spaced geometrically from `LARGER_START_FIRST` to the largest start eq. (21) accepts
+    (`premises.MAX_AMPLITUDE`), each until it settles on a stable cycle, decays or diverges
+    (`CycleContinuation.settle`)."""
+    y = np.asarray(p.state0, float)
+    top = 0.999 * MAX_AMPLITUDE / max(float(np.abs(y).max()), 1e-300)
+    if top <= LARGER_START_FIRST:
+        factors = [top] if top > 1.05 else []
+    else:
+        factors = list(np.geomspace(LARGER_START_FIRST, top, LARGER_START_FACTORS))
+    best, probes, reached = None, [], []
+    a_p = max(p.a1, p.a2)
+    for f in factors:
+        q, status = cont.settle(f * y, U_des, p.T, hopf, DESIGN_INTEGRATION_TIME)
+        probes.append({"start_factor": float(f), "start_peak_m": units.peak_m(f * p.a1), "landed": status,
+                       "peak_m": None if q is None else [units.peak_m(q.a1), units.peak_m(q.a2)]})
+        if q is None:
+            continue
+        reached.append(q)
+        if max(q.a1, q.a2) > a_p * (1.0 + LARGER_RTOL) and (best is None or max(q.a1, q.a2) > max(best.a1, best.a2)):
+            best = q
+    return best, probes, reached
+
+
+def _other_cycles(design, on_branches: list, reached: list, units, derivation) -> list:
+    """The stable cycles at the design wind besides the design cycle: those of the branches and
+    those the larger starts reached (`_larger_cycle`), each once (peaks equal to `LARGER_RTOL`
+    of the larger modal amplitude count as one cycle), with their peaks, frequency, whether a branch
+    from a Hopf point holds them, and their validity. A smaller cycle in the plane the design cycle
+    moves most can be the larger one in the other plane (the 190 m stay at 25 m/s: 2.09 / 0.42 m on
+    the branch, 1.85 / 1.52 m reached from an 18 m start)."""
+    ids = {id(c) for c in on_branches}
+    kept = [design]
+    for q in list(on_branches) + list(reached):
+        if not any(abs(q.a1 - r.a1) <= LARGER_RTOL * max(r.a1, r.a2) and
+                   abs(q.a2 - r.a2) <= LARGER_RTOL * max(r.a1, r.a2) for r in kept):
+            kept.append(q)
+    out = []
+    for q in kept[1:]:
+        row = {"peak_m": [units.peak_m(q.a1), units.peak_m(q.a2)], "frequency_Hz": units.frequency_hz(q.frequency),
+               "on_branch": id(q) in ids, "max_multiplier_modulus": q.max_modulus, "_point": q}
+        if q.orbit is not None:
+            v = _validity(derivation, q.orbit, q.U)
+            row.update({k: v[k] for k in ("phi_swept_deg", "twist_max_deg", "beyond_valid_range") if k in v})
+        out.append(row)
     return out
 
 
@@ -689,6 +779,22 @@ def _case(derivation, ode, xi: float, U_max: float, units, U_des: float | None, 
                          f"{units.wind_m_s(U_max):.4g} m/s")
     if U_des is not None:
         case.update(_design(cont, branches, U_des, units, derivation))
+        offs = ([case["off_branch_cycle"]] if case.get("off_branch_cycle") else []) + \
+            [o for o in case.get("other_stable_cycles") or [] if not o["on_branch"]]
+        if offs:
+            # a stable cycle off the branches gallops down to its own fold, which may lie below theirs
+            off = min(offs, key=lambda o: -1.0 if o["lowest_U_star"] is None else o["lowest_U_star"])
+            why = (f"set by a stable cycle off the branches (peak [{off['peak_m'][0]:.3g}, {off['peak_m'][1]:.3g}] m at "
+                   "the design wind), followed down in the wind")
+            if off["lowest_U_star"] is None:
+                case.update(lowest_galloping_U_m_s=None, lowest_galloping_U_star=None,
+                            lowest_galloping_U_at_most_m_s=units.wind_m_s(U_MIN),
+                            lowest_galloping_U_bound=f"at most {units.wind_m_s(U_MIN):.3g} m/s",
+                            lowest_galloping_note=why + " to the lowest speed followed")
+            elif case.get("lowest_galloping_U_star") is not None and \
+                    off["lowest_U_star"] < case["lowest_galloping_U_star"]:
+                case.update(lowest_galloping_U_m_s=off["lowest_U_m_s"], lowest_galloping_U_star=off["lowest_U_star"],
+                            lowest_galloping_note=why)
     case["seconds"] = time.perf_counter() - t0
     # the compiled system's build (sympy, and the C compiler on a cold cache), inside the first branch
     case["build_seconds"] = cont.build_seconds
@@ -886,6 +992,8 @@ def gallop_study(derivation, design_wind_m_s: float | None = None, dampings=None
         "lowest_galloping_U_at_most_m_s": first.get("lowest_galloping_U_at_most_m_s"),
         "lowest_galloping_note": first.get("lowest_galloping_note"),
         "amplitude_at_design_wind_m": first.get("amplitude_at_design_wind_m"),
+        "envelope_at_design_wind_m": first.get("envelope_at_design_wind_m"),
+        "off_branch_cycle": first.get("off_branch_cycle"),
         "frequency_at_design_wind_Hz": first.get("frequency_at_design_wind_Hz"),
         "beyond_valid_range": first.get("beyond_valid_range"),
         "design_verdict": first.get("design_verdict"),
@@ -1065,8 +1173,9 @@ def least_damping_global(derivation, design_wind_m_s: float, U_max_m_s: float | 
     cycle = _setting_cycle(d, setting.get("point"), units)
     if cycle is not None:
         cycle["damping_ratio"] = setting["damping_ratio"]
+    off = _isolated_below(d, xi, setting.get("point"), U_des, units, shared)
     return {"design_wind_m_s": design_wind_m_s, "least_damping_ratio_global": xi, "scruton_global": units.scruton(xi),
-            "setting_cycle": cycle,
+            "setting_cycle": cycle, "isolated_cycle": off, "at_least": off is not None,
             "beyond_valid_range": None if not cycle or "beyond_valid_range" not in cycle
             else bool(cycle["beyond_valid_range"]),
             "least_damping_ratio_linear": linear, "relative_tolerance": rtol, "method": method,
@@ -1076,4 +1185,31 @@ def least_damping_global(derivation, design_wind_m_s: float, U_max_m_s: float | 
                        f"points (looked for up to {units.wind_m_s(HOPF_SCAN_FACTOR * U_max):.4g} m/s) lies above the "
                        f"design wind ({'regula falsi (Illinois)' if full else 'bisection'} on the damping ratio, "
                        f"relative tolerance {rtol:g}; an isolated branch of cycles, or one "
-                       "born beyond the scan, would not be seen)"}
+                       "born beyond the scan, is looked for only by integration from larger starts at "
+                       f"{ISOLATED_PROBE:g} times the design wind: isolated_cycle)"
+                       + ("; AT LEAST this much: at this damping a stable cycle off the branches still gallops "
+                          f"at {off['U_m_s']:.4g} m/s (isolated_cycle), so more damping is needed"
+                          if off is not None else "")}
+
+
+def _isolated_below(d, xi: float, point, U_des: float, units, shared) -> dict | None:
+    """A stable cycle at `ISOLATED_PROBE` U_des, damping ``xi`` (the global least damping of the
+    branches), that no branch from a Hopf point reaches (`_larger_cycle`'s reason): the motion from
+    ``point`` (the cycle that galloped below the design wind at the largest damping that did) scaled
+    by `LARGER_START_FACTORS` factors from 1 to the largest start eq. (21) accepts, until it settles
+    (`CycleContinuation.settle`). Its peaks and wind speed, or None (none found: the branches'
+    answer stands as far as this search sees)."""
+    from autocable.methods.integration.gallop import HopfStart
+    if point is None or point.orbit is None:
+        return None
+    cont = _continuation(with_damping(d.ode, xi), shared)
+    U = ISOLATED_PROBE * U_des
+    hopf = HopfStart(U, 2 * math.pi / point.T, (0j, 0j, 0j, 0j))     # the scales of Newton's unknowns only
+    y = np.asarray(point.state0, float)
+    top = 0.999 * MAX_AMPLITUDE / max(float(np.abs(y).max()), 1e-300)
+    for f in np.geomspace(1.0, max(top, 1.0), LARGER_START_FACTORS):
+        q, _ = cont.settle(f * y, U, point.T, hopf, DESIGN_INTEGRATION_TIME)
+        if q is not None:
+            return {"U_m_s": units.wind_m_s(U), "peak_m": [units.peak_m(q.a1), units.peak_m(q.a2)],
+                    "start_peak_m": units.peak_m(f * point.a1), "damping_ratio": xi}
+    return None

@@ -47,6 +47,7 @@ def pairs_with_galloping(d, below_hz: float, design_wind_m_s: float | None, U_ma
             if g.get("lowest_galloping_note"):
                 row["lowest_galloping_note"] = g["lowest_galloping_note"]
             row["amplitude_at_design_wind_m"] = g.get("amplitude_at_design_wind_m")
+            row["envelope_at_design_wind_m"] = g.get("envelope_at_design_wind_m")
             row["beyond_valid_range"] = g.get("beyond_valid_range")
             cycle = ((g.get("cases") or [{}])[0].get("design_cycle")) or {}
             row["phi_swept_deg"] = cycle.get("phi_swept_deg")
@@ -56,6 +57,9 @@ def pairs_with_galloping(d, below_hz: float, design_wind_m_s: float | None, U_ma
             lg = least_damping_global(dk, design_wind_m_s, U_max_m_s, shared=shared)
             row["least_damping_global"] = lg["least_damping_ratio_global"]
             row["least_damping_global_beyond_valid_range"] = lg.get("beyond_valid_range")
+            row["least_damping_global_at_least"] = lg["at_least"]
+            if g.get("off_branch_cycle"):
+                row["off_branch_cycle"] = g["off_branch_cycle"]
         except (SpecError, ComputationError) as exc:
             row["galloping_note"] = str(exc)
     report.pop("pending_columns", None)
@@ -105,14 +109,24 @@ def galloping_lines(report: dict) -> list[str]:
             line = f"  {r['k']:2d}  {'<= ' + format(at_most, '.3g'):>14}"
         else:
             line = f"  {r['k']:2d}  {'-':>14}"
-        line += f"  {amp_text:>34}  {(f'{100 * xi:.4g} %' if xi is not None else '-'):>16}  {valid}"
+        if r.get("off_branch_cycle"):
+            valid += "; design cycle off the branches (found by integration)"
+        env = r.get("envelope_at_design_wind_m")
+        if env and amp and env != amp:
+            valid += f"; another stable cycle: envelope {env[0]:.3g} / {env[1]:.3g} m"
+        xi_text = f"{'>= ' if r.get('least_damping_global_at_least') else ''}{100 * xi:.4g} %" if xi is not None else "-"
+        line += f"  {amp_text:>34}  {xi_text:>16}  {valid}"
         if r.get("galloping_note") and low is None:
             line += f"  ({r['galloping_note']})"
         lines.append(line)
     notes: dict = {}            # one line per reason (every pair of a stay often has the same)
     for r in report["pairs"]:
         if r.get("lowest_galloping_note"):
-            notes.setdefault(r["lowest_galloping_note"], []).append(str(r["k"]))
-    for note, ks in notes.items():
-        lines.append(f"  lowest U of pair{'s' if len(ks) > 1 else ''} {', '.join(ks)}: not known, {note}")
+            known = r.get("lowest_galloping_U_m_s") is not None
+            notes.setdefault((known, r["lowest_galloping_note"]), []).append(str(r["k"]))
+    for (known, note), ks in notes.items():
+        lines.append(f"  lowest U of pair{'s' if len(ks) > 1 else ''} {', '.join(ks)}: {'' if known else 'not known, '}{note}")
+    if any(r.get("least_damping_global_at_least") for r in report["pairs"]):
+        lines.append("  >= : at that damping a stable cycle off the branches from the Hopf points still gallops just "
+                     "below the design wind (found by integration): more damping is needed")
     return lines

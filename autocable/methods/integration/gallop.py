@@ -75,6 +75,12 @@ __all__ = ["CycleContinuation", "variational_system", "CyclePoint", "CycleFold",
 
 #: Samples of one turn for the amplitudes (as `shooting.ShootingSolver.cycle`: extremes to ~1e-11).
 SAMPLES_PER_CYCLE = 256
+#: `CycleContinuation.settle`: periods of each integration chunk between two Newton attempts, the
+#: integration's relative tolerance (settling needs far less than the cycles' Newton), and the fraction
+#: of its start below which the motion counts as decaying to rest.
+SETTLE_CHUNK_PERIODS = 40
+SETTLE_RTOL = 1e-8
+SETTLE_REST_FRACTION = 1e-3
 #: The fold's U* is refined until two successive estimates agree to this (U* units).
 FOLD_U_TOL = 1e-9
 #: The first point's distance from the Hopf point: the normal form puts its U* this fraction of U_H
@@ -246,15 +252,17 @@ class CycleContinuation:
         z[:4] = y
         return self.system().rhs(0.0, z, [float(U_star)])[:4]
 
-    def flow(self, y0, T: float, U_star: float, samples: int = 0) -> _Flow:
+    def flow(self, y0, T: float, U_star: float, samples: int = 0, rtol: float | None = None) -> _Flow:
         """phi_T(y0), its monodromy and U-sensitivity at U*, and with ``samples`` the states at
-        ``samples`` + 1 equal steps over [0, T]; ``status`` is the integrator's ("done" or why not)."""
+        ``samples`` + 1 equal steps over [0, T]; ``status`` is the integrator's ("done" or why not).
+        ``rtol``: the integration's (default the continuation's)."""
         y0 = np.asarray(y0, float)
         z0 = np.concatenate([y0, np.eye(4).ravel(), np.zeros(4)])
         grid = np.linspace(0.0, T, samples + 1) if samples else np.array([0.0, T])
         scale = max(float(np.abs(y0).max()), 1e-9)
         turns = max(1.0, T / (2 * math.pi))
-        r = self.system().run(z0, grid, [float(U_star)], rtol=self.rtol, atol=self.rtol * 1e-2 * scale,
+        rtol = self.rtol if rtol is None else rtol
+        r = self.system().run(z0, grid, [float(U_star)], rtol=rtol, atol=rtol * 1e-2 * scale,
                               max_step=1.0, max_steps=int(200_000 * turns), bound=DIVERGED, n_bound=2)
         if not r.ok:
             return _Flow(r.y_reached[:4], np.full((4, 4), np.nan), np.full(4, np.nan), r.status)
@@ -355,6 +363,79 @@ class CycleContinuation:
         if x is None:
             return None
         return self._point(x, fl, its, None)
+
+    def settle(self, y0, U_star: float, T_guess: float, hopf: HopfStart, max_time: float,
+               chunk_periods: int = SETTLE_CHUNK_PERIODS) -> tuple[CyclePoint | None, str]:
+        """Where the motion from ``y0`` at wind U* settles: direct integration in chunks of
+        ``chunk_periods`` periods (``T_guess`` to start with), after each of which the cycle the
+        motion is near is solved by Newton (`cycle_at`, from the chunk's end state and the period
+        measured over its last turns). Returns (the cycle, "cycle") once Newton finds a stable one,
+        (None, "diverged") when the motion leaves |q_k| <= `ode21.DIVERGED`, (None, "rest") when it
+        decays below `SETTLE_REST_FRACTION` of where it started, (None, "not settled") at ``max_time``.
+        It finds the stable cycles that no branch from a Hopf point reaches (a branch closed on
+        itself, or joined to the others beyond the range followed)."""
+        y = np.asarray(y0, float)
+        start = float(np.abs(y).max())
+        t, T = 0.0, float(T_guess)
+        while t < max_time:
+            span = min(chunk_periods * T, max_time - t)
+            fl = self.flow(y, span, U_star, rtol=SETTLE_RTOL)
+            if fl.status != "done":
+                return None, "diverged"
+            y, t = fl.yT, t + span
+            if float(np.abs(y).max()) < SETTLE_REST_FRACTION * start:
+                return None, "rest"
+            # the period of the motion now: upward crossings of q1's mean over a few turns
+            turns = 6
+            m = SAMPLES_PER_CYCLE // 8
+            fs = self.flow(y, turns * T, U_star, samples=turns * m, rtol=SETTLE_RTOL)
+            if fs.status != "done":
+                return None, "diverged"
+            q = fs.ys[:, 0] - fs.ys[:, 0].mean()
+            up = [fs.t[i] - q[i] * (fs.t[i + 1] - fs.t[i]) / (q[i + 1] - q[i])
+                  for i in range(len(q) - 1) if q[i] < 0.0 <= q[i + 1]]
+            if len(up) >= 3:
+                T = (up[-1] - up[0]) / (len(up) - 1)
+            p = self.cycle_at(U_star, y, T, hopf)
+            if p is not None and p.stable:
+                return p, "cycle"
+        return None, "not settled"
+
+    def lowest_U_of(self, point: CyclePoint, hopf: HopfStart, U_min: float, rtol: float = 1e-4,
+                    step: float = 0.03) -> tuple[float, bool]:
+        """The lowest U* down to which the stable cycle ``point`` persists, followed at fixed U*
+        (`cycle_at`, each from the last cycle's state, extrapolated): steps of ``step`` (relative)
+        down until Newton fails or the cycle loses its stability, then bisection to ``rtol``
+        (relative). Where a branch folds, Newton at fixed U* has no cycle beyond the fold, so the
+        result is the fold's U* within ``rtol``. Returns (U*, True) or (U_min, False) when the cycle
+        persists down to ``U_min``. For a cycle on no branch from a Hopf point (`settle`)."""
+        last, prev = point, None
+
+        def at(U):
+            guess, T = last.state0, last.T
+            if prev is not None and prev.U != last.U:
+                w = (U - last.U) / (last.U - prev.U)
+                guess, T = last.state0 + w * (last.state0 - prev.state0), last.T + w * (last.T - prev.T)
+            c = self.cycle_at(U, guess, T, hopf)
+            return c if c is not None and c.stable else None
+
+        while True:
+            U = max(last.U * (1.0 - step), U_min)
+            c = at(U)
+            if c is None:
+                break
+            prev, last = last, c
+            if U <= U_min:
+                return U_min, False
+        lo, hi = U, last.U        # no stable cycle found at lo, one at hi
+        while hi - lo > rtol * hi:
+            mid = 0.5 * (lo + hi)
+            c = at(mid)
+            if c is None:
+                lo = mid
+            else:
+                prev, last, hi = last, c, mid
+        return hi, True
 
     # -- a branch --------------------------------------------------------------------------------
     def branch(self, hopf: HopfStart, *, U_min: float, U_max: float, max_points: int = 400,
