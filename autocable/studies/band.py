@@ -319,11 +319,13 @@ def _amplitude_case(spec, combo: dict, design_wind_m_s: float, U_max_m_s: float 
     sens = study["sensitivity"]
     design = study["cases"][0].get("design_cycle") or {}
     rows = [{"curves": "nominal", "amplitude_at_design_wind_m": study["amplitude_at_design_wind_m"],
+             "envelope_at_design_wind_m": study.get("envelope_at_design_wind_m"),
              "beyond_valid_range": study["beyond_valid_range"], "phi_swept_deg": design.get("phi_swept_deg"),
              "design_verdict": study["design_verdict"],
              "valid_phi_deg": sens.get("nominal_valid_phi_deg"), "blend_deg": sens.get("nominal_blend_deg")}]
     for c in sens.get("cases", []):
         rows.append({"curves": c["case"], "amplitude_at_design_wind_m": c.get("amplitude_at_design_wind_m"),
+                     "envelope_at_design_wind_m": c.get("envelope_at_design_wind_m"),
                      "beyond_valid_range": c.get("beyond_valid_range"), "phi_swept_deg": c.get("phi_swept_deg"),
                      "design_verdict": c.get("design_verdict"), "valid_phi_deg": c.get("valid_phi_deg"),
                      "blend_deg": c.get("blend_deg"), **({"skipped": c["skipped"]} if "skipped" in c else {})})
@@ -352,8 +354,10 @@ def amplitude_band(spec, band: dict, design_wind_m_s: float | None, U_max_m_s: f
     combinations of `_amplitude_combinations` (the model as given and those setting the ends of the
     least damping band), each with its nominal curves and the four variants of `gallop --sensitivity`
     (`autocable.studies.gallop.sensitivity`: the valid range of phi narrowed and widened by
-    `SENSITIVITY_BAND_DEG`, the blend's width times each of `SENSITIVITY_BLEND_FACTORS`). The peaks are
-    those of the largest stable galloping cycle at the design wind (`gallop_study`); each end names
+    `SENSITIVITY_BAND_DEG`, the blend's width times each of `SENSITIVITY_BLEND_FACTORS`). The peaks are,
+    per plane, the largest of the stable galloping cycles found at the design wind (`gallop_study`'s
+    ``envelope_at_design_wind_m``: the largest cycle's and any other's, on the branches or off
+    them); each end names
     the combination and the curve variant that set it, with that cycle's validity (``beyond_valid_range``,
     ``phi_swept_deg``). With ``with_global``, ``least_damping_global`` [lo, hi] over the same
     combinations (nominal curves; `autocable.studies.gallop.least_damping_global`).
@@ -379,14 +383,17 @@ def amplitude_band(spec, band: dict, design_wind_m_s: float | None, U_max_m_s: f
             if r.get("amplitude_at_design_wind_m")]
     amp["with_a_stable_cycle"] = len(rows)
     amp["variants"] = sum(len(c.get("variants", [])) for c in cases)
+
+    def peak(r):        # per plane, the largest of the stable cycles found at the design wind
+        return r.get("envelope_at_design_wind_m") or r["amplitude_at_design_wind_m"]
     if rows:
         amp["set_by"] = {}
         for i, key in enumerate(("in_plane", "out_of_plane")):
-            lo = min(rows, key=lambda cr: cr[1]["amplitude_at_design_wind_m"][i])
-            hi = max(rows, key=lambda cr: cr[1]["amplitude_at_design_wind_m"][i])
-            amp[key] = [lo[1]["amplitude_at_design_wind_m"][i], hi[1]["amplitude_at_design_wind_m"][i]]
+            lo = min(rows, key=lambda cr: peak(cr[1])[i])
+            hi = max(rows, key=lambda cr: peak(cr[1])[i])
+            amp[key] = [peak(lo[1])[i], peak(hi[1])[i]]
             amp["set_by"][key] = {end: {"combination": c["label"], "inputs": c["inputs"], "curves": r["curves"],
-                                        "peak_m": r["amplitude_at_design_wind_m"],
+                                        "peak_m": peak(r), "design_cycle_peak_m": r["amplitude_at_design_wind_m"],
                                         "beyond_valid_range": r["beyond_valid_range"],
                                         "phi_swept_deg": r["phi_swept_deg"]}
                                   for end, (c, r) in (("lo", lo), ("hi", hi))}
@@ -425,7 +432,7 @@ def with_amplitude(band: dict, spec, design_wind_m_s: float | None, U_max_m_s: f
 
 
 def _peaks(row: dict) -> str:
-    p = row["amplitude_at_design_wind_m"]
+    p = row.get("envelope_at_design_wind_m") or row["amplitude_at_design_wind_m"]
     if p:
         return f"{p[0]:.3g} / {p[1]:.3g} m"
     # gallop's verdict says what stands there instead ("unbounded": direct integration diverges)

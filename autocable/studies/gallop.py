@@ -907,7 +907,7 @@ def sensitivity(derivation, xi: float, U_max: float, U_des: float | None, units,
         own = shared if shared.serves(dv.ode) else shared.with_curves(dv.ode)
         case = _case(dv, ode, xi, U_max, units, U_des, None, own)[0]
         row.update({k: case.get(k) for k in ("lowest_galloping_U_m_s", "lowest_galloping_U_bound",
-                                              "amplitude_at_design_wind_m",
+                                              "amplitude_at_design_wind_m", "envelope_at_design_wind_m",
                                               "frequency_at_design_wind_Hz", "beyond_valid_range", "design_verdict",
                                               "design_note")})
         row["missing_ingredient"] = [m["ingredient"] for m in case.get("missing_ingredient", [])]
@@ -922,6 +922,9 @@ def sensitivity(derivation, xi: float, U_max: float, U_des: float | None, units,
     amp = nominal.get("amplitude_at_design_wind_m")
     amps = [c["amplitude_at_design_wind_m"] for c in done if c.get("amplitude_at_design_wind_m")]
     low = nominal.get("lowest_galloping_U_m_s")
+    env = nominal.get("envelope_at_design_wind_m") or amp
+    envs = [c.get("envelope_at_design_wind_m") or c["amplitude_at_design_wind_m"] for c in done
+            if c.get("amplitude_at_design_wind_m")]
     out = {"defined": True, "band_deg": band_deg, "blend_factors": list(blend_factors), "damping_ratio": xi,
            "nominal_valid_phi_deg": [math.degrees(x) for x in curves.valid_phi], "nominal_blend_deg": curves.blend_deg,
            "load": "exact" if d.ode.exact_load is not None else "cubic",
@@ -930,6 +933,11 @@ def sensitivity(derivation, xi: float, U_max: float, U_des: float | None, units,
                "range": None if U_des is None else [_span(([amp[i]] if amp else []) + [a[i] for a in amps])
                                                    for i in (0, 1)],
                "cases_with_a_stable_cycle": len(amps), "cases": len(done)},
+           # per plane, the largest over every stable cycle found at the design wind (the band's measure)
+           "envelope_at_design_wind_m": {
+               "nominal": env,
+               "range": None if U_des is None else [_span(([env[i]] if env else []) + [e[i] for e in envs])
+                                                   for i in (0, 1)]},
            "lowest_galloping_U_m_s": {"nominal": low,
                                       "range": _span([low] + [c.get("lowest_galloping_U_m_s") for c in done])},
            "cases": cases, "seconds": time.perf_counter() - t0}
