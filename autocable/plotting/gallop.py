@@ -2,7 +2,8 @@
 wind speed, in-plane and out-of-plane, one colour per damping ratio, stable cycles solid and unstable
 ones dashed, the folds of cycles and the Hopf points marked, the design wind as a vertical line; where
 the study has one, its sensitivity to the curves' band and blend as a shaded range of the lowest
-galloping speed and an error bar at the design wind.
+galloping speed and an error bar at the design wind; stable cycles at the design wind that no branch
+drawn holds (`other_stable_cycles`, `off_branch_cycle`) as stars.
 Reads the study's dict only (`autocable.studies.gallop.gallop_study`, as gallop.json holds it)."""
 from __future__ import annotations
 
@@ -67,6 +68,7 @@ def plot_gallop(study: dict, stem: str | Path, title: str = "") -> list[Path]:
         axes = fig.subplots(1, 2)
         keys = (("peak_in_plane_m", "in-plane"), ("peak_out_of_plane_m", "out-of-plane"))
         open_end = False
+        off_drawn = False
         for k, case in enumerate(study.get("cases", [])):
             color = f"C{k}"
             label = f"damping {100 * case['damping_ratio']:.3g} % (Sc = {case['scruton']:.3g})"
@@ -97,6 +99,16 @@ def plot_gallop(study: dict, stem: str | Path, title: str = "") -> list[Path]:
                         ax.plot([hp["hopf_U_m_s"]], [0.0], "^", color=color, ms=6, zorder=4, clip_on=False)
                 if first:                       # no stable cycle: the legend still names the damping
                     ax.plot([], [], "--", color=color, label=label)
+            # stable cycles at the design wind on no branch drawn (found by integration from larger starts)
+            des = study.get("design_wind_m_s")
+            off = [o for o in case.get("other_stable_cycles") or [] if not o.get("on_branch")]
+            if case.get("off_branch_cycle"):
+                off.append(case["off_branch_cycle"])
+            for i, (ax, _) in enumerate(zip(axes, keys)):
+                ys = [o["peak_m"][i] for o in off if _finite(o["peak_m"][i])]
+                if ys and _finite(des):
+                    ax.plot([des] * len(ys), ys, "*", color=color, ms=10, mec="k", mew=0.5, zorder=6)
+                    off_drawn = True
         design = study.get("design_wind_m_s")
         _sensitivity(axes, study.get("sensitivity") or {}, design)
         for n, (ax, (key, name)) in enumerate(zip(axes, keys)):
@@ -107,6 +119,9 @@ def plot_gallop(study: dict, stem: str | Path, title: str = "") -> list[Path]:
             ax.plot([], [], "--", color="0.3", lw=1.0, label="unstable cycle")
             ax.plot([], [], "x", color="0.45", ms=3.5, mew=0.8,
                     label="beyond the model's range (phi, twist or cubic load: validity)")
+            if off_drawn:
+                ax.plot([], [], "*", color="0.3", ms=10, mec="k", mew=0.5,
+                        label="stable cycle off the branches at the design wind (reached by integration)")
             if open_end:
                 ax.plot([], [], "<", color="0.3", ms=7, label="branch ends still descending: lowest galloping "
                                                             "speed at most there")
