@@ -395,7 +395,10 @@ def amplitude_band(spec, band: dict, design_wind_m_s: float | None, U_max_m_s: f
             amp["set_by"][key] = {end: {"combination": c["label"], "inputs": c["inputs"], "curves": r["curves"],
                                         "peak_m": peak(r), "design_cycle_peak_m": r["amplitude_at_design_wind_m"],
                                         "beyond_valid_range": r["beyond_valid_range"],
-                                        "phi_swept_deg": r["phi_swept_deg"]}
+                                        "phi_swept_deg": r["phi_swept_deg"],
+                                        # the end's peak is another stable cycle's than the design cycle's
+                                        # (whose validity the two keys above give)
+                                        "another_cycle": peak(r)[i] != r["amplitude_at_design_wind_m"][i]}
                                   for end, (c, r) in (("lo", lo), ("hi", hi))}
     if load == "cubic":
         amp["reading"] = ("eq. (21) takes the curves only through their cubic expansion at phi0, which the variants "
@@ -448,7 +451,7 @@ def amplitude_text(band: dict) -> list[str]:
         return [f"  galloping amplitude: {band.get('amplitude_note', 'not computed')}"]
     cv = amp["curves_varied"]
     ok = [c for c in amp["cases"] if c["status"] == "ok"]
-    lines = [f"  galloping amplitude at {band['design_wind_m_s']:g} m/s (largest stable cycle, {amp['load']} load; "
+    lines = [f"  galloping amplitude at {band['design_wind_m_s']:g} m/s (per plane the largest over the stable cycles found, {amp['load']} load; "
              f"{len(amp['cases'])} combination(s) x the nominal curves, the valid range +-{cv['band_deg']:g} deg and "
              f"the blend x" + ", x".join(f"{f:g}" for f in cv["blend_factors"]) + f"; {amp['with_a_stable_cycle']} "
              f"of {amp['variants']} with a stable cycle):"]
@@ -462,7 +465,8 @@ def amplitude_text(band: dict) -> list[str]:
             valid = ("beyond the curves' valid range" if b["beyond_valid_range"]
                      else "inside the valid range" if b["beyond_valid_range"] is False else "validity not known")
             swept = f"phi swept {b['phi_swept_deg']:.3g} deg, " if b.get("phi_swept_deg") is not None else ""
-            ends.append(f"{end}: {b['combination']}, curves {b['curves']} ({swept}{valid})")
+            other = "another stable cycle than the largest; the largest's " if b.get("another_cycle") else ""
+            ends.append(f"{end}: {b['combination']}, curves {b['curves']} ({other}{swept}{valid})")
         lines.append(f"    {name}: [{amp[key][0]:.4g} m, {amp[key][1]:.4g} m]  ({'; '.join(ends)})")
     if "least_damping_global" in band:
         g = band["least_damping_global"]
@@ -473,6 +477,9 @@ def amplitude_text(band: dict) -> list[str]:
                     for e in ("lo", "hi")}
             text = (f"[{100 * g[0]:.4g} %, {100 * g[1]:.4g} %]  (lo: {by['lo']['combination']}{flag['lo']}; "
                     f"hi: {by['hi']['combination']}{flag['hi']})")
+            if any(c.get("least_damping_global_at_least") for c in amp["cases"]):
+                text += ("; AT LEAST for the combinations where a stable cycle off the branches still gallops just "
+                         "below the design wind at that damping (least_damping_global_at_least)")
         lines.append(f"  global least damping to {band['design_wind_m_s']:g} m/s (no galloping cycle up to it; "
                      f"{amp['load']} load, nominal curves): {text}")
     for c in amp["cases"]:
