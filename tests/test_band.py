@@ -322,3 +322,13 @@ def test_band_refuses_an_empty_damping_option(capsys):
     """``--band --damping=`` (empty) is a --damping given, refused with --band, not taken for none."""
     code, out, err = _cli(capsys, "onset", STAY_145, "--band", "--damping=")
     assert code == 2 and "--damping" in err and "--band" in err
+
+
+def test_band_refuses_a_load_without_a_design_wind(capsys):
+    """``--band --load X`` chooses the equation of the band's galloping amplitude, which is computed
+    only at a design wind: without ``--design-wind`` the option would be ignored (exit 0, found by
+    the onset_args generator), so it is refused naming --load and the fix."""
+    for load in ("exact", "cubic"):
+        code, out, err = _cli(capsys, "onset", STAY_145, "--band", "--load", load)
+        assert code == 2 and out == ""
+        assert err.strip().startswith("autocable: error: arguments: --load:") and "--design-wind" in err

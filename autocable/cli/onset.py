@@ -363,6 +363,10 @@ def _band(args, folder) -> int:
         if given:
             raise refuse(option, f"studies one cable as written; --band varies what is not known about it: drop "
                                  f"{option} or --band")
+    if getattr(args, "load", None) is not None and args.design_wind is None:
+        # the load only chooses the equation of the galloping amplitude, which needs a design wind
+        raise refuse("--load", "chooses the load of --band's galloping amplitude, computed at a design wind: add "
+                               "--design-wind U, or drop --load (the linear band is the same on both loads)")
     spec, file_range = _band_model(args.model)
     uc = _uc_range(args.uc, spec) if args.uc is not None or file_range is None else file_range
     check_number("--max-wind", args.max_wind, 0.0, 500.0, lo_open=True)

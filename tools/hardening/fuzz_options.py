@@ -148,9 +148,11 @@ def onset_args_case(rng: random.Random, heavy: bool = True) -> Case:
     if "--uc" in opts and "--band" not in opts:
         invalid.append("--uc")
     if "--band" in opts:
-        for o in ("--damping", "--set", "--refit", "--pair", "--modes-below", "--load"):
+        for o in ("--damping", "--set", "--refit", "--pair", "--modes-below"):
             if o in opts:
                 invalid.append(o)
+        if "--load" in opts and "--design-wind" not in opts:
+            invalid.append("--load")        # the band's load chooses its galloping amplitude's equation only
     elif "--modes-below" in opts:
         for o in ("--pair", "--damping", "--out"):
             if o in opts:
