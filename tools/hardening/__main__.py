@@ -130,7 +130,7 @@ def run(argv: list[str] | None = None) -> int:
                 from tools.hardening.kill_surfaces import run_kill_surfaces
                 result = run_kill_surfaces(max(1, args.repeats), log=log)
                 bad = (result["read_as_complete_while_incomplete"] or result["orphaned_processes"]
-                       or not result["final_runs_complete"])
+                       or result["interrupt_ignored"] or not result["final_runs_complete"])
     except SpecError as exc:
         print(f"{_parser().prog}: error: {exc}", file=sys.stderr)
         return EXIT_INPUT

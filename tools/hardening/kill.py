@@ -68,10 +68,18 @@ def folder_state(folder: Path) -> dict:
     return state
 
 
+def sigint_default() -> None:
+    """The child's SIGINT back to its default (``preexec_fn``): a harness started in the background
+    by a non-interactive shell has SIGINT ignored, which its children inherit, and Python then
+    installs no KeyboardInterrupt handler, so the SIGINT trials would interrupt nothing."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _run(cmd, env, folder: Path, at: float | None, sig) -> dict:
     """Start ``cmd``; at ``at`` seconds send ``sig`` (unless it has ended); wait for its end."""
     t0 = time.time()
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            preexec_fn=sigint_default)
     ended_first = False
     if at is None:
         _, err = proc.communicate()

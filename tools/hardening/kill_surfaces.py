@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Callable
 
 from autocable._paths import RUNS_DIR, SAMPLE_MODEL
+from tools.hardening.kill import sigint_default
 
 __all__ = ["kill_sweep", "kill_calibrate", "descendants"]
 
@@ -76,7 +77,7 @@ def _run(cmd, env, at: float | None, sig) -> dict:
     t0 = time.time()
     # stderr into a file, not a pipe: an orphan holding the pipe would keep the bench waiting
     errfile = tempfile.TemporaryFile()
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=errfile)
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=errfile, preexec_fn=sigint_default)
     ended_first, below = False, set()
     if at is None:
         proc.wait()
@@ -152,7 +153,8 @@ def _trials(cmd, env, trials, seed, state, say, what, reset=None) -> tuple[dict,
     rng = random.Random(seed)
     moments = [T * (i + rng.random()) / trials for i in range(trials)]
     rng.shuffle(moments)
-    counts = {"trials": trials, "killed": 0, "read_as_complete_while_incomplete": 0, "orphaned_processes": 0}
+    counts = {"trials": trials, "killed": 0, "read_as_complete_while_incomplete": 0, "orphaned_processes": 0,
+              "interrupt_ignored": 0}
     records = []
     for i, at in enumerate(moments):
         sig = _SIGNALS[i % len(_SIGNALS)]
@@ -164,6 +166,10 @@ def _trials(cmd, env, trials, seed, state, say, what, reset=None) -> tuple[dict,
         bad = st["status"] == "complete" and st["consistent"] is False
         counts["read_as_complete_while_incomplete"] += bad
         counts["orphaned_processes"] += len(r["orphans"])
+        # a run interrupted (SIGINT) that exits 0 without a complete result ignored the interrupt; one
+        # that exits 0 complete had finished its work (the interrupt came as it shut down)
+        counts["interrupt_ignored"] += (sig == signal.SIGINT and not r["ended_first"] and r["code"] == 0
+                                        and st["status"] != "complete")
         records.append({"trial": i, "signal": signal.Signals(sig).name, "at_s": round(at, 3), "exit": r["code"],
                         "status": st["status"], "why": st["why"], "orphans": r["orphans"]})
         say(f"{what} trial {i + 1}/{trials}: {signal.Signals(sig).name} at {at:.2f} s, exit {r['code']}, "
@@ -255,5 +261,6 @@ def run_kill_surfaces(trials: int = 4, log: Callable[[str], None] | None = None)
     parts = {"sweep_grid": kill_sweep("grid", trials, log=log), "sweep_follow": kill_sweep("follow", trials, log=log),
              "chart": kill_chart(trials, log=log), "calibrate": kill_calibrate(trials, log=log)}
     totals = {k: sum(p[k] for p in parts.values())
-              for k in ("trials", "killed", "read_as_complete_while_incomplete", "orphaned_processes")}
+              for k in ("trials", "killed", "read_as_complete_while_incomplete", "orphaned_processes",
+                        "interrupt_ignored")}
     return {**totals, "final_runs_complete": all(p["final_run_complete"] for p in parts.values()), **parts}
