@@ -117,6 +117,16 @@ def test_each_end_names_its_case_and_validity(cli_band, gallop_given):
             assert b["curves"] in names and b["combination"] == amp["cases"][0]["label"]
             assert b["peak_m"][i] == amp[key][k]
             assert isinstance(b["beyond_valid_range"], bool) and b["phi_swept_deg"] > 0
+            # the validity is that of the cycle whose peak the end is: the design cycle's, or the other
+            # stable cycle's that reaches further in that plane (the widened band's 2.12 m out of plane)
+            variant = next(r for r in amp["cases"][0]["variants"] if r["curves"] == b["curves"])
+            if b["another_cycle"]:
+                o = next(o for o in variant["other_stable_cycles"] if o["peak_m"][i] == b["peak_m"][i])
+                assert (b["phi_swept_deg"], b["beyond_valid_range"]) == (o["phi_swept_deg"], o["beyond_valid_range"])
+            else:
+                assert b["peak_m"][i] == variant["amplitude_at_design_wind_m"][i]
+                assert b["phi_swept_deg"] == variant["phi_swept_deg"]
+    assert any(amp["set_by"][key][end]["another_cycle"] for key in ("in_plane", "out_of_plane") for end in ("lo", "hi"))
     # progress on stderr while it runs
     assert "autocable onset --band: galloping at 25 m/s on the exact load" in err
 

@@ -320,12 +320,14 @@ def _amplitude_case(spec, combo: dict, design_wind_m_s: float, U_max_m_s: float 
     design = study["cases"][0].get("design_cycle") or {}
     rows = [{"curves": "nominal", "amplitude_at_design_wind_m": study["amplitude_at_design_wind_m"],
              "envelope_at_design_wind_m": study.get("envelope_at_design_wind_m"),
+             "other_stable_cycles": study.get("other_stable_cycles") or [],
              "beyond_valid_range": study["beyond_valid_range"], "phi_swept_deg": design.get("phi_swept_deg"),
              "design_verdict": study["design_verdict"],
              "valid_phi_deg": sens.get("nominal_valid_phi_deg"), "blend_deg": sens.get("nominal_blend_deg")}]
     for c in sens.get("cases", []):
         rows.append({"curves": c["case"], "amplitude_at_design_wind_m": c.get("amplitude_at_design_wind_m"),
                      "envelope_at_design_wind_m": c.get("envelope_at_design_wind_m"),
+                     "other_stable_cycles": c.get("other_stable_cycles") or [],
                      "beyond_valid_range": c.get("beyond_valid_range"), "phi_swept_deg": c.get("phi_swept_deg"),
                      "design_verdict": c.get("design_verdict"), "valid_phi_deg": c.get("valid_phi_deg"),
                      "blend_deg": c.get("blend_deg"), **({"skipped": c["skipped"]} if "skipped" in c else {})})
@@ -344,6 +346,19 @@ def _amplitude_case(spec, combo: dict, design_wind_m_s: float, U_max_m_s: float 
                        least_damping_global_at_least=g["at_least"],
                        least_damping_global_seconds=g["seconds"])
     return out
+
+
+def _validity_of_peak(row: dict, i: int) -> dict:
+    """The validity (``beyond_valid_range``, ``phi_swept_deg``) of the cycle whose peak in plane
+    ``i`` is the variant ``row``'s envelope there: the design cycle's, or (``another_cycle``) that of
+    the other stable cycle at the design wind that reaches further in that plane."""
+    env = row.get("envelope_at_design_wind_m") or row["amplitude_at_design_wind_m"]
+    if env[i] == row["amplitude_at_design_wind_m"][i]:
+        return {"beyond_valid_range": row["beyond_valid_range"], "phi_swept_deg": row["phi_swept_deg"],
+                "another_cycle": False}
+    o = next(o for o in row["other_stable_cycles"] if o["peak_m"][i] == env[i])
+    return {"beyond_valid_range": o.get("beyond_valid_range"), "phi_swept_deg": o.get("phi_swept_deg"),
+            "another_cycle": True}
 
 
 def amplitude_band(spec, band: dict, design_wind_m_s: float | None, U_max_m_s: float | None = None,
@@ -392,13 +407,9 @@ def amplitude_band(spec, band: dict, design_wind_m_s: float | None, U_max_m_s: f
             lo = min(rows, key=lambda cr: peak(cr[1])[i])
             hi = max(rows, key=lambda cr: peak(cr[1])[i])
             amp[key] = [peak(lo[1])[i], peak(hi[1])[i]]
-            amp["set_by"][key] = {end: {"combination": c["label"], "inputs": c["inputs"], "curves": r["curves"],
-                                        "peak_m": peak(r), "design_cycle_peak_m": r["amplitude_at_design_wind_m"],
-                                        "beyond_valid_range": r["beyond_valid_range"],
-                                        "phi_swept_deg": r["phi_swept_deg"],
-                                        # the end's peak is another stable cycle's than the design cycle's
-                                        # (whose validity the two keys above give)
-                                        "another_cycle": peak(r)[i] != r["amplitude_at_design_wind_m"][i]}
+            amp["set_by"][key] = {end: dict({"combination": c["label"], "inputs": c["inputs"], "curves": r["curves"],
+                                             "peak_m": peak(r), "design_cycle_peak_m": r["amplitude_at_design_wind_m"]},
+                                            **_validity_of_peak(r, i))
                                   for end, (c, r) in (("lo", lo), ("hi", hi))}
     if load == "cubic":
         amp["reading"] = ("eq. (21) takes the curves only through their cubic expansion at phi0, which the variants "
@@ -465,7 +476,7 @@ def amplitude_text(band: dict) -> list[str]:
             valid = ("beyond the curves' valid range" if b["beyond_valid_range"]
                      else "inside the valid range" if b["beyond_valid_range"] is False else "validity not known")
             swept = f"phi swept {b['phi_swept_deg']:.3g} deg, " if b.get("phi_swept_deg") is not None else ""
-            other = "another stable cycle than the largest; the largest's " if b.get("another_cycle") else ""
+            other = "another stable cycle than the largest, " if b.get("another_cycle") else ""
             ends.append(f"{end}: {b['combination']}, curves {b['curves']} ({other}{swept}{valid})")
         lines.append(f"    {name}: [{amp[key][0]:.4g} m, {amp[key][1]:.4g} m]  ({'; '.join(ends)})")
     if "least_damping_global" in band:

@@ -908,6 +908,7 @@ def sensitivity(derivation, xi: float, U_max: float, U_des: float | None, units,
         case = _case(dv, ode, xi, U_max, units, U_des, None, own)[0]
         row.update({k: case.get(k) for k in ("lowest_galloping_U_m_s", "lowest_galloping_U_bound",
                                               "amplitude_at_design_wind_m", "envelope_at_design_wind_m",
+                                              "other_stable_cycles",
                                               "frequency_at_design_wind_Hz", "beyond_valid_range", "design_verdict",
                                               "design_note")})
         row["missing_ingredient"] = [m["ingredient"] for m in case.get("missing_ingredient", [])]
@@ -1001,6 +1002,7 @@ def gallop_study(derivation, design_wind_m_s: float | None = None, dampings=None
         "lowest_galloping_note": first.get("lowest_galloping_note"),
         "amplitude_at_design_wind_m": first.get("amplitude_at_design_wind_m"),
         "envelope_at_design_wind_m": first.get("envelope_at_design_wind_m"),
+        "other_stable_cycles": first.get("other_stable_cycles"),
         "off_branch_cycle": first.get("off_branch_cycle"),
         "frequency_at_design_wind_Hz": first.get("frequency_at_design_wind_Hz"),
         "beyond_valid_range": first.get("beyond_valid_range"),
