@@ -383,7 +383,9 @@ def test_a_task_the_workers_cannot_finish_is_a_named_failure_and_the_points_stay
         run_sweep(spec, tmp_path / "o", workers=2, chunk=1)
     msg = str(err.value)
     assert "\n" not in msg and "--workers 2" in msg and "KilledWorker" in msg and "run the same command" in msg
-    assert "1 points computed are kept" in msg
+    assert "1 point(s) computed are kept" in msg
+    with pytest.raises(ComputationError, match=r"on the workers of --workers 1 "):      # the default: named
+        run_sweep(spec, tmp_path / "default", workers=None, chunk=1)
     assert len(list((tmp_path / "o" / "points").glob("*.json"))) == 1
     assert main(["sweep", str(path), "--out", str(tmp_path / "cli"), "--workers", "2", "--chunk", "1"]) == 3
     line = capsys.readouterr().err.strip().splitlines()[-1]

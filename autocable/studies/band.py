@@ -356,7 +356,7 @@ def _validity_of_peak(row: dict, i: int) -> dict:
     if env[i] == row["amplitude_at_design_wind_m"][i]:
         return {"beyond_valid_range": row["beyond_valid_range"], "phi_swept_deg": row["phi_swept_deg"],
                 "another_cycle": False}
-    o = next(o for o in row["other_stable_cycles"] if o["peak_m"][i] == env[i])
+    o = next((o for o in row.get("other_stable_cycles") or [] if o["peak_m"][i] == env[i]), {})
     return {"beyond_valid_range": o.get("beyond_valid_range"), "phi_swept_deg": o.get("phi_swept_deg"),
             "another_cycle": True}
 

@@ -581,10 +581,11 @@ def _run_dask(spec, model, todo, sink, workers, scheduler, chunk, cluster_kwargs
                 # infrastructure (Dask's KilledWorker after repeated worker deaths) or a bug: the
                 # points already written stay, and a rerun resumes from them
                 from autocable.errors import ComputationError
-                where_ = f"--scheduler {scheduler}" if scheduler else f"--workers {workers}"
+                where_ = (f"--scheduler {scheduler}" if scheduler else
+                          f"--workers {workers if workers is not None else ex.n_workers}")
                 raise ComputationError(
                     f"sweep: task {done.label} failed on the workers of {where_} ({done.error}); the "
-                    f"{sink.computed} points computed are kept in {sink.folder}: run the same command "
+                    f"{sink.computed} point(s) computed are kept in {sink.folder}: run the same command "
                     "again to resume, or with --workers 0 to compute in this process")
             for key, rec in done.value:
                 sink.take(key, rec)
